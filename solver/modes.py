@@ -1,0 +1,336 @@
+"""The modal stage: assemble one body, attach bearings and eccentric mass, solve its modes.
+
+``/usr/bin/python3 -m solver.modes --body 2 --mesh results/mesh/body2.msh --out results/modes/body2.h5``
+
+Steps (each one function):
+
+1. assemble K and the structural M on the body's mesh (shell or solid, ``solver.fe``);
+2. build the rigid-fit operator of every bearing region and of the mass region
+   (``solver.bearings``), from integration weights gathered over all ranks;
+3. add the eccentric point mass ``m R_t^T R_t`` (10 % of the structural mass);
+4. eliminate the six support constraints with a basis T (masters chosen by
+   pivoted QR) and solve ``(T^T K T) x = lambda (T^T M T) x`` with SLEPc;
+5. gather to rank 0, polish by Rayleigh-Ritz, check residuals and
+   M-orthonormality, and write ``body{n}.h5`` (layout: docs/body-data.md).
+
+All heavy algebra (assembly, T^T K T, the factorisation and the eigensolve)
+runs on distributed PETSc objects, so the stage runs unchanged under
+``mpirun -n 2``; only the final write gathers the data on rank 0.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from geometry.gimbal import bearing_points, eccentric_mass_point
+from solver import bearings, eigen, fe
+from workflow import config as cfgmod
+from workflow.provenance import atomic_h5, versions
+
+BEARING_NAMES = ("input_motor", "input_resolver", "output_motor", "output_resolver")
+
+
+@dataclass
+class BodyModel:
+    """A body's assembled FE model (PETSc, distributed) and its connection operators (scipy, global)."""
+
+    params: dict
+    K: PETSc.Mat
+    M: PETSc.Mat
+    block_size: int
+    ndof: int
+    operators: dict          # region name -> (6, ndof) rigid-fit operator (scipy CSR)
+    points: np.ndarray       # (4, 3) bearing points
+    structural_mass: float   # lbf s^2/in
+    point_mass: float        # lbf s^2/in
+    point_mass_position: np.ndarray
+    mesh_size: float
+    dof_coords: np.ndarray | None = None   # (ndof, 3), rank 0 only
+    n_cells: int = 0
+
+
+def _gather_region(V, facet_tags, tag: int, comm):
+    """Global node indices, coordinates and weights of a region, identical on every rank."""
+    weights = fe.region_weights(V, facet_tags, tag)
+    nodes, coords = fe.owned_nodes(V)
+    keep = weights > 0
+    parts = comm.allgather((nodes[keep], coords[keep], weights[keep]))
+    nodes = np.concatenate([p[0] for p in parts])
+    order = np.argsort(nodes)
+    return (nodes[order], np.concatenate([p[1] for p in parts])[order],
+            np.concatenate([p[2] for p in parts])[order])
+
+
+def _rigid_translation_vector(K: PETSc.Mat, block_size: int, component: int) -> PETSc.Vec:
+    vec = K.createVecRight()
+    r0, r1 = vec.getOwnershipRange()
+    vec.array[:] = (np.arange(r0, r1) % block_size == component).astype(float)
+    return vec
+
+
+def assemble_body(params: dict, config: dict, mesh_path: str | Path, comm=MPI.COMM_WORLD) -> BodyModel:
+    """Assemble K, M (with the eccentric mass) and the bearing operators of one body."""
+    mesh, _, facet_tags, regions = fe.load_mesh(mesh_path, comm)
+    if params["model"] == "shell":
+        V, a_k, a_m = fe.shell_forms(mesh, params, {k: v["value"] for k, v in config["shell"].items()})
+    else:
+        V, a_k, a_m = fe.solid_forms(mesh, params)
+    K, M = fe.assemble_matrix(a_k), fe.assemble_matrix(a_m)
+    bs = V.dofmap.index_map_bs
+    ndof = V.dofmap.index_map.size_global * bs
+    points = bearing_points(params)
+    mass_angle = cfgmod.value(config, "eccentric_mass.angle")
+    mass_position = eccentric_mass_point(params, mass_angle)
+    length = cfgmod.value(config, "bearing_connection.rotation_weight_length")
+    operators = {}
+    for name, point in [*zip(BEARING_NAMES, points), ("eccentric_mass", mass_position)]:
+        if name not in regions:
+            continue
+        if np.any(np.isnan(point)):
+            continue
+        nodes, coords, weights = _gather_region(V, facet_tags, regions[name], comm)
+        operators[name] = bearings.rigid_fit_operator(nodes, coords, weights, point, bs, ndof, length)
+    missing = [n for n in ("input_motor", "input_resolver", "eccentric_mass") if n not in operators]
+    if missing:
+        raise ValueError(f"mesh '{mesh_path}' lacks the region(s) {', '.join(missing)}")
+    # structural mass = X_x^T M X_x (unit translation along x)
+    ex = _rigid_translation_vector(K, bs, 0)
+    structural_mass = M.createVecLeft()
+    M.mult(ex, structural_mass)
+    structural_mass = structural_mass.dot(ex)
+    point_mass = cfgmod.value(config, "eccentric_mass.mass_fraction") * structural_mass
+    _add_point_mass(M, operators["eccentric_mass"][:3], point_mass, comm)
+    nodes, coords = fe.owned_nodes(V)
+    parts = comm.gather((nodes, coords), root=0)
+    dof_coords = None
+    if comm.rank == 0:
+        node_coords = np.zeros((ndof // bs, 3))
+        for n_, c_ in parts:
+            node_coords[n_] = c_
+        dof_coords = np.repeat(node_coords, bs, axis=0)
+    mesh_size = cfgmod.value(config, "mesh.ring_size" if params["shape"] == "ring" else "mesh.platform_size")
+    n_cells = comm.allreduce(mesh.topology.index_map(mesh.topology.dim).size_local)
+    return BodyModel(params, K, M, bs, ndof, operators, points, structural_mass, point_mass,
+                     mass_position, mesh_size, dof_coords, n_cells)
+
+
+def _add_point_mass(M: PETSc.Mat, translation_rows: sp.csr_matrix, mass: float, comm) -> None:
+    """M += mass R_t^T R_t (dense over the region's DOFs), added once, on rank 0."""
+    R = translation_rows.tocsr()
+    cols = np.unique(R.tocoo().col)
+    dense = R[:, cols].toarray()
+    block = mass * dense.T @ dense
+    M.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+    if comm.rank == 0:
+        idx = cols.astype(PETSc.IntType)
+        M.setValues(idx, idx, block, addv=PETSc.InsertMode.ADD_VALUES)
+    M.assemble()
+
+
+def admissible_basis_petsc(K: PETSc.Mat, constraints: sp.csr_matrix) -> tuple[PETSc.Mat, sp.csr_matrix]:
+    """The basis T of admissible displacements as a distributed PETSc matrix (and scipy on all ranks).
+
+    T has identity columns for every non-master DOF and, in the master rows,
+    the elimination coefficients S (``solver.bearings.admissible_basis``).
+    """
+    ndof = K.getSize()[0]
+    masters, slaves, S = bearings.admissible_basis(constraints)
+    T = bearings.admissible_basis_matrix(masters, slaves, S, ndof)
+    r0, r1 = K.getOwnershipRange()
+    is_master = np.zeros(ndof, dtype=bool)
+    is_master[masters] = True
+    c0 = r0 - int(is_master[:r0].sum())
+    c1 = r1 - int(is_master[:r1].sum())
+    local = T[r0:r1].tocsr()
+    local.sort_indices()
+    T_petsc = PETSc.Mat().createAIJ(size=((r1 - r0, ndof), (c1 - c0, T.shape[1])), comm=K.getComm(),
+                                    csr=(local.indptr.astype(PETSc.IntType),
+                                         local.indices.astype(PETSc.IntType), local.data))
+    T_petsc.assemble()
+    return T_petsc, T
+
+
+def gather_matrix(A: PETSc.Mat, comm) -> sp.csr_matrix | None:
+    """The whole matrix as scipy CSR on rank 0 (None elsewhere)."""
+    r0, r1 = A.getOwnershipRange()
+    indptr, indices, data = A.getValuesCSR()
+    parts = comm.gather((r0, indptr.copy(), indices.copy(), data.copy()), root=0)
+    if comm.rank != 0:
+        return None
+    shape = A.getSize()
+    blocks = []
+    for r0_, ip, ix, d in sorted(parts, key=lambda p: p[0]):
+        blocks.append(sp.csr_matrix((d, ix, ip), shape=(len(ip) - 1, shape[1])))
+    return sp.vstack(blocks).tocsr()
+
+
+def gather_vectors(vectors: list[PETSc.Vec], comm) -> np.ndarray | None:
+    """(n, len(vectors)) array on rank 0."""
+    columns = []
+    for vec in vectors:
+        scatter, full = PETSc.Scatter.toZero(vec)
+        scatter.scatter(vec, full, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        if comm.rank == 0:
+            columns.append(full.getArray().copy())
+        scatter.destroy()
+        full.destroy()
+    return np.column_stack(columns) if comm.rank == 0 else None
+
+
+def supported_modes(body: BodyModel, count: int, tolerance: float, max_iterations: int, comm):
+    """Lowest ``count`` supported modes: returns (eigenvalues, T scipy, vectors gathered on rank 0)."""
+    constraints = bearings.support_constraints(body.operators)
+    T_petsc, T = admissible_basis_petsc(body.K, constraints)
+    k_reduced = body.K.PtAP(T_petsc)
+    m_reduced = body.M.PtAP(T_petsc)
+    values, vecs = eigen.lowest_eigenpairs(k_reduced, m_reduced, count, 0.0, tolerance, max_iterations,
+                                           label=body.params["name"])
+    full = []
+    for x in vecs:
+        phi = body.K.createVecRight()
+        T_petsc.mult(x, phi)
+        full.append(phi)
+    return values, T, gather_vectors(full, comm)
+
+
+def free_modes(body: BodyModel, count: int, shift: float, tolerance: float, max_iterations: int, comm):
+    """Lowest ``count`` free-free modes (six rigid ones first); shift < 0 scaled to the stiffness."""
+    values, vecs = eigen.lowest_eigenpairs(body.K, body.M, count, shift, tolerance, max_iterations,
+                                           label=f"{body.params['name']} (free-free)")
+    return values, gather_vectors(vecs, comm)
+
+
+def rigid_modes(dof_coords: np.ndarray, block_size: int) -> np.ndarray:
+    """(ndof, 6) rigid-body modes: unit translations x, y, z, unit rotations about x, y, z at the origin."""
+    ndof = len(dof_coords)
+    component = np.arange(ndof) % block_size
+    X = np.zeros((ndof, 6))
+    for axis in range(3):
+        X[component == axis, axis] = 1.0
+    # rotation w about the origin: u = w x r (translation DOFs), theta = w (rotation DOFs)
+    for axis in range(3):
+        w = np.eye(3)[axis]
+        motion = np.cross(w, dof_coords)
+        for c in range(3):
+            rows = component == c
+            X[rows, 3 + axis] = motion[rows, c]
+        if block_size == 6:
+            X[component == 3 + axis, 3 + axis] = 1.0
+    return X
+
+
+def bearing_operator_matrix(body: BodyModel) -> sp.csr_matrix:
+    """(24, ndof) stacked operators of the four bearings (zero rows where absent)."""
+    blocks = [body.operators.get(name, sp.csr_matrix((6, body.ndof))) for name in BEARING_NAMES]
+    return sp.vstack(blocks).tocsr()
+
+
+def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: int | None = None,
+                 comm=MPI.COMM_WORLD, log=print) -> dict | None:
+    """Assemble and solve one body; return the body-file payload on rank 0 (None elsewhere)."""
+    started = time.perf_counter()
+    params = cfgmod.body_parameters(config, body_number)
+    count = int(count or cfgmod.value(config, "modes.count"))
+    tolerance = cfgmod.value(config, "modes.tolerance")
+    max_iterations = int(cfgmod.value(config, "modes.max_iterations"))
+    body = assemble_body(params, config, mesh_path, comm)
+    t_assembled = time.perf_counter()
+    if count > body.ndof - 6:
+        raise ValueError(f"{params['name']}: modes.count = {count} exceeds the {body.ndof - 6} "
+                         "admissible DOFs of the mesh")
+    log(f"[{params['name']}] {body.ndof} DOFs ({params['model']}), assembled in {t_assembled - started:.2f} s; "
+        f"solving {count} modes")
+    values, T, vectors = supported_modes(body, count, tolerance, max_iterations, comm)
+    t_solved = time.perf_counter()
+    K, M = gather_matrix(body.K, comm), gather_matrix(body.M, comm)
+    if comm.rank != 0:
+        return None
+    values, vectors = eigen.rayleigh_ritz(K, M, vectors)
+    residuals = eigen.relative_residuals(K, M, values, vectors, T)
+    orthonormality = eigen.orthonormality_error(M, vectors)
+    if np.any(values <= 0):
+        raise eigen.EigenSolveError(f"{params['name']}: non-positive supported eigenvalue {values.min():.3e} "
+                                    "(supports do not remove all rigid motions)")
+    operator = bearing_operator_matrix(body)
+    bearing_modes = (operator @ vectors).T.reshape(count, 4, 6)
+    bearing_modes[:, [name not in body.operators for name in BEARING_NAMES], :] = np.nan
+    log(f"[{params['name']}] f1..f4 = {np.sqrt(values[:4]) / (2 * math.pi)} Hz, f{count} = "
+        f"{np.sqrt(values[-1]) / (2 * math.pi):.1f} Hz; max residual {residuals.max():.1e}, "
+        f"orthonormality {orthonormality:.1e}; solved in {t_solved - t_assembled:.2f} s")
+    return {
+        "frequencies_hz": np.sqrt(values) / (2 * math.pi), "eigenvalues": values, "modes": vectors,
+        "M": M, "K": K, "T": T, "bearing_operator": operator,
+        "rigid_modes": rigid_modes(body.dof_coords, body.block_size),
+        "dof_coords": body.dof_coords,
+        "dof_component": (np.arange(body.ndof) % body.block_size).astype(np.int8),
+        "bearing_points": body.points, "bearing_modes": bearing_modes,
+        "residuals": residuals,
+        "attrs": {"body": body_number, "name": params["name"], "model": params["model"],
+                  "structural_mass": body.structural_mass, "point_mass": body.point_mass,
+                  "point_mass_position": body.point_mass_position, "mesh_size": body.mesh_size,
+                  "cells": body.n_cells, "units": "in, lbf, s (mass lbf s^2/in, eigenvalues (rad/s)^2)",
+                  "max_relative_residual": float(residuals.max()), "orthonormality_error": orthonormality,
+                  "mpi_ranks": comm.size},
+        "timings": {"assembly_s": t_assembled - started, "eigensolve_s": t_solved - t_assembled},
+    }
+
+
+def write_body_file(path: str | Path, payload: dict, config_hash: str, wall_time: float) -> None:
+    """Write the body file atomically (layout: docs/body-data.md)."""
+    with atomic_h5(path) as h5:
+        for key in ("frequencies_hz", "eigenvalues", "modes", "rigid_modes", "dof_coords", "dof_component",
+                    "bearing_points", "bearing_modes", "residuals"):
+            h5.create_dataset(key, data=payload[key])
+        for key in ("M", "K", "T", "bearing_operator"):
+            A = sp.csr_matrix(payload[key])
+            group = h5.create_group(key)
+            group.create_dataset("data", data=A.data)
+            group.create_dataset("indices", data=A.indices)
+            group.create_dataset("indptr", data=A.indptr)
+            group.attrs["shape"] = A.shape
+        for key, val in payload["attrs"].items():
+            h5.attrs[key] = val
+        h5.attrs["config_hash"] = config_hash
+        h5.attrs["versions"] = json.dumps(versions())
+        h5.attrs["wall_time_s"] = wall_time
+        h5.attrs["timings"] = json.dumps(payload["timings"])
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--body", required=True, help="body number 2..5")
+    parser.add_argument("--mesh", required=True, help="gmsh .msh file of the body")
+    parser.add_argument("--out", required=True, help="output body file (.h5)")
+    parser.add_argument("--config", default=str(cfgmod.DEFAULT_CONFIG))
+    parser.add_argument("--count", type=int, default=None, help="number of modes (default: config)")
+    args = parser.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    started = time.perf_counter()
+    try:
+        config = cfgmod.load_config(args.config)
+        body_number = cfgmod.BODY_NUMBERS[cfgmod.body_name(args.body)]
+        payload = compute_body(body_number, config, args.mesh, args.count, comm,
+                               log=print if comm.rank == 0 else (lambda *a, **k: None))
+    except (ValueError, FileNotFoundError, eigen.EigenSolveError) as exc:
+        if comm.rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
+        return 1
+    if comm.rank == 0:
+        keys = cfgmod.body_config_keys(body_number)
+        write_body_file(args.out, payload, cfgmod.section_hash(config, *keys), time.perf_counter() - started)
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

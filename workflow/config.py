@@ -1,0 +1,169 @@
+"""Load, validate and hash the study's configuration.
+
+Every number in ``config/config.yaml`` is a ``{value, unit, source}`` triple.
+:func:`load_config` validates the file against
+``workflow/schemas/config.schema.yaml`` and against the cross-field rules of
+the gimbal model (bearings outside the ring wall, nested bodies that fit), and
+raises :class:`ConfigError` with a one-line message naming the culprit key.
+
+The helpers :func:`value` and :func:`body_parameters` strip units so that the
+numerical code receives plain floats; :func:`section_hash` gives a stable hash
+of the part of the config a stage reads, so Snakemake reruns a stage only when
+its own inputs change.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import jsonschema
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+DEFAULT_CONFIG = ROOT / "config" / "config.yaml"
+SCHEMA = ROOT / "workflow" / "schemas" / "config.schema.yaml"
+
+BODY_NAMES = ("outer_gimbal", "middle_gimbal", "inner_gimbal", "stable_platform")
+BODY_NUMBERS = {name: n for n, name in enumerate(BODY_NAMES, start=2)}
+
+
+class ConfigError(ValueError):
+    """A configuration problem; its message is one line naming the key."""
+
+
+def _key_path(error: jsonschema.ValidationError) -> str:
+    return ".".join(str(p) for p in error.absolute_path) or "<root>"
+
+
+def validate(config: dict) -> None:
+    """Check ``config`` against the JSON schema and the model's cross-field rules."""
+    schema = yaml.safe_load(SCHEMA.read_text())
+    validator = jsonschema.Draft7Validator(schema)
+    errors = sorted(validator.iter_errors(config), key=lambda e: list(e.absolute_path))
+    if errors:
+        # the deepest error is the most specific one (e.g. ...thickness.value)
+        error = max(errors, key=lambda e: len(e.absolute_path))
+        message = error.message
+        if error.validator == "additionalProperties":
+            message = message.replace("Additional properties are not allowed", "unknown key")
+        raise ConfigError(f"config error at '{_key_path(error)}': {message}")
+    _check_geometry(config)
+
+
+def _check_geometry(config: dict) -> None:
+    bodies = config["bodies"]
+    for name in BODY_NAMES:
+        if bodies[name]["number"] != BODY_NUMBERS[name]:
+            raise ConfigError(f"config error at 'bodies.{name}.number': must be {BODY_NUMBERS[name]}")
+    for name in BODY_NAMES[:3]:
+        b = {k: v["value"] for k, v in bodies[name].items() if isinstance(v, dict)}
+        radius, half_t = b["diameter"] / 2, b["thickness"] / 2
+        if b["thickness"] >= b["diameter"]:
+            raise ConfigError(f"config error at 'bodies.{name}.thickness': wall thicker than the ring's diameter")
+        if b["outer_bearing_distance"] / 2 < radius + half_t:
+            raise ConfigError(
+                f"config error at 'bodies.{name}.outer_bearing_distance': outer bearings "
+                f"(radius {b['outer_bearing_distance'] / 2:g} in) lie inside the ring wall "
+                f"(outer surface radius {radius + half_t:g} in)")
+        if b["inner_bearing_distance"] / 2 > radius - half_t:
+            raise ConfigError(
+                f"config error at 'bodies.{name}.inner_bearing_distance': inner bearings "
+                f"(radius {b['inner_bearing_distance'] / 2:g} in) lie outside the ring's hole "
+                f"(inner surface radius {radius - half_t:g} in)")
+    plate = {k: v["value"] for k, v in bodies["stable_platform"].items() if isinstance(v, dict)}
+    if plate["hole_diameter"] >= plate["diameter"]:
+        raise ConfigError("config error at 'bodies.stable_platform.hole_diameter': hole not smaller than the plate")
+    if plate["outer_bearing_distance"] / 2 < plate["diameter"] / 2:
+        raise ConfigError(
+            "config error at 'bodies.stable_platform.outer_bearing_distance': bearings lie inside the "
+            f"platform (radius {plate['outer_bearing_distance'] / 2:g} < rim {plate['diameter'] / 2:g} in)")
+    # nesting: body n+1 hangs on body n's inner bearings
+    for outer, inner in zip(BODY_NAMES[:-1], BODY_NAMES[1:]):
+        d_in = bodies[outer]["inner_bearing_distance"]["value"]
+        d_out = bodies[inner]["outer_bearing_distance"]["value"]
+        if abs(d_in - d_out) > 1e-9:
+            raise ConfigError(
+                f"config error at 'bodies.{inner}.outer_bearing_distance': {d_out:g} in does not match "
+                f"'bodies.{outer}.inner_bearing_distance' {d_in:g} in (the joint is shared)")
+
+
+def load_config(path: str | Path = DEFAULT_CONFIG) -> dict:
+    """Read and validate a config file; raise ConfigError with a one-line message."""
+    path = Path(path)
+    try:
+        config = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"config error: file '{path}' not found") from None
+    except yaml.YAMLError as exc:
+        line = getattr(getattr(exc, "problem_mark", None), "line", None)
+        where = f" line {line + 1}" if line is not None else ""
+        raise ConfigError(f"config error: '{path}'{where} is not valid YAML") from None
+    if not isinstance(config, dict):
+        raise ConfigError(f"config error: '{path}' does not hold a mapping")
+    validate(config)
+    return config
+
+
+def value(config: dict, dotted_key: str):
+    """The plain value of ``a.b.c`` (unit and source stripped)."""
+    node = config
+    for part in dotted_key.split("."):
+        node = node[part]
+    return node["value"] if isinstance(node, dict) and "value" in node else node
+
+
+def body_name(body: int | str) -> str:
+    """Body name from its number (2..5) or name; one-line error otherwise."""
+    if isinstance(body, str) and body in BODY_NUMBERS:
+        return body
+    try:
+        number = int(body)
+    except (TypeError, ValueError):
+        number = None
+    for name, n in BODY_NUMBERS.items():
+        if n == number:
+            return name
+    raise ConfigError(f"unknown body '{body}': expected 2..5 or one of {', '.join(BODY_NAMES)}")
+
+
+def body_parameters(config: dict, body: int | str) -> dict:
+    """Flat, unit-stripped parameters of one body, with material and connection data.
+
+    Returns a dict with the body's own keys (``diameter``, ``thickness`` ...),
+    ``name``, ``number``, ``model`` (``shell`` or ``solid``), the material
+    constants and the next body's motor side (``output_motor_side``: the sign
+    of local z at which this body's output motor sits).
+    """
+    name = body_name(body)
+    raw = config["bodies"][name]
+    params = {k: (v["value"] if isinstance(v, dict) else v) for k, v in raw.items()}
+    params["name"] = name
+    params.setdefault("model", "shell" if raw["shape"] == "ring" else "solid")
+    params.update({k: v["value"] for k, v in config["material"].items()})
+    index = BODY_NAMES.index(name)
+    if index + 1 < len(BODY_NAMES):
+        # body n+1's local x is body n's local z, so its motor at x_{n+1} = s sits at z_n = s
+        params["output_motor_side"] = config["bodies"][BODY_NAMES[index + 1]]["motor_side"]["value"]
+    return params
+
+
+def section_hash(config: dict, *dotted_keys: str) -> str:
+    """Stable 12-hex-digit hash of the named config sections (all of it if none)."""
+    if dotted_keys:
+        parts = {}
+        for key in dotted_keys:
+            node = config
+            for part in key.split("."):
+                node = node[part]
+            parts[key] = node
+    else:
+        parts = config
+    text = json.dumps(parts, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def body_config_keys(body: int | str) -> tuple[str, ...]:
+    """The config sections that a body's mesh and modes depend on."""
+    return (f"bodies.{body_name(body)}", "material", "eccentric_mass", "bearing_connection",
+            "shell", "mesh", "modes")

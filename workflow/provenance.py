@@ -1,0 +1,100 @@
+"""Provenance and safe output: software versions, git revision, atomic file writes.
+
+Every result file is written to a temporary name in its destination folder
+and renamed into place only when complete (``os.replace`` is atomic on one
+file system), so an interrupted job never leaves a truncated file that a
+later run could take for a finished one.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import platform
+import subprocess
+from importlib import metadata
+from pathlib import Path
+
+import h5py
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def versions() -> dict:
+    """Versions of the software that produced a result."""
+    out = {"python": platform.python_version()}
+    for module in ("dolfinx", "numpy", "scipy", "petsc4py", "slepc4py", "gmsh", "h5py", "snakemake"):
+        try:
+            out[module] = metadata.version(module if module != "dolfinx" else "fenics-dolfinx")
+        except metadata.PackageNotFoundError:
+            try:
+                out[module] = __import__(module).__version__
+            except Exception:  # noqa: BLE001 - optional package
+                pass
+    out["git"] = git_revision()
+    return out
+
+
+def git_revision() -> str:
+    try:
+        rev = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                             text=True, timeout=5).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=5).stdout.strip()
+        return rev + ("-dirty" if dirty else "") if rev else "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path):
+    """Yield a temporary path beside ``path``; rename it into place on success."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.part{os.getpid()}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+@contextlib.contextmanager
+def atomic_h5(path: str | Path):
+    """An h5py File open for writing that appears at ``path`` only when closed successfully."""
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as h5:
+            yield h5
+
+
+def write_json(path: str | Path, data: dict) -> None:
+    """Write JSON atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(data, indent=2, default=_jsonable) + "\n")
+
+
+def _jsonable(obj):
+    import numpy as np
+
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        return obj.item()
+    raise TypeError(f"not JSON serialisable: {type(obj)}")
+
+
+def read_h5_checked(path: str | Path, required: tuple[str, ...] = ()) -> h5py.File:
+    """Open an intermediate HDF5 file, with a one-line error if it is missing, corrupt or incomplete."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"'{path}' not found (run the stage that makes it)")
+    try:
+        h5 = h5py.File(path, "r")
+    except OSError:
+        raise ValueError(f"'{path}' is not a readable HDF5 file (corrupt or truncated): delete it and rerun") from None
+    missing = [key for key in required if key not in h5]
+    if missing:
+        h5.close()
+        raise ValueError(f"'{path}' lacks {', '.join(missing)}: it is stale or incomplete; delete it and rerun")
+    return h5
