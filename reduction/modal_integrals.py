@@ -1,0 +1,397 @@
+"""Modal integrals of one elastic body, from its finite-element matrices.
+
+Notation (thesis Chapter 3; units in, lbf, s; mass lbf s^2/in):
+
+* ``ndof`` DOFs of the free (unsupported) FE model, ``m`` supported
+  coordinates, ``D`` computed (kept) vibration modes.
+* ``M``, ``K``: free mass and stiffness, scipy CSR ``(ndof, ndof)``.
+* ``T``: CSR ``(ndof, m)`` spanning the admissible displacements; every
+  supported mode is ``phi = T x`` with ``(T^T K T) x = lambda (T^T M T) x``.
+  Supports given as constrained DOFs are the special case where every column
+  of ``T`` is a unit vector.
+* ``X``: ``(ndof, 6)`` rigid modes: unit translations along x, y, z, then unit
+  rotations about x, y, z through the body origin (``rigid_modes``).
+* ``modes``: ``(ndof, D)`` mass-normalised supported modes,
+  ``modes^T M modes = I``; ``eigenvalues``: ``(D,)`` Omega^2 in (rad/s)^2.
+
+Quantities:
+
+* momentum coefficients ``[P_i; H_i] = X^T M phi_i`` (eqs 2.7-2.10, 3.4-3.11),
+  ``P`` in sqrt(mass), ``H`` in sqrt(mass) in -- from the consistent FE mass
+  matrix, not from lumped nodal masses;
+* mode contribution ``Mbar_i = [P_i; H_i][P_i; H_i]^T`` (eq 3.32);
+* ``M_rigid = X^T M X``: mass, first moment and inertia of the whole body
+  (eq 3.25), what the multibody equations need as M_rr;
+* ``M_inf``: the rigid mass "seen by the supported modes", chosen so that the
+  discrete Hughes identity ``sum_i Mbar_i = M_inf`` holds exactly over all
+  finite-frequency supported modes (see ``supported_rigid_mass``);
+* ``MGM_inf = X^T M G M X`` with ``G = T (T^T K T)^-1 T^T`` the flexibility of
+  the supported body (eqs 3.45, 3.49); ``sum_i Mbar_i / Omega_i^2 = MGM_inf``.
+
+Why ``M_inf`` is not ``X^T M X``: with all finite modes ``Phi = T V``,
+``V V^T = (T^T M T)^+`` and so ``sum_i Mbar_i = X^T M T (T^T M T)^+ T^T M X``,
+the mass matrix of the M-orthogonal projection of X onto range(T).  It equals
+``X_f^T M_ff X_f`` (the rigid mass of the free DOFs only) when T selects DOFs
+*and* the mass does not couple free and constrained DOFs (lumped mass, or
+constrained nodes without mass); with a consistent mass at a constrained node
+the coupling terms ``M_fc X_c`` also enter.  ``M_rigid - M_inf`` (positive
+semidefinite) is the mass that the supports hold.
+
+Massless directions: for shells the drilling rotation has no inertia, so
+``T^T M T`` is singular (infinite-frequency "modes").  Those carry no
+momentum (``M T x = 0`` implies ``X^T M T x = 0``), the sum runs over the
+finite modes only, and ``(T^T M T)^+`` is applied as follows: the null space
+of ``T^T M T`` is found exactly from small diagonal blocks (a vector supported
+on one block with zero block energy is a null vector of a positive
+semidefinite matrix), ``s N N^T`` is added to make the matrix definite, and
+the solve is exact because ``b = T^T M X`` lies in range(T^T M T), which is
+orthogonal to range(N).  The residual ``||T^T M T z - b||`` is checked; a null
+space that is not spanned by block-local vectors raises ``SingularMassError``.
+"""
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+import scipy.sparse.csgraph
+import scipy.sparse.linalg
+
+from reduction.errors import (
+    ModeCountError,
+    MissingBearingError,
+    ReductionError,
+    SingularMassError,
+    SingularStiffnessError,
+)
+
+RIGID_MOTION_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
+BEARING_NAMES = ("input_motor", "input_resolver", "output_motor", "output_resolver")
+
+
+def skew(r):
+    """Cross-product matrix: ``skew(r) @ v == np.cross(r, v)``; r (..., 3) -> (..., 3, 3)."""
+    r = np.asarray(r, dtype=float)
+    s = np.zeros(r.shape[:-1] + (3, 3))
+    s[..., 0, 1], s[..., 0, 2] = -r[..., 2], r[..., 1]
+    s[..., 1, 0], s[..., 1, 2] = r[..., 2], -r[..., 0]
+    s[..., 2, 0], s[..., 2, 1] = -r[..., 1], r[..., 0]
+    return s
+
+
+def rigid_modes(dof_coords, dof_component):
+    """Rigid modes X (ndof, 6) from DOF positions (ndof, 3) [in] and components (ndof,).
+
+    Columns: unit translations x, y, z [in/in], then unit (small) rotations
+    about x, y, z through the origin [in/rad on translations, rad/rad on
+    rotations]: a translation DOF of component c at r moves by (e_a x r)_c.
+    """
+    coords = np.asarray(dof_coords, dtype=float)
+    comp = np.asarray(dof_component)
+    ndof = comp.shape[0]
+    X = np.zeros((ndof, 6))
+    rows = np.arange(ndof)
+    is_translation = comp < 3
+    X[rows[is_translation], comp[is_translation]] = 1.0
+    X[rows[~is_translation], comp[~is_translation]] = 1.0
+    for axis in range(3):
+        moved = np.cross(np.eye(3)[axis], coords)  # (ndof, 3)
+        X[rows[is_translation], 3 + axis] = moved[rows[is_translation], comp[is_translation]]
+    return X
+
+
+def momentum_coefficients(M, X, modes):
+    """Linear and angular momentum coefficients of every mode (eq 3.11).
+
+    M (ndof, ndof) sparse; X (ndof, 6); modes (ndof, D) or (ndof,).
+    Returns P (3, D) and H (3, D) (or (3,), (3,) for one mode vector):
+    ``[P; H] = X^T M modes``.
+    """
+    modes = np.asarray(modes, dtype=float)
+    PH = np.asarray(X).T @ np.asarray(M @ modes)
+    return PH[:3], PH[3:]
+
+
+def mode_contributions(P, H):
+    """Mbar_i = [P_i; H_i][P_i; H_i]^T for every mode: P, H (3, D) -> (D, 6, 6)."""
+    v = np.vstack([np.atleast_2d(np.asarray(P).T).T, np.atleast_2d(np.asarray(H).T).T]).T  # (D, 6)
+    return v[:, :, None] * v[:, None, :]
+
+
+def rigid_mass(M, X):
+    """M_rigid = X^T M X (6, 6): [[m I, -c~], [c~, J]] of the whole free body (eq 3.25)."""
+    A = np.asarray(X).T @ np.asarray(M @ X)
+    return 0.5 * (A + A.T)
+
+
+def node_index(dof_coords, decimals=9):
+    """Node number of every DOF (ndof,) int: DOFs at the same point share a node."""
+    coords = np.round(np.asarray(dof_coords, dtype=float), decimals)
+    _, inverse = np.unique(coords, axis=0, return_inverse=True)
+    return inverse.ravel()
+
+
+def supported_column_groups(T, dof_node=None):
+    """Group the columns of T (m,) int: columns that move a common node are connected.
+
+    For constrained-DOF supports a group is the free DOFs of one node; for
+    multi-point supports (rigid links, rigid-fit connections) a group joins
+    the nodes that the constraint ties together.  ``dof_node`` (ndof,) int
+    (``node_index``); None treats every DOF as its own node.
+    """
+    T = sp.csr_matrix(T)
+    ndof, m = T.shape
+    if dof_node is None:
+        dof_node = np.arange(ndof)
+    dof_node = np.asarray(dof_node)
+    n_nodes = int(dof_node.max()) + 1 if ndof else 0
+    incidence = sp.csr_matrix(
+        (np.ones(ndof), (dof_node, np.arange(ndof))), shape=(n_nodes, ndof))
+    touches = (incidence @ abs(T)).tocsc()
+    touches.data[:] = 1.0
+    adjacency = (touches.T @ touches).tocsr()
+    _, labels = scipy.sparse.csgraph.connected_components(adjacency, directed=False)
+    return labels
+
+
+def massless_directions(Mt, groups, rtol=1e-10, atol_factor=1e-13, max_group_size=2000):
+    """Orthonormal null vectors of the positive semidefinite Mt (m, m), block by block.
+
+    ``groups`` (m,) int labels (``supported_column_groups``).  For each group
+    the dense diagonal block is decomposed; eigenvalues below
+    ``max(rtol * largest eigenvalue of the block, atol_factor * max diag(Mt))``
+    are taken as massless.  Every vector returned is an exact null vector of
+    Mt up to that tolerance.  Groups larger than ``max_group_size`` are not
+    analysed.  Returns CSR (m, n_null).
+    """
+    Mt = sp.coo_matrix(Mt)
+    m = Mt.shape[0]
+    groups = np.asarray(groups)
+    order = np.argsort(groups, kind="stable")
+    sorted_groups = groups[order]
+    starts = np.flatnonzero(np.r_[True, sorted_groups[1:] != sorted_groups[:-1]])
+    sizes = np.diff(np.r_[starts, m])
+    local = np.empty(m, dtype=int)
+    local[order] = np.arange(m) - np.repeat(starts, sizes)
+    group_of_label = np.empty(int(groups.max()) + 1 if m else 0, dtype=int)
+    group_of_label[sorted_groups[starts]] = np.arange(starts.size)
+    gid = group_of_label[groups]  # dense group number 0..G-1 of each column
+
+    diag = Mt.diagonal()
+    atol = atol_factor * (np.max(np.abs(diag)) if m else 0.0)
+    same = gid[Mt.row] == gid[Mt.col]
+    r, c, v = Mt.row[same], Mt.col[same], Mt.data[same]
+
+    null_rows, null_cols, null_vals = [], [], []
+    n_null = 0
+    for size in np.unique(sizes):
+        if size > max_group_size:
+            continue
+        gids = np.flatnonzero(sizes == size)
+        slot = np.full(starts.size, -1)
+        slot[gids] = np.arange(gids.size)
+        blocks = np.zeros((gids.size, size, size))
+        pick = slot[gid[r]] >= 0
+        np.add.at(blocks, (slot[gid[r[pick]]], local[r[pick]], local[c[pick]]), v[pick])
+        blocks = 0.5 * (blocks + blocks.transpose(0, 2, 1))
+        w, vec = np.linalg.eigh(blocks)
+        threshold = np.maximum(rtol * np.max(np.abs(w), axis=1), atol)
+        b_idx, k_idx = np.nonzero(w <= threshold[:, None])
+        for b, k in zip(b_idx, k_idx):
+            cols = order[starts[gids[b]]:starts[gids[b]] + size]
+            null_rows.append(cols)
+            null_cols.append(np.full(size, n_null))
+            null_vals.append(vec[b, :, k])
+            n_null += 1
+    if n_null == 0:
+        return sp.csr_matrix((m, 0))
+    N = sp.csr_matrix(
+        (np.concatenate(null_vals), (np.concatenate(null_rows), np.concatenate(null_cols))),
+        shape=(m, n_null))
+    N.eliminate_zeros()
+    return N
+
+
+def _sparse_solver(A, what):
+    """LU of the sparse square A (symmetric ordering); raises on exact singularity."""
+    try:
+        lu = scipy.sparse.linalg.splu(
+            sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+            options={"SymmetricMode": True})
+    except RuntimeError as exc:
+        raise SingularStiffnessError(f"{what} is singular ({exc})") from None
+    return lu
+
+
+def supported_rigid_mass(M, T, X, dof_node=None, return_details=False, residual_tol=1e-8):
+    """M_inf (6, 6) consistent with the supports: X^T M T (T^T M T)^+ T^T M X.
+
+    This is the matrix for which sum_i Mbar_i = M_inf holds exactly over all
+    finite-frequency supported modes (module docstring), also when T^T M T is
+    singular (massless drilling rotations of shells).  ``dof_node`` (ndof,)
+    groups DOFs into nodes (``node_index``) for the search of massless
+    directions.  With ``return_details`` also returns a dict with
+    ``n_massless`` (dimension of the null space of T^T M T) and
+    ``relative_residual`` of the projected solve.
+    """
+    T = sp.csr_matrix(T)
+    Mt = (T.T @ M @ T).tocsr()
+    Mt = 0.5 * (Mt + Mt.T)
+    b = np.asarray(T.T @ (M @ X))
+    groups = supported_column_groups(T, dof_node)
+    N = massless_directions(Mt, groups)
+    shift = float(np.mean(np.abs(Mt.diagonal()))) or 1.0
+    A = Mt + shift * (N @ N.T) if N.shape[1] else Mt
+    try:
+        lu = scipy.sparse.linalg.splu(
+            sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+            options={"SymmetricMode": True})
+        z = lu.solve(b)
+    except RuntimeError as exc:
+        raise SingularMassError(
+            f"T^T M T is singular beyond the {N.shape[1]} node-local massless "
+            f"directions found ({exc})") from None
+    residual = np.linalg.norm(Mt @ z - b) / max(np.linalg.norm(b), np.finfo(float).tiny)
+    if not np.isfinite(residual) or residual > residual_tol:
+        raise SingularMassError(
+            f"T^T M T is singular beyond the {N.shape[1]} node-local massless directions "
+            f"found: projected solve residual {residual:.2e} > {residual_tol:.0e}")
+    M_inf = b.T @ z
+    M_inf = 0.5 * (M_inf + M_inf.T)
+    if return_details:
+        return M_inf, {"n_massless": int(N.shape[1]), "relative_residual": float(residual)}
+    return M_inf
+
+
+def check_supports(K, T, X, tol=1e-8):
+    """Raise SingularStiffnessError if T^T K T is visibly singular (cheap checks).
+
+    1. a zero diagonal entry of T^T K T (a supported coordinate without stiffness);
+    2. a stress-free rigid motion X a (K X a = 0) that lies in range(T): the
+       supports do not remove it.  Tested through the least-squares residual of
+       X a in range(T), with X's columns scaled to unit length.
+    """
+    T = sp.csr_matrix(T)
+    Kt_diag = np.asarray((T.multiply(K @ T)).sum(axis=0)).ravel()
+    scale = np.max(np.abs(Kt_diag)) if Kt_diag.size else 0.0
+    bad = np.flatnonzero(Kt_diag <= 1e-14 * scale)
+    if scale <= 0.0 or bad.size:
+        first = int(bad[0]) if bad.size else 0
+        raise SingularStiffnessError(
+            f"supported stiffness T^T K T has {bad.size if bad.size else T.shape[1]} zero or "
+            f"negative diagonal entries (first: supported coordinate {first})")
+    if X is None:
+        return
+    X = np.asarray(X, dtype=float)
+    norms = np.linalg.norm(X, axis=0)
+    Xs = X / np.where(norms > 0, norms, 1.0)
+    TtT = (T.T @ T).tocsc()
+    offdiag = TtT - sp.diags(TtT.diagonal())
+    rhs = np.asarray(T.T @ Xs)
+    if offdiag.nnz == 0 or abs(offdiag).max() == 0.0:
+        y = rhs / TtT.diagonal()[:, None]
+    else:
+        y = scipy.sparse.linalg.splu(TtT, permc_spec="MMD_AT_PLUS_A").solve(rhs)
+    R = Xs - T @ y
+    w, V = np.linalg.eigh(R.T @ R)
+    KXs = np.asarray(K @ Xs)
+    k_scale = abs(K).max() if K.nnz else 1.0
+    for j in range(6):
+        if w[j] > tol ** 2:
+            break
+        a = V[:, j]
+        if np.linalg.norm(KXs @ a) <= 1e-8 * k_scale * np.linalg.norm(Xs @ a):
+            parts = " ".join(
+                f"{a[i]:+.2f}*{RIGID_MOTION_NAMES[i]}" for i in np.argsort(-np.abs(a)) if abs(a[i]) > 0.1)
+            raise SingularStiffnessError(
+                f"supported stiffness T^T K T is singular: the supports leave the rigid motion "
+                f"{parts} free (missing supports)")
+
+
+def supported_flexibility(K, T, X=None, pivot_ratio_tol=1e-15):
+    """Factorise T^T K T once; return apply_G(F) = T (T^T K T)^-1 T^T F.
+
+    K (ndof, ndof) free stiffness, T (ndof, m), X (ndof, 6) optional rigid
+    modes for the missing-support check (``check_supports``, done first).
+    ``apply_G`` maps loads F (ndof,) or (ndof, k) [lbf, in lbf] to static
+    displacements of the supported body (same shape) [in, rad]: the G of eq
+    3.49 for multi-point supports.  Uses a sparse LU, never a dense inverse.
+    """
+    T = sp.csr_matrix(T)
+    check_supports(K, T, X)
+    Kt = (T.T @ K @ T).tocsc()
+    Kt = 0.5 * (Kt + Kt.T)
+    lu = _sparse_solver(Kt, "supported stiffness T^T K T")
+    pivots = np.abs(lu.U.diagonal())
+    if pivots.size and pivots.min() <= pivot_ratio_tol * pivots.max():
+        raise SingularStiffnessError(
+            f"supported stiffness T^T K T is numerically singular (smallest/largest LU pivot "
+            f"{pivots.min() / pivots.max():.1e}; missing supports?)")
+
+    def apply_G(F):
+        F = np.asarray(F, dtype=float)
+        return T @ lu.solve(np.asarray(T.T @ F))
+
+    return apply_G
+
+
+def flexibility_matrix(M, X, apply_G):
+    """MGM_inf = X^T M G M X (6, 6) [mass^2 / stiffness] (eqs 3.45, 3.46)."""
+    MX = np.asarray(M @ X)
+    A = MX.T @ apply_G(MX)
+    return 0.5 * (A + A.T)
+
+
+def inside_frame_motion(bearing_motion, bearing_points, motor=2, resolver=3):
+    """Elastic motion of the inside frame from the output bearings (thesis PSI, THT).
+
+    bearing_motion (..., 4, 6): per bearing the rigid-fit (u_x, u_y, u_z,
+    th_x, th_y, th_z) [in, rad] (``bearing_modes`` of the body file, or
+    ``bearing_operator @ phi`` reshaped); bearing_points (4, 3) [in].
+    With p_m, p_r the output motor and resolver points, d = |p_m - p_r| and the
+    bearing axis e = (p_m - p_r) / d:
+
+    * ``theta`` (..., 3): rotation of the inside frame,
+      ``e (e . th_m) + e x (u_m - u_r) / d`` -- about the axis from the motor's
+      rotation (the motor holds the next body's drive angle), perpendicular to
+      it from the relative translation of the two bearings.  For bearings on
+      +z/-z this is the thesis's thetaX = (u_ry - u_my)/d,
+      thetaY = (u_mx - u_rx)/d, thetaZ = th_mz (Appendix A.2).
+    * ``psi_midpoint`` (..., 3): translation at the midpoint, (u_m + u_r) / 2.
+    * ``psi`` (..., 3): translation of the inside frame: ``psi_midpoint`` with
+      its axial component taken from the resolver alone (thesis A.2,
+      PSI(3) = outResZTrans): the next body's motor bearing slides axially and
+      its resolver holds it, so the next body follows the resolver along e.
+    * ``stretch`` (...,): e . (u_m - u_r), the elastic change of the bearing
+      distance (thesis outDiam minus the nominal distance).
+
+    For a rigid motion u(p) = t + w x p, th = w: theta = w and
+    psi = psi_midpoint = t + w x (p_m + p_r) / 2, stretch = 0.
+    Raises MissingBearingError if a bearing point is not finite (platform).
+    """
+    points = np.asarray(bearing_points, dtype=float)
+    for b in (motor, resolver):
+        if not (0 <= b < points.shape[0]):
+            raise ReductionError(f"bearing index {b} outside 0..{points.shape[0] - 1}")
+        if not np.all(np.isfinite(points[b])):
+            raise MissingBearingError(
+                f"bearing {b} ({BEARING_NAMES[b]}) has no point (platform has no output bearings)")
+    motion = np.asarray(bearing_motion, dtype=float)
+    u_m, th_m = motion[..., motor, :3], motion[..., motor, 3:]
+    u_r = motion[..., resolver, :3]
+    delta = points[motor] - points[resolver]
+    d = float(np.linalg.norm(delta))
+    if d == 0.0:
+        raise ReductionError(f"bearings {motor} and {resolver} coincide")
+    e = delta / d
+    theta = e * (th_m @ e)[..., None] + np.cross(e, u_m - u_r) / d
+    psi_mid = 0.5 * (u_m + u_r)
+    stretch = (u_m - u_r) @ e
+    psi = psi_mid - 0.5 * stretch[..., None] * e
+    return {"psi": psi, "theta": theta, "psi_midpoint": psi_mid, "stretch": stretch,
+            "axis": e, "distance": d}
+
+
+def check_mode_count(n, available, what="modes"):
+    """Raise ModeCountError unless 0 <= n <= available (int)."""
+    if int(n) != n or n < 0 or n > available:
+        raise ModeCountError(f"{what}: asked for {n}, only {available} computed")
+    return int(n)
