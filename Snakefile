@@ -1,0 +1,22 @@
+# The gimbal study as a Snakemake (7.21) workflow: stages are wired here, the
+# work is done by the importable packages geometry/, solver/, reduction/, results/.
+#   snakemake --cores 2 all        everything that exists so far
+#   snakemake --cores 2 mesh       gmsh meshes of the four bodies
+#   snakemake --cores 2 modes      100 supported modes per body
+#   snakemake --cores 2 verify_fe  finite-element verification (results/verification/fe.json)
+configfile: "config/config.yaml"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/geometry.smk"
+include: "workflow/rules/modes.smk"
+include: "workflow/rules/verification.smk"
+
+
+rule all:
+    input:
+        rules.modes.input,
+        rules.mode_shapes.input,
+        "results/benchmarks/modes.json",
+        "results/verification/fe.json",
+    default_target: True

@@ -1,0 +1,1 @@
+# Verification of the finite-element stage (filled in by solver/verification.py).
