@@ -221,43 +221,65 @@ def _sparse_solver(A, what):
     return lu
 
 
-def supported_rigid_mass(M, T, X, dof_node=None, return_details=False, residual_tol=1e-8):
+def supported_rigid_mass(M, T, X, dof_node=None, return_details=False, residual_tol=1e-10,
+                         max_refinements=30):
     """M_inf (6, 6) consistent with the supports: X^T M T (T^T M T)^+ T^T M X.
 
     This is the matrix for which sum_i Mbar_i = M_inf holds exactly over all
     finite-frequency supported modes (module docstring), also when T^T M T is
-    singular (massless drilling rotations of shells).  ``dof_node`` (ndof,)
-    groups DOFs into nodes (``node_index``) for the search of massless
-    directions.  With ``return_details`` also returns a dict with
-    ``n_massless`` (dimension of the null space of T^T M T) and
-    ``relative_residual`` of the projected solve.
+    singular (massless drilling rotations of shells).
+
+    Method: b = T^T M X lies in range(T^T M T) = null(T^T M T)^perp, so any z
+    with (T^T M T) z = b gives M_inf = b^T z.  Block-local null vectors N
+    (``massless_directions`` on the groups of ``supported_column_groups``;
+    ``dof_node`` (ndof,) from ``node_index``) are made definite exactly by
+    adding s N N^T; null vectors that are not block-local (e.g. drilling
+    rotations tied together by a point mass that moves with a region's
+    rigid-fit motion) are handled by a small shift delta I and iterative
+    refinement on the residual b - (T^T M T) z, which converges to the exact
+    solution on range(T^T M T) (the shift's null-space components do not
+    reach b^T z).  The relative residual must fall below ``residual_tol``.
+
+    With ``return_details`` also returns a dict: ``n_massless_local`` (block-
+    local null vectors), ``refinements`` and ``relative_residual``.
     """
     T = sp.csr_matrix(T)
     Mt = (T.T @ M @ T).tocsr()
     Mt = 0.5 * (Mt + Mt.T)
     b = np.asarray(T.T @ (M @ X))
+    b_norm = max(np.linalg.norm(b), np.finfo(float).tiny)
     groups = supported_column_groups(T, dof_node)
     N = massless_directions(Mt, groups)
-    shift = float(np.mean(np.abs(Mt.diagonal()))) or 1.0
+    diag = np.abs(Mt.diagonal())
+    shift = float(np.mean(diag)) if diag.size and np.mean(diag) > 0 else 1.0
     A = Mt + shift * (N @ N.T) if N.shape[1] else Mt
+    delta = 1e-10 * shift
     try:
         lu = scipy.sparse.linalg.splu(
-            sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-            options={"SymmetricMode": True})
-        z = lu.solve(b)
+            sp.csc_matrix(A + delta * sp.identity(A.shape[0])), permc_spec="MMD_AT_PLUS_A",
+            diag_pivot_thresh=0.0, options={"SymmetricMode": True})
     except RuntimeError as exc:
-        raise SingularMassError(
-            f"T^T M T is singular beyond the {N.shape[1]} node-local massless "
-            f"directions found ({exc})") from None
-    residual = np.linalg.norm(Mt @ z - b) / max(np.linalg.norm(b), np.finfo(float).tiny)
+        raise SingularMassError(f"cannot factorise T^T M T + shift ({exc})") from None
+    z = np.zeros_like(b)
+    residual, refinements = 1.0, 0
+    for refinements in range(1, max_refinements + 1):
+        r = b - Mt @ z
+        residual = np.linalg.norm(r) / b_norm
+        if residual <= 0.01 * residual_tol:
+            refinements -= 1
+            break
+        z = z + lu.solve(r)
+    r = b - Mt @ z
+    residual = np.linalg.norm(r) / b_norm
     if not np.isfinite(residual) or residual > residual_tol:
         raise SingularMassError(
-            f"T^T M T is singular beyond the {N.shape[1]} node-local massless directions "
-            f"found: projected solve residual {residual:.2e} > {residual_tol:.0e}")
+            f"T^T M T (with {N.shape[1]} block-local massless directions) could not be "
+            f"inverted on its range: relative residual {residual:.2e} > {residual_tol:.0e}")
     M_inf = b.T @ z
     M_inf = 0.5 * (M_inf + M_inf.T)
     if return_details:
-        return M_inf, {"n_massless": int(N.shape[1]), "relative_residual": float(residual)}
+        return M_inf, {"n_massless_local": int(N.shape[1]), "refinements": int(refinements),
+                       "relative_residual": float(residual)}
     return M_inf
 
 

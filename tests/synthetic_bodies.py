@@ -188,6 +188,31 @@ def selection_basis(ndof, constrained):
                          shape=(ndof, free.size))
 
 
+def rigid_fit_operator(nodes, positions, point, ndof, rotation_length=0.25, weights=None):
+    """(6, ndof) CSR: least-squares rigid motion (u, th) at ``point`` fitted to nodes' motion.
+
+    Minimises sum_k w_k |u_k - u - th x r_k|^2 + L^2 sum_k w_k |th_k - th|^2 with
+    r_k = x_k - point (nodes with 6 DOFs each, node-major layout): an
+    "RBE3-like" connection that reproduces rigid motions exactly.
+    """
+    nodes = np.asarray(nodes)
+    w = np.ones(nodes.size) if weights is None else np.asarray(weights, float)
+    r = np.asarray(positions, float)[nodes] - np.asarray(point, float)
+    A = np.zeros((nodes.size, 3, 6))
+    A[:, :, :3] = np.eye(3)
+    for k in range(nodes.size):
+        A[k, :, 3:] = -np.array([[0, -r[k, 2], r[k, 1]], [r[k, 2], 0, -r[k, 0]],
+                                 [-r[k, 1], r[k, 0], 0]])
+    N = np.einsum("k,kia,kib->ab", w, A, A)
+    N[3:, 3:] += rotation_length ** 2 * w.sum() * np.eye(3)
+    Ninv = np.linalg.inv(N)
+    R = sp.lil_matrix((6, ndof))
+    for k, node in enumerate(nodes):
+        R[:, 6 * node:6 * node + 3] = w[k] * Ninv @ A[k].T
+        R[:, 6 * node + 3:6 * node + 6] = w[k] * rotation_length ** 2 * Ninv[:, 3:]
+    return R.tocsr()
+
+
 def constraint_basis(C, preferred=(), tol=1e-12):
     """Sparse T (ndof, ndof - rank C) with C T = 0, by eliminating one slave per row.
 
@@ -270,7 +295,7 @@ def ring_body(radius=3.375, n_elements=24, width=0.5, thickness=0.25,
               outer_bearing_distance=7.25, inner_bearing_distance=6.25,
               motor_side=1, output_motor_side=1, mass_model="consistent",
               connection="rods", rod_factor=20.0, eccentric_fraction=0.10,
-              output_bearings=True, n_modes=None, density=RHO, body=2):
+              output_bearings=True, n_modes=None, density=RHO, body=2, eccentric="node"):
     """A ring-gimbal-like body dict in the body-file layout (see module docstring).
 
     Node order: ring nodes 0..n_elements-1 at angle 2 pi k / n (from +x towards
@@ -289,7 +314,8 @@ def ring_body(radius=3.375, n_elements=24, width=0.5, thickness=0.25,
     attach = [0 if motor_side > 0 else 2 * q, 2 * q if motor_side > 0 else 0,
               q if output_motor_side > 0 else 3 * q, 3 * q if output_motor_side > 0 else q]
     n_b = 4 if output_bearings else 2
-    nodes = np.vstack([ring, bearing_points[:n_b]])
+    has_bearing_nodes = connection in ("rods", "rigid_links")
+    nodes = np.vstack([ring, bearing_points[:n_b]]) if has_bearing_nodes else ring
     n_nodes = nodes.shape[0]
     sec = rect_section(width, thickness)
     # band: local y of each element along the ring axis (global y)
@@ -327,13 +353,38 @@ def ring_body(radius=3.375, n_elements=24, width=0.5, thickness=0.25,
                 extra[6 * k + 3:6 * k + 6, 6 * k + 3:6 * k + 6] = I_rot
             elif mass_model != "lumped":
                 raise ValueError(f"unknown mass_model {mass_model!r}")
-    # eccentric mass at 45 degrees (a ring node), translations only
+    # eccentric mass at 45 degrees: on one ring node (translations only), or
+    # moving with the rigid-fit translation of three ring nodes (as the FE stage)
     k45 = n_elements // 8
     point_mass = eccentric_fraction * structural_mass
-    for c in range(3):
-        extra[6 * k45 + c, 6 * k45 + c] += point_mass
-    M = (M + extra.tocsr()).tocsr()
+    if eccentric == "node":
+        for c in range(3):
+            extra[6 * k45 + c, 6 * k45 + c] += point_mass
+        M = (M + extra.tocsr()).tocsr()
+    elif eccentric == "rigid_fit":
+        Rt = rigid_fit_operator([k45 - 1, k45, k45 + 1], nodes, nodes[k45], ndof)[:3]
+        M = (M + extra.tocsr() + point_mass * (Rt.T @ Rt)).tocsr()
+    else:
+        raise ValueError(f"unknown eccentric {eccentric!r}")
 
+    if connection == "rigid_fit":
+        fits = [rigid_fit_operator([(attach[b] - 1) % n_elements, attach[b],
+                                    (attach[b] + 1) % n_elements], nodes,
+                                   bearing_points[b], ndof) for b in range(n_b)]
+        C = sp.vstack([fits[0][[1, 2, 3]], fits[1][[0, 1, 2]]]).toarray()
+        T = constraint_basis(C)
+        B = sp.vstack(fits + [sp.csr_matrix((6, ndof))] * (4 - n_b)).tocsr()
+        lam, modes = supported_modes(K, M, T, n_modes)
+        points = bearing_points.copy()
+        if not output_bearings:
+            points[2:] = np.nan
+        return body_dict(
+            M=M, K=K, T=T, modes=modes, eigenvalues=lam, dof_coords=dof_coords,
+            dof_component=dof_component, bearing_points=points, bearing_operator=B,
+            body=body, name=f"synthetic ring ({mass_model}, {connection})",
+            model="shell" if mass_model == "shell_like" else "solid",
+            structural_mass=structural_mass, point_mass=point_mass,
+            point_mass_position=nodes[k45], mesh_size=2 * np.pi * radius / n_elements)
     motor_node, resolver_node = n_elements, n_elements + 1
     support_dofs = [6 * motor_node + 1, 6 * motor_node + 2, 6 * motor_node + 3,
                     6 * resolver_node + 0, 6 * resolver_node + 1, 6 * resolver_node + 2]
