@@ -352,6 +352,7 @@ def supported_flexibility(K, T, X=None, pivot_ratio_tol=1e-15):
         F = np.asarray(F, dtype=float)
         return T @ lu.solve(np.asarray(T.T @ F))
 
+    apply_G.admissible_basis = T  # for load checks (static_modes.static_correction_modes)
     return apply_G
 
 

@@ -72,6 +72,7 @@ def reduce_body(body, n_modes=None, static_kept=10, static_ranking="frequency",
     modes = np.asarray(body["modes"][:, :D], float)
     lam = np.asarray(body["eigenvalues"][:D], float)
     M, K, T, X = body["M"], body["K"], body["T"], np.asarray(body["rigid_modes"], float)
+    mi.check_supports(K, T, X)  # missing supports: fail before any factorisation
     t0 = time.perf_counter()
     P, H = mi.momentum_coefficients(M, X, modes)
     M_rigid = mi.rigid_mass(M, X)

@@ -167,6 +167,13 @@ def static_correction_modes(M, K, apply_G, loads, kept_modes, kept_eigenvalues, 
     if Phi.shape[0] != F.shape[0]:
         raise StaticModeError(f"loads have {F.shape[0]} DOFs, modes {Phi.shape[0]}")
 
+    T = getattr(apply_G, "admissible_basis", None)
+    if T is not None:  # a load that only pushes on the supports has no static response
+        reach = np.linalg.norm(np.asarray(T.T @ F), axis=0)
+        bound = np.linalg.norm(np.asarray(abs(T).T @ np.abs(F)), axis=0)
+        for j in np.flatnonzero(reach <= 1e-10 * bound):
+            raise StaticModeError(
+                f"static mode {names[j]!r} vanishes: the load acts only on supported directions")
     U = apply_G(F)
     R = U - Phi @ ((Phi.T @ F) / lam[:, None]) if Phi.shape[1] else U.copy()
     # one M-orthogonal Gram-Schmidt pass removes what inexact modes leave behind
