@@ -1,0 +1,93 @@
+"""Gmsh shapes used only to verify the finite-element models.
+
+* :func:`square_plate` - the NAFEMS FV12 free thin square plate (mid-surface);
+* :func:`band_surface` - a bare cylindrical band (ring mid-surface, no regions);
+* :func:`band_solid` - the same ring as a 3D solid (rectangular cross-section);
+* :func:`annulus_surface` - the platform's mid-surface, for the shell-vs-solid comparison.
+
+Each writes a first-order ``.msh`` file readable by ``solver.fe.load_mesh``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import gmsh
+
+from geometry.gimbal import _physical_group
+
+
+def _mesh_and_write(dim: int, size: float, path: str | Path, algorithm: int = 6) -> None:
+    gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+    gmsh.option.setNumber("Mesh.MeshSizeMin", 0.0)
+    gmsh.option.setNumber("Mesh.Algorithm", algorithm)
+    gmsh.model.mesh.generate(dim)
+    gmsh.model.mesh.removeDuplicateNodes()
+    gmsh.model.mesh.renumberNodes()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+    gmsh.write(str(path))
+
+
+def _start(name: str) -> None:
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.add(name)
+
+
+def square_plate(side: float, size: float, path: str | Path) -> None:
+    """Square plate [0, side]^2 in the x-y plane, unstructured triangles."""
+    _start("plate")
+    try:
+        gmsh.model.occ.addRectangle(0, 0, 0, side, side)
+        gmsh.model.occ.synchronize()
+        _physical_group(2, [s for _, s in gmsh.model.getEntities(2)], "shell")
+        _mesh_and_write(2, size, path)
+    finally:
+        gmsh.finalize()
+
+
+def band_surface(radius: float, width: float, size: float, path: str | Path) -> None:
+    """Cylindrical band of mid-radius ``radius`` about y, y in [-width/2, width/2]."""
+    _start("band")
+    try:
+        occ = gmsh.model.occ
+        occ.addCylinder(0, -width / 2, 0, 0, width, 0, radius)
+        occ.synchronize()
+        # keep only the lateral surface of the cylinder
+        lateral = [s for _, s in gmsh.model.getEntities(2)
+                   if abs(gmsh.model.getBoundingBox(2, s)[4] - gmsh.model.getBoundingBox(2, s)[1] - width) < 1e-4 * width]
+        _physical_group(2, lateral, "shell")
+        _mesh_and_write(2, size, path)
+    finally:
+        gmsh.finalize()
+
+
+def band_solid(radius: float, thickness: float, width: float, size: float, path: str | Path) -> None:
+    """Solid ring: mid-radius ``radius``, radial ``thickness``, axial ``width`` (about y)."""
+    _start("band_solid")
+    try:
+        occ = gmsh.model.occ
+        outer = occ.addCylinder(0, -width / 2, 0, 0, width, 0, radius + thickness / 2)
+        inner = occ.addCylinder(0, -width / 2, 0, 0, width, 0, radius - thickness / 2)
+        occ.cut([(3, outer)], [(3, inner)])
+        occ.synchronize()
+        _physical_group(3, [v for _, v in gmsh.model.getEntities(3)], "solid")
+        _mesh_and_write(3, size, path, algorithm=6)
+    finally:
+        gmsh.finalize()
+
+
+def annulus_surface(outer_radius: float, inner_radius: float, size: float, path: str | Path) -> None:
+    """Flat annulus in the x-z plane (normal y): the platform's mid-surface."""
+    _start("annulus")
+    try:
+        occ = gmsh.model.occ
+        outer = occ.addDisk(0, 0, 0, outer_radius, outer_radius)
+        inner = occ.addDisk(0, 0, 0, inner_radius, inner_radius)
+        occ.cut([(2, outer)], [(2, inner)])
+        occ.rotate(gmsh.model.occ.getEntities(2), 0, 0, 0, 1, 0, 0, -1.5707963267948966)  # x-y plane -> x-z plane
+        occ.synchronize()
+        _physical_group(2, [s for _, s in gmsh.model.getEntities(2)], "shell")
+        _mesh_and_write(2, size, path)
+    finally:
+        gmsh.finalize()

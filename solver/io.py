@@ -1,0 +1,25 @@
+"""Reading the body files written by the modal stage (layout: docs/body-data.md)."""
+from __future__ import annotations
+
+import scipy.sparse as sp
+
+from workflow.provenance import read_h5_checked
+
+BODY_KEYS = ("frequencies_hz", "eigenvalues", "modes", "M", "K", "T", "rigid_modes", "dof_coords",
+             "dof_component", "bearing_points", "bearing_operator", "bearing_modes")
+
+
+def read_csr(group) -> sp.csr_matrix:
+    """A CSR matrix stored as a group with data, indices, indptr and a ``shape`` attribute."""
+    return sp.csr_matrix((group["data"][()], group["indices"][()], group["indptr"][()]),
+                         shape=tuple(group.attrs["shape"]))
+
+
+def read_body(path) -> dict:
+    """All datasets (CSR groups as scipy matrices) and attributes of a body file."""
+    with read_h5_checked(path, BODY_KEYS) as h5:
+        out = {key: (read_csr(h5[key]) if key in ("M", "K", "T", "bearing_operator") else h5[key][()])
+               for key in BODY_KEYS}
+        out.update({key: h5.attrs[key] for key in h5.attrs})
+    out["name"] = str(out["name"])
+    return out
