@@ -328,14 +328,15 @@ def check_supports(K, T, X, tol=1e-8):
                 f"{parts} free (missing supports)")
 
 
-def supported_flexibility(K, T, X=None, pivot_ratio_tol=1e-15):
+def supported_flexibility(K, T, X=None, pivot_ratio_tol=1e-15, refinements=2):
     """Factorise T^T K T once; return apply_G(F) = T (T^T K T)^-1 T^T F.
 
     K (ndof, ndof) free stiffness, T (ndof, m), X (ndof, 6) optional rigid
     modes for the missing-support check (``check_supports``, done first).
     ``apply_G`` maps loads F (ndof,) or (ndof, k) [lbf, in lbf] to static
     displacements of the supported body (same shape) [in, rad]: the G of eq
-    3.49 for multi-point supports.  Uses a sparse LU, never a dense inverse.
+    3.49 for multi-point supports.  Uses a sparse LU, never a dense inverse,
+    and ``refinements`` steps of iterative refinement per solve.
     """
     T = sp.csr_matrix(T)
     check_supports(K, T, X)
@@ -350,7 +351,11 @@ def supported_flexibility(K, T, X=None, pivot_ratio_tol=1e-15):
 
     def apply_G(F):
         F = np.asarray(F, dtype=float)
-        return T @ lu.solve(np.asarray(T.T @ F))
+        rhs = np.asarray(T.T @ F)
+        z = lu.solve(rhs)
+        for _ in range(refinements):  # iterative refinement: stiff bodies are ill-conditioned
+            z += lu.solve(rhs - Kt @ z)
+        return T @ z
 
     apply_G.admissible_basis = T  # for load checks (static_modes.static_correction_modes)
     return apply_G

@@ -136,7 +136,7 @@ def residual_attachment(apply_G, loads, kept_modes, kept_eigenvalues):
 
 
 def static_correction_modes(M, K, apply_G, loads, kept_modes, kept_eigenvalues, names=None,
-                            vanish_tol=1e-8, gram_condition_limit=1e10):
+                            vanish_tol=1e-8, gram_condition_limit=1e10, mass_orthogonalise=True):
     """Static correction modes for any kept set (eqs 3.48, 3.51, 3.52).
 
     M, K (ndof, ndof) sparse; apply_G as in ``residual_attachment``; loads
@@ -148,6 +148,8 @@ def static_correction_modes(M, K, apply_G, loads, kept_modes, kept_eigenvalues, 
     modes and among themselves; ``modal_mass`` (p,) [lbf s^2/in] (= 1);
     ``modal_stiffness`` (p,) [lbf/in per unit mass, i.e. (rad/s)^2];
     ``frequencies_hz`` (p,): sqrt(stiffness / mass) / 2 pi (Rayleigh-like);
+    ``mass_coupling_vector`` (k, p) = Phi^T M phi and ``stiffness_coupling_vector``
+    (k, p) = Phi^T K phi, so a model can keep the (small) couplings;
     ``combination`` (p, p): modes = residuals_unit_mass @ combination (identity
     up to sign for p = 1, so the mode stays tied to its load case);
     ``gram_condition``: condition number of the mass Gram matrix of the
@@ -156,6 +158,18 @@ def static_correction_modes(M, K, apply_G, loads, kept_modes, kept_eigenvalues, 
     modes miss; ``mass_coupling``, ``stiffness_coupling``: the largest
     |Phi^T M phi| and |Phi^T K phi| / sqrt(Omega_i^2 k_s) (both relative;
     ~1e-12 or less for accurate modes).
+
+    Orthogonality with inexact vibration modes: eq 3.48 as written is
+    K-orthogonal to the kept modes whenever Phi^T K Phi = Lambda (true for
+    Rayleigh-Ritz-refined modes, whatever their accuracy), and M-orthogonal
+    only as far as the modes are exact eigenvectors: a mass coupling c_i =
+    phi_i^T M phi of the size of the modes' eigen-residual.  By default
+    (``mass_orthogonalise=True``) one M-orthogonal Gram-Schmidt pass removes
+    it; that moves a coupling Omega_i^2 c_i into the stiffness, i.e. a
+    normalised K-coupling c_i Omega_i / Omega_s, smaller than c_i because the
+    static mode is stiffer than every kept mode.  So the largest normalised
+    coupling only shrinks.  ``mass_orthogonalise=False`` keeps eq 3.48 as
+    written.  Both couplings are returned (scalars and vectors).
     """
     F = np.asarray(loads, float)
     if F.ndim == 1:
@@ -176,8 +190,7 @@ def static_correction_modes(M, K, apply_G, loads, kept_modes, kept_eigenvalues, 
                 f"static mode {names[j]!r} vanishes: the load acts only on supported directions")
     U = apply_G(F)
     R = U - Phi @ ((Phi.T @ F) / lam[:, None]) if Phi.shape[1] else U.copy()
-    # one M-orthogonal Gram-Schmidt pass removes what inexact modes leave behind
-    if Phi.shape[1]:
+    if mass_orthogonalise and Phi.shape[1]:
         R = R - Phi @ (Phi.T @ (M @ R))
     u_mass = np.sqrt(np.maximum(np.einsum("ij,ij->j", U, M @ U), 0.0))
     r_mass = np.sqrt(np.maximum(np.einsum("ij,ij->j", R, M @ R), 0.0))
@@ -207,10 +220,11 @@ def static_correction_modes(M, K, apply_G, loads, kept_modes, kept_eigenvalues, 
     MS, KS = M @ modes, K @ modes
     modal_mass = np.einsum("ij,ij->j", modes, MS)
     modal_stiffness = np.einsum("ij,ij->j", modes, KS)
+    mass_vector, stiffness_vector = Phi.T @ MS, Phi.T @ KS
     if Phi.shape[1]:
-        mass_coupling = float(np.max(np.abs(Phi.T @ MS) / np.sqrt(modal_mass)))
+        mass_coupling = float(np.max(np.abs(mass_vector) / np.sqrt(modal_mass)))
         stiffness_coupling = float(np.max(
-            np.abs(Phi.T @ KS) / np.sqrt(np.outer(lam, modal_stiffness))))
+            np.abs(stiffness_vector) / np.sqrt(np.outer(lam, modal_stiffness))))
     else:
         mass_coupling = stiffness_coupling = 0.0
     return {
@@ -218,6 +232,7 @@ def static_correction_modes(M, K, apply_G, loads, kept_modes, kept_eigenvalues, 
         "frequencies_hz": np.sqrt(np.maximum(modal_stiffness, 0.0) / modal_mass) / (2 * np.pi),
         "combination": V, "gram_condition": condition, "residual_fraction": r_mass / u_mass,
         "mass_coupling": mass_coupling, "stiffness_coupling": stiffness_coupling,
+        "mass_coupling_vector": mass_vector, "stiffness_coupling_vector": stiffness_vector,
         "names": names,
     }
 
