@@ -28,16 +28,29 @@ Bodies
 * ``ring_body(...)``: a gimbal-like ring of beam elements in the local x-z
   plane (axis y) with four bearing nodes on the local axes (input motor,
   input resolver on x; output motor, output resolver on z), joined to the
-  ring by stiff rods (``connection="rods"``) or by rigid links that are
-  eliminated in T (``connection="rigid_links"``, a multi-point T), the
-  eccentric point mass at 45 degrees, and the thesis's supports (motor side
-  u_y = u_z = th_x = 0, resolver side u_x = u_y = u_z = 0).  Mass models:
+  ring by stiff rods (``connection="rods"``: bearing nodes, supports on
+  their DOFs, a selection T), by rigid links eliminated in T
+  (``connection="rigid_links"``: a multi-point T), or -- like the FE stage --
+  with no bearing nodes, each bearing a rigid-fit ("RBE3-like") average of the
+  three ring nodes at its angle, supports holding rows of that fit
+  (``connection="rigid_fit"``: a multi-point T).  The eccentric point mass
+  (10 % at 45 degrees) sits on one node (``eccentric="node"``) or moves with
+  the rigid-fit translation of three nodes (``eccentric="rigid_fit"``, which
+  ties their massless rotations together); supports as in the thesis (motor
+  side u_y = u_z = th_x = 0, resolver side u_x = u_y = u_z = 0).  Mass models:
   ``"consistent"`` (beam consistent mass with polar inertia), ``"lumped"``
   (translational masses only: every rotation massless), ``"shell_like"``
   (lumped translations plus rotary inertia about the tangent and the ring
   axis but none about the radial direction -- the drilling rotation of a
   band-shaped shell, massless in an oblique direction).
   ``output_bearings=False`` gives a platform-like body (bearing rows 2, 3 NaN).
+* ``band_body(n_circ, n_width, ...)``: a large shell-like band (a beam grid
+  on the ring's mid-surface, rigid-fit bearings, 100 modes from sparse
+  Lanczos) at the real bodies' size (20k-60k DOFs), for timing.
+* ``rigid_fit_operator(nodes, positions, point, ndof)``: the (6, ndof)
+  least-squares rigid motion of a region (bearing connection, eccentric mass).
+* ``permute_dofs(body, perm)``, ``scale_density(body, factor)``: the same
+  body renumbered / with scaled density (invariance tests).
 * ``grounded_masses(masses, positions, stiffnesses)``: point masses with
   3 translational DOFs each, tied to ground by isotropic springs (T = I): the
   hand-checkable model (modes e_d / sqrt(m_n), Omega^2 = k_n / m_n).
@@ -524,3 +537,108 @@ def write_body_file(path, body):
         for key, value in body["attrs"].items():
             f.attrs[key] = value
     return path
+
+
+def band_body(n_circ=400, n_width=5, radius=3.375, width=0.5, thickness=0.25,
+              outer_bearing_distance=7.25, inner_bearing_distance=6.25, motor_side=1,
+              output_motor_side=1, n_modes=100, mass_model="shell_like", body=2, seed=None):
+    """A large shell-like band (beam grid on the ring's mid-surface) with 100 modes, sparse.
+
+    n_circ x n_width nodes (6 DOFs each) on a cylinder of the ring's radius and
+    width, beams along the circumference and across the width; the bearing
+    connections are rigid fits over the cross-section line at the bearing
+    angle (supports through a multi-point T), the eccentric mass moves with
+    the rigid fit of the 45-degree line.  ``mass_model`` "shell_like" (no
+    drilling inertia: singular T^T M T) or "consistent".  Modes by sparse
+    shift-invert Lanczos (scipy eigsh), so a 60k-DOF body takes tens of seconds
+    to build: meant for timing the downstream stages at the real bodies' size.
+    """
+    import scipy.sparse.linalg as spla
+
+    if n_circ % 8:
+        raise ValueError("n_circ must be a multiple of 8")
+    ang = 2 * np.pi * np.arange(n_circ) / n_circ
+    ys = np.linspace(-width / 2, width / 2, n_width)
+    nodes = np.array([[radius * np.cos(a), y, radius * np.sin(a)] for a in ang for y in ys])
+    idx = np.arange(n_circ * n_width).reshape(n_circ, n_width)
+    ds, dw = 2 * np.pi * radius / n_circ, width / max(n_width - 1, 1)
+    sec_c = rect_section(width / n_width, thickness)   # circumferential strips
+    sec_w = rect_section(ds, thickness)                 # across the width
+    consistent = mass_model == "consistent"
+    elements = []
+    for i in range(n_circ):
+        for j in range(n_width):
+            a, b = idx[i, j], idx[(i + 1) % n_circ, j]
+            radial = np.array([np.cos(ang[i]), 0, np.sin(ang[i])])
+            Ke, Me = beam_element(nodes[a], nodes[b], sec_c, up=(0, 1, 0), mass=consistent)
+            elements.append((a, b, Ke, Me))
+            if j + 1 < n_width:
+                c = idx[i, j + 1]
+                Ke, Me = beam_element(nodes[a], nodes[c], sec_w, up=radial, mass=False)
+                elements.append((a, c, Ke, Me))
+    n_nodes = nodes.shape[0]
+    K, M = assemble(n_nodes, elements)
+    ndof = 6 * n_nodes
+    dof_coords, dof_component = node_dofs(nodes)
+    structural_mass = RHO * width * thickness * 2 * np.pi * radius
+    if not consistent:
+        m_node = structural_mass / n_nodes
+        rows, cols, vals = [], [], []
+        for k in range(n_nodes):
+            radial = np.array([nodes[k, 0], 0.0, nodes[k, 2]]) / radius
+            I_rot = m_node * thickness ** 2 / 12.0 * (np.eye(3) - np.outer(radial, radial))
+            for c in range(3):
+                rows.append(6 * k + c)
+                cols.append(6 * k + c)
+                vals.append(m_node)
+            rr, cc = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")
+            rows.extend(6 * k + 3 + rr.ravel())
+            cols.extend(6 * k + 3 + cc.ravel())
+            vals.extend(I_rot.ravel())
+        M = sp.csr_matrix((vals, (rows, cols)), shape=(ndof, ndof))
+    q = n_circ // 4
+    k45 = n_circ // 8
+    point_mass = 0.1 * structural_mass
+    Rt = rigid_fit_operator(idx[k45], nodes, nodes[idx[k45]].mean(axis=0), ndof)[:3]
+    M = (M + point_mass * (Rt.T @ Rt)).tocsr()
+    a_out, a_in = outer_bearing_distance / 2, inner_bearing_distance / 2
+    points = np.array([[motor_side * a_out, 0, 0], [-motor_side * a_out, 0, 0],
+                       [0, 0, output_motor_side * a_in], [0, 0, -output_motor_side * a_in]], float)
+    attach = [0 if motor_side > 0 else 2 * q, 2 * q if motor_side > 0 else 0,
+              q if output_motor_side > 0 else 3 * q, 3 * q if output_motor_side > 0 else q]
+    fits = [rigid_fit_operator(idx[attach[b]], nodes, points[b], ndof) for b in range(4)]
+    C = sp.vstack([fits[0][[1, 2, 3]], fits[1][[0, 1, 2]]]).tocsr()
+    # eliminate one DOF per constraint row (sparse variant of constraint_basis)
+    touched = np.unique(C.tocoo().col)
+    dense = C[:, touched].toarray()
+    _, r, piv = scipy.linalg.qr(dense, pivoting=True, mode="economic")
+    slaves_l, masters_l = piv[:6], np.sort(piv[6:])
+    S = -np.linalg.solve(dense[:, slaves_l], dense[:, masters_l])
+    slave, master_touched = touched[slaves_l], touched[masters_l]
+    is_slave = np.zeros(ndof, bool)
+    is_slave[slave] = True
+    col = np.cumsum(~is_slave) - 1
+    free = np.flatnonzero(~is_slave)
+    T = sp.csr_matrix(
+        (np.r_[np.ones(free.size), S.ravel()],
+         (np.r_[free, np.repeat(slave, master_touched.size)],
+          np.r_[col[free], np.tile(col[master_touched], slave.size)])),
+        shape=(ndof, free.size))
+    Kt = (T.T @ K @ T).tocsc()
+    Mt = (T.T @ M @ T).tocsc()
+    lam, x = spla.eigsh(Kt, k=n_modes, M=Mt, sigma=0.0, which="LM")
+    order = np.argsort(lam)
+    lam, x = lam[order], x[:, order]
+    x /= np.sqrt(np.einsum("ij,ij->j", x, Mt @ x))
+    modes = np.asarray(T @ x)
+    residual = np.linalg.norm(Kt @ x - (Mt @ x) * lam, axis=0) / np.linalg.norm(Kt @ x, axis=0)
+    out = body_dict(
+        M=M, K=K, T=T, modes=modes, eigenvalues=lam, dof_coords=dof_coords,
+        dof_component=dof_component, bearing_points=points,
+        bearing_operator=sp.vstack(fits).tocsr(), body=body,
+        name=f"synthetic band ({mass_model}, {n_circ}x{n_width})",
+        model="shell" if not consistent else "solid", structural_mass=structural_mass,
+        point_mass=point_mass, point_mass_position=nodes[idx[k45]].mean(axis=0),
+        mesh_size=ds)
+    out["attrs"]["max_relative_residual"] = float(residual.max())
+    return out
