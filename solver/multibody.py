@@ -578,3 +578,49 @@ def case_power(chain, y, yd, ydd, t=0.0, case=None):
     w_case, _ = case.twist(t)
     J = joints[0]
     return float(adjoint_inverse(J.R, J.p, w_case) @ F)
+
+
+# ------------------------------------------------------------- problem bundle
+class Problem:
+    """A chain with its case motion, motor torques and initial state: what an
+    integrator needs (``solver.integrators.integrate``).
+
+    torque: (4,) constant motor torques [in lbf] or a callable t -> (4,)."""
+
+    def __init__(self, chain, case=None, torque=None, y0=None, yd0=None, fast=True):
+        from solver import integrators
+        self.chain = chain
+        self.case = case or CaseMotion()
+        self._torque = integrators._torque_function(torque)
+        n = chain.n_coordinates
+        self.y0 = np.zeros(n) if y0 is None else np.asarray(y0, float)
+        self.yd0 = np.zeros(n) if yd0 is None else np.asarray(yd0, float)
+        self.rhs = integrators.make_rhs(chain, self.case, self._torque, fast=fast)
+        self.omega_max = chain.omega_max
+        self.stiffness_diagonal = chain.stiffness_diagonal()
+        self.damping_diagonal = chain.damping_diagonal()
+
+    def tau(self, t):
+        out = np.zeros(self.chain.n_coordinates)
+        out[:4] = self._torque(t)
+        return out
+
+    def residual(self, t, y, yd, ydd):
+        """M(y) y'' + c(y, y', t) - tau(t)."""
+        return inverse_dynamics(self.chain, y, yd, ydd, t, self.case) - self.tau(t)
+
+    def solve(self, y, r, modal_diagonal=None):
+        return solve_mass(self.chain, y, r, modal_diagonal)
+
+    def energy(self, t, y, yd):
+        """T + U [in lbf]."""
+        return kinetic_energy(self.chain, y, yd, t, self.case) + potential_energy(self.chain, y)
+
+    def input_power(self, t, y, yd):
+        """Power fed in by the case motion and the motors, minus modal damping [in lbf/s]."""
+        tau = self._torque(t)
+        P = float(np.dot(tau, yd[:4])) - float(np.sum(self.damping_diagonal * yd * yd))
+        if not self.case.at_rest:
+            ydd = self.rhs(t, y, yd)
+            P += case_power(self.chain, y, yd, ydd, t, self.case)
+        return P

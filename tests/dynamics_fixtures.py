@@ -195,7 +195,8 @@ class Oracle:
         self.n_modes = [d["modes"].shape[1] for d in datas]
         self.damping = np.concatenate(
             [2 * damping_ratio * np.sqrt(d["eigenvalues"]) for d in datas])
-        self._L = jax.jit(self.lagrangian)
+        self._equations = jax.jit(self._raw_equations)
+        self._momentum = jax.jit(jax.grad(self.lagrangian, argnums=1))
 
     def case_motion(self):
         a = np.array(self.amp) * self.axis
@@ -306,32 +307,29 @@ class Oracle:
             L = L + 0.5 * V @ Mn @ V - 0.5 * Dl @ Mn @ Dl - 0.5 * u @ jnp.asarray(data["K"]) @ u
         return L
 
-    def equations(self, y, yd, t, torque=(0.0, 0.0, 0.0, 0.0)):
-        """(M (n, n), f (n,)) of M y'' = f, by automatic differentiation."""
+    def _raw_equations(self, y, yd, t):
         jax, jnp = self.jax, self.jnp
-        y = jnp.asarray(y, dtype=jnp.float64)
-        yd = jnp.asarray(yd, dtype=jnp.float64)
-        t = jnp.asarray(float(t), dtype=jnp.float64)
         L = self.lagrangian
         M = jax.hessian(L, argnums=1)(y, yd, t)
         dLdy = jax.grad(L, argnums=0)(y, yd, t)
         p = jax.grad(L, argnums=1)
         _, dp = jax.jvp(lambda yy, tt: p(yy, yd, tt), (y, t), (yd, jnp.ones_like(t)))
-        f = dLdy - dp
+        return M, dLdy - dp
+
+    def equations(self, y, yd, t, torque=(0.0, 0.0, 0.0, 0.0)):
+        """(M (n, n), f (n,)) of M y'' = f: Lagrange's equations by automatic differentiation
+        (f = dL/dy - d/dt(dL/dy') + y'' terms removed, minus modal damping, plus motor torque)."""
+        jnp = self.jnp
+        M, f = self._equations(jnp.asarray(y, dtype=jnp.float64), jnp.asarray(yd, dtype=jnp.float64),
+                               jnp.asarray(float(t), dtype=jnp.float64))
         f = np.array(f)
         f[4:] -= self.damping * np.asarray(yd)[4:]
         f[:4] += np.asarray(torque, float)
         return np.array(M), f
 
     def momentum(self, y, yd, t):
-        jax, jnp = self.jax, self.jnp
-        return np.array(jax.grad(self.lagrangian, argnums=1)(
-            jnp.asarray(y), jnp.asarray(yd), jnp.asarray(float(t))))
-
-    def energy(self, y, yd, t):
-        """Kinetic + elastic energy (the Lagrangian's T + U)."""
-        jax, jnp = self.jax, self.jnp
-        y, yd, t = jnp.asarray(y), jnp.asarray(yd), jnp.asarray(float(t))
-        L = self.lagrangian(y, yd, t)
-        T = 0.5 * (jax.grad(self.lagrangian, argnums=1)(y, yd, t) @ yd)   # not exact with t-terms
-        return float(T), float(T - L)
+        """dL/dy' (n,): generalised momenta."""
+        jnp = self.jnp
+        return np.array(self._momentum(jnp.asarray(y, dtype=jnp.float64),
+                                       jnp.asarray(yd, dtype=jnp.float64),
+                                       jnp.asarray(float(t), dtype=jnp.float64)))
