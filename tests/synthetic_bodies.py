@@ -42,7 +42,10 @@ Bodies
   (translational masses only: every rotation massless), ``"shell_like"``
   (lumped translations plus rotary inertia about the tangent and the ring
   axis but none about the radial direction -- the drilling rotation of a
-  band-shaped shell, massless in an oblique direction).
+  band-shaped shell, massless in an oblique direction), ``"consistent_no_polar"``
+  (consistent mass without the torsional inertia: at a node the two elements'
+  axes differ, so the rotation about the tangent is *nearly* massless -- like
+  the drilling rotation of a faceted shell).
   ``output_bearings=False`` gives a platform-like body (bearing rows 2, 3 NaN).
 * ``band_body(n_circ, n_width, ...)``: a large shell-like band (a beam grid
   on the ring's mid-surface, rigid-fit bearings, 100 modes from sparse
@@ -333,11 +336,11 @@ def ring_body(radius=3.375, n_elements=24, width=0.5, thickness=0.25,
     sec = rect_section(width, thickness)
     # band: local y of each element along the ring axis (global y)
     elements = []
-    consistent = mass_model == "consistent"
+    consistent = mass_model in ("consistent", "consistent_no_polar")
     for k in range(n_elements):
         i, j = k, (k + 1) % n_elements
         Ke, Me = beam_element(nodes[i], nodes[j], sec, rho=density, up=(0, 1, 0),
-                              polar_inertia=True, mass=consistent)
+                              polar_inertia=mass_model == "consistent", mass=consistent)
         elements.append((i, j, Ke, Me))
     rod = {key: val * rod_factor for key, val in sec.items()}
     if connection == "rods":

@@ -32,7 +32,8 @@ def integrals(body):
 
 
 CASES = [(c, m, e) for c in ("rods", "rigid_links", "rigid_fit")
-         for m in ("consistent", "lumped", "shell_like") for e in ("node", "rigid_fit")]
+         for m in ("consistent", "lumped", "shell_like", "consistent_no_polar")
+         for e in ("node", "rigid_fit")]
 
 
 @pytest.mark.parametrize("connection,mass_model,eccentric", CASES)
@@ -43,7 +44,7 @@ def test_hughes_identities(connection, mass_model, eccentric):
     flex = vf.check_hughes_flexibility_identity(P, H, body["eigenvalues"], MGM_inf)
     assert mass["passed"], mass
     assert flex["passed"], flex
-    assert details["relative_residual"] < 1e-12
+    assert details["relative_residual"] < 1e-9 and details["last_change"] < 1e-14
 
 
 def test_rigid_modes_are_stress_free_and_match_layout():
