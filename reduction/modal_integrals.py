@@ -38,24 +38,25 @@ the coupling terms ``M_fc X_c`` also enter.  ``M_rigid - M_inf`` (positive
 semidefinite) is the mass that the supports hold.
 
 Massless directions: for shells the drilling rotation has no inertia, so
-``T^T M T`` is singular (infinite-frequency "modes").  Those carry no
-momentum (``M T x = 0`` implies ``X^T M T x = 0``), the sum runs over the
-finite modes only, and ``(T^T M T)^+`` is applied as follows: the null space
-of ``T^T M T`` is found exactly from small diagonal blocks (a vector supported
-on one block with zero block energy is a null vector of a positive
-semidefinite matrix), ``s N N^T`` is added to make the matrix definite, and
-the solve is exact because ``b = T^T M X`` lies in range(T^T M T), which is
-orthogonal to range(N).  The residual ``||T^T M T z - b||`` is checked; a null
-space that is not spanned by block-local vectors raises ``SingularMassError``.
+``T^T M T`` is singular (infinite-frequency "modes") or, for faceted shells,
+nearly so.  Massless directions carry no momentum (``M T x = 0`` implies
+``X^T M T x = 0``), the sum runs over the finite modes only, and
+``(T^T M T)^+`` is applied as follows: block-local null vectors are found
+exactly from small diagonal blocks (a vector supported on one block with zero
+block energy is a null vector of a positive semidefinite matrix) and made
+definite by adding ``s N N^T``; the rest (non-local or nearly massless
+directions) by a tiny shift and iterative refinement until M_inf settles.
+The solve is exact on range(T^T M T) because ``b = T^T M X`` lies in it,
+orthogonal to every null vector (``supported_rigid_mass``).
 """
 
 import numpy as np
-import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.csgraph
 import scipy.sparse.linalg
 
 from reduction.errors import (
+    BearingIndexError,
     ModeCountError,
     MissingBearingError,
     ReductionError,
@@ -404,7 +405,7 @@ def inside_frame_motion(bearing_motion, bearing_points, motor=2, resolver=3):
     points = np.asarray(bearing_points, dtype=float)
     for b in (motor, resolver):
         if not (0 <= b < points.shape[0]):
-            raise ReductionError(f"bearing index {b} outside 0..{points.shape[0] - 1}")
+            raise BearingIndexError(f"bearing index {b} outside 0..{points.shape[0] - 1}")
         if not np.all(np.isfinite(points[b])):
             raise MissingBearingError(
                 f"bearing {b} ({BEARING_NAMES[b]}) has no point (platform has no output bearings)")
