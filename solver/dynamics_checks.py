@@ -57,3 +57,110 @@ def energy_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol
         E = multibody.kinetic_energy(chain, y, yd) + multibody.potential_energy(chain, y)
         worst = max(worst, abs(E - E0) / abs(E0))
     return check(f"{name}: energy drift over {n_steps} RK4 steps (h = {fraction} x limit)", worst, tol)
+
+
+def error_measure(t, response, reference):
+    """Thesis eq. 3.53: E = int e^2 dt / int r^2 dt, e = response - reference (trapezoid rule).
+    response, reference (T,) or (T, k) -> float or (k,)."""
+    t = np.asarray(t, float)
+    x = np.asarray(response, float)
+    r = np.asarray(reference, float)
+    num = np.trapz((x - r) ** 2, t, axis=0)
+    den = np.trapz(r ** 2, t, axis=0)
+    return num / np.where(den > 0, den, 1.0)
+
+
+def momentum_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
+    """Case at rest: the momentum conjugate to gamma_1 (angular momentum of bodies 2-5
+    about the outer drive axis) over n_steps RK4 steps; max relative drift."""
+    rhs = integrators.make_rhs(chain)
+    h = fraction * integrators.rk4_stability_limit(chain.omega_max) if chain.omega_max else 1e-3
+    p0 = multibody.generalized_momentum(chain, y0, yd0)[0]
+    worst = 0.0
+    chunks = 20
+    y, yd = np.array(y0, float), np.array(yd0, float)
+    t = 0.0
+    for _ in range(chunks):
+        y, yd = integrators.rk4_steps(rhs, y, yd, t, h, n_steps // chunks)
+        t += h * (n_steps // chunks)
+        p = multibody.generalized_momentum(chain, y, yd)[0]
+        worst = max(worst, abs(p - p0) / abs(p0))
+    return check(f"{name}: axial angular momentum drift over {n_steps} RK4 steps", worst, tol)
+
+
+def conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
+    """Energy and axial angular momentum drift from one RK4 run (case at rest)."""
+    rhs = integrators.make_rhs(chain)
+    h = fraction * integrators.rk4_stability_limit(chain.omega_max) if chain.omega_max else 1e-3
+    E = lambda y, yd: multibody.kinetic_energy(chain, y, yd) + multibody.potential_energy(chain, y)
+    E0 = E(y0, yd0)
+    p0 = multibody.generalized_momentum(chain, y0, yd0)[0]
+    dE = dp = 0.0
+    chunks = 20
+    y, yd = np.array(y0, float), np.array(yd0, float)
+    t = 0.0
+    for _ in range(chunks):
+        y, yd = integrators.rk4_steps(rhs, y, yd, t, h, n_steps // chunks)
+        t += h * (n_steps // chunks)
+        dE = max(dE, abs(E(y, yd) - E0) / abs(E0))
+        dp = max(dp, abs(multibody.generalized_momentum(chain, y, yd)[0] - p0) / abs(p0))
+    what = f"over {n_steps} RK4 steps at {fraction} x stability limit"
+    return [check(f"{name}: energy drift {what}", dE, tol),
+            check(f"{name}: axial angular momentum drift {what}", dp, tol)]
+
+
+def rk4_order(name, problem, t_end, steps=(0.004, 0.002, 0.001), lo=3.9, hi=4.1):
+    """Observed order of RK4 from final-state errors against a run at steps[-1] / 8."""
+    ref = _final_state(problem, t_end, steps[-1] / 8)
+    errs = [np.abs(_final_state(problem, t_end, h) - ref).max() for h in steps]
+    orders = [np.log(errs[i] / errs[i + 1]) / np.log(steps[i] / steps[i + 1])
+              for i in range(len(steps) - 1)]
+    p = orders[-1]
+    return check(f"{name}: RK4 observed order (errors {', '.join(f'{e:.2e}' for e in errs)})",
+                 p, hi, passed=bool(lo <= p <= hi))
+
+
+def _final_state(problem, t_end, h):
+    n = int(round(t_end / h))
+    y, yd = integrators.rk4_steps(problem.rhs, problem.y0, problem.yd0, 0.0, t_end / n, n)
+    return np.concatenate([y, yd])
+
+
+def rigid_spin_about_outer_axis(name, chain, amplitude=1.0, frequency=2.0, t_end=0.5, tol=1e-10):
+    """Closed form: the case turns about the outer drive axis (case Z, on which the gimbal
+    point lies) with omega_Z' = a cos(2 pi f t); bodies 2-5, at rest, feel no force and stay
+    at rest in inertial space, so gamma_1' = -omega_Z(t), the other rates and all modal
+    coordinates stay zero (any inertia, elastic or rigid).  Max rate error / max rate."""
+    case = multibody.CaseMotion(amplitude=(0.0, 0.0, amplitude), frequency=(0.0, 0.0, frequency))
+    prob = multibody.Problem(chain, case=case)
+    run = integrators.integrate(prob, t_end, t_end / 50, method="rk4",
+                                step=min(1e-3, 0.5 * integrators.rk4_stability_limit(chain.omega_max)))
+    exact = -np.array([case.angular_velocity(t)[2] for t in run.t])
+    err = max(np.abs(run.yd[:, 0] - exact).max(), np.abs(run.yd[:, 1:4]).max(),
+              np.abs(run.y[:, 4:]).max(initial=0.0))
+    return check(f"{name}: case spin about the outer axis, gamma_1' = -omega_Z", err / np.abs(exact).max(), tol)
+
+
+def rigid_motor_spin_up(name, inertias, torque=2.0, t_end=1.0, tol=1e-10):
+    """Closed form: rigid bodies with centre of mass at the gimbal point and principal
+    axes along their local axes, all angles zero, case at rest, torque tau on joint 1
+    only.  Bodies 2 and 3 turn together about x_2 (body 3's z axis lies along it, a
+    principal axis: no gyroscopic torque, nothing about its drive axis); bodies 4 and 5,
+    whose drive axis x_4 = z_3 = -x_2 is parallel, feel no torque about it and stay at
+    rest.  So gamma_1'' = tau / (J2_xx + J3_zz), gamma_3' = gamma_1', gamma_2' = gamma_4' = 0.
+    inertias: 4 tuples (m, Jxx, Jyy, Jzz)."""
+    from solver.body_model import skew  # noqa: F401  (documentation of the frame algebra)
+    bodies = []
+    for number, (m, jx, jy, jz) in zip((2, 3, 4, 5), inertias):
+        Mr = np.diag([m, m, m, jx, jy, jz]).astype(float)
+        integ = {"rigid_mass": Mr, "momentum": np.zeros((6, 0)),
+                 "inertia_gradient": np.zeros((0, 6, 6)), "coriolis": np.zeros((0, 3, 0))}
+        bodies.append(multibody.make_body(number, integ, np.zeros(0)))
+    chain = multibody.Chain(tuple(bodies))
+    prob = multibody.Problem(chain, torque=(torque, 0.0, 0.0, 0.0))
+    run = integrators.integrate(prob, t_end, t_end / 20, method="rk4", step=1e-3)
+    J = inertias[0][1] + inertias[1][3]
+    rate = torque * run.t / J
+    exact = np.column_stack([rate, 0 * rate, rate, 0 * rate])
+    err = np.abs(run.yd[:, :4] - exact).max() / np.abs(rate).max()
+    return check(f"{name}: motor spin-up, gamma_1'' = tau/(J2xx + J3zz)", err, tol)
