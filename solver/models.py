@@ -1,0 +1,219 @@
+"""Reduced models named by compact strings, and their assembly from the body files.
+
+Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
+
+    model   := "truth" | "rigid" | family "-" counts statics
+    family  := "freq" | "xmx" | "xmgmx"                       vibration modes only
+             | "static" | "static-freq" | "static-xmx" | "static-xmgmx"
+    counts  := N | N,N,N,N        kept vibration modes, all bodies or per body 2..5
+    statics := ( "@" body ":" loadcase ( "+" loadcase )* )*
+    loadcase:= {input_motor|input_resolver|output_motor|output_resolver}_{f|m}{x|y|z}
+
+* ``truth``: the 100 lowest-frequency vibration modes of every body (thesis).
+* ``rigid``: no elastic modes (the rigid limit).
+* ``freq-10`` / ``xmx-10`` / ``xmgmx-10``: the 10 first modes of every body in the
+  frequency / XMX / XMGMX ranking (``rank_frequency`` ... of
+  results/reduction/body{n}.h5, 0-based, most important first);
+  ``freq-10,10,5,5`` keeps 10, 10, 5, 5 on bodies 2..5.
+* ``static-8`` (= ``static-freq-8``): the 8 lowest modes plus one static
+  correction mode per body with the default load case (``output_motor_fz`` for
+  bodies 2-4, as the thesis's Figure 4-12; ``input_motor_fx`` for the platform,
+  which has no output bearings **[chosen]**); ``static-xmx-8`` with XMX-ranked modes.
+* ``@body:case`` puts static modes on the listed bodies only, e.g.
+  ``static-10@2:output_motor_fz`` (outer gimbal only) or
+  ``freq-6@2:output_motor_fz+output_motor_my@3:output_motor_fz``.
+
+``parse_model`` is a pure function of the name and the rankings; bad names,
+counts above what was computed and malformed load cases raise ModelError with
+a one-line message, before anything is integrated.
+"""
+
+import os
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+BODIES = (2, 3, 4, 5)
+TRUTH_MODES = 100
+FAMILIES = ("freq", "xmx", "xmgmx")
+RANKING_KEYS = {"freq": "rank_frequency", "xmx": "rank_xmx", "xmgmx": "rank_xmgmx"}
+BEARINGS = ("input_motor", "input_resolver", "output_motor", "output_resolver")
+DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_motor_fz",
+                     5: "input_motor_fx"}
+_LOAD_RE = re.compile(r"^(input_motor|input_resolver|output_motor|output_resolver)_[fm][xyz]$")
+
+
+class ModelError(ValueError):
+    """A model name that cannot be built."""
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """What a model name means: kept vibration mode indices and static load cases per body."""
+    name: str
+    kept: dict          # body -> int array (0-based indices into the body file's modes)
+    static: dict        # body -> tuple of load case names
+    ranking: str
+
+    def n_modes(self, body):
+        return len(self.kept[body]) + len(self.static[body])
+
+
+def _counts(text, name):
+    parts = text.split(",")
+    if len(parts) not in (1, 4) or not all(re.fullmatch(r"\d+", p) for p in parts):
+        raise ModelError(f"model {name!r}: counts must be N or N,N,N,N (bodies 2..5), got {text!r}")
+    vals = [int(p) for p in parts]
+    return dict(zip(BODIES, vals * 4 if len(vals) == 1 else vals))
+
+
+def _statics(text, name):
+    out = {}
+    for chunk in text.split("@")[1:]:
+        body_s, sep, cases = chunk.partition(":")
+        if not sep or not re.fullmatch(r"[2-5]", body_s):
+            raise ModelError(f"model {name!r}: static spec must be @body:loadcase with body 2..5, "
+                             f"got '@{chunk}'")
+        body = int(body_s)
+        if body in out:
+            raise ModelError(f"model {name!r}: body {body} given twice")
+        names = tuple(cases.split("+"))
+        for c in names:
+            if not _LOAD_RE.match(c):
+                raise ModelError(f"model {name!r}: unknown load case {c!r} (expected "
+                                 f"{{bearing}}_{{f|m}}{{x|y|z}}, bearing in {', '.join(BEARINGS)})")
+        if len(set(names)) != len(names):
+            raise ModelError(f"model {name!r}: repeated load case on body {body}")
+        if body == 5 and any(c.startswith("output") for c in names):
+            raise ModelError(f"model {name!r}: the platform (body 5) has no output bearings")
+        out[body] = names
+    return out
+
+
+def parse_model(name, rankings):
+    """ModelSpec from a model name and the rankings.
+
+    rankings: {body: {"rank_frequency": (D,), "rank_xmx": (D,), "rank_xmgmx": (D,)}}
+    (0-based mode indices, most important first; D = computed modes)."""
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"model name must be a non-empty string, got {name!r}")
+    base, _, _ = name.partition("@")
+    statics = _statics(name, name) if "@" in name else {}
+    available = {}
+    for b in BODIES:
+        if b not in rankings:
+            raise ModelError(f"model {name!r}: no ranking data for body {b}")
+        available[b] = len(np.asarray(rankings[b]["rank_frequency"]))
+    if base in ("truth", "rigid"):
+        if statics:
+            raise ModelError(f"model {name!r}: '{base}' takes no static modes")
+        n = TRUTH_MODES if base == "truth" else 0
+        counts = dict.fromkeys(BODIES, n)
+        family, with_static = "freq", False
+    else:
+        m = re.fullmatch(r"(static-)?(?:(freq|xmx|xmgmx)-)?([0-9,]+)", base)
+        if not m or (m.group(1) is None and m.group(2) is None):
+            raise ModelError(
+                f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, static-N, "
+                f"static-xmx-N, static-xmgmx-N (N or N,N,N,N; optional @body:loadcase)")
+        with_static = m.group(1) is not None
+        family = m.group(2) or "freq"
+        counts = _counts(m.group(3), name)
+    kept = {}
+    for b in BODIES:
+        if counts[b] > available[b]:
+            raise ModelError(f"model {name!r}: body {b} asks for {counts[b]} modes, only "
+                             f"{available[b]} computed")
+        order = np.asarray(rankings[b][RANKING_KEYS[family]], dtype=int)
+        if order.size != available[b] or np.unique(order).size != order.size or \
+                (order.size and (order.min() < 0 or order.max() >= available[b])):
+            raise ModelError(f"model {name!r}: ranking {RANKING_KEYS[family]} of body {b} is not "
+                             f"a permutation of 0..{available[b] - 1}")
+        kept[b] = np.sort(order[:counts[b]])
+    if statics:
+        static = {b: statics.get(b, ()) for b in BODIES}
+    elif with_static:
+        static = {b: (DEFAULT_LOAD_CASE[b],) for b in BODIES}
+    else:
+        static = dict.fromkeys(BODIES, ())
+    return ModelSpec(name=name, kept=kept, static=static, ranking=family)
+
+
+# ------------------------------------------------------------------ body files
+def read_csr(group):
+    import scipy.sparse as sp
+    shape = tuple(int(v) for v in group.attrs["shape"])
+    return sp.csr_matrix((group["data"][()], group["indices"][()], group["indptr"][()]), shape=shape)
+
+
+def load_body_file(path):
+    """The FE stage's per-body file (docs/body-data.md) as a dict of arrays."""
+    import h5py
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"body file {path} missing (run the modal stage first)")
+    out = {}
+    with h5py.File(path, "r") as f:
+        for key in ("frequencies_hz", "eigenvalues", "modes", "rigid_modes", "dof_coords",
+                    "dof_component", "bearing_points", "bearing_modes"):
+            out[key] = f[key][()]
+        for key in ("M", "K", "T", "bearing_operator"):
+            out[key] = read_csr(f[key])
+        out["attrs"] = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+    out["number"] = int(out["attrs"].get("body", 0))
+    return out
+
+
+def load_rankings(reduction_dir, bodies=BODIES):
+    """{body: {rank_frequency, rank_xmx, rank_xmgmx}} from results/reduction/body{n}.h5."""
+    import h5py
+    out = {}
+    for b in bodies:
+        path = os.path.join(reduction_dir, f"body{b}.h5")
+        if not os.path.exists(path):
+            raise FileNotFoundError(f"ranking file {path} missing (run the reduction stage first)")
+        with h5py.File(path, "r") as f:
+            out[b] = {k: f[k][()] for k in RANKING_KEYS.values()}
+    return out
+
+
+def static_modes_for(data, load_cases, kept_modes, kept_eigenvalues):
+    """Static correction modes of one body (reduction.static_modes, eq. 3.48) for a kept set:
+    (modes (ndof, s), modal stiffness (s,))."""
+    from reduction.modal_integrals import supported_flexibility
+    from reduction.static_modes import load_case_vector, static_correction_modes
+    apply_G = supported_flexibility(data["K"], data["T"], data["rigid_modes"])
+    F = np.column_stack([load_case_vector(data["bearing_operator"], c, data["bearing_points"])
+                         for c in load_cases])
+    res = static_correction_modes(data["M"], data["K"], apply_G, F, kept_modes, kept_eigenvalues,
+                                  names=list(load_cases))
+    return res["modes"], res["modal_stiffness"]
+
+
+def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rotation_blocks=True):
+    """multibody.Body of one body: kept vibration modes plus static correction modes."""
+    from solver import body_model, multibody
+    kept = np.asarray(kept, dtype=int)
+    Phi = np.asarray(data["modes"])[:, kept]
+    lam = np.asarray(data["eigenvalues"])[kept]
+    labels = [f"mode {i}" for i in kept]
+    bearing_modes = np.asarray(data["bearing_modes"])[kept]
+    if load_cases:
+        S, k_s = static_modes_for(data, load_cases, Phi, lam)
+        Phi = np.hstack([Phi, S])
+        lam = np.concatenate([lam, k_s])
+        labels += [f"static {c}" for c in load_cases]
+        bm_s = np.asarray(data["bearing_operator"] @ S).T.reshape(S.shape[1], 4, 6)
+        bearing_modes = np.concatenate([bearing_modes, bm_s])
+    integ = body_model.modal_integrals(data["M"], Phi, data["rigid_modes"], data["dof_coords"],
+                                       data["dof_component"], bearing_modes, data["bearing_points"],
+                                       rotate_rotation_blocks=rotate_rotation_blocks)
+    return multibody.make_body(number, integ, lam, damping_ratio, labels)
+
+
+def build_chain(spec, body_data, damping_ratio=0.0):
+    """multibody.Chain of a ModelSpec from {body: body-file dict}."""
+    from solver import multibody
+    bodies = tuple(build_body(b, body_data[b], spec.kept[b], spec.static[b], damping_ratio)
+                   for b in BODIES)
+    return multibody.Chain(bodies, name=spec.name)

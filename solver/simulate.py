@@ -1,0 +1,150 @@
+"""Simulate one scene with one reduced model: results/sim/{scene}/{model}.h5.
+
+    /usr/bin/python3 -m solver.simulate --scene thesis --model truth
+    /usr/bin/python3 -m solver.simulate --scene thesis --model static-8 --integrator generalized-alpha --step 1e-5
+
+Everything is validated (scene file, model name, step) before integration.
+Output datasets: t (T,) [s], gamma (T, 4) [rad], gamma_dot (T, 4) [rad/s],
+q (T, sum D) modal coordinates (optional, --store-modal), energy/kinetic,
+energy/potential, energy/total [in lbf], energy/input_work [in lbf] (work of
+case motion and motors minus damping, trapezoid at output samples);
+attributes: scene, model, integrator, step, steps, wall_time_s, config_hash,
+omega_max, stability_limit, n_modes (4,), created.  Written to a temporary file
+and moved into place with os.replace (atomic).
+"""
+
+import argparse
+import hashlib
+import json
+import os
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from solver import integrators, models, multibody, scenes
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def config_hash(scene, spec, options, body_hashes=()):
+    payload = {"scene": scene.raw, "model": spec.name,
+               "kept": {str(b): np.asarray(v).tolist() for b, v in spec.kept.items()},
+               "static": {str(b): list(v) for b, v in spec.static.items()},
+               "options": options, "bodies": list(body_hashes)}
+    return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def run_scene(chain, scene, method="rk4", step=None, fraction=None, rho_inf=0.9, rtol=1e-10,
+              atol=1e-14, model_name=""):
+    """Integrate a chain through a scene; returns (Run, Problem)."""
+    y0, yd0 = scenes.initial_state(scene, chain.n_coordinates)
+    prob = multibody.Problem(chain, case=scene.case, torque=scene.motor_torques, y0=y0, yd0=yd0)
+    run = integrators.integrate(prob, scene.duration, scene.output_interval, method=method,
+                                step=step, fraction=fraction, rho_inf=rho_inf, rtol=rtol, atol=atol,
+                                model=model_name)
+    return run, prob
+
+
+def energy_history(prob, run):
+    """(kinetic, potential, input_work) at the output samples."""
+    chain = prob.chain
+    T = np.array([multibody.kinetic_energy(chain, y, v, t, prob.case)
+                  for t, y, v in zip(run.t, run.y, run.yd)])
+    U = np.array([multibody.potential_energy(chain, y) for y in run.y])
+    P = np.array([prob.input_power(t, y, v) for t, y, v in zip(run.t, run.y, run.yd)])
+    W = np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1]) * np.diff(run.t))])
+    return T, U, W
+
+
+def write_result(path, run, prob, attrs, store_modal=False):
+    """Write the run atomically (temporary file in the same folder, then os.replace)."""
+    import h5py
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    T, U, W = energy_history(prob, run)
+    fd, tmp = tempfile.mkstemp(suffix=".h5.tmp", dir=os.path.dirname(os.path.abspath(path)))
+    os.close(fd)
+    try:
+        with h5py.File(tmp, "w") as f:
+            f["t"] = run.t
+            f["gamma"] = run.y[:, :4]
+            f["gamma_dot"] = run.yd[:, :4]
+            if store_modal:
+                f["q"] = run.y[:, 4:]
+                f["q_dot"] = run.yd[:, 4:]
+            g = f.create_group("energy")
+            g["kinetic"], g["potential"], g["total"], g["input_work"] = T, U, T + U, W
+            for k, v in attrs.items():
+                f.attrs[k] = v
+            for k, v in run.stats.items():
+                f.attrs[f"stat_{k}"] = v
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return path
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(
+        prog="python -m solver.simulate",
+        description="Simulate the elastic gimbal chain: one scene, one reduced model "
+                    "(docs/dynamics.md; model grammar in solver/models.py).")
+    ap.add_argument("--scene", required=True, help="scene name (config/scenes/NAME.yaml) or path")
+    ap.add_argument("--model", required=True,
+                    help="truth | rigid | freq-N | xmx-N | xmgmx-N | static-N | static-xmx-N | "
+                         "... with N or N,N,N,N and optional @body:loadcase")
+    ap.add_argument("--integrator", default="rk4", choices=integrators.METHODS)
+    ap.add_argument("--step", type=float, default=None, help="fixed step [s] (rk4, generalized-alpha)")
+    ap.add_argument("--fraction", type=float, default=None,
+                    help=f"rk4 step as a fraction of 2.785/omega_max (default "
+                         f"{integrators.RK4_DEFAULT_FRACTION})")
+    ap.add_argument("--rho-inf", type=float, default=0.9, help="generalized-alpha spectral radius")
+    ap.add_argument("--rtol", type=float, default=1e-10, help="dop853 relative tolerance")
+    ap.add_argument("--atol", type=float, default=1e-14, help="dop853 absolute tolerance")
+    ap.add_argument("--modes-dir", default=os.path.join(ROOT, "results", "modes"))
+    ap.add_argument("--reduction-dir", default=os.path.join(ROOT, "results", "reduction"))
+    ap.add_argument("--out-dir", default=os.path.join(ROOT, "results", "sim"))
+    ap.add_argument("--store-modal", action="store_true", help="also store q(t), q'(t)")
+    args = ap.parse_args(argv)
+    try:
+        scene = scenes.load_scene(args.scene)
+        rankings = models.load_rankings(args.reduction_dir)
+        spec = models.parse_model(args.model, rankings)
+        if args.step is not None and not (np.isfinite(args.step) and args.step > 0):
+            raise ValueError(f"--step must be a positive number, got {args.step}")
+        body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))
+                     for b in models.BODIES}
+        chain = models.build_chain(spec, body_data, scene.damping_ratio)
+        if args.integrator == "rk4" and args.step is not None:
+            limit = integrators.rk4_stability_limit(chain.omega_max)
+            if args.step > limit:
+                raise integrators.StepTooLargeError(
+                    f"rk4 step {args.step:.3e} s exceeds the stability limit {limit:.3e} s "
+                    f"(omega_max = {chain.omega_max:.4g} rad/s) of model {spec.name!r}")
+        options = {"integrator": args.integrator, "step": args.step, "fraction": args.fraction,
+                   "rho_inf": args.rho_inf, "rtol": args.rtol, "atol": args.atol}
+        chash = config_hash(scene, spec, options,
+                            [body_data[b]["attrs"].get("config_hash", "") for b in models.BODIES])
+        t0 = time.perf_counter()
+        run, prob = run_scene(chain, scene, args.integrator, args.step, args.fraction, args.rho_inf,
+                              args.rtol, args.atol, spec.name)
+        wall = time.perf_counter() - t0
+    except (ValueError, FileNotFoundError, integrators.DivergenceError) as exc:
+        print(f"simulate: {exc}", file=sys.stderr)
+        return 2
+    path = os.path.join(args.out_dir, scene.name, f"{spec.name}.h5")
+    attrs = {"scene": scene.name, "model": spec.name, "integrator": run.method, "step": run.step,
+             "steps": run.steps, "wall_time_s": wall, "integration_time_s": run.wall_time,
+             "config_hash": chash, "omega_max": chain.omega_max,
+             "stability_limit": integrators.rk4_stability_limit(chain.omega_max),
+             "n_modes": np.array(chain.n_modes), "units": "in, lbf, s, rad",
+             "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
+    write_result(path, run, prob, attrs, args.store_modal)
+    print(f"simulate: {path}: {run.steps} {run.method} steps of {run.step:.3e} s in {wall:.2f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
