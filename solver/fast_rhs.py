@@ -16,6 +16,8 @@ to the NumPy reference path).  The kernels take the chain as flat arrays
 ``multibody`` to round-off.
 """
 
+import math
+
 import numpy as np
 import numba
 
@@ -39,9 +41,11 @@ def pack(chain):
     Th = np.zeros((3, S))
     goff = np.zeros(5, dtype=np.int64)   # kept for the signature; G is per body
     G = []
+    M1s = []   # per body (D, 36): dM_X/dq_i flattened, for BLAS contractions
     for k, b in enumerate(chain.bodies):
         s = slice(off[k], off[k] + D[k])
         G.append(np.ascontiguousarray(np.asarray(b.coriolis, float).reshape(D[k], 3 * D[k])))
+        M1s.append(np.ascontiguousarray(np.asarray(b.inertia_gradient, float).reshape(D[k], 36)))
         M6[k] = b.rigid_mass
         if D[k]:
             B0[:, s] = b.momentum
@@ -51,7 +55,7 @@ def pack(chain):
             if b.inside_translation is not None and k < 3:
                 Psi[:, s] = b.inside_translation
                 Th[:, s] = b.inside_rotation
-    return (D, off, M6, B0, M1, tuple(G), goff, om2, cd, Psi, Th,
+    return (D, off, M6, B0, tuple(M1s), tuple(G), goff, om2, cd, Psi, Th,
             np.ascontiguousarray(chain.case_to_outer, dtype=float),
             np.ascontiguousarray(chain.parent_to_child, dtype=float),
             np.ascontiguousarray(chain.gimbal_offset, dtype=float))
@@ -323,16 +327,24 @@ def _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, B0, M1, G, goff, om2, cd,
         w = W[k]
         dw = DW[k]
         om = w[3:]
+        M1k = M1[k]
         Mx = M6[k].copy()
         dMx = np.zeros((6, 6))
-        for i in range(Dk):
-            qi = y[4 + o + i]
-            qdi = yd[4 + o + i]
+        ww = np.empty(36)
+        for a in range(6):
+            for b in range(6):
+                ww[6 * a + b] = w[a] * w[b]
+        half_all = np.zeros(Dk)
+        if Dk > 0:
+            QQ = np.empty((2, Dk))
+            QQ[0] = y[4 + o:4 + o + Dk]
+            QQ[1] = yd[4 + o:4 + o + Dk]
+            MM = np.dot(QQ, M1k)           # (2, 36): sum q_i M1_i, sum q'_i M1_i
+            half_all = np.dot(M1k, ww)     # w^T M1_i w
             for a in range(6):
                 for b in range(6):
-                    m1 = M1[o + i, a, b]
-                    Mx[a, b] += qi * m1
-                    dMx[a, b] += qdi * m1
+                    Mx[a, b] += MM[0, 6 * a + b]
+                    dMx[a, b] += MM[1, 6 * a + b]
         # fused pass over G[j, a, i]: hq = sum_j q_j G_j, hqd = sum_j q'_j G_j,
         # gq_j = omega . G_j q'; then t = hqd^T omega, u = hqd q'
         qk = y[4 + o:4 + o + Dk].copy()
@@ -376,13 +388,7 @@ def _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, B0, M1, G, goff, om2, cd,
             dpi = tvec[i] + ydd[4 + ii]
             for a in range(6):
                 dpi += B[a, ii] * dw[a]
-            # 1/2 w^T M1_i w
-            half = 0.0
-            for a in range(6):
-                s = 0.0
-                for b in range(6):
-                    s += M1[ii, a, b] * w[b]
-                half += w[a] * s
+            half = half_all[i]
             Q = dpi - 0.5 * half - gq[i] + om2[ii] * y[4 + ii] + cd[ii] * yd[4 + ii]
             out[4 + ii] = Q
         if k < 3:
@@ -575,15 +581,23 @@ def make_rhs(chain, case=None, torque=None):
     at_rest = case.at_rest
     zero6 = np.zeros(6)
     const_tau = None if callable(torque) else np.asarray(tau_f(0.0), float)
-    amp = np.asarray(case.amplitude, float)
-    freq2pi = 2 * np.pi * np.asarray(case.frequency, float)
-    phase = np.asarray(case.phase, float)
+    amp = [float(a) for a in case.amplitude]
+    om_f = [2 * math.pi * float(f) for f in case.frequency]
+    phase = [float(p) for p in case.phase]
+    om0 = [float(w) for w in case.omega0]
+    w1 = np.zeros(6)
+    dw1 = np.zeros(6)
 
     def rhs(t, y, yd):
-        if at_rest:
-            w1 = dw1 = zero6
-        else:
-            w1, dw1 = case.twist(t)
+        if not at_rest:        # case.twist(t), written out (it is called 4x per RK4 step)
+            for k in range(3):
+                arg = om_f[k] * t + phase[k]
+                dw1[3 + k] = amp[k] * math.cos(arg)
+                if om_f[k] > 0.0:
+                    integ = (math.sin(arg) - math.sin(phase[k])) / om_f[k]
+                else:
+                    integ = math.cos(phase[k]) * t
+                w1[3 + k] = om0[k] + amp[k] * integ
         tau = const_tau if const_tau is not None else np.asarray(tau_f(t), float)
         return _accelerations(y, yd, w1, dw1, tau, *data)
     rhs.fast_chain = fc
