@@ -164,3 +164,14 @@ def rigid_motor_spin_up(name, inertias, torque=2.0, t_end=1.0, tol=1e-10):
     exact = np.column_stack([rate, 0 * rate, rate, 0 * rate])
     err = np.abs(run.yd[:, :4] - exact).max() / np.abs(rate).max()
     return check(f"{name}: motor spin-up, gamma_1'' = tau/(J2xx + J3zz)", err, tol)
+
+
+def step_halving_convergence(name, problem, t_end, output_dt, step=None, fraction=None, tol=1e-10):
+    """Truth-model convergence: RK4 at h and h/2; the largest error measure E (thesis
+    eq. 3.53) over the four gimbal rates must stay below tol.  With step None the
+    default step (fraction of the stability limit) is used."""
+    a = integrators.integrate(problem, t_end, output_dt, method="rk4", step=step, fraction=fraction)
+    b = integrators.integrate(problem, t_end, output_dt, method="rk4", step=a.step / 2)
+    E = error_measure(a.t, a.yd[:, :4], b.yd[:, :4])
+    return check(f"{name}: RK4 step halving ({a.step:.3e} s -> {b.step:.3e} s), max E over rates",
+                 float(np.max(E)), tol)

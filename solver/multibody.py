@@ -599,6 +599,7 @@ class Problem:
         self.omega_max = chain.omega_max
         self.stiffness_diagonal = chain.stiffness_diagonal()
         self.damping_diagonal = chain.damping_diagonal()
+        self._fast = getattr(self.rhs, "fast_chain", None)   # compiled kernels, if available
 
     def tau(self, t):
         out = np.zeros(self.chain.n_coordinates)
@@ -607,9 +608,15 @@ class Problem:
 
     def residual(self, t, y, yd, ydd):
         """M(y) y'' + c(y, y', t) - tau(t)."""
+        if self._fast is not None:
+            w1, dw1 = self.case.twist(t)
+            return self._fast.inverse_dynamics(y, yd, ydd, w1, dw1) - self.tau(t)
         return inverse_dynamics(self.chain, y, yd, ydd, t, self.case) - self.tau(t)
 
     def solve(self, y, r, modal_diagonal=None):
+        """(M(y) + diag(0, d - 1))^-1 r by the articulated-body recursion."""
+        if self._fast is not None:
+            return self._fast.solve_mass(y, r, modal_diagonal)
         return solve_mass(self.chain, y, r, modal_diagonal)
 
     def energy(self, t, y, yd):
