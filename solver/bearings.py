@@ -7,14 +7,18 @@ best fits, in the weighted least-squares sense, the motion of a small region
 of the body (a ring's cross-section line across the band width, or a face
 patch of the solid platform's rim):
 
-    min_z  sum_k w_k |u_k - u_b - th_b x r_k|^2  +  L^2 sum_k w_k |th_k - th_b|^2
+    min_z  sum_k w_k |u_k - u_b - th_b x r_k|^2  +  L^2 sum_k w_k |P_k (th_k - th_b)|^2
 
 with ``r_k = x_k - x_b``, ``w_k`` the integration weight of node k on the
 region (so the fit is an integral, independent of the mesh), and the second
 sum only where nodes carry rotations (shells; ``L`` is a length that weighs
-rotations against translations). Setting the gradient to zero gives the
-linear operator ``z = R u``: a (6, ndof) matrix that reproduces any rigid
-motion exactly and adds no stiffness.
+rotations against translations). ``P_k = I - n_k n_k^T`` keeps only the
+shell's bending rotations: the rotation about the normal (the drilling
+rotation) is a penalty quantity whose value depends on the mesh, so it must
+not enter the fit; the rotation about the normal comes from the translations
+along the region instead (a line across the band determines it). Setting the
+gradient to zero gives the linear operator ``z = R u``: a (6, ndof) matrix
+that reproduces any rigid motion exactly and adds no stiffness.
 
 Because it constrains (or loads) an *integral* of the field over a line or a
 face, not a single node, it is well posed under mesh refinement, unlike a
@@ -45,12 +49,14 @@ def skew_matrix(r: np.ndarray) -> np.ndarray:
 
 def rigid_fit_operator(nodes: np.ndarray, coords: np.ndarray, weights: np.ndarray,
                        point: np.ndarray, block_size: int, ndof: int,
-                       rotation_length: float) -> sp.csr_matrix:
+                       rotation_length: float, normals: np.ndarray | None = None) -> sp.csr_matrix:
     """(6, ndof) operator R mapping the DOF vector to the rigid-fit motion at ``point``.
 
     nodes: (k,) global node indices of the region (DOF = node * block_size + component);
     coords: (k, 3) node positions, in; weights: (k,) integration weights (>= 0);
-    block_size: 3 (translations) or 6 (translations + rotations).
+    block_size: 3 (translations) or 6 (translations + rotations);
+    normals: (k, 3) unit shell normals at the nodes (block_size 6; None: use all
+    three rotation components).
     Rows of R: u_x, u_y, u_z (in), th_x, th_y, th_z (rad) of the bearing point.
     """
     nodes, weights = np.asarray(nodes), np.asarray(weights, dtype=float)
@@ -64,14 +70,19 @@ def rigid_fit_operator(nodes: np.ndarray, coords: np.ndarray, weights: np.ndarra
     normal = np.einsum("k,kia,kib->ab", weights, A, A)
     rotational = block_size == 6
     if rotational:
-        normal[3:, 3:] += rotation_length**2 * weights.sum() * np.eye(3)
+        if normals is None:
+            tangential = np.broadcast_to(np.eye(3), (len(nodes), 3, 3))
+        else:
+            normals = np.asarray(normals, dtype=float)
+            tangential = np.eye(3) - np.einsum("ki,kj->kij", normals, normals)
+        normal[3:, 3:] += rotation_length**2 * np.einsum("k,kij->ij", weights, tangential)
     if np.linalg.cond(normal) > 1e12:
         raise ValueError("bearing region cannot determine a rigid motion (degenerate region)")
     normal_inv = np.linalg.inv(normal)
     # coefficient blocks: translations N^-1 w_k A_k^T, rotations N^-1 w_k L^2 B_k^T
     blocks = [np.einsum("ab,k,kib->kai", normal_inv, weights, A)]  # (k, 6, 3)
     if rotational:
-        blocks.append(rotation_length**2 * np.einsum("ab,k->kab", normal_inv[:, 3:], weights))
+        blocks.append(rotation_length**2 * np.einsum("ab,k,kbc->kac", normal_inv[:, 3:], weights, tangential))
     coeff = np.concatenate(blocks, axis=2)  # (k, 6, block_size)
     cols = nodes[:, None] * block_size + np.arange(block_size)[None, :]  # (k, bs)
     rows = np.broadcast_to(np.arange(6)[None, :, None], coeff.shape)

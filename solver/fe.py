@@ -49,11 +49,16 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+NODES_PER_CELL = {"line": 2, "triangle": 3, "triangle6": 6, "tetra": 4, "tetra10": 10}
+CELL_TYPES = {"line": dmesh.CellType.interval, "triangle": dmesh.CellType.triangle,
+              "triangle6": dmesh.CellType.triangle, "tetra": dmesh.CellType.tetrahedron,
+              "tetra10": dmesh.CellType.tetrahedron}
+
 JIT = {"cffi_extra_compile_args": ["-O2"], "cache_dir": str(Path.home() / ".cache" / "fenics")}
 
 
 def load_mesh(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD):
-    """Read a gmsh ``.msh`` file (first-order simplices) into DOLFINx.
+    """Read a gmsh ``.msh`` file (triangles, or first/second-order tetrahedra) into DOLFINx.
 
     Read with meshio on rank 0 and distributed by DOLFINx (``gmshio`` of
     0.5.2 crashes on files with point groups or gapped node tags).
@@ -69,8 +74,13 @@ def load_mesh(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD):
             msh = meshio.read(path)
         except Exception:  # noqa: BLE001 - meshio raises many types
             raise ValueError(f"mesh file '{path}' is not a readable gmsh file") from None
-        tdim = 3 if any(c.type == "tetra" for c in msh.cells) else 2
-        cell_type, facet_type = ("tetra", "triangle") if tdim == 3 else ("triangle", "line")
+        types = {c.type for c in msh.cells}
+        if "tetra10" in types:
+            tdim, cell_type, facet_type = 3, "tetra10", "triangle6"
+        elif "tetra" in types:
+            tdim, cell_type, facet_type = 3, "tetra", "triangle"
+        else:
+            tdim, cell_type, facet_type = 2, "triangle", "line"
         tags = msh.cell_data.get("gmsh:physical")
         if tags is None or not any(c.type == cell_type for c in msh.cells):
             raise ValueError(f"mesh file '{path}' has no tagged {cell_type} cells")
@@ -78,21 +88,34 @@ def load_mesh(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD):
         def stack(kind):
             blocks = [(c.data, t) for c, t in zip(msh.cells, tags) if c.type == kind]
             if not blocks:
-                return np.zeros((0, 3 if kind == "triangle" else 2), np.int64), np.zeros(0, np.int32)
+                return np.zeros((0, NODES_PER_CELL[kind]), np.int64), np.zeros(0, np.int32)
             return (np.vstack([b[0] for b in blocks]).astype(np.int64),
                     np.concatenate([b[1] for b in blocks]).astype(np.int32))
 
         regions = {name: int(tag) for name, (tag, dim) in msh.field_data.items() if dim == tdim - 1}
-        payload = (tdim, msh.points, stack(cell_type), stack(facet_type), regions)
-    tdim, regions = comm.bcast((payload[0], payload[4]) if comm.rank == 0 else None, root=0)
-    nv = tdim + 1
+        (cells, cell_values), (facets, facet_values) = stack(cell_type), stack(facet_type)
+        # drop nodes that no cell uses (DOLFINx 0.5.2 cannot distribute tags over them)
+        used = np.unique(cells)
+        renumber = np.full(len(msh.points), -1, dtype=np.int64)
+        renumber[used] = np.arange(len(used))
+        if np.any(renumber[facets] < 0):
+            raise ValueError(f"mesh file '{path}' has tagged facets off the cells")
+        # meshio hands cells over in VTK node order; DOLFINx numbers them differently
+        cells = renumber[cells][:, _cpp.io.perm_vtk(CELL_TYPES[cell_type], cells.shape[1])]
+        facets = renumber[facets][:, _cpp.io.perm_vtk(CELL_TYPES[facet_type], facets.shape[1])]
+        payload = (tdim, cell_type, facet_type, msh.points[used], (cells, cell_values), (facets, facet_values),
+                   regions)
+    tdim, cell_type, facet_type, regions = comm.bcast(
+        (payload[0], payload[1], payload[2], payload[6]) if comm.rank == 0 else None, root=0)
     if comm.rank == 0:
-        _, x, (cells, cell_values), (facets, facet_values), _ = payload
+        x, (cells, cell_values), (facets, facet_values) = payload[3:6]
     else:
-        x, cells, cell_values = np.zeros((0, 3)), np.zeros((0, nv), np.int64), np.zeros(0, np.int32)
-        facets, facet_values = np.zeros((0, nv - 1), np.int64), np.zeros(0, np.int32)
+        x = np.zeros((0, 3))
+        cells, cell_values = np.zeros((0, NODES_PER_CELL[cell_type]), np.int64), np.zeros(0, np.int32)
+        facets, facet_values = np.zeros((0, NODES_PER_CELL[facet_type]), np.int64), np.zeros(0, np.int32)
     cell = ufl.Cell("tetrahedron" if tdim == 3 else "triangle", geometric_dimension=3)
-    mesh = dmesh.create_mesh(comm, cells, x, ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1)))
+    degree = 2 if cell_type == "tetra10" else 1
+    mesh = dmesh.create_mesh(comm, cells, x, ufl.Mesh(ufl.VectorElement("Lagrange", cell, degree)))
     if comm.allreduce(mesh.topology.index_map(tdim).size_local) == 0:
         raise ValueError(f"mesh file '{path}' holds an empty mesh")
 
@@ -164,9 +187,9 @@ def shell_forms(mesh, params: dict, shell: dict):
     return V, stiffness, mass
 
 
-def solid_forms(mesh, params: dict):
-    """Stiffness and mass bilinear forms of 3D isotropic elasticity on P2 tetrahedra."""
-    V = fem.VectorFunctionSpace(mesh, ("Lagrange", 2), dim=3)
+def solid_forms(mesh, params: dict, degree: int = 2):
+    """Stiffness and mass bilinear forms of 3D isotropic elasticity on Lagrange tetrahedra."""
+    V = fem.VectorFunctionSpace(mesh, ("Lagrange", degree), dim=3)
     E, nu, rho = (params[k] for k in ("youngs_modulus", "poissons_ratio", "density"))
     lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
@@ -183,19 +206,35 @@ def assemble_matrix(form) -> PETSc.Mat:
     return A
 
 
-def region_weights(V, facet_tags, tag: int) -> np.ndarray:
+def angular_taper(mesh, centre_deg: float, half_angle_deg: float):
+    """cos^2 bump in the x-z angle: 1 at ``centre_deg``, 0 at +-``half_angle_deg`` (UFL expression).
+
+    Used as the weight of a solid's rim patch, so the bearing traction fades
+    smoothly to zero at the patch edges (as a contact pressure does) instead of
+    jumping there, which would make the stresses singular and slow the mesh
+    convergence of the lowest modes.
+    """
+    x = ufl.SpatialCoordinate(mesh)
+    c, s = np.cos(np.radians(centre_deg)), np.sin(np.radians(centre_deg))
+    offset = ufl.atan_2(-s * x[0] + c * x[2], c * x[0] + s * x[2])
+    return ufl.cos(np.pi / 2 * offset / np.radians(half_angle_deg)) ** 2
+
+
+def region_weights(V, facet_tags, tag: int, taper=None) -> np.ndarray:
     """Integration weight of every owned node on a tagged region, shape (n_owned_nodes,).
 
-    The weight of node k is the integral of its (scalar) basis function over
-    the region: a line inside a shell (interior facets, ``dS``) or a face patch
-    of a solid (exterior facets, ``ds``). Sum of the weights = region measure.
+    The weight of node k is the integral of its (scalar) basis function, times
+    an optional ``taper`` (UFL expression), over the region: a line inside a
+    shell (interior facets, ``dS``) or a face patch of a solid (exterior
+    facets, ``ds``). Without taper the weights sum to the region's measure.
     """
     mesh = V.mesh
     v = ufl.TestFunction(V)
+    g = 1.0 if taper is None else taper
     if mesh.topology.dim == 2:
-        form = v("+")[0] * ufl.dS(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag)
+        form = v("+")[0] * g * ufl.dS(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag)
     else:
-        form = v[0] * ufl.ds(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag)
+        form = v[0] * g * ufl.ds(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag, degree=6)
     b = fem_petsc.assemble_vector(fem.form(form, jit_params=JIT))
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     bs = V.dofmap.index_map_bs

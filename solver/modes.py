@@ -32,7 +32,7 @@ import scipy.sparse as sp
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from geometry.gimbal import bearing_points, eccentric_mass_point
+from geometry.gimbal import bearing_angles, bearing_points, eccentric_mass_point
 from solver import bearings, eigen, fe
 from workflow import config as cfgmod
 from workflow.provenance import atomic_h5, versions
@@ -57,13 +57,15 @@ class BodyModel:
     mesh_size: float
     dof_coords: np.ndarray | None = None   # (ndof, 3), rank 0 only
     n_cells: int = 0
+    space: object = None                   # the DOLFINx function space (for studies of the connection)
+    regions: dict | None = None            # region name -> (nodes, coords, weights) of the rigid fits
 
 
-def _gather_region(V, facet_tags, tag: int, comm):
+def _gather_region(V, facet_tags, tag: int, comm, taper=None):
     """Global node indices, coordinates and weights of a region, identical on every rank."""
-    weights = fe.region_weights(V, facet_tags, tag)
+    weights = fe.region_weights(V, facet_tags, tag, taper)
     nodes, coords = fe.owned_nodes(V)
-    keep = weights > 0
+    keep = weights > 1e-14 * max(weights.max(initial=0.0), 1e-300)
     parts = comm.allgather((nodes[keep], coords[keep], weights[keep]))
     nodes = np.concatenate([p[0] for p in parts])
     order = np.argsort(nodes)
@@ -84,7 +86,7 @@ def assemble_body(params: dict, config: dict, mesh_path: str | Path, comm=MPI.CO
     if params["model"] == "shell":
         V, a_k, a_m = fe.shell_forms(mesh, params, {k: v["value"] for k, v in config["shell"].items()})
     else:
-        V, a_k, a_m = fe.solid_forms(mesh, params)
+        V, a_k, a_m = fe.solid_forms(mesh, params, int(cfgmod.value(config, "solid.degree")))
     K, M = fe.assemble_matrix(a_k), fe.assemble_matrix(a_m)
     bs = V.dofmap.index_map_bs
     ndof = V.dofmap.index_map.size_global * bs
@@ -92,14 +94,21 @@ def assemble_body(params: dict, config: dict, mesh_path: str | Path, comm=MPI.CO
     mass_angle = cfgmod.value(config, "eccentric_mass.angle")
     mass_position = eccentric_mass_point(params, mass_angle)
     length = cfgmod.value(config, "bearing_connection.rotation_weight_length")
-    operators = {}
+    operators, region_data = {}, {}
+    angles = bearing_angles(params["motor_side"], params.get("output_motor_side"))
+    angles["eccentric_mass"] = mass_angle
+    half_angles = {name: cfgmod.value(config, "bearing_connection.platform_patch_half_angle") for name in angles}
+    half_angles["eccentric_mass"] = cfgmod.value(config, "eccentric_mass.platform_patch_half_angle")
     for name, point in [*zip(BEARING_NAMES, points), ("eccentric_mass", mass_position)]:
         if name not in regions:
             continue
         if np.any(np.isnan(point)):
             continue
-        nodes, coords, weights = _gather_region(V, facet_tags, regions[name], comm)
-        operators[name] = bearings.rigid_fit_operator(nodes, coords, weights, point, bs, ndof, length)
+        # a solid's rim patch carries a smooth cos^2 taper; a shell's line is uniform
+        taper = None
+        nodes, coords, weights = region_data[name] = _gather_region(V, facet_tags, regions[name], comm, taper)
+        operators[name] = bearings.rigid_fit_operator(nodes, coords, weights, point, bs, ndof, length,
+                                                      shell_normals(coords) if bs == 6 else None)
     missing = [n for n in ("input_motor", "input_resolver", "eccentric_mass") if n not in operators]
     if missing:
         raise ValueError(f"mesh '{mesh_path}' lacks the region(s) {', '.join(missing)}")
@@ -121,20 +130,33 @@ def assemble_body(params: dict, config: dict, mesh_path: str | Path, comm=MPI.CO
     mesh_size = cfgmod.value(config, "mesh.ring_size" if params["shape"] == "ring" else "mesh.platform_size")
     n_cells = comm.allreduce(mesh.topology.index_map(mesh.topology.dim).size_local)
     return BodyModel(params, K, M, bs, ndof, operators, points, structural_mass, point_mass,
-                     mass_position, mesh_size, dof_coords, n_cells)
+                     mass_position, mesh_size, dof_coords, n_cells, V, region_data)
+
+
+def shell_normals(coords: np.ndarray) -> np.ndarray:
+    """(k, 3) unit normals of the ring mid-surface (radial in the x-z plane) at the given points."""
+    radial = np.asarray(coords, dtype=float) * [1.0, 0.0, 1.0]
+    return radial / np.linalg.norm(radial, axis=1, keepdims=True)
 
 
 def _add_point_mass(M: PETSc.Mat, translation_rows: sp.csr_matrix, mass: float, comm) -> None:
-    """M += mass R_t^T R_t (dense over the region's DOFs), added once, on rank 0."""
-    R = translation_rows.tocsr()
-    cols = np.unique(R.tocoo().col)
-    dense = R[:, cols].toarray()
-    block = mass * dense.T @ dense
-    M.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
-    if comm.rank == 0:
-        idx = cols.astype(PETSc.IntType)
-        M.setValues(idx, idx, block, addv=PETSc.InsertMode.ADD_VALUES)
-    M.assemble()
+    """M += mass R_t^T R_t (dense over the region's DOFs).
+
+    The block is assembled as its own preallocated matrix (each rank its own
+    rows) and added with AXPY: inserting it entry by entry into M, whose
+    pattern lacks it, made PETSc reallocate and took minutes on fine meshes.
+    """
+    R = sp.csr_matrix(translation_rows)
+    block = (mass * (R.T @ R)).tocsr()
+    r0, r1 = M.getOwnershipRange()
+    local = block[r0:r1]
+    local.sort_indices()
+    point_mass = PETSc.Mat().createAIJ(size=M.getSizes(), comm=M.getComm(),
+                                       csr=(local.indptr.astype(PETSc.IntType),
+                                            local.indices.astype(PETSc.IntType), local.data))
+    point_mass.assemble()
+    M.axpy(1.0, point_mass, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    point_mass.destroy()
 
 
 def admissible_basis_petsc(K: PETSc.Mat, constraints: sp.csr_matrix) -> tuple[PETSc.Mat, sp.csr_matrix]:

@@ -166,4 +166,4 @@ def section_hash(config: dict, *dotted_keys: str) -> str:
 def body_config_keys(body: int | str) -> tuple[str, ...]:
     """The config sections that a body's mesh and modes depend on."""
     return (f"bodies.{body_name(body)}", "material", "eccentric_mass", "bearing_connection",
-            "shell", "mesh", "modes")
+            "shell", "solid", "mesh", "modes")

@@ -1,0 +1,91 @@
+"""Config validation: every bad value stops with a one-line error naming the key."""
+import pytest
+
+from workflow import config as cfgmod
+
+
+def expect_error(config, fragment):
+    with pytest.raises(cfgmod.ConfigError) as info:
+        cfgmod.validate(config)
+    message = str(info.value)
+    assert "\n" not in message
+    assert fragment in message, message
+
+
+def test_shipped_config_is_valid(config):
+    assert cfgmod.value(config, "material.youngs_modulus") == 3.0e8
+    assert cfgmod.value(config, "modes.count") == 100
+
+
+def test_every_number_has_unit_and_source(config):
+    def walk(node, path):
+        if isinstance(node, dict) and "value" in node:
+            assert node["unit"] and node["source"], path
+        elif isinstance(node, dict):
+            for k, v in node.items():
+                walk(v, f"{path}.{k}")
+        else:
+            assert not isinstance(node, float), f"bare number at {path}"
+    walk(config, "")
+
+
+def test_negative_thickness(config_copy):
+    config_copy["bodies"]["middle_gimbal"]["thickness"]["value"] = -0.25
+    expect_error(config_copy, "bodies.middle_gimbal.thickness.value")
+
+
+def test_typo_key(config_copy):
+    config_copy["material"]["youngs_modulu"] = config_copy["material"].pop("youngs_modulus")
+    expect_error(config_copy, "material")
+
+
+def test_string_instead_of_number(config_copy):
+    config_copy["material"]["density"]["value"] = "2.2e-4"
+    expect_error(config_copy, "material.density.value")
+
+
+def test_zero_mode_count(config_copy):
+    config_copy["modes"]["count"]["value"] = 0
+    expect_error(config_copy, "modes.count.value")
+
+
+def test_platform_bearings_inside_the_hole(config_copy):
+    config_copy["bodies"]["stable_platform"]["outer_bearing_distance"]["value"] = 1.0
+    config_copy["bodies"]["inner_gimbal"]["inner_bearing_distance"]["value"] = 1.0
+    expect_error(config_copy, "bodies.stable_platform.outer_bearing_distance")
+
+
+def test_ring_outer_bearing_inside_the_wall(config_copy):
+    config_copy["bodies"]["outer_gimbal"]["outer_bearing_distance"]["value"] = 6.8
+    expect_error(config_copy, "bodies.outer_gimbal.outer_bearing_distance")
+
+
+def test_nested_joint_mismatch(config_copy):
+    config_copy["bodies"]["middle_gimbal"]["outer_bearing_distance"]["value"] = 6.3
+    expect_error(config_copy, "bodies.middle_gimbal.outer_bearing_distance")
+
+
+def test_missing_file_and_bad_yaml(tmp_path):
+    with pytest.raises(cfgmod.ConfigError, match="not found"):
+        cfgmod.load_config(tmp_path / "nope.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("material: [unclosed\n")
+    with pytest.raises(cfgmod.ConfigError, match="not valid YAML"):
+        cfgmod.load_config(bad)
+
+
+def test_body_parameters_and_output_motor_side(config):
+    assert cfgmod.body_parameters(config, 2)["output_motor_side"] == 1   # body 3's motor at +x3 = +z2
+    assert cfgmod.body_parameters(config, 3)["output_motor_side"] == -1  # body 4's motor at -x4 = -z3
+    assert cfgmod.body_parameters(config, "stable_platform")["model"] == "solid"
+    with pytest.raises(cfgmod.ConfigError, match="unknown body"):
+        cfgmod.body_parameters(config, 7)
+
+
+def test_section_hash_tracks_only_its_sections(config_copy, config):
+    keys = cfgmod.body_config_keys(2)
+    before = cfgmod.section_hash(config, *keys)
+    config_copy["bodies"]["middle_gimbal"]["width"]["value"] = 0.6
+    assert cfgmod.section_hash(config_copy, *keys) == before
+    config_copy["bodies"]["outer_gimbal"]["width"]["value"] = 0.6
+    assert cfgmod.section_hash(config_copy, *keys) != before
