@@ -20,6 +20,20 @@ from scipy.spatial import cKDTree  # noqa: E402
 from workflow.provenance import atomic_path, read_h5_checked  # noqa: E402
 
 
+def linear_mesh(mesh: meshio.Mesh) -> meshio.Mesh:
+    """The mesh's vertices and straight cells (second-order nodes dropped), renumbered.
+
+    Vertices are DOF points of every Lagrange space, midside nodes need not be.
+    """
+    kinds = {"tetra10": ("tetra", 4), "tetra": ("tetra", 4), "triangle6": ("triangle", 3),
+             "triangle": ("triangle", 3)}
+    top = "tetra" if any(c.type.startswith("tetra") for c in mesh.cells) else "triangle"
+    blocks = [c.data[:, : kinds[c.type][1]] for c in mesh.cells if c.type in kinds and kinds[c.type][0] == top]
+    cells = np.vstack(blocks)
+    used, inverse = np.unique(cells, return_inverse=True)
+    return meshio.Mesh(mesh.points[used], [(top, inverse.reshape(cells.shape))])
+
+
 def surface_triangles(mesh: meshio.Mesh) -> np.ndarray:
     """(n, 3) vertex indices of the visible triangles: shell cells, or a solid's boundary faces."""
     tets = [c.data for c in mesh.cells if c.type == "tetra"]
@@ -92,16 +106,14 @@ def main(argv=None) -> int:
         with read_h5_checked(args.body_file, ("modes", "dof_coords", "dof_component", "frequencies_hz")) as h5:
             modes, coords = h5["modes"][()], h5["dof_coords"][()]
             component, freqs, name = h5["dof_component"][()], h5["frequencies_hz"][()], h5.attrs["name"]
-        mesh = meshio.read(args.mesh)
+        mesh = linear_mesh(meshio.read(args.mesh))
         disp = vertex_displacements(mesh.points, coords, component, modes)
     except (ValueError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     triangles = surface_triangles(mesh)
     plot_modes(mesh.points, triangles, disp, freqs, str(name).replace("_", " "), args.png)
-    cell_type = "tetra" if any(c.type == "tetra" for c in mesh.cells) else "triangle"
-    cells = [(cell_type, np.vstack([c.data for c in mesh.cells if c.type == cell_type]))]
-    write_vtu(mesh.points, cells, disp, freqs, args.vtu)
+    write_vtu(mesh.points, mesh.cells, disp, freqs, args.vtu)
     return 0
 
 

@@ -302,7 +302,7 @@ def all_supported_modes(K: sp.spmatrix, M: sp.spmatrix, T: sp.spmatrix):
     return values, T @ x
 
 
-def check_hughes_identity(config: dict, body: int = 4, size: float = 0.25, workdir=None) -> dict:
+def check_hughes_identity(config: dict, body: int = 4, size: float = 0.5, workdir=None) -> dict:
     """Hughes's first modal identity on a coarse mesh with every supported mode computed.
 
     sum_i Mbar_i = M_inf, Mbar_i = (X^T M phi_i)(X^T M phi_i)^T (thesis eqs 3.32-3.34),
@@ -352,7 +352,8 @@ def check_mpi(body_file, mesh_path, config_path, ranks: int = 2, workdir=None) -
         env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
                "OMP_NUM_THREADS": "1"}
         cmd = mpirun_command(ranks) + [sys.executable, "-m", "solver.modes", "--body", str(serial["body"]),
-                                       "--mesh", str(mesh_path), "--out", str(out), "--config", str(config_path)]
+                                       "--mesh", str(mesh_path), "--out", str(out), "--config", str(config_path),
+                                       "--count", str(len(serial["eigenvalues"]))]
         run = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=1200)
         if run.returncode != 0:
             tail = (run.stderr or run.stdout).strip().splitlines()[-1:] or ["no output"]
