@@ -1,6 +1,7 @@
 # Shared set-up: validate the config (one-line error naming the key), the
 # interpreter that runs every stage, and the code each stage depends on.
 import importlib
+import os
 import sys
 from pathlib import Path
 
@@ -10,7 +11,10 @@ cfgmod = importlib.import_module("workflow.config")  # not "import workflow...":
 try:
     cfgmod.validate(config)
 except cfgmod.ConfigError as exc:
-    sys.exit(str(exc))
+    # one line naming the key, and nothing else (Snakemake would wrap it in a traceback)
+    sys.stderr.write(f"{exc}\n")
+    sys.stderr.flush()
+    os._exit(1)
 
 PY = sys.executable
 # the file the stages read; pass another with --configfile (not --config key=value)
