@@ -364,7 +364,8 @@ def ranking_agreement(rho_xmx, rho_xmgmx, rank_xmx, rank_xmgmx, frequencies_hz, 
     differ = np.flatnonzero(thesis_rank != a)
     f = np.asarray(frequencies_hz, float)
     ratio = f[1:] / f[:-1] - 1.0
-    close = [[int(i), int(i + 1)] for i in np.flatnonzero(ratio < 0.02)]
+    close = [[int(i), int(i + 1)] for i in np.flatnonzero(ratio < 0.02)
+             if i in top or i + 1 in top]
     return {
         "common_prefix": int(table["common_prefix"]),
         "first_mode_equal": bool(a[0] == b[0]),
@@ -377,7 +378,53 @@ def ranking_agreement(rho_xmx, rho_xmgmx, rank_xmx, rank_xmgmx, frequencies_hz, 
         "thesis_code_emulation_note": ("rank of the first position where the thesis code's "
                                        "'XMGMX' ranking (XMX radii with only the last mode's entry "
                                        "overwritten) differs from XMX, 0-based"),
-        "near_degenerate_pairs_within_2pct_0based": close,
+        "near_degenerate_pairs_in_top40_within_2pct_0based": close,
+    }
+
+
+def agreement_diagnostics(result, M_rigid, cluster_gap=0.02, n=TABLE_ROWS):
+    """Why XMX and XMGMX disagree (docs/reduction.md, "Finding 2 on our model").
+
+    * ``same_set_k``: the k <= 10 for which both rankings pick the same top-k set;
+    * ``xmx_top40_unchanged_with_M_rigid``: the thesis's M_inf = X^T M X instead of the
+      supported M_inf leaves the XMX top 40 unchanged (the M_inf definition is not the cause);
+    * merged near-degenerate clusters (neighbouring frequencies within ``cluster_gap``) as one
+      entry each (sum of their Mbar_i): ``clusters_common_prefix``, ``clusters_top10_overlap``
+      (if split degenerate pairs caused the disagreement, merging would restore it);
+    * ``dominant_direction``: per top-10 mode (1-based) the rigid direction (ux..rz) that
+      A^-1/2 v_i points along most, with its share, for XMX and XMGMX.
+    """
+    P, H, lam = result["P"], result["H"], np.asarray(result["eigenvalues"], float)
+    a, b = np.asarray(result["rank_xmx"], int), np.asarray(result["rank_xmgmx"], int)
+    same = [k for k in range(1, min(10, a.size) + 1) if set(a[:k]) == set(b[:k])]
+    rigid_rank = rk.rank_by_radius(rk.xmx_radii(P, H, M_rigid))
+    f = np.asarray(result["frequencies_hz"], float)
+    cluster = np.r_[0, np.cumsum(f[1:] / f[:-1] - 1.0 > cluster_gap)]
+    C = mi.mode_contributions(P, H)
+    nc = int(cluster.max()) + 1
+    Cx = np.array([C[cluster == c].sum(axis=0) for c in range(nc)])
+    Cg = np.array([(C[cluster == c] / lam[cluster == c][:, None, None]).sum(axis=0)
+                   for c in range(nc)])
+    ca = rk.rank_by_radius(rk.spectral_radii(Cx, result["M_inf"]))
+    cb = rk.rank_by_radius(rk.spectral_radii(Cg, result["MGM_inf"]))
+    differ = np.flatnonzero(ca != cb)
+    V = np.vstack([P, H])
+    directions = {}
+    for label, A, scale in (("xmx", result["M_inf"], np.ones_like(lam)),
+                            ("xmgmx", result["MGM_inf"], 1.0 / np.sqrt(lam))):
+        W = rk.symmetric_inverse_sqrt(A) @ (V * scale)
+        share = W ** 2 / np.maximum((W ** 2).sum(axis=0), np.finfo(float).tiny)
+        directions[label] = {
+            str(int(i) + 1): [mi.RIGID_MOTION_NAMES[int(np.argmax(share[:, i]))],
+                              float(np.max(share[:, i]))]
+            for i in np.union1d(a[:TOP_LISTED], b[:TOP_LISTED])}
+    return {
+        "same_set_k": same,
+        "xmx_top40_unchanged_with_M_rigid": bool(np.array_equal(rigid_rank[:n], a[:n])),
+        "cluster_gap": cluster_gap, "n_clusters": nc,
+        "clusters_common_prefix": int(differ[0]) if differ.size else nc,
+        "clusters_top10_overlap": int(np.intersect1d(ca[:10], cb[:10]).size),
+        "dominant_direction": directions,
     }
 
 
@@ -483,6 +530,7 @@ def build_report(pairs, coarse, log=None):
         agreement = ranking_agreement(reduction["rho_xmx"], reduction["rho_xmgmx"],
                                       reduction["rank_xmx"], reduction["rank_xmgmx"],
                                       reduction["frequencies_hz"])
+        agreement.update(agreement_diagnostics(result, mi.rigid_mass(body["M"], body["rigid_modes"])))
         bodies[label] = {
             "name": body["attrs"].get("name"), "body_file": body["path"],
             "reduction_file": reduction["path"], "n_dofs": int(body["modes"].shape[0]),
