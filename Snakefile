@@ -4,6 +4,8 @@
 #   snakemake --cores 2 mesh       gmsh meshes of the four bodies
 #   snakemake --cores 2 modes      100 supported modes per body
 #   snakemake --cores 2 verify_fe  finite-element verification (results/verification/fe.json)
+#   snakemake --cores 2 reduction  momentum coefficients, rankings, static modes per body
+#   snakemake --cores 2 results/sim/thesis/freq-10.h5   any scene and reduced model, on request
 configfile: "config/config.yaml"
 
 
@@ -11,6 +13,8 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/geometry.smk"
 include: "workflow/rules/modes.smk"
 include: "workflow/rules/verification.smk"
+include: "workflow/rules/reduction.smk"
+include: "workflow/rules/dynamics.smk"
 
 
 rule all:
@@ -19,4 +23,5 @@ rule all:
         rules.mode_shapes.input,
         "results/benchmarks/modes.json",
         "results/verification/fe.json",
+        rules.reduction.input,
     default_target: True

@@ -111,3 +111,24 @@ def scipy_to_petsc(A: sp.spmatrix, comm=PETSc.COMM_SELF) -> PETSc.Mat:
                                                     A.indices.astype(PETSc.IntType), A.data), comm=comm)
     mat.assemble()
     return mat
+
+
+def all_supported_modes(K: sp.spmatrix, M: sp.spmatrix, T: sp.spmatrix):
+    """Every finite supported eigenpair by a dense solve (coarse meshes only).
+
+    M may be singular (massless drilling rotations). With Y, Z the eigenvectors
+    of T^T M T with positive and zero eigenvalues, the massless part is
+    condensed statically: c = -(Z^T K Z)^-1 Z^T K Y a, and the finite modes
+    solve (Y^T K Y - Y^T K Z (Z^T K Z)^-1 Z^T K Y) a = lambda (Y^T M Y) a.
+    Returns (eigenvalues ascending, modes (ndof, rank M) with unit modal mass).
+    """
+    k_red = (T.T @ K @ T).toarray()
+    m_red = (T.T @ M @ T).toarray()
+    m_values, basis = scipy.linalg.eigh(m_red)
+    massive = m_values > 1e-10 * m_values.max()
+    Y, Z = basis[:, massive], basis[:, ~massive]
+    k_yy, k_yz, k_zz = Y.T @ k_red @ Y, Y.T @ k_red @ Z, Z.T @ k_red @ Z
+    condense = -np.linalg.solve(k_zz, k_yz.T) if Z.shape[1] else np.zeros((0, Y.shape[1]))
+    values, a = scipy.linalg.eigh(k_yy + k_yz @ condense, np.diag(m_values[massive]))
+    x = Y @ a + Z @ (condense @ a)
+    return values, T @ x

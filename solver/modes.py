@@ -258,8 +258,12 @@ def bearing_operator_matrix(body: BodyModel) -> sp.csr_matrix:
 
 
 def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: int | None = None,
-                 comm=MPI.COMM_WORLD, log=print) -> dict | None:
-    """Assemble and solve one body; return the body-file payload on rank 0 (None elsewhere)."""
+                 comm=MPI.COMM_WORLD, log=print, all_modes: bool = False) -> dict | None:
+    """Assemble and solve one body; return the body-file payload on rank 0 (None elsewhere).
+
+    ``all_modes``: every finite supported mode by a dense solve (coarse meshes,
+    serial only), for the discrete Hughes identities.
+    """
     started = time.perf_counter()
     params = cfgmod.body_parameters(config, body_number)
     count = int(count or cfgmod.value(config, "modes.count"))
@@ -267,6 +271,17 @@ def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: i
     max_iterations = int(cfgmod.value(config, "modes.max_iterations"))
     body = assemble_body(params, config, mesh_path, comm)
     t_assembled = time.perf_counter()
+    if all_modes:
+        if comm.size > 1 or body.ndof > 20000:
+            raise ValueError(f"{params['name']}: --all-modes is a dense solve for coarse serial meshes "
+                             f"({body.ndof} DOFs on {comm.size} ranks)")
+        K, M = gather_matrix(body.K, comm), gather_matrix(body.M, comm)
+        T = admissible_basis_petsc(body.K, bearings.support_constraints(body.operators))[1]
+        values, vectors = eigen.all_supported_modes(K, M, T)
+        count = len(values)
+        log(f"[{params['name']}] {body.ndof} DOFs: all {count} finite supported modes (dense)")
+        return _payload(body_number, params, body, values, vectors, K, M, T, comm.size,
+                        {"assembly_s": t_assembled - started, "eigensolve_s": time.perf_counter() - t_assembled}, log)
     if count > body.ndof - 6:
         raise ValueError(f"{params['name']}: modes.count = {count} exceeds the {body.ndof - 6} "
                          "admissible DOFs of the mesh")
@@ -278,6 +293,13 @@ def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: i
     if comm.rank != 0:
         return None
     values, vectors = eigen.rayleigh_ritz(K, M, vectors)
+    return _payload(body_number, params, body, values, vectors, K, M, T, comm.size,
+                    {"assembly_s": t_assembled - started, "eigensolve_s": t_solved - t_assembled}, log)
+
+
+def _payload(body_number, params, body, values, vectors, K, M, T, ranks, timings, log) -> dict:
+    """Checks and the body-file payload of solved modes."""
+    count = len(values)
     residuals = eigen.relative_residuals(K, M, values, vectors, T)
     orthonormality = eigen.orthonormality_error(M, vectors)
     if np.any(values <= 0):
@@ -288,7 +310,7 @@ def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: i
     bearing_modes[:, [name not in body.operators for name in BEARING_NAMES], :] = np.nan
     log(f"[{params['name']}] f1..f4 = {np.sqrt(values[:4]) / (2 * math.pi)} Hz, f{count} = "
         f"{np.sqrt(values[-1]) / (2 * math.pi):.1f} Hz; max residual {residuals.max():.1e}, "
-        f"orthonormality {orthonormality:.1e}; solved in {t_solved - t_assembled:.2f} s")
+        f"orthonormality {orthonormality:.1e}; solved in {timings['eigensolve_s']:.2f} s")
     return {
         "frequencies_hz": np.sqrt(values) / (2 * math.pi), "eigenvalues": values, "modes": vectors,
         "M": M, "K": K, "T": T, "bearing_operator": operator,
@@ -302,8 +324,8 @@ def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: i
                   "point_mass_position": body.point_mass_position, "mesh_size": body.mesh_size,
                   "cells": body.n_cells, "units": "in, lbf, s (mass lbf s^2/in, eigenvalues (rad/s)^2)",
                   "max_relative_residual": float(residuals.max()), "orthonormality_error": orthonormality,
-                  "mpi_ranks": comm.size},
-        "timings": {"assembly_s": t_assembled - started, "eigensolve_s": t_solved - t_assembled},
+                  "mpi_ranks": ranks},
+        "timings": timings,
     }
 
 
@@ -335,6 +357,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True, help="output body file (.h5)")
     parser.add_argument("--config", default=str(cfgmod.DEFAULT_CONFIG))
     parser.add_argument("--count", type=int, default=None, help="number of modes (default: config)")
+    parser.add_argument("--all-modes", action="store_true",
+                        help="every finite supported mode by a dense solve (coarse meshes only)")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     started = time.perf_counter()
@@ -342,7 +366,7 @@ def main(argv=None) -> int:
         config = cfgmod.load_config(args.config)
         body_number = cfgmod.BODY_NUMBERS[cfgmod.body_name(args.body)]
         payload = compute_body(body_number, config, args.mesh, args.count, comm,
-                               log=print if comm.rank == 0 else (lambda *a, **k: None))
+                               log=print if comm.rank == 0 else (lambda *a, **k: None), all_modes=args.all_modes)
     except (ValueError, FileNotFoundError, eigen.EigenSolveError) as exc:
         if comm.rank == 0:
             print(f"error: {exc}", file=sys.stderr)

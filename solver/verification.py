@@ -281,27 +281,6 @@ def check_body_file(path) -> dict:
                    frequencies_hz=body["frequencies_hz"])
 
 
-def all_supported_modes(K: sp.spmatrix, M: sp.spmatrix, T: sp.spmatrix):
-    """Every finite supported eigenpair by a dense solve (coarse meshes only).
-
-    M may be singular (massless drilling rotations). With Y, Z the eigenvectors
-    of T^T M T with positive and zero eigenvalues, the massless part is
-    condensed statically: c = -(Z^T K Z)^-1 Z^T K Y a, and the finite modes
-    solve (Y^T K Y - Y^T K Z (Z^T K Z)^-1 Z^T K Y) a = lambda (Y^T M Y) a.
-    Returns (eigenvalues ascending, modes (ndof, rank M) with unit modal mass).
-    """
-    k_red = (T.T @ K @ T).toarray()
-    m_red = (T.T @ M @ T).toarray()
-    m_values, basis = scipy.linalg.eigh(m_red)
-    massive = m_values > 1e-10 * m_values.max()
-    Y, Z = basis[:, massive], basis[:, ~massive]
-    k_yy, k_yz, k_zz = Y.T @ k_red @ Y, Y.T @ k_red @ Z, Z.T @ k_red @ Z
-    condense = -np.linalg.solve(k_zz, k_yz.T) if Z.shape[1] else np.zeros((0, Y.shape[1]))
-    values, a = scipy.linalg.eigh(k_yy + k_yz @ condense, np.diag(m_values[massive]))
-    x = Y @ a + Z @ (condense @ a)
-    return values, T @ x
-
-
 def check_hughes_identity(config: dict, body: int = 4, size: float = 0.5, workdir=None) -> dict:
     """Hughes's first modal identity on a coarse mesh with every supported mode computed.
 
@@ -321,7 +300,7 @@ def check_hughes_identity(config: dict, body: int = 4, size: float = 0.5, workdi
         model = modes.assemble_body(params, config, path, COMM)
     K, M = modes.gather_matrix(model.K, COMM), modes.gather_matrix(model.M, COMM)
     T = modes.admissible_basis_petsc(model.K, bearings.support_constraints(model.operators))[1]
-    values, phi = all_supported_modes(K, M, T)
+    values, phi = eigen.all_supported_modes(K, M, T)
     X = modes.rigid_modes(model.dof_coords, model.block_size)
     momentum = X.T @ (M @ phi)                         # (6, D): [P; H] of every mode
     modal_sum = momentum @ momentum.T                   # sum_i Mbar_i
