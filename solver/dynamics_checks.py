@@ -41,11 +41,17 @@ def solve_consistency(name, chain, y, r, tol=1e-11):
                  relative_difference(x, np.linalg.solve(M, r)), tol)
 
 
+def _rk4_step(chain, y0, fraction):
+    """fraction x the RK4 stability limit of the chain linearised at y0 (coupled frequencies)."""
+    w = multibody.coupled_omega_max(chain, y0)
+    return fraction * integrators.rk4_stability_limit(w) if w > 0 else 1e-3
+
+
 def energy_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
     """Scene with the case at rest and no torques: RK4 at ``fraction`` of its stability
     limit for n_steps; max |E(t) - E(0)| / E(0) with E = T + U."""
     rhs = integrators.make_rhs(chain)
-    h = fraction * integrators.rk4_stability_limit(chain.omega_max) if chain.omega_max else 1e-3
+    h = _rk4_step(chain, y0, fraction)
     E0 = multibody.kinetic_energy(chain, y0, yd0) + multibody.potential_energy(chain, y0)
     worst = 0.0
     chunks = 20
@@ -74,7 +80,7 @@ def momentum_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, t
     """Case at rest: the momentum conjugate to gamma_1 (angular momentum of bodies 2-5
     about the outer drive axis) over n_steps RK4 steps; max relative drift."""
     rhs = integrators.make_rhs(chain)
-    h = fraction * integrators.rk4_stability_limit(chain.omega_max) if chain.omega_max else 1e-3
+    h = _rk4_step(chain, y0, fraction)
     p0 = multibody.generalized_momentum(chain, y0, yd0)[0]
     worst = 0.0
     chunks = 20
@@ -91,7 +97,7 @@ def momentum_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, t
 def conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
     """Energy and axial angular momentum drift from one RK4 run (case at rest)."""
     rhs = integrators.make_rhs(chain)
-    h = fraction * integrators.rk4_stability_limit(chain.omega_max) if chain.omega_max else 1e-3
+    h = _rk4_step(chain, y0, fraction)
     E = lambda y, yd: multibody.kinetic_energy(chain, y, yd) + multibody.potential_energy(chain, y)
     E0 = E(y0, yd0)
     p0 = multibody.generalized_momentum(chain, y0, yd0)[0]
@@ -134,7 +140,7 @@ def rigid_spin_about_outer_axis(name, chain, amplitude=1.0, frequency=2.0, t_end
     case = multibody.CaseMotion(amplitude=(0.0, 0.0, amplitude), frequency=(0.0, 0.0, frequency))
     prob = multibody.Problem(chain, case=case)
     run = integrators.integrate(prob, t_end, t_end / 50, method="rk4",
-                                step=min(1e-3, 0.5 * integrators.rk4_stability_limit(chain.omega_max)))
+                                step=min(1e-3, 0.5 * integrators.rk4_stability_limit(prob.omega_max)))
     exact = -np.array([case.angular_velocity(t)[2] for t in run.t])
     err = max(np.abs(run.yd[:, 0] - exact).max(), np.abs(run.yd[:, 1:4]).max(),
               np.abs(run.y[:, 4:]).max(initial=0.0))

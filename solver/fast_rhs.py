@@ -403,7 +403,7 @@ def _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, B0, M1, G, goff, om2, cd,
         out[k] = F[3]
         F_child = F
         Mx_all[k] = Mx
-    return out, Mx_all, B, R_all, p_all, L
+    return out, Mx_all, B, R_all, p_all, L, F_child
 
 
 @numba.njit(**_JIT)
@@ -537,12 +537,45 @@ def _solve(r, dg, D, off, Mx_all, B, R_all, p_all, L):
 @numba.njit(**_JIT)
 def _accelerations(y, yd, w1, dw1, tau, D, off, M6, B0, M1, G, goff, om2, cd, Psi, Th, C1, C, rho):
     n = y.shape[0]
-    c, Mx_all, B, R_all, p_all, L = _inverse_dynamics(
+    c, Mx_all, B, R_all, p_all, L, _ = _inverse_dynamics(
         y, yd, np.zeros(n), w1, dw1, D, off, M6, B0, M1, G, goff, om2, cd, Psi, Th, C1, C, rho)
     r = -c
     for j in range(4):
         r[j] += tau[j]
     return _solve(r, np.ones(n - 4), D, off, Mx_all, B, R_all, p_all, L)
+
+
+@numba.njit(**_JIT)
+def _kinetic_energy(y, yd, w1, D, off, M6, B0, M1, G, goff, om2, cd, Psi, Th, C1, C, rho):
+    """T = sum_n 1/2 w^T M_X(q) w + w^T B(q) q' + 1/2 q'^T q' (multibody.kinetic_energy)."""
+    n = y.shape[0]
+    _, _, _, W, _ = _kinematics(y, yd, np.zeros(n), w1, np.zeros(6), D, off, Psi, Th, C1, C, rho)
+    T = 0.0
+    for k in range(4):
+        Dk = D[k]
+        o = off[k]
+        w = W[k]
+        Mx = M6[k].copy()
+        Bw = np.zeros(Dk)            # B(q)^T w
+        if Dk > 0:
+            qk = y[4 + o:4 + o + Dk].copy()
+            MM = np.dot(qk, M1[k])
+            for a in range(6):
+                for b in range(6):
+                    Mx[a, b] += MM[6 * a + b]
+            hq = np.dot(qk, G[k])    # (3 Dk,): sum_j q_j G_j
+            for i in range(Dk):
+                s = 0.0
+                for a in range(6):
+                    s += B0[a, o + i] * w[a]
+                for a in range(3):
+                    s += hq[a * Dk + i] * w[3 + a]
+                Bw[i] = s
+        T += 0.5 * np.dot(w, _mv(Mx, w))
+        for i in range(Dk):
+            qdi = yd[4 + o + i]
+            T += Bw[i] * qdi + 0.5 * qdi * qdi
+    return T
 
 
 # ------------------------------------------------------------------ wrappers
@@ -562,13 +595,24 @@ class FastChain:
         n = y.size
         zero = np.zeros(n)
         dg = np.ones(n - 4) if modal_diagonal is None else np.asarray(modal_diagonal, float)
-        _, Mx_all, B, R_all, p_all, L = _inverse_dynamics(y, zero, zero, np.zeros(6), np.zeros(6),
+        _, Mx_all, B, R_all, p_all, L, _ = _inverse_dynamics(y, zero, zero, np.zeros(6), np.zeros(6),
                                                           *self.data)
         D, off = self.data[0], self.data[1]
         return _solve(np.asarray(r, float), dg, D, off, Mx_all, B, R_all, p_all, L)
 
     def accelerations(self, y, yd, w1, dw1, tau):
         return _accelerations(y, yd, w1, dw1, tau, *self.data)
+
+    def kinetic_energy(self, y, yd, w1):
+        """T [in lbf] with the case twist w1 (6,)."""
+        return _kinetic_energy(np.asarray(y, float), np.asarray(yd, float), w1, *self.data)
+
+    def case_power(self, y, yd, ydd, w1, dw1):
+        """Power the case motion feeds into bodies 2-5 (multibody.case_power)."""
+        out = _inverse_dynamics(np.asarray(y, float), np.asarray(yd, float), np.asarray(ydd, float),
+                                w1, dw1, *self.data)
+        R, p, F = out[3][0], out[4][0], out[6]
+        return float(_adinv(R, p, w1) @ F)
 
 
 def make_rhs(chain, case=None, torque=None):

@@ -128,6 +128,7 @@ class Run:
     steps: int
     wall_time: float
     stats: dict = field(default_factory=dict)
+    energy: dict = field(default_factory=dict)   # kinetic, potential, power, input_work at t
 
 
 class Monitor:
@@ -141,13 +142,19 @@ class Monitor:
         self.scale = 0.0
         self.work = 0.0
         self.last = None
+        self.history = []          # (t, T, U, P, work) at every call (the output samples)
 
     def __call__(self, t, y, yd, h, method):
         if not (np.all(np.isfinite(y)) and np.all(np.isfinite(yd))):
             raise DivergenceError(
                 f"{method} diverged at t = {t:.6g} s (non-finite state), model {self.model!r}, "
                 f"step {h:.3e} s")
-        E = self.problem.energy(t, y, yd)
+        if hasattr(self.problem, "kinetic_energy"):
+            T = self.problem.kinetic_energy(t, y, yd)
+            U = multibody.potential_energy(self.problem.chain, y)
+            E = T + U
+        else:
+            E, T, U = self.problem.energy(t, y, yd), np.nan, np.nan
         P = self.problem.input_power(t, y, yd)
         if self.E0 is None:
             self.E0 = E
@@ -157,6 +164,7 @@ class Monitor:
             self.work += 0.5 * (P + P0) * (t - t0)
         self.last = (t, P)
         self.scale = max(self.scale, abs(self.E0), abs(self.work))
+        self.history.append((t, T, U, P, self.work))
         if not np.isfinite(E) or (self.scale > 0 and abs(E) > self.growth * self.scale) or \
                 (self.scale == 0 and abs(E) > 0):
             raise DivergenceError(
@@ -278,5 +286,8 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None,
                      newton_per_step=iterations / max(steps, 1), newton_not_converged=worst_newton)
     wall = time.perf_counter() - start
     stats["energy_input"] = monitor.work
+    hist = np.array(monitor.history)
+    energy = {} if hist.shape[0] != t_out.size else {
+        "kinetic": hist[:, 1], "potential": hist[:, 2], "power": hist[:, 3], "input_work": hist[:, 4]}
     return Run(t=t_out, y=Y, yd=V, method=method, step=float(h), steps=int(steps), wall_time=wall,
-               stats=stats)
+               stats=stats, energy=energy)

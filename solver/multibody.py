@@ -147,7 +147,10 @@ class Chain:
 
     @property
     def omega_max(self):
-        """Largest kept modal frequency [rad/s] (0 for a rigid chain)."""
+        """Largest kept modal frequency [rad/s] (0 for a rigid chain).
+
+        NOT the stability bound of an explicit integrator: the coupled chain's
+        highest frequency is higher (``coupled_omega_max``)."""
         w2 = [b.omega2.max() for b in self.bodies if b.n_modes]
         return float(np.sqrt(max(w2))) if w2 else 0.0
 
@@ -580,14 +583,84 @@ def case_power(chain, y, yd, ydd, t=0.0, case=None):
     return float(adjoint_inverse(J.R, J.p, w_case) @ F)
 
 
+# ------------------------------------------------- coupled (linearised) frequencies
+def mass_matrix_fast(chain, y):
+    """M(y) (n_y, n_y) from n_y calls of the compiled inverse dynamics (NumPy path if
+    Numba is missing); symmetrised."""
+    y = np.asarray(y, float)
+    n = chain.n_coordinates
+    try:
+        from solver import fast_rhs
+    except ImportError:
+        return mass_matrix(chain, y)
+    fc = fast_rhs.FastChain(chain)
+    zero, z6 = np.zeros(n), np.zeros(6)
+    base = fc.inverse_dynamics(y, zero, zero, z6, z6)
+    M = np.empty((n, n))
+    e = np.zeros(n)
+    for i in range(n):
+        e[i] = 1.0
+        M[:, i] = fc.inverse_dynamics(y, zero, e, z6, z6) - base
+        e[i] = 0.0
+    return 0.5 * (M + M.T)
+
+
+def coupled_frequencies(chain, y):
+    """Natural frequencies [rad/s] (ascending, the elastic ones) of the chain linearised
+    at configuration y: sqrt of the generalised eigenvalues of the pencil (K, M(y)),
+    K = diag(0_4, Omega^2).
+
+    The joint angles have no stiffness, so the pencil is reduced to the modal
+    coordinates by the Schur complement S = M_qq - M_qg M_gg^-1 M_gq (the modal
+    inertia with the joints free): K_q x = lambda S x.  Because the modes carry
+    momentum about the drive axes (X^T M Phi != 0: the supports hold each body
+    at its bearing regions only), S is *smaller* than the modal mass and the
+    coupled frequencies lie above the kept ones -- on the real bodies by up to
+    3x (docs/dynamics.md, Section 6).  This, not the largest kept modal
+    frequency, bounds an explicit integrator's step."""
+    n_q = sum(chain.n_modes)
+    if n_q == 0:
+        return np.zeros(0)
+    import scipy.linalg
+    M = mass_matrix_fast(chain, y)
+    Mgg, Mgq, Mqq = M[:4, :4], M[:4, 4:], M[4:, 4:]
+    S = Mqq - Mgq.T @ np.linalg.solve(Mgg, Mgq)
+    S = 0.5 * (S + S.T)
+    lam = scipy.linalg.eigh(np.diag(chain.stiffness_diagonal()[4:]), S, eigvals_only=True)
+    return np.sqrt(np.maximum(lam, 0.0))
+
+
+# Gimbal-angle offsets at which coupled_omega_max samples the configuration (besides y0):
+# M(y) depends on the angles, the highest coupled frequency by < 0.1 % on the real bodies.
+COUPLED_SAMPLE_OFFSETS = ((0.0, 0.0, 0.0, 0.0), (0.7, -0.4, 1.1, 0.3), (-1.3, 0.9, -0.6, 2.1),
+                          (2.4, 1.7, 0.5, -1.9))
+
+
+def coupled_omega_max(chain, y0=None, offsets=COUPLED_SAMPLE_OFFSETS):
+    """Highest frequency [rad/s] of the chain linearised at y0 and at the gimbal angles
+    y0 + offsets (elastic coordinates as in y0): the RK4 stability bound's omega_max."""
+    if sum(chain.n_modes) == 0:
+        return 0.0
+    y0 = np.zeros(chain.n_coordinates) if y0 is None else np.asarray(y0, float)
+    best = 0.0
+    for off in offsets:
+        y = y0.copy()
+        y[:4] += np.asarray(off, float)
+        best = max(best, float(coupled_frequencies(chain, y)[-1]))
+    return best
+
+
 # ------------------------------------------------------------- problem bundle
 class Problem:
     """A chain with its case motion, motor torques and initial state: what an
     integrator needs (``solver.integrators.integrate``).
 
-    torque: (4,) constant motor torques [in lbf] or a callable t -> (4,)."""
+    torque: (4,) constant motor torques [in lbf] or a callable t -> (4,).
+    omega_max: the stability bound's frequency [rad/s]; default
+    ``coupled_omega_max(chain, y0)`` (the coupled chain's highest frequency).
+    ``modal_omega_max`` is the largest kept modal frequency, for reference."""
 
-    def __init__(self, chain, case=None, torque=None, y0=None, yd0=None, fast=True):
+    def __init__(self, chain, case=None, torque=None, y0=None, yd0=None, fast=True, omega_max=None):
         from solver import integrators
         self.chain = chain
         self.case = case or CaseMotion()
@@ -596,7 +669,9 @@ class Problem:
         self.y0 = np.zeros(n) if y0 is None else np.asarray(y0, float)
         self.yd0 = np.zeros(n) if yd0 is None else np.asarray(yd0, float)
         self.rhs = integrators.make_rhs(chain, self.case, self._torque, fast=fast)
-        self.omega_max = chain.omega_max
+        self.modal_omega_max = chain.omega_max            # largest kept modal frequency
+        # the integrators' stability bound: the coupled chain's highest frequency
+        self.omega_max = coupled_omega_max(chain, self.y0) if omega_max is None else float(omega_max)
         self.stiffness_diagonal = chain.stiffness_diagonal()
         self.damping_diagonal = chain.damping_diagonal()
         self._fast = getattr(self.rhs, "fast_chain", None)   # compiled kernels, if available
@@ -619,9 +694,16 @@ class Problem:
             return self._fast.solve_mass(y, r, modal_diagonal)
         return solve_mass(self.chain, y, r, modal_diagonal)
 
+    def kinetic_energy(self, t, y, yd):
+        """T [in lbf] (compiled path when available)."""
+        if self._fast is not None:
+            w1, _ = self.case.twist(t)
+            return float(self._fast.kinetic_energy(y, yd, w1))
+        return kinetic_energy(self.chain, y, yd, t, self.case)
+
     def energy(self, t, y, yd):
         """T + U [in lbf]."""
-        return kinetic_energy(self.chain, y, yd, t, self.case) + potential_energy(self.chain, y)
+        return self.kinetic_energy(t, y, yd) + potential_energy(self.chain, y)
 
     def input_power(self, t, y, yd):
         """Power fed in by the case motion and the motors, minus modal damping [in lbf/s]."""
@@ -629,5 +711,9 @@ class Problem:
         P = float(np.dot(tau, yd[:4])) - float(np.sum(self.damping_diagonal * yd * yd))
         if not self.case.at_rest:
             ydd = self.rhs(t, y, yd)
-            P += case_power(self.chain, y, yd, ydd, t, self.case)
+            if self._fast is not None:
+                w1, dw1 = self.case.twist(t)
+                P += self._fast.case_power(y, yd, ydd, w1, dw1)
+            else:
+                P += case_power(self.chain, y, yd, ydd, t, self.case)
         return P

@@ -9,7 +9,9 @@ q (T, sum D) modal coordinates (optional, --store-modal), energy/kinetic,
 energy/potential, energy/total [in lbf], energy/input_work [in lbf] (work of
 case motion and motors minus damping, trapezoid at output samples);
 attributes: scene, model, integrator, step, steps, wall_time_s, config_hash,
-omega_max, stability_limit, n_modes (4,), created.  Written to a temporary file
+omega_max (the coupled chain's highest frequency at the initial state, which
+sets the RK4 limit), modal_omega_max (largest kept modal frequency),
+stability_limit, n_modes (4,), created.  Written to a temporary file
 and moved into place with os.replace (atomic).
 """
 
@@ -36,11 +38,17 @@ def config_hash(scene, spec, options, body_hashes=()):
     return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
-def run_scene(chain, scene, method="rk4", step=None, fraction=None, rho_inf=0.9, rtol=1e-10,
-              atol=1e-14, model_name=""):
-    """Integrate a chain through a scene; returns (Run, Problem)."""
+def scene_problem(chain, scene):
+    """multibody.Problem of a chain in a scene (its omega_max: the coupled chain's highest
+    frequency at the scene's initial state)."""
     y0, yd0 = scenes.initial_state(scene, chain.n_coordinates)
-    prob = multibody.Problem(chain, case=scene.case, torque=scene.motor_torques, y0=y0, yd0=yd0)
+    return multibody.Problem(chain, case=scene.case, torque=scene.motor_torques, y0=y0, yd0=yd0)
+
+
+def run_scene(chain, scene, method="rk4", step=None, fraction=None, rho_inf=0.9, rtol=1e-10,
+              atol=1e-14, model_name="", problem=None):
+    """Integrate a chain through a scene; returns (Run, Problem)."""
+    prob = scene_problem(chain, scene) if problem is None else problem
     run = integrators.integrate(prob, scene.duration, scene.output_interval, method=method,
                                 step=step, fraction=fraction, rho_inf=rho_inf, rtol=rtol, atol=atol,
                                 model=model_name)
@@ -48,7 +56,10 @@ def run_scene(chain, scene, method="rk4", step=None, fraction=None, rho_inf=0.9,
 
 
 def energy_history(prob, run):
-    """(kinetic, potential, input_work) at the output samples."""
+    """(kinetic, potential, input_work) at the output samples (recorded by the
+    integrator's monitor when available, else recomputed)."""
+    if run.energy and np.all(np.isfinite(run.energy["kinetic"])):
+        return run.energy["kinetic"], run.energy["potential"], run.energy["input_work"]
     chain = prob.chain
     T = np.array([multibody.kinetic_energy(chain, y, v, t, prob.case)
                   for t, y, v in zip(run.t, run.y, run.yd)])
@@ -117,19 +128,20 @@ def main(argv=None):
         body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))
                      for b in models.BODIES}
         chain = models.build_chain(spec, body_data, scene.damping_ratio)
+        prob = scene_problem(chain, scene)
         if args.integrator == "rk4" and args.step is not None:
-            limit = integrators.rk4_stability_limit(chain.omega_max)
+            limit = integrators.rk4_stability_limit(prob.omega_max)
             if args.step > limit:
                 raise integrators.StepTooLargeError(
                     f"rk4 step {args.step:.3e} s exceeds the stability limit {limit:.3e} s "
-                    f"(omega_max = {chain.omega_max:.4g} rad/s) of model {spec.name!r}")
+                    f"(coupled omega_max = {prob.omega_max:.4g} rad/s) of model {spec.name!r}")
         options = {"integrator": args.integrator, "step": args.step, "fraction": args.fraction,
                    "rho_inf": args.rho_inf, "rtol": args.rtol, "atol": args.atol}
         chash = config_hash(scene, spec, options,
                             [body_data[b]["attrs"].get("config_hash", "") for b in models.BODIES])
         t0 = time.perf_counter()
         run, prob = run_scene(chain, scene, args.integrator, args.step, args.fraction, args.rho_inf,
-                              args.rtol, args.atol, spec.name)
+                              args.rtol, args.atol, spec.name, problem=prob)
         wall = time.perf_counter() - t0
     except (ValueError, FileNotFoundError, integrators.DivergenceError) as exc:
         print(f"simulate: {exc}", file=sys.stderr)
@@ -137,8 +149,9 @@ def main(argv=None):
     path = os.path.join(args.out_dir, scene.name, f"{spec.name}.h5")
     attrs = {"scene": scene.name, "model": spec.name, "integrator": run.method, "step": run.step,
              "steps": run.steps, "wall_time_s": wall, "integration_time_s": run.wall_time,
-             "config_hash": chash, "omega_max": chain.omega_max,
-             "stability_limit": integrators.rk4_stability_limit(chain.omega_max),
+             "config_hash": chash, "omega_max": prob.omega_max,
+             "modal_omega_max": chain.omega_max,
+             "stability_limit": integrators.rk4_stability_limit(prob.omega_max),
              "n_modes": np.array(chain.n_modes), "units": "in, lbf, s, rad",
              "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
     write_result(path, run, prob, attrs, args.store_modal)
