@@ -175,9 +175,13 @@ def coarse_identity_checks(coarse):
     P, H = mi.momentum_coefficients(M, X, coarse["modes"])
     M_inf, details = mi.supported_rigid_mass(M, T, X, mi.node_index(coarse["dof_coords"]),
                                              return_details=True)
+    D, m = coarse["modes"].shape[1], T.shape[1]
+    finite = m - details["n_massless_local"]  # upper bound on the finite supported modes
+    if D < 0.5 * finite:
+        raise ReportInputError(f"{where}: coarse body holds {D} modes of up to {finite} finite "
+                               f"supported modes; make it with solver.modes --all-modes")
     apply_G = mi.supported_flexibility(K, T, X)
     MGM_inf = mi.flexibility_matrix(M, X, apply_G)
-    D, m = coarse["modes"].shape[1], T.shape[1]
     common = {"file": where, "n_modes": int(D), "n_supported_coordinates": int(m),
               "n_massless_local": details["n_massless_local"],
               "modes_missing": int(m - details["n_massless_local"] - D),

@@ -212,6 +212,11 @@ def test_stale_config_hash_and_wrong_body(inputs, capsys, tmp_path):
     assert "second reduction of body 2" in err
 
 
+def test_coarse_body_without_all_modes(inputs, capsys, tmp_path):
+    err = one_line_error(inputs, capsys, tmp_path, coarse=inputs["bodies"][0])
+    assert "--all-modes" in err and str(inputs["bodies"][0]) in err
+
+
 def test_unequal_lists(inputs, capsys, tmp_path):
     err = one_line_error(inputs, capsys, tmp_path, reductions=[inputs["reductions"][0]])
     assert "--reductions" in err
