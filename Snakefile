@@ -24,4 +24,5 @@ rule all:
         "results/benchmarks/modes.json",
         "results/verification/fe.json",
         rules.reduction.input,
+        rules.reduction_report.output,
     default_target: True
