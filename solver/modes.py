@@ -33,6 +33,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from geometry.gimbal import bearing_angles, bearing_points, eccentric_mass_point
+from reduction.modal_integrals import rigid_modes
 from solver import bearings, eigen, fe
 from workflow import config as cfgmod
 from workflow.provenance import atomic_h5, versions
@@ -232,25 +233,6 @@ def free_modes(body: BodyModel, count: int, shift: float, tolerance: float, max_
     return values, gather_vectors(vecs, comm)
 
 
-def rigid_modes(dof_coords: np.ndarray, block_size: int) -> np.ndarray:
-    """(ndof, 6) rigid-body modes: unit translations x, y, z, unit rotations about x, y, z at the origin."""
-    ndof = len(dof_coords)
-    component = np.arange(ndof) % block_size
-    X = np.zeros((ndof, 6))
-    for axis in range(3):
-        X[component == axis, axis] = 1.0
-    # rotation w about the origin: u = w x r (translation DOFs), theta = w (rotation DOFs)
-    for axis in range(3):
-        w = np.eye(3)[axis]
-        motion = np.cross(w, dof_coords)
-        for c in range(3):
-            rows = component == c
-            X[rows, 3 + axis] = motion[rows, c]
-        if block_size == 6:
-            X[component == 3 + axis, 3 + axis] = 1.0
-    return X
-
-
 def bearing_operator_matrix(body: BodyModel) -> sp.csr_matrix:
     """(24, ndof) stacked operators of the four bearings (zero rows where absent)."""
     blocks = [body.operators.get(name, sp.csr_matrix((6, body.ndof))) for name in BEARING_NAMES]
@@ -314,7 +296,7 @@ def _payload(body_number, params, body, values, vectors, K, M, T, ranks, timings
     return {
         "frequencies_hz": np.sqrt(values) / (2 * math.pi), "eigenvalues": values, "modes": vectors,
         "M": M, "K": K, "T": T, "bearing_operator": operator,
-        "rigid_modes": rigid_modes(body.dof_coords, body.block_size),
+        "rigid_modes": rigid_modes(body.dof_coords, np.arange(body.ndof) % body.block_size),
         "dof_coords": body.dof_coords,
         "dof_component": (np.arange(body.ndof) % body.block_size).astype(np.int8),
         "bearing_points": body.points, "bearing_modes": bearing_modes,

@@ -27,6 +27,7 @@ import scipy.sparse as sp
 from mpi4py import MPI
 
 from geometry import verification as shapes
+from reduction.modal_integrals import rigid_modes
 from solver import bearings, eigen, fe, modes
 from workflow import config as cfgmod
 
@@ -301,7 +302,7 @@ def check_hughes_identity(config: dict, body: int = 4, size: float = 0.5, workdi
     K, M = modes.gather_matrix(model.K, COMM), modes.gather_matrix(model.M, COMM)
     T = modes.admissible_basis_petsc(model.K, bearings.support_constraints(model.operators))[1]
     values, phi = eigen.all_supported_modes(K, M, T)
-    X = modes.rigid_modes(model.dof_coords, model.block_size)
+    X = rigid_modes(model.dof_coords, np.arange(model.ndof) % model.block_size)
     momentum = X.T @ (M @ phi)                         # (6, D): [P; H] of every mode
     modal_sum = momentum @ momentum.T                   # sum_i Mbar_i
     b = T.T @ (M @ X)
