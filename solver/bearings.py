@@ -36,15 +36,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
-
-def skew_matrix(r: np.ndarray) -> np.ndarray:
-    """(..., 3, 3) matrices [r]x with [r]x b = r x b, for r of shape (..., 3)."""
-    r = np.asarray(r, dtype=float)
-    out = np.zeros(r.shape[:-1] + (3, 3))
-    out[..., 0, 1], out[..., 0, 2] = -r[..., 2], r[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = r[..., 2], -r[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -r[..., 1], r[..., 0]
-    return out
+from reduction.modal_integrals import skew
 
 
 def rigid_fit_operator(nodes: np.ndarray, coords: np.ndarray, weights: np.ndarray,
@@ -66,7 +58,7 @@ def rigid_fit_operator(nodes: np.ndarray, coords: np.ndarray, weights: np.ndarra
     # A_k = [I, -[r_k]x]: rigid motion (u_b, th_b) evaluated at node k
     A = np.zeros((len(nodes), 3, 6))
     A[:, :, :3] = np.eye(3)
-    A[:, :, 3:] = -skew_matrix(r)
+    A[:, :, 3:] = -skew(r)
     normal = np.einsum("k,kia,kib->ab", weights, A, A)
     rotational = block_size == 6
     if rotational:

@@ -15,6 +15,16 @@ def read_csr(group) -> sp.csr_matrix:
                          shape=tuple(group.attrs["shape"]))
 
 
+def write_csr(h5, key: str, matrix) -> None:
+    """Store a sparse matrix as the group ``key`` with data, indices, indptr and a ``shape`` attribute."""
+    A = sp.csr_matrix(matrix)
+    group = h5.create_group(key)
+    group.create_dataset("data", data=A.data)
+    group.create_dataset("indices", data=A.indices)
+    group.create_dataset("indptr", data=A.indptr)
+    group.attrs["shape"] = A.shape
+
+
 def read_body(path) -> dict:
     """All datasets (CSR groups as scipy matrices) and attributes of a body file."""
     with read_h5_checked(path, BODY_KEYS) as h5:

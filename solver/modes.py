@@ -35,6 +35,7 @@ from petsc4py import PETSc
 from geometry.gimbal import bearing_angles, bearing_points, eccentric_mass_point
 from reduction.modal_integrals import rigid_modes
 from solver import bearings, eigen, fe
+from solver.io import write_csr
 from workflow import config as cfgmod
 from workflow.provenance import atomic_h5, versions
 
@@ -318,12 +319,7 @@ def write_body_file(path: str | Path, payload: dict, config_hash: str, wall_time
                     "bearing_points", "bearing_modes", "residuals"):
             h5.create_dataset(key, data=payload[key])
         for key in ("M", "K", "T", "bearing_operator"):
-            A = sp.csr_matrix(payload[key])
-            group = h5.create_group(key)
-            group.create_dataset("data", data=A.data)
-            group.create_dataset("indices", data=A.indices)
-            group.create_dataset("indptr", data=A.indptr)
-            group.attrs["shape"] = A.shape
+            write_csr(h5, key, payload[key])
         for key, val in payload["attrs"].items():
             h5.attrs[key] = val
         h5.attrs["config_hash"] = config_hash

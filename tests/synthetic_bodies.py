@@ -68,6 +68,8 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
+from solver.io import write_csr
+
 E_STEEL_LIKE = 3.0e8  # lbf/in^2 (the project's material)
 NU = 0.3
 RHO = 0.0026 / 12.0  # lbf s^2/in^4
@@ -531,12 +533,7 @@ def write_body_file(path, body):
                     "dof_component", "bearing_points", "bearing_modes"):
             f.create_dataset(key, data=body[key])
         for key in ("M", "K", "T", "bearing_operator"):
-            A = sp.csr_matrix(body[key])
-            g = f.create_group(key)
-            g.create_dataset("data", data=A.data)
-            g.create_dataset("indices", data=A.indices)
-            g.create_dataset("indptr", data=A.indptr)
-            g.attrs["shape"] = np.asarray(A.shape, np.int64)
+            write_csr(f, key, body[key])
         for key, value in body["attrs"].items():
             f.attrs[key] = value
     return path
