@@ -99,7 +99,10 @@ def rk4_step(rhs, t, y, yd, h):
 
 
 def rk4_steps(rhs, y, yd, t, h, n):
-    """n RK4 steps from (t, y, y'); returns (y, y')."""
+    """n RK4 steps from (t, y, y'); returns (y, y') (compiled loop when rhs has one)."""
+    compiled = getattr(rhs, "rk4_steps", None)
+    if compiled is not None:
+        return compiled(y, yd, t, h, n)
     y, yd = np.array(y, float), np.array(yd, float)
     for i in range(n):
         y, yd = rk4_step(rhs, t + i * h, y, yd, h)
@@ -175,7 +178,7 @@ class Monitor:
 
 def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None, rtol=1e-10,
               atol=1e-14, rho_inf=0.9, newton_tol=1e-10, max_newton=12, growth_factor=1e3,
-              y0=None, yd0=None, model=""):
+              y0=None, yd0=None, model="", max_step=np.inf):
     """Integrate ``problem`` (``solver.simulate.Problem``-like: rhs, residual, solve,
     energy, input_power, y0, yd0, omega_max) from t = 0 to t_end, returning outputs
     every output_dt.  See the module docstring for the methods."""
@@ -213,11 +216,15 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None,
         n_sub = max(int(np.ceil(dt_out / h_req - 1e-9)), 1)
         h = dt_out / n_sub
         rhs = problem.rhs
+        compiled = getattr(rhs, "rk4_steps", None)     # whole substep loop compiled (fast_rhs)
         steps = 0
         for k in range(1, t_out.size):
             t0 = t_out[k - 1]
-            for i in range(n_sub):
-                y, yd = rk4_step(rhs, t0 + i * h, y, yd, h)
+            if compiled is not None:
+                y, yd = compiled(y, yd, t0, h, n_sub)
+            else:
+                for i in range(n_sub):
+                    y, yd = rk4_step(rhs, t0 + i * h, y, yd, h)
             steps += n_sub
             monitor(t_out[k], y, yd, h, method)
             Y[k], V[k] = y, yd
@@ -235,7 +242,8 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None,
         atol_vec = np.full(2 * n, atol)
         for k in range(1, t_out.size):
             sol = solve_ivp(f, (t_out[k - 1], t_out[k]), z, method="DOP853", rtol=rtol,
-                            atol=atol_vec, first_step=None if step is None else step)
+                            atol=atol_vec, first_step=None if step is None else step,
+                            max_step=max_step)
             if not sol.success:
                 raise DivergenceError(f"dop853 failed at t = {sol.t[-1]:.6g} s: {sol.message}, "
                                       f"model {model!r}")
@@ -244,7 +252,7 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None,
             h = float(np.diff(sol.t).min()) if sol.t.size > 1 else h
             monitor(t_out[k], z[:n], z[n:], h, method)
             Y[k], V[k] = z[:n], z[n:]
-        stats.update(rtol=rtol, atol=atol, smallest_step=h)
+        stats.update(rtol=rtol, atol=atol, smallest_step=h, mean_step=t_end / max(steps, 1))
     else:
         h = float(step) if step is not None else dt_out
         n_sub = max(int(np.ceil(dt_out / h - 1e-9)), 1)

@@ -44,6 +44,23 @@ DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_moto
 _LOAD_RE = re.compile(r"^(input_motor|input_resolver|output_motor|output_resolver)_[fm][xyz]$")
 
 
+# The truth model's default integration (simulate --model truth without --integrator/--step/
+# --fraction): chosen so that halving the step changes every gimbal rate on scene thesis by
+# E < 1e-10 (solver.verify_dynamics; docs/dynamics.md Section 8).  A fraction of the RK4
+# stability limit 2.785 / omega_max, omega_max the coupled chain's highest frequency.
+# Measured on the real bodies (thesis, 15 ms): RK4 needs 1/8 of its stability limit (264k steps,
+# ~100 s; E(h, h/2) ~ 1e-11, E(h/4, h/2) = 2e-7 at half the limit: the top coupled modes,
+# excited by the case's sudden acceleration, are stable but their phase is not resolved), while
+# DOP853 at rtol 1e-10 runs near its larger stability limit (21k steps, 12 evaluations each) and
+# agrees with that RK4 run to E = 4e-12: the cheaper converged choice.
+TRUTH_DEFAULT = {"integrator": "dop853", "rtol": 1e-10, "atol": 1e-14}
+
+
+def truth_default():
+    """The truth model's default integrator settings (a copy of TRUTH_DEFAULT)."""
+    return dict(TRUTH_DEFAULT)
+
+
 class ModelError(ValueError):
     """A model name that cannot be built."""
 

@@ -97,8 +97,15 @@ def write_result(path, run, prob, attrs, store_modal=False):
     return path
 
 
+class _Parser(argparse.ArgumentParser):
+    """Argument errors as one line (no usage block), exit status 2."""
+
+    def error(self, message):
+        self.exit(2, f"simulate: {message} (see --help)\n")
+
+
 def main(argv=None):
-    ap = argparse.ArgumentParser(
+    ap = _Parser(
         prog="python -m solver.simulate",
         description="Simulate the elastic gimbal chain: one scene, one reduced model "
                     "(docs/dynamics.md; model grammar in solver/models.py).")
@@ -106,7 +113,8 @@ def main(argv=None):
     ap.add_argument("--model", required=True,
                     help="truth | rigid | freq-N | xmx-N | xmgmx-N | static-N | static-xmx-N | "
                          "... with N or N,N,N,N and optional @body:loadcase")
-    ap.add_argument("--integrator", default="rk4", choices=integrators.METHODS)
+    ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
+                    help="default rk4 (truth: models.TRUTH_DEFAULT, the converged setting)")
     ap.add_argument("--step", type=float, default=None, help="fixed step [s] (rk4, generalized-alpha)")
     ap.add_argument("--fraction", type=float, default=None,
                     help=f"rk4 step as a fraction of 2.785/omega_max (default "
@@ -123,6 +131,14 @@ def main(argv=None):
         scene = scenes.load_scene(args.scene)
         rankings = models.load_rankings(args.reduction_dir)
         spec = models.parse_model(args.model, rankings)
+        if args.integrator is None:
+            args.integrator = "rk4"
+            if spec.name == "truth" and args.step is None and args.fraction is None:
+                cfg = models.truth_default()
+                args.integrator, args.fraction = cfg["integrator"], cfg.get("fraction")
+                args.rtol, args.atol = cfg.get("rtol", args.rtol), cfg.get("atol", args.atol)
+        if args.fraction is not None and not (np.isfinite(args.fraction) and args.fraction > 0):
+            raise ValueError(f"--fraction must be a positive number, got {args.fraction}")
         if args.step is not None and not (np.isfinite(args.step) and args.step > 0):
             raise ValueError(f"--step must be a positive number, got {args.step}")
         body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))

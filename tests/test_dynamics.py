@@ -160,7 +160,7 @@ def test_dop853_agrees_with_rk4():
 def test_rk4_step_beyond_limit_is_refused():
     chain, _ = synthetic_chain(seed=1, omega_max=1e3)
     prob = multibody.Problem(chain)
-    limit = integrators.rk4_stability_limit(chain.omega_max)
+    limit = integrators.rk4_stability_limit(prob.omega_max)
     with pytest.raises(integrators.StepTooLargeError, match="exceeds the stability limit"):
         integrators.integrate(prob, 0.01, 0.001, method="rk4", step=1.01 * limit, model="m")
 
@@ -204,3 +204,58 @@ def test_step_halving_convergence_check_on_synthetic_thesis_scene():
     chain, _ = synthetic_chain(seed=10, omega_max=2e4)
     assert_checks(dc.step_halving_convergence("synthetic thesis", _thesis_like(chain), 0.015, 1e-4,
                                               step=1.5e-6))
+
+
+def test_coupled_frequencies_match_dense_pencil():
+    """coupled_frequencies (Schur complement on the free joints) = the finite generalised
+    eigenvalues of the full pencil (K, M(y)), K = diag(0_4, Omega^2)."""
+    import scipy.linalg
+    chain, _ = synthetic_chain(seed=4, omega_max=400.0)
+    rng = np.random.default_rng(3)
+    y = np.concatenate([rng.uniform(-3, 3, 4), 1e-3 * rng.normal(size=chain.n_coordinates - 4)])
+    M = multibody.mass_matrix(chain, y)
+    lam = scipy.linalg.eigh(np.diag(chain.stiffness_diagonal()), M, eigvals_only=True)
+    w = multibody.coupled_frequencies(chain, y)
+    assert np.allclose(np.sort(np.sqrt(np.maximum(lam, 0)))[4:], w, rtol=1e-9)
+    # the joints' freedom raises the highest frequency above the largest kept modal one
+    assert w[-1] > 1.5 * chain.omega_max
+
+
+@needs_numba
+def test_rk4_limit_from_coupled_frequency_regression():
+    """The real-data divergence (docs/dynamics.md Section 6): RK4 at 0.9 x 2.785 / (largest kept
+    modal frequency) blows up because the coupled chain's top frequency is higher; at 0.9 x the
+    coupled limit it is stable."""
+    chain, _ = synthetic_chain(seed=4, omega_max=400.0)
+    y0, yd0 = free_state(chain)
+    prob = multibody.Problem(chain, y0=y0, yd0=yd0)
+    assert prob.omega_max > 2 * prob.modal_omega_max
+    old = 0.9 * integrators.rk4_stability_limit(prob.modal_omega_max)
+    with pytest.raises(integrators.StepTooLargeError):
+        integrators.integrate(prob, 0.5, 0.01, method="rk4", step=old)
+    prob_old = multibody.Problem(chain, y0=y0, yd0=yd0, omega_max=prob.modal_omega_max)
+    with pytest.raises(integrators.DivergenceError):
+        integrators.integrate(prob_old, 0.5, 0.01, method="rk4", step=old)
+    run = integrators.integrate(prob, 0.5, 0.01, method="rk4", fraction=0.9)
+    E = [prob.energy(t, y, v) for t, y, v in zip(run.t, run.y, run.yd)]
+    assert abs(E[-1] - E[0]) < 1e-6 * E[0]
+
+
+@needs_numba
+def test_compiled_rk4_loop_energy_and_case_power_match_reference():
+    chain, _ = synthetic_chain(seed=4, damping_ratio=0.01)
+    case = multibody.CaseMotion(amplitude=(1.0, 0.3, -0.2), frequency=(2.0, 1.0, 0.0),
+                                omega0=(0.1, 0.0, 0.2))
+    torque = (0.1, 0.0, -0.2, 0.05)
+    fast = multibody.Problem(chain, case=case, torque=torque)
+    ref = multibody.Problem(chain, case=case, torque=torque, fast=False)
+    assert hasattr(fast.rhs, "rk4_steps") and not hasattr(ref.rhs, "rk4_steps")
+    rng = np.random.default_rng(0)
+    n = chain.n_coordinates
+    y = np.concatenate([rng.uniform(-3, 3, 4), 0.02 * rng.normal(size=n - 4)])
+    yd = rng.normal(size=n)
+    a = fast.rhs.rk4_steps(y, yd, 0.1, 1e-4, 20)
+    b = integrators.rk4_steps(ref.rhs, y, yd, 0.1, 1e-4, 20)
+    assert dc.relative_difference(a[0], b[0]) < 1e-12 and dc.relative_difference(a[1], b[1]) < 1e-12
+    assert fast.energy(0.3, y, yd) == pytest.approx(ref.energy(0.3, y, yd), rel=1e-12)
+    assert fast.input_power(0.3, y, yd) == pytest.approx(ref.input_power(0.3, y, yd), rel=1e-10)
