@@ -339,10 +339,13 @@ def _methods_section(ctx):
     else:
         out.append(note(ctx["missing"].get("reduction", "reduction.json")))
     out.append("== Static correction modes\n\n"
-               "A static correction mode is the body's static deflection under a unit load at a "
-               "bearing, with the supports of the modal analysis, made mass-orthogonal to the kept "
-               "vibration modes (eq 3.48): $phi_s = (I - Phi Phi^T M) G f$, $G$ the supported "
-               "flexibility. It represents the quasi-static part of the truncated modes. The default "
+               "A static correction mode is the part of the body's static deflection under a unit "
+               "load at a bearing that the kept vibration modes miss (eq 3.48): "
+               "$phi_s = (G - Phi Lambda^(-1) Phi^T) F$, with $G$ the flexibility of the supported "
+               "body, $Phi$ and $Lambda$ the kept modes and eigenvalues, and $F$ the unit load applied "
+               "through the bearing operator; it is made exactly mass-orthogonal to the kept modes "
+               "and normalised to unit modal mass (docs/reduction.md). It represents the "
+               "quasi-static response of the truncated modes. The default "
                "load case is a z-force at the output motor bearing (thesis Figure 4-12); the seven "
                "load cases of Figs 4-21 to 4-27 are " +
                ", ".join(s(c) for c, _ in study.LOAD_CASES) + ".\n\n")
