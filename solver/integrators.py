@@ -3,14 +3,18 @@
 Three methods, one interface (``integrate``):
 
 * ``rk4``: the classical fixed-step fourth-order Runge-Kutta method, as the
-  thesis used.  Explicit, so its step is bounded by the highest kept
-  frequency: on the imaginary axis (undamped modes) RK4 is stable for
+  thesis used.  Explicit, so its step is bounded by the highest frequency
+  of the chain: on the imaginary axis (undamped modes) RK4 is stable for
   h Omega <= 2 sqrt 2 = 2.83 and on the real axis for h|lambda| <= 2.785; the
   project uses the smaller, 2.785 / omega_max, as the limit (it also covers
-  lightly damped modes).  omega_max is the largest kept modal frequency,
-  static modes' Rayleigh frequencies included.  The chain's true coupled
-  frequencies are lower (the rest of the chain only adds inertia to each
-  modal block), so the bound is safe.  Default step: ``RK4_DEFAULT_FRACTION``
+  lightly damped modes).  omega_max is ``problem.omega_max``: the highest
+  frequency of the coupled chain linearised at the initial state
+  (``multibody.coupled_omega_max``).  It is NOT the largest kept modal
+  frequency: the free joint angles remove inertia from the modal blocks
+  (the modes carry momentum about the drive axes), which raises the coupled
+  frequencies above the kept ones -- by 1.5-3x on the real bodies, which made
+  RK4 at half the old "limit" diverge (docs/dynamics.md Section 6).
+  Default step: ``RK4_DEFAULT_FRACTION``
   of the limit; a step beyond the limit is refused.
 * ``dop853``: scipy's embedded Dormand-Prince 8(5,3) with error control.  A
   home-made Dormand-Prince 5(4) would add code without adding anything:

@@ -668,7 +668,7 @@ class Problem:
         n = chain.n_coordinates
         self.y0 = np.zeros(n) if y0 is None else np.asarray(y0, float)
         self.yd0 = np.zeros(n) if yd0 is None else np.asarray(yd0, float)
-        self.rhs = integrators.make_rhs(chain, self.case, self._torque, fast=fast)
+        self.rhs = integrators.make_rhs(chain, self.case, torque, fast=fast)   # constant: compiled RK4 loop
         self.modal_omega_max = chain.omega_max            # largest kept modal frequency
         # the integrators' stability bound: the coupled chain's highest frequency
         self.omega_max = coupled_omega_max(chain, self.y0) if omega_max is None else float(omega_max)
