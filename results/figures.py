@@ -29,7 +29,6 @@ the manifest lists what was made.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import re
 import sys
@@ -196,7 +195,7 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal")
         ax.set_yscale("log")
         ax.set_xlabel("wall time of the simulation [s]")
         ax.set_ylabel(f"E of {study.RATE_LABELS[2]} [-]")
-        ax.legend(fontsize=7, loc="best")
+        ax.legend(fontsize=6, loc="best", framealpha=0.8)
         ax.set_title("Run time against error (eq 3.53)")
         return save(fig, stem)
 
