@@ -15,6 +15,7 @@ include: "workflow/rules/modes.smk"
 include: "workflow/rules/verification.smk"
 include: "workflow/rules/reduction.smk"
 include: "workflow/rules/dynamics.smk"
+include: "workflow/rules/results.smk"
 
 
 rule all:

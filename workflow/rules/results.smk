@@ -1,0 +1,88 @@
+# Stage 5: the thesis study on the `thesis` scene, error tables, findings, figures and the PDF report.
+STUDY_MODELS = importlib.import_module("results.study").study_models()
+RESULTS_CODE = COMMON_CODE + ["results/study.py", "results/errors.py", "results/findings.py",
+                              "results/figures.py", "results/report.py"]
+STUDY_SIMS = expand("results/sim/thesis/{model}.h5", model=STUDY_MODELS)
+TRUTH = "results/sim/thesis/truth.h5"
+
+
+rule study:
+    input:
+        TRUTH,
+        STUDY_SIMS,
+
+
+rule error_tables:
+    input:
+        RESULTS_CODE,
+        truth=TRUTH,
+        cases=STUDY_SIMS,
+    output:
+        ranking="results/tables/errors_ranking.csv",
+        static="results/tables/errors_static.csv",
+    log:
+        "logs/results/error_tables.log",
+    shell:
+        "{PY} -m results.errors --truth {input.truth} --cases {input.cases} "
+        "--ranking-table {output.ranking} --static-table {output.static} > {log} 2>&1"
+
+
+rule findings:
+    input:
+        RESULTS_CODE,
+        ranking="results/tables/errors_ranking.csv",
+        static="results/tables/errors_static.csv",
+        reduction="results/verification/reduction.json",
+    output:
+        csv="results/tables/findings.csv",
+        json="results/tables/findings.json",
+    log:
+        "logs/results/findings.log",
+    shell:
+        "{PY} -m results.findings --ranking-table {input.ranking} --static-table {input.static} "
+        "--reduction {input.reduction} --csv {output.csv} --json {output.json} > {log} 2>&1"
+
+
+rule study_figures:
+    input:
+        RESULTS_CODE,
+        truth=TRUTH,
+        cases=STUDY_SIMS,
+        ranking="results/tables/errors_ranking.csv",
+        static="results/tables/errors_static.csv",
+    output:
+        "results/figures/study/figures.json",
+    log:
+        "logs/results/figures.log",
+    benchmark:
+        "results/benchmarks/rules/study_figures.tsv"
+    shell:
+        "MPLBACKEND=Agg {PY} -m results.figures --truth {input.truth} --cases {input.cases} "
+        "--ranking-table {input.ranking} --static-table {input.static} --out-dir results/figures/study "
+        "> {log} 2>&1"
+
+
+rule report:
+    input:
+        RESULTS_CODE,
+        "config/config.yaml",
+        "config/scenes/thesis.yaml",
+        rules.mode_shapes.input,
+        truth=TRUTH,
+        ranking="results/tables/errors_ranking.csv",
+        static="results/tables/errors_static.csv",
+        findings="results/tables/findings.json",
+        figures="results/figures/study/figures.json",
+        fe="results/verification/fe.json",
+        modes="results/benchmarks/modes.json",
+        reduction="results/verification/reduction.json",
+    output:
+        "results/report/report.pdf",
+    log:
+        "logs/results/report.log",
+    shell:
+        "{PY} -m results.report --ranking-table {input.ranking} --static-table {input.static} "
+        "--findings {input.findings} --figures-dir results/figures/study --fe {input.fe} "
+        "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
+        "--config {CONFIG} --scene config/scenes/thesis.yaml --mode-shapes-dir results/figures "
+        "--out {output} > {log} 2>&1"
