@@ -199,7 +199,8 @@ def _bracket(w, xi):
 
 
 # ------------------------------------------------------------------ kernels
-@numba.njit(cache=True, fastmath=True)
+# Reassociation only (no "no-NaN/no-Inf" assumptions: a diverging state must stay visible).
+@numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})
 def _coriolis_pass(G2, q, qd, om):
     """Contractions of body k's G (D, 3, D), stored flat as (D, 3D) rows, in ONE pass:
     hq = q^T G (3D,), hqd = q'^T G (3D,) and gq = G wq (D,) with wq = omega (x) q'.

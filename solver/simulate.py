@@ -90,6 +90,7 @@ def write_result(path, run, prob, attrs, store_modal=False):
                 f.attrs[k] = v
             for k, v in run.stats.items():
                 f.attrs[f"stat_{k}"] = v
+        os.chmod(tmp, 0o644)            # mkstemp creates 0600
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -171,7 +172,11 @@ def main(argv=None):
              "n_modes": np.array(chain.n_modes), "units": "in, lbf, s, rad",
              "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
     write_result(path, run, prob, attrs, args.store_modal)
-    print(f"simulate: {path}: {run.steps} {run.method} steps of {run.step:.3e} s in {wall:.2f} s")
+    what = (f"(mean step {scene.duration / max(run.steps, 1):.3e} s)" if run.method == "dop853"
+            else f"of {run.step:.3e} s")
+    print(f"simulate: {path}: {run.steps} {run.method} steps {what} in {wall:.2f} s "
+          f"(coupled omega_max {prob.omega_max:.4g} rad/s, RK4 limit "
+          f"{integrators.rk4_stability_limit(prob.omega_max):.3e} s)")
     return 0
 
 
