@@ -6,6 +6,8 @@
 #   snakemake --cores 2 verify_fe  finite-element verification (results/verification/fe.json)
 #   snakemake --cores 2 reduction  momentum coefficients, rankings, static modes per body
 #   snakemake --cores 2 results/sim/thesis/freq-10.h5   any scene and reduced model, on request
+#   snakemake --cores 2 study      the thesis study: truth + every reduced case on the thesis scene
+#   snakemake --cores 2 report     error tables, findings, figures and results/report/report.pdf
 configfile: "config/config.yaml"
 
 
@@ -26,4 +28,6 @@ rule all:
         "results/verification/fe.json",
         rules.reduction.input,
         rules.reduction_report.output,
+        rules.dynamics.input,
+        "results/report/report.pdf",
     default_target: True

@@ -397,6 +397,8 @@ def inside_frame_motion(bearing_motion, bearing_points, motor=2, resolver=3):
       its resolver holds it, so the next body follows the resolver along e.
     * ``stretch`` (...,): e . (u_m - u_r), the elastic change of the bearing
       distance (thesis outDiam minus the nominal distance).
+    * ``origin_translation`` (..., 3): the frame's translation at the body
+      origin, ``u_r - theta x p_r`` (the multibody equations' Psi).
 
     For a rigid motion u(p) = t + w x p, th = w: theta = w and
     psi = psi_midpoint = t + w x (p_m + p_r) / 2, stretch = 0.
@@ -421,8 +423,11 @@ def inside_frame_motion(bearing_motion, bearing_points, motor=2, resolver=3):
     psi_mid = 0.5 * (u_m + u_r)
     stretch = (u_m - u_r) @ e
     psi = psi_mid - 0.5 * stretch[..., None] * e
+    # the frame's translation at the body origin: the rigid motion t + theta x p that
+    # matches the resolver (equal to psi when the bearings' midpoint is the origin)
+    origin = u_r - np.cross(theta, points[resolver])
     return {"psi": psi, "theta": theta, "psi_midpoint": psi_mid, "stretch": stretch,
-            "axis": e, "distance": d}
+            "origin_translation": origin, "axis": e, "distance": d}
 
 
 def check_mode_count(n, available, what="modes"):
@@ -430,3 +435,163 @@ def check_mode_count(n, available, what="modes"):
     if int(n) != n or n < 0 or n > available:
         raise ModeCountError(f"{what}: asked for {n}, only {available} computed")
     return int(n)
+
+
+# ---------------------------------------------------------------------------
+# The further modal integrals of the multibody equations (docs/dynamics.md)
+# ---------------------------------------------------------------------------
+"""The multibody equations' modal integrals (beyond P, H and X^T M X).
+
+Everything here is a pure function of one body's finite-element data (the
+contract of ``docs/body-data.md``) and serves every body alike (rings with
+shell DOFs, the solid platform with translations only).  The derivation that
+says *why* these integrals and no others is ``docs/dynamics.md``; the symbols
+below are the ones used there.
+
+Notation (units in, lbf, s; mass lbf s^2/in):
+
+* ``ndof`` FE DOFs, grouped in 3-blocks: the translation (u_x, u_y, u_z) or the
+  rotation (th_x, th_y, th_z) of one node (``dof_coords``, ``dof_component``).
+* ``M`` (ndof, ndof): the consistent (not lumped) free mass matrix, CSR.
+* ``X`` (ndof, 6): rigid modes, unit translations then unit rotations about
+  the body origin (``rigid_modes``); ``X w`` is the nodal motion of the rigid
+  twist ``w = [v; omega]``.
+* ``Phi`` (ndof, D): the kept modes, M-orthonormal (``Phi^T M Phi = I``).
+* ``Ut[:, b, i]`` (ndof, 3, D): the *rotation action* of mode i: the nodal
+  vector ``Ut[:, :, i] @ omega`` holds, in every 3-block, ``omega x phi_i`` (the
+  block of mode i turned by the frame rotation omega).  Whether rotation blocks
+  take part is ``rotate_rotation_blocks`` (default True, see below).
+
+Modal integrals of one body (all from M, X, Phi; nothing lumped):
+
+=====================  ==========  ===========================================
+name                   shape       definition
+=====================  ==========  ===========================================
+``rigid_mass``         (6, 6)      ``X^T M X`` = [[m I, -skew(c)], [skew(c), J]]
+``momentum``           (6, D)      ``X^T M Phi`` = [P; H] (thesis eq 3.11)
+``inertia_gradient``   (D, 6, 6)   ``dM_X/dq_i`` = [[0, Y_iv^T], [Y_iv, Y_iw + Y_iw^T]],
+                                   ``Y_i = Ut_i^T M X`` (3, 6) = [Y_iv | Y_iw]
+``coriolis``           (D, 3, D)   ``G_j = Ut_j^T M Phi``: ``coriolis[j, :, i]``
+=====================  ==========  ===========================================
+
+For a lumped, isotropic translational mass these reduce to the familiar
+invariants: ``Y_iv = skew(P_i)``, ``Y_iw = -sum_k m_k skew(phi_ik) skew(r_k)``
+and ``G_j[:, i] = sum_k m_k phi_jk x phi_ik``; with a consistent mass the
+sums run over every pair of coupled nodes, which the matrix products do.
+
+How the frame rotation acts on rotation blocks (``rotate_rotation_blocks``):
+the body's kinetic energy is built from each 3-block's velocity seen in the
+rotating body frame.  A translation block moves with the node: its velocity
+is ``v + omega x (r + u) + du/dt``.  A rotation block carries the node's
+rotary inertia (shells: rho t^3/12 about the two in-surface axes, none about
+the drilling axis): the node's triad is turned by the small rotation theta,
+so its angular velocity in the node's own axes is
+``E(theta)^T (omega + dtheta/dt) = omega + dtheta/dt + omega x theta`` to first
+order, and it is in the node's own axes that the FE rotary inertia (with its
+massless drilling direction) is constant.  So the frame rotation acts on every
+3-block alike: "each 3-block is a vector rotated with the body" (default).
+``rotate_rotation_blocks=False`` keeps the rotary inertia fixed in the body
+axes instead (omega acts on translation blocks only); the two differ by
+terms of relative size (t^2/12)/r^2 * theta, ~1e-3 of an already first-order
+term, and both give the same X^T M X, P and H.
+"""
+
+# Levi-Civita symbol as the list of its non-zero entries (a, b, c, sign):
+# (omega x phi)_a = sum_{b,c} eps_abc omega_b phi_c.
+_EPSILON = ((0, 1, 2, 1.0), (0, 2, 1, -1.0), (1, 2, 0, 1.0),
+            (1, 0, 2, -1.0), (2, 0, 1, 1.0), (2, 1, 0, -1.0))
+
+
+def dof_blocks(dof_coords, dof_component, decimals=9):
+    """Sibling table of the 3-blocks: siblings (ndof, 3) int, siblings[d, c] is the
+    DOF of the same node and kind (translation/rotation) as d with axis c
+    (-1 if the FE model has no such DOF, which makes that component zero)."""
+    coords = np.round(np.asarray(dof_coords, float), decimals)
+    comp = np.asarray(dof_component, int)
+    if comp.min(initial=0) < 0 or comp.max(initial=0) > 5:
+        raise ValueError("dof_component must lie in 0..5")
+    _, node = np.unique(coords, axis=0, return_inverse=True)
+    node = node.ravel()
+    block = 2 * node + comp // 3            # one id per (node, kind)
+    table = -np.ones((2 * (node.max() + 1), 3), dtype=int)
+    table[block, comp % 3] = np.arange(comp.size)
+    if np.unique(block * 3 + comp % 3).size != comp.size:
+        raise ValueError("two DOFs share the same node, kind and axis")
+    return table[block]
+
+
+def rotation_action(modes, dof_coords, dof_component, rotate_rotation_blocks=True):
+    """Ut (ndof, 3, D): ``Ut[:, :, i] @ omega`` is ``omega x phi_i`` in every 3-block.
+
+    modes (ndof, D) [in/sqrt(mass)]; rotation blocks take part unless
+    ``rotate_rotation_blocks`` is False (module docstring)."""
+    Phi = np.asarray(modes, float)
+    if Phi.ndim == 1:
+        Phi = Phi[:, None]
+    comp = np.asarray(dof_component, int)
+    siblings = dof_blocks(dof_coords, comp)
+    axis = comp % 3
+    active = np.ones(comp.size, bool) if rotate_rotation_blocks else comp < 3
+    padded = np.vstack([Phi, np.zeros((1, Phi.shape[1]))])    # index -1 -> zero row
+    Ut = np.zeros((comp.size, 3, Phi.shape[1]))
+    for a, b, c, sign in _EPSILON:          # (omega x phi)_a = eps_abc omega_b phi_c
+        rows = np.flatnonzero(active & (axis == a))
+        Ut[rows, b, :] += sign * padded[siblings[rows, c]]
+    return Ut
+
+
+def inertia_gradient(M, X, Ut):
+    """dM_X/dq_i (D, 6, 6) with M_X(q) = X^T M X + sum_i q_i dM_X/dq_i.
+
+    From the energy term omega . (sum_i q_i Y_i) w, Y_i = Ut_i^T M X (3, 6):
+    its symmetric 6x6 form is [[0, Y_iv^T], [Y_iv, Y_iw + Y_iw^T]]."""
+    MX = np.asarray(M @ X)
+    Y = np.einsum("dbi,dk->ibk", Ut, MX)                 # (D, 3, 6)
+    D = Ut.shape[2]
+    grad = np.zeros((D, 6, 6))
+    grad[:, 3:, :3] = Y[:, :, :3]
+    grad[:, :3, 3:] = np.transpose(Y[:, :, :3], (0, 2, 1))
+    grad[:, 3:, 3:] = Y[:, :, 3:] + np.transpose(Y[:, :, 3:], (0, 2, 1))
+    return grad
+
+
+def coriolis_coefficients(M, modes, Ut):
+    """G (D, 3, D), G[j, :, i] = (Ut_j^T M phi_i): the energy term
+    omega . (sum_j q_j G_j) dq/dt couples the modes through the frame rotation
+    (the modal gyroscopic coupling; antisymmetric in i, j for isotropic mass)."""
+    ndof, _, D = Ut.shape
+    MPhi = np.asarray(M @ modes)
+    G = Ut.reshape(ndof, 3 * D).T @ MPhi                  # ((b, j), i)
+    return np.ascontiguousarray(G.reshape(3, D, D).transpose(1, 0, 2))
+
+
+def chain_integrals(M, modes, rigid_modes, dof_coords, dof_component, bearing_modes=None,
+                    bearing_points=None, rotate_rotation_blocks=True):
+    """Every modal integral the multibody equations need, for one body.
+
+    M (ndof, ndof) CSR consistent mass; modes (ndof, D) M-orthonormal;
+    rigid_modes (ndof, 6); dof_coords (ndof, 3); dof_component (ndof,);
+    bearing_modes (D, 4, 6) and bearing_points (4, 3) give the inside frame
+    (omit them, or give NaN output bearings, for the terminal body).
+    Returns a dict of arrays: rigid_mass (6, 6), momentum (6, D) = [P; H],
+    inertia_gradient (D, 6, 6), coriolis (D, 3, D), and, if the body has
+    output bearings, inside_translation (3, D) (the inside frame's elastic
+    translation at the body origin) and inside_rotation (3, D).
+    """
+    M = sp.csr_matrix(M)
+    Phi = np.asarray(modes, float)
+    X = np.asarray(rigid_modes, float)
+    Ut = rotation_action(Phi, dof_coords, dof_component, rotate_rotation_blocks)
+    out = {
+        "rigid_mass": rigid_mass(M, X),
+        "momentum": np.vstack(momentum_coefficients(M, X, Phi)),
+        "inertia_gradient": inertia_gradient(M, X, Ut),
+        "coriolis": coriolis_coefficients(M, Phi, Ut),
+    }
+    if bearing_points is not None and bearing_modes is not None:
+        pts = np.asarray(bearing_points, float)
+        if np.all(np.isfinite(pts[[2, 3]])):
+            frame = inside_frame_motion(bearing_modes, pts)
+            out["inside_translation"] = np.ascontiguousarray(frame["origin_translation"].T)
+            out["inside_rotation"] = np.ascontiguousarray(frame["theta"].T)
+    return out

@@ -155,7 +155,7 @@ def rigid_motor_spin_up(name, inertias, torque=2.0, t_end=1.0, tol=1e-10):
     whose drive axis x_4 = z_3 = -x_2 is parallel, feel no torque about it and stay at
     rest.  So gamma_1'' = tau / (J2_xx + J3_zz), gamma_3' = gamma_1', gamma_2' = gamma_4' = 0.
     inertias: 4 tuples (m, Jxx, Jyy, Jzz)."""
-    from solver.body_model import skew  # noqa: F401  (documentation of the frame algebra)
+    from reduction.modal_integrals import skew  # noqa: F401  (documentation of the frame algebra)
     bodies = []
     for number, (m, jx, jy, jz) in zip((2, 3, 4, 5), inertias):
         Mr = np.diag([m, m, m, jx, jy, jz]).astype(float)

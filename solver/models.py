@@ -209,7 +209,8 @@ def static_modes_for(data, load_cases, kept_modes, kept_eigenvalues):
 
 def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rotation_blocks=True):
     """multibody.Body of one body: kept vibration modes plus static correction modes."""
-    from solver import body_model, multibody
+    from reduction import modal_integrals
+    from solver import multibody
     kept = np.asarray(kept, dtype=int)
     Phi = np.asarray(data["modes"])[:, kept]
     lam = np.asarray(data["eigenvalues"])[kept]
@@ -222,7 +223,7 @@ def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rota
         labels += [f"static {c}" for c in load_cases]
         bm_s = np.asarray(data["bearing_operator"] @ S).T.reshape(S.shape[1], 4, 6)
         bearing_modes = np.concatenate([bearing_modes, bm_s])
-    integ = body_model.modal_integrals(data["M"], Phi, data["rigid_modes"], data["dof_coords"],
+    integ = modal_integrals.chain_integrals(data["M"], Phi, data["rigid_modes"], data["dof_coords"],
                                        data["dof_component"], bearing_modes, data["bearing_points"],
                                        rotate_rotation_blocks=rotate_rotation_blocks)
     return multibody.make_body(number, integ, lam, damping_ratio, labels)

@@ -68,7 +68,7 @@ def rot_z(a):
 
 @dataclass(frozen=True)
 class Body:
-    """Modal data of one elastic body (``solver.body_model.modal_integrals``).
+    """Modal data of one elastic body (``reduction.modal_integrals.chain_integrals``).
 
     rigid_mass (6, 6); momentum (6, D) = [P; H]; inertia_gradient (D, 6, 6);
     coriolis (D, 3, D); omega2 (D,) modal stiffness [(rad/s)^2]; damping (D,)

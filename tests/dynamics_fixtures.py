@@ -22,7 +22,8 @@ and gets M(y) and f(y, y', t) by automatic differentiation of L.
 import numpy as np
 import scipy.linalg
 
-from solver import body_model, multibody
+from reduction import modal_integrals
+from solver import multibody
 
 MOTOR_SIGN = {2: 1.0, 3: 1.0, 4: -1.0, 5: 1.0}           # thesis Table 2.2
 HALF_OUTER = {2: 3.625, 3: 3.125, 4: 2.625, 5: 1.935}    # half bearing distances [in]
@@ -50,7 +51,7 @@ def rigid_fit_operator(node_pos, center):
     rows = []
     for p in node_pos:
         d = p - center
-        rows.append(np.hstack([np.eye(3), -body_model.skew(d)]))   # u + theta x d
+        rows.append(np.hstack([np.eye(3), -modal_integrals.skew(d)]))   # u + theta x d
     A = np.vstack(rows)
     return np.linalg.pinv(A)
 
@@ -94,7 +95,7 @@ def synthetic_body(rng, number, n_nodes=6, rotations=False, consistent=False, n_
                 M[i, j] += c / 2
                 M[j, i] += c / 2
     M = 0.5 * (M + M.T)
-    X = body_model.rigid_modes(dof_coords, dof_component)
+    X = modal_integrals.rigid_modes(dof_coords, dof_component)
     # free stiffness with null space = rigid motions
     P = np.eye(ndof) - X @ np.linalg.pinv(X)
     B = rng.normal(size=(ndof, ndof))
@@ -133,7 +134,7 @@ def synthetic_body(rng, number, n_nodes=6, rotations=False, consistent=False, n_
 
 def chain_body(data, damping_ratio=0.0, rotate_rotation_blocks=True):
     """multibody.Body from a synthetic body dict (the production path)."""
-    integ = body_model.modal_integrals(
+    integ = modal_integrals.chain_integrals(
         data["M"], data["modes"], data["rigid_modes"], data["dof_coords"], data["dof_component"],
         data["bearing_modes"], data["bearing_points"], rotate_rotation_blocks=rotate_rotation_blocks)
     return multibody.make_body(data["number"], integ, data["eigenvalues"], damping_ratio)
@@ -154,8 +155,8 @@ def rigid_body(number, mass, inertia_diag, com=(0.0, 0.0, 0.0)):
     c = np.asarray(com, float)
     Mr = np.zeros((6, 6))
     Mr[:3, :3] = mass * np.eye(3)
-    Mr[3:, :3] = mass * body_model.skew(c)
-    Mr[:3, 3:] = -mass * body_model.skew(c)
+    Mr[3:, :3] = mass * modal_integrals.skew(c)
+    Mr[:3, 3:] = -mass * modal_integrals.skew(c)
     Mr[3:, 3:] = np.diag(inertia_diag)
     integ = {"rigid_mass": Mr, "momentum": np.zeros((6, 0)),
              "inertia_gradient": np.zeros((0, 6, 6)), "coriolis": np.zeros((0, 3, 0)),

@@ -1,7 +1,6 @@
 # Stage 4: the flexible multibody simulation of the gimbal chain, any scene and reduced model.
-DYNAMICS_CODE = COMMON_CODE + [str(p) for p in Path("solver").glob("*.py")
-                               if p.name in ("body_model.py", "multibody.py", "fast_rhs.py", "integrators.py",
-                                             "scenes.py", "models.py", "simulate.py", "dynamics_checks.py")]
+DYNAMICS_CODE = REDUCTION_CODE + [f"solver/{name}.py" for name in (
+    "multibody", "fast_rhs", "integrators", "scenes", "models", "simulate", "dynamics_checks", "verify_dynamics")]
 
 wildcard_constraints:
     scene="[A-Za-z0-9_-]+",
