@@ -7,6 +7,7 @@ workflow stage calls the same functions on the real bodies.
 
 import numpy as np
 
+from results.errors import error_measure  # thesis eq. 3.53, one definition
 from solver import integrators, multibody
 
 
@@ -47,69 +48,49 @@ def _rk4_step(chain, y0, fraction):
     return fraction * integrators.rk4_stability_limit(w) if w > 0 else 1e-3
 
 
-def energy_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
-    """Scene with the case at rest and no torques: RK4 at ``fraction`` of its stability
-    limit for n_steps; max |E(t) - E(0)| / E(0) with E = T + U."""
+def _rk4_drift(chain, y0, yd0, quantities, n_steps, fraction, chunks=20):
+    """Largest relative change of each ``quantity(y, yd)`` over n_steps RK4 steps at
+    ``fraction`` of the stability limit, sampled every n_steps / chunks steps."""
     rhs = integrators.make_rhs(chain)
     h = _rk4_step(chain, y0, fraction)
-    E0 = multibody.kinetic_energy(chain, y0, yd0) + multibody.potential_energy(chain, y0)
-    worst = 0.0
-    chunks = 20
+    start = [q(y0, yd0) for q in quantities]
+    worst = [0.0] * len(quantities)
     y, yd = np.array(y0, float), np.array(yd0, float)
     t = 0.0
     for _ in range(chunks):
         y, yd = integrators.rk4_steps(rhs, y, yd, t, h, n_steps // chunks)
         t += h * (n_steps // chunks)
-        E = multibody.kinetic_energy(chain, y, yd) + multibody.potential_energy(chain, y)
-        worst = max(worst, abs(E - E0) / abs(E0))
+        worst = [max(w, abs(q(y, yd) - q0) / abs(q0)) for w, q, q0 in zip(worst, quantities, start)]
+    return worst
+
+
+def _energy(chain):
+    return lambda y, yd: multibody.kinetic_energy(chain, y, yd) + multibody.potential_energy(chain, y)
+
+
+def _axial_momentum(chain):
+    return lambda y, yd: multibody.generalized_momentum(chain, y, yd)[0]
+
+
+def energy_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
+    """Scene with the case at rest and no torques: RK4 at ``fraction`` of its stability
+    limit for n_steps; max |E(t) - E(0)| / E(0) with E = T + U."""
+    (worst,) = _rk4_drift(chain, y0, yd0, [_energy(chain)], n_steps, fraction)
     return check(f"{name}: energy drift over {n_steps} RK4 steps (h = {fraction} x limit)", worst, tol)
-
-
-def error_measure(t, response, reference):
-    """Thesis eq. 3.53: E = int e^2 dt / int r^2 dt, e = response - reference (trapezoid rule).
-    response, reference (T,) or (T, k) -> float or (k,)."""
-    t = np.asarray(t, float)
-    x = np.asarray(response, float)
-    r = np.asarray(reference, float)
-    num = np.trapz((x - r) ** 2, t, axis=0)
-    den = np.trapz(r ** 2, t, axis=0)
-    return num / np.where(den > 0, den, 1.0)
 
 
 def momentum_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
     """Case at rest: the momentum conjugate to gamma_1 (angular momentum of bodies 2-5
     about the outer drive axis) over n_steps RK4 steps; max relative drift."""
-    rhs = integrators.make_rhs(chain)
-    h = _rk4_step(chain, y0, fraction)
-    p0 = multibody.generalized_momentum(chain, y0, yd0)[0]
-    worst = 0.0
-    chunks = 20
-    y, yd = np.array(y0, float), np.array(yd0, float)
-    t = 0.0
-    for _ in range(chunks):
-        y, yd = integrators.rk4_steps(rhs, y, yd, t, h, n_steps // chunks)
-        t += h * (n_steps // chunks)
-        p = multibody.generalized_momentum(chain, y, yd)[0]
-        worst = max(worst, abs(p - p0) / abs(p0))
+    (worst,) = _rk4_drift(chain, y0, yd0, [_axial_momentum(chain)], n_steps, fraction)
     return check(f"{name}: axial angular momentum drift over {n_steps} RK4 steps", worst, tol)
+
+
 
 
 def conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
     """Energy and axial angular momentum drift from one RK4 run (case at rest)."""
-    rhs = integrators.make_rhs(chain)
-    h = _rk4_step(chain, y0, fraction)
-    E = lambda y, yd: multibody.kinetic_energy(chain, y, yd) + multibody.potential_energy(chain, y)
-    E0 = E(y0, yd0)
-    p0 = multibody.generalized_momentum(chain, y0, yd0)[0]
-    dE = dp = 0.0
-    chunks = 20
-    y, yd = np.array(y0, float), np.array(yd0, float)
-    t = 0.0
-    for _ in range(chunks):
-        y, yd = integrators.rk4_steps(rhs, y, yd, t, h, n_steps // chunks)
-        t += h * (n_steps // chunks)
-        dE = max(dE, abs(E(y, yd) - E0) / abs(E0))
-        dp = max(dp, abs(multibody.generalized_momentum(chain, y, yd)[0] - p0) / abs(p0))
+    dE, dp = _rk4_drift(chain, y0, yd0, [_energy(chain), _axial_momentum(chain)], n_steps, fraction)
     what = f"over {n_steps} RK4 steps at {fraction} x stability limit"
     return [check(f"{name}: energy drift {what}", dE, tol),
             check(f"{name}: axial angular momentum drift {what}", dp, tol)]
@@ -178,6 +159,6 @@ def step_halving_convergence(name, problem, t_end, output_dt, step=None, fractio
     default step (fraction of the stability limit) is used."""
     a = integrators.integrate(problem, t_end, output_dt, method="rk4", step=step, fraction=fraction)
     b = integrators.integrate(problem, t_end, output_dt, method="rk4", step=a.step / 2)
-    E = error_measure(a.t, a.yd[:, :4], b.yd[:, :4])
+    E = error_measure(a.t, b.yd[:, :4], a.yd[:, :4])  # reference: the finer step
     return check(f"{name}: RK4 step halving ({a.step:.3e} s -> {b.step:.3e} s), max E over rates",
                  float(np.max(E)), tol)

@@ -38,6 +38,7 @@ import time
 
 import numpy as np
 
+from results.errors import error_measure
 from solver import dynamics_checks as dc
 from solver import integrators, models, multibody, scenes, simulate
 
@@ -59,7 +60,7 @@ def _from_tuple(res, **details):
 
 def rate_error(run, ref):
     """Largest E (thesis eq. 3.53) over the four gimbal rates of run against ref (same outputs)."""
-    return float(np.max(dc.error_measure(ref.t, run.yd[:, :4], ref.yd[:, :4])))
+    return float(np.max(error_measure(ref.t, ref.yd[:, :4], run.yd[:, :4])))
 
 
 # ----------------------------------------------------------------- the checks
@@ -250,7 +251,7 @@ def truth_runs(body_data, rankings, repeats):
     t0 = time.perf_counter()
     run_h2 = go(**half)
     t_half = time.perf_counter() - t0
-    E = dc.error_measure(run_h2.t, run_h.yd[:, :4], run_h2.yd[:, :4])
+    E = error_measure(run_h2.t, run_h2.yd[:, :4], run_h.yd[:, :4])
     conv = _check(f"truth convergence on thesis: step halving of the default ({cfg['integrator']}), "
                   f"max E over the 4 gimbal rates", float(np.max(E)), 1e-10,
                   E_per_rate=np.asarray(E).tolist(), default=cfg, mean_step=h_mean,
@@ -268,7 +269,7 @@ def truth_runs(body_data, rankings, repeats):
         return {"integrator": kw["method"], "label": label, "wall_times_s": walls,
                 "median_wall_time_s": float(np.median(walls)), "step_s": run.step,
                 "steps_taken": run.steps, "E_vs_converged_truth": rate_error(run, ref),
-                "E_per_rate": np.asarray(dc.error_measure(ref.t, run.yd[:, :4], ref.yd[:, :4])).tolist(),
+                "E_per_rate": np.asarray(error_measure(ref.t, ref.yd[:, :4], run.yd[:, :4])).tolist(),
                 "stats": {k: float(v) for k, v in run.stats.items()}}, run
     n_sub = int(np.ceil(scene.output_interval / limit - 1e-9))
     rk4_limit_step = scene.output_interval / n_sub

@@ -1,6 +1,7 @@
 # Stage 4: the flexible multibody simulation of the gimbal chain, any scene and reduced model.
 DYNAMICS_CODE = REDUCTION_CODE + [f"solver/{name}.py" for name in (
-    "multibody", "fast_rhs", "integrators", "scenes", "models", "simulate", "dynamics_checks", "verify_dynamics")]
+    "multibody", "fast_rhs", "integrators", "scenes", "models", "simulate")]
+DYNAMICS_CHECK_CODE = DYNAMICS_CODE + ["solver/dynamics_checks.py", "solver/verify_dynamics.py", "results/errors.py"]
 
 wildcard_constraints:
     scene="[A-Za-z0-9_-]+",
@@ -25,7 +26,7 @@ rule simulate:
 
 rule dynamics_verification:
     input:
-        DYNAMICS_CODE,
+        DYNAMICS_CHECK_CODE,
         expand("results/modes/body{n}.h5", n=BODIES),
         expand("results/reduction/body{n}.h5", n=BODIES),
     output:
