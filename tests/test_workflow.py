@@ -32,3 +32,17 @@ def test_bad_config_stops_with_one_line(tmp_path):
              if line.strip() and not line.startswith("Config file config/config.yaml is extended")]
     assert lines == ["config error at 'bodies.inner_gimbal.thickness.value': -0.25 is less than or equal to the "
                      "minimum of 0"], run.stderr[-2000:]
+
+
+def test_stage_shares_from_benchmark_records(tmp_path):
+    from results.benchmarks import stage_of, workflow_benchmark
+
+    header = "s\th:m:s\tmax_rss\n"
+    for name, seconds in (("mesh_body2.tsv", 1.0), ("modes_body2.tsv", 3.0), ("sim/thesis/truth.tsv", 6.0)):
+        path = tmp_path / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(header + f"{seconds}\t0:00:01\t1\n")
+    data = workflow_benchmark(str(tmp_path))
+    assert data["stage_seconds"] == {"geometry": 1.0, "modes": 3.0, "simulation": 6.0}
+    assert abs(sum(data["stage_share"].values()) - 1) < 1e-12
+    assert stage_of("verify_convergence_body5.tsv") == "fe verification"

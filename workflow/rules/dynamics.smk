@@ -34,6 +34,8 @@ rule dynamics_verification:
         benchmark="results/benchmarks/dynamics.json",
     log:
         "logs/sim/verification.log",
+    benchmark:
+        "results/benchmarks/rules/dynamics_verification.tsv"
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.verify_dynamics --modes-dir results/modes "
         "--reduction-dir results/reduction --verification {output.verification} "

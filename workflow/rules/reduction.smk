@@ -30,6 +30,8 @@ rule coarse_body_all_modes:
         "results/verification/coarse/body4.h5",
     log:
         "logs/reduction/coarse_body4.log",
+    benchmark:
+        "results/benchmarks/rules/coarse_body_all_modes.tsv"
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.modes --body 4 --mesh {input.mesh} --out {output} --all-modes "
         "--config {CONFIG} > {log} 2>&1"
@@ -42,6 +44,8 @@ rule coarse_mesh:
         "results/verification/coarse/body4.msh",
     log:
         "logs/reduction/coarse_mesh4.log",
+    benchmark:
+        "results/benchmarks/rules/coarse_mesh.tsv"
     shell:
         "{PY} -m geometry.mesh --body 4 --size 0.5 --out {output} --config {CONFIG} > {log} 2>&1"
 
@@ -58,6 +62,8 @@ rule reduction_report:
         benchmark="results/benchmarks/reduction.json",
     log:
         "logs/reduction/report.log",
+    benchmark:
+        "results/benchmarks/rules/reduction_report.tsv"
     shell:
         "OMP_NUM_THREADS=1 {PY} -m reduction.report --bodies {input.bodies} --reductions {input.reductions} "
         "--coarse-body {input.coarse} --table {output.table} --verification {output.verification} "

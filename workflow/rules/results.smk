@@ -22,6 +22,8 @@ rule error_tables:
         static="results/tables/errors_static.csv",
     log:
         "logs/results/error_tables.log",
+    benchmark:
+        "results/benchmarks/rules/error_tables.tsv"
     shell:
         "{PY} -m results.errors --truth {input.truth} --cases {input.cases} "
         "--ranking-table {output.ranking} --static-table {output.static} > {log} 2>&1"
@@ -38,6 +40,8 @@ rule findings:
         json="results/tables/findings.json",
     log:
         "logs/results/findings.log",
+    benchmark:
+        "results/benchmarks/rules/findings.tsv"
     shell:
         "{PY} -m results.findings --ranking-table {input.ranking} --static-table {input.static} "
         "--reduction {input.reduction} --csv {output.csv} --json {output.json} > {log} 2>&1"
@@ -80,6 +84,8 @@ rule report:
         "results/report/report.pdf",
     log:
         "logs/results/report.log",
+    benchmark:
+        "results/benchmarks/rules/report.tsv"
     shell:
         "{PY} -m results.report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures-dir results/figures/study --fe {input.fe} "

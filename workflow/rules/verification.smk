@@ -84,6 +84,8 @@ rule verify_fe:
         summary="results/verification/fe.md",
     log:
         "logs/verification/fe.log",
+    benchmark:
+        "results/benchmarks/rules/verify_fe.tsv"
     shell:
         "{PY} -m solver.verify combine {input} --config {CONFIG} --out {output.json} "
         "--summary {output.summary} > {log} 2>&1"
