@@ -9,6 +9,7 @@ Each writes a first-order ``.msh`` file readable by ``solver.fe.load_mesh``.
 """
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import gmsh
@@ -28,29 +29,30 @@ def _mesh_and_write(dim: int, size: float, path: str | Path, algorithm: int = 6)
     gmsh.write(str(path))
 
 
-def _start(name: str) -> None:
+@contextlib.contextmanager
+def _gmsh_model(name: str):
+    """A fresh gmsh model for one shape, finalised whatever happens."""
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add(name)
-
-
-def square_plate(side: float, size: float, path: str | Path) -> None:
-    """Square plate [0, side]^2 in the x-y plane, unstructured triangles."""
-    _start("plate")
     try:
-        gmsh.model.occ.addRectangle(0, 0, 0, side, side)
-        gmsh.model.occ.synchronize()
-        _physical_group(2, [s for _, s in gmsh.model.getEntities(2)], "shell")
-        _mesh_and_write(2, size, path)
+        yield gmsh.model.occ
     finally:
         gmsh.finalize()
 
 
+def square_plate(side: float, size: float, path: str | Path) -> None:
+    """Square plate [0, side]^2 in the x-y plane, unstructured triangles."""
+    with _gmsh_model("plate") as occ:
+        occ.addRectangle(0, 0, 0, side, side)
+        occ.synchronize()
+        _physical_group(2, [s for _, s in gmsh.model.getEntities(2)], "shell")
+        _mesh_and_write(2, size, path)
+
+
 def band_surface(radius: float, width: float, size: float, path: str | Path) -> None:
     """Cylindrical band of mid-radius ``radius`` about y, y in [-width/2, width/2]."""
-    _start("band")
-    try:
-        occ = gmsh.model.occ
+    with _gmsh_model("band") as occ:
         occ.addCylinder(0, -width / 2, 0, 0, width, 0, radius)
         occ.synchronize()
         # keep only the lateral surface of the cylinder
@@ -58,36 +60,26 @@ def band_surface(radius: float, width: float, size: float, path: str | Path) -> 
                    if abs(gmsh.model.getBoundingBox(2, s)[4] - gmsh.model.getBoundingBox(2, s)[1] - width) < 1e-4 * width]
         _physical_group(2, lateral, "shell")
         _mesh_and_write(2, size, path)
-    finally:
-        gmsh.finalize()
 
 
 def band_solid(radius: float, thickness: float, width: float, size: float, path: str | Path) -> None:
     """Solid ring: mid-radius ``radius``, radial ``thickness``, axial ``width`` (about y)."""
-    _start("band_solid")
-    try:
-        occ = gmsh.model.occ
+    with _gmsh_model("band_solid") as occ:
         outer = occ.addCylinder(0, -width / 2, 0, 0, width, 0, radius + thickness / 2)
         inner = occ.addCylinder(0, -width / 2, 0, 0, width, 0, radius - thickness / 2)
         occ.cut([(3, outer)], [(3, inner)])
         occ.synchronize()
         _physical_group(3, [v for _, v in gmsh.model.getEntities(3)], "solid")
         _mesh_and_write(3, size, path, algorithm=6)
-    finally:
-        gmsh.finalize()
 
 
 def annulus_surface(outer_radius: float, inner_radius: float, size: float, path: str | Path) -> None:
     """Flat annulus in the x-z plane (normal y): the platform's mid-surface."""
-    _start("annulus")
-    try:
-        occ = gmsh.model.occ
+    with _gmsh_model("annulus") as occ:
         outer = occ.addDisk(0, 0, 0, outer_radius, outer_radius)
         inner = occ.addDisk(0, 0, 0, inner_radius, inner_radius)
         occ.cut([(2, outer)], [(2, inner)])
-        occ.rotate(gmsh.model.occ.getEntities(2), 0, 0, 0, 1, 0, 0, -1.5707963267948966)  # x-y plane -> x-z plane
+        occ.rotate(occ.getEntities(2), 0, 0, 0, 1, 0, 0, -1.5707963267948966)  # x-y plane -> x-z plane
         occ.synchronize()
         _physical_group(2, [s for _, s in gmsh.model.getEntities(2)], "shell")
         _mesh_and_write(2, size, path)
-    finally:
-        gmsh.finalize()

@@ -7,6 +7,7 @@ from workflow.provenance import read_h5_checked
 
 BODY_KEYS = ("frequencies_hz", "eigenvalues", "modes", "M", "K", "T", "rigid_modes", "dof_coords",
              "dof_component", "bearing_points", "bearing_operator", "bearing_modes")
+CSR_KEYS = ("M", "K", "T", "bearing_operator")
 
 
 def read_csr(group) -> sp.csr_matrix:
@@ -28,7 +29,7 @@ def write_csr(h5, key: str, matrix) -> None:
 def read_body(path) -> dict:
     """All datasets (CSR groups as scipy matrices) and attributes of a body file."""
     with read_h5_checked(path, BODY_KEYS) as h5:
-        out = {key: (read_csr(h5[key]) if key in ("M", "K", "T", "bearing_operator") else h5[key][()])
+        out = {key: (read_csr(h5[key]) if key in CSR_KEYS else h5[key][()])
                for key in BODY_KEYS}
         out.update({key: h5.attrs[key] for key in h5.attrs})
     out["name"] = str(out["name"])

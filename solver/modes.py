@@ -35,7 +35,7 @@ from petsc4py import PETSc
 from geometry.gimbal import bearing_angles, bearing_points, eccentric_mass_point
 from reduction.modal_integrals import rigid_modes
 from solver import bearings, eigen, fe
-from solver.io import write_csr
+from solver.io import BODY_KEYS, CSR_KEYS, write_csr
 from workflow import config as cfgmod
 from workflow.provenance import atomic_h5, versions
 
@@ -315,11 +315,11 @@ def _payload(body_number, params, body, values, vectors, K, M, T, ranks, timings
 def write_body_file(path: str | Path, payload: dict, config_hash: str, wall_time: float) -> None:
     """Write the body file atomically (layout: docs/body-data.md)."""
     with atomic_h5(path) as h5:
-        for key in ("frequencies_hz", "eigenvalues", "modes", "rigid_modes", "dof_coords", "dof_component",
-                    "bearing_points", "bearing_modes", "residuals"):
-            h5.create_dataset(key, data=payload[key])
-        for key in ("M", "K", "T", "bearing_operator"):
-            write_csr(h5, key, payload[key])
+        for key in BODY_KEYS + ("residuals",):
+            if key in CSR_KEYS:
+                write_csr(h5, key, payload[key])
+            else:
+                h5.create_dataset(key, data=payload[key])
         for key, val in payload["attrs"].items():
             h5.attrs[key] = val
         h5.attrs["config_hash"] = config_hash
