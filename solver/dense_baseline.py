@@ -1,0 +1,335 @@
+"""Dense baseline right-hand side: assemble M(y), factorise it, solve -- at every evaluation.
+
+The textbook way to get the accelerations of ``M(y) y'' = tau - c(y, y', t)``
+(thesis eq 2.1) is the one the structured solver (``solver.fast_rhs``: the
+articulated-body recursion with every modal block eliminated by Woodbury,
+docs/dynamics.md Section 3) is benchmarked against:
+
+1. the bias ``c`` by the recursive Newton-Euler inverse dynamics at y'' = 0
+   (the project's compiled one, ``fast_rhs.FastChain.inverse_dynamics``);
+2. the full dense mass matrix ``M(y)`` (n x n, n = 4 + sum D);
+3. a dense Cholesky factorisation of M and two triangular solves (LAPACK
+   ``dpotrf`` / ``dpotrs``).  M(y), the kinetic energy's Hessian, is positive
+   definite at physical states; the first-order energy (docs/dynamics.md
+   Section 2) is not at unphysically large modal amplitudes (q ~ 1e-2 on the
+   small synthetic test bodies), and there LU with partial pivoting takes over
+   (counted in ``rhs.stats["lu_fallbacks"]``).
+
+It is meant to be a *fair* baseline, not a slow one: everything is compiled
+or LAPACK, and M is assembled the efficient way, from the kinetic energy
+``T = 1/2 sum_k v_k^T N_k v_k`` with ``v_k = [w_k; q'_k] = [J_k; E_k] y'``
+(``J_k`` (6, n) the twist Jacobian of body k, ``E_k`` the selector of its
+modal rates, ``N_k = [[M_X(q), B(q)], [B(q)^T, I]]``)::
+
+    M = sum_k J_k^T (M_X J_k + B E_k)  +  sum_k E_k^T B^T J_k  +  I_modal
+
+The first sum is ONE matrix product (n x 24)(24 x n) with the four bodies'
+J_k and P_k = M_X J_k + B E_k stacked -- the composite-rigid-body idea
+written for floating-frame bodies: O(48 n^2) flops, while the Cholesky
+factorisation costs n^3 / 3.  ``assembly="columns"`` instead builds M column
+by column from n + 1 inverse-dynamics calls with unit accelerations
+(Walker & Orin's method 1, what ``multibody.mass_matrix_fast`` does):
+O(n sum D^2), the naive textbook route, kept for comparison.
+
+Public API (same call signature as ``fast_rhs.make_rhs``)::
+
+    rhs = make_dense_rhs(chain, case, torque)     # rhs(t, y, y') -> y''  (n,)
+    rhs.rk4_steps(y, y', t0, h, n_steps)          # -> (y, y'), Python loop of rk4_step
+    rhs.mass_matrix(y)                            # M(y) (n, n)
+
+Units: y [rad; modal], y' per second, y'' per second squared, t [s],
+torque [in lbf].
+"""
+
+import math
+
+import numba
+import numpy as np
+from scipy.linalg import lapack
+
+from solver import fast_rhs, multibody
+from solver.integrators import _torque_function, rk4_step
+
+_JIT = dict(cache=True, fastmath=False)
+ASSEMBLIES = ("composite", "columns")
+
+
+class DenseSolveError(ArithmeticError):
+    """M(y) is not positive definite (dense Cholesky failed)."""
+
+
+def pack_dense(chain):
+    """Flat arrays of the chain for the mass-matrix kernel.
+
+    Returns (D (4,) int, off (4,) int, M6 (4, 6, 6), B0 (6, S), M1 tuple of
+    (D_k, 36), G tuple of (D_k, 3 D_k), Psi (3, S), Th (3, S), C1 (3, 3),
+    C (3, 3), rho (3,)): per-body modal counts and offsets into the S = sum D
+    modal coordinates, rigid masses, momentum coefficients [P; H], inertia
+    gradients dM_X/dq_i (flattened 6x6), modal Coriolis tensors G (rows j,
+    columns a D + i), inside-frame translation / rotation maps, and the fixed
+    joint axes and gimbal offset [in].
+    """
+    D = np.array(chain.n_modes, dtype=np.int64)
+    off = np.zeros(4, dtype=np.int64)
+    off[1:] = np.cumsum(D)[:3]
+    S = int(D.sum())
+    M6 = np.zeros((4, 6, 6))
+    B0 = np.zeros((6, S))
+    Psi = np.zeros((3, S))
+    Th = np.zeros((3, S))
+    M1, G = [], []
+    for k, b in enumerate(chain.bodies):
+        s = slice(off[k], off[k] + D[k])
+        M6[k] = b.rigid_mass
+        B0[:, s] = b.momentum
+        M1.append(np.ascontiguousarray(np.asarray(b.inertia_gradient, float).reshape(D[k], 36)))
+        G.append(np.ascontiguousarray(np.asarray(b.coriolis, float).reshape(D[k], 3 * D[k])))
+        if k < 3 and D[k]:
+            Psi[:, s] = b.inside_translation
+            Th[:, s] = b.inside_rotation
+    return (D, off, M6, B0, tuple(M1), tuple(G), Psi, Th,
+            np.ascontiguousarray(chain.case_to_outer, dtype=float),
+            np.ascontiguousarray(chain.parent_to_child, dtype=float),
+            np.ascontiguousarray(chain.gimbal_offset, dtype=float))
+
+
+# ------------------------------------------------------------------ kernels
+@numba.njit(**_JIT)
+def _rot(axis, ang):
+    """Rotation (3, 3) by ang [rad] about coordinate axis 0, 1 or 2."""
+    c, s = math.cos(ang), math.sin(ang)
+    R = np.eye(3)
+    i, j = (axis + 1) % 3, (axis + 2) % 3
+    R[i, i] = c
+    R[j, j] = c
+    R[i, j] = -s
+    R[j, i] = s
+    return R
+
+
+@numba.njit(**_JIT)
+def _joint_poses(y, D, off, Psi, Th, C1, C, rho):
+    """Child poses in parent axes R (4, 3, 3), p (4, 3) [in] and joint maps L (6, S)
+    at configuration y (docs/dynamics.md Section 1): joint 1 is (C1 Rx(g1), rho);
+    joint j > 1 is (E(Theta q) C Rx(g_j), Psi q) with L = [R^T Psi; (C Rx)^T T_E Theta]
+    on the parent's modal columns."""
+    S = Psi.shape[1]
+    R_all = np.zeros((4, 3, 3))
+    p_all = np.zeros((4, 3))
+    L = np.zeros((6, S))
+    R_all[0] = C1 @ _rot(0, y[0])
+    p_all[0] = rho
+    for j in range(1, 4):
+        o, Dk = off[j - 1], D[j - 1]
+        CRx = C @ _rot(0, y[j])
+        if Dk == 0:
+            R_all[j] = CRx
+            continue
+        p = np.zeros(3)                         # Psi q, Theta q
+        th = np.zeros(3)
+        for i in range(Dk):
+            qi = y[4 + o + i]
+            for a in range(3):
+                p[a] += Psi[a, o + i] * qi
+                th[a] += Th[a, o + i] * qi
+        Ry, Rz = _rot(1, th[1]), _rot(2, th[2])
+        # omega_E = T_E th', T_E = [Rz^T Ry^T e_x, Rz^T e_y, e_z]
+        Te = np.zeros((3, 3))
+        Te[:, 0] = Rz.T @ Ry.T[:, 0]
+        Te[:, 1] = Rz.T[:, 1]
+        Te[2, 2] = 1.0
+        R = _rot(0, th[0]) @ Ry @ Rz @ CRx
+        R_all[j] = R
+        p_all[j] = p
+        W = CRx.T @ Te
+        for i in range(Dk):
+            for a in range(3):
+                sv, sw = 0.0, 0.0
+                for b in range(3):
+                    sv += R[b, a] * Psi[b, o + i]
+                    sw += W[a, b] * Th[b, o + i]
+                L[a, o + i] = sv
+                L[3 + a, o + i] = sw
+    return R_all, p_all, L
+
+
+@numba.njit(**_JIT)
+def _mass_matrix(y, D, off, M6, B0, M1, G, Psi, Th, C1, C, rho):
+    """M(y) (n, n) from the bodies' twist Jacobians (module docstring):
+    M = Jall^T Pall + sum_k E_k^T B_k^T J_k + I_modal, Jall, Pall (24, n)."""
+    S = B0.shape[1]
+    n = 4 + S
+    R_all, p_all, L = _joint_poses(y, D, off, Psi, Th, C1, C, rho)
+    Jall = np.zeros((24, n))
+    Pall = np.zeros((24, n))
+    BtJ = np.zeros((S, n))                      # rows of the modal coordinates: B_k^T J_k
+    J = np.zeros((6, n))                        # twist Jacobian of the parent (case: zero)
+    for k in range(4):
+        R, p = R_all[k], p_all[k]
+        o, Dk = off[k], D[k]
+        m = 4 + o                               # J_k is zero beyond the angles and ancestors' modes
+        # J_k = Ad^-1(R, p) J_parent + L E_parent + s e_k;  Ad^-1 = [[R^T, -R^T p~], [0, R^T]]
+        Jk = np.zeros((6, n))
+        for c in range(m):
+            v0, v1, v2 = J[0, c], J[1, c], J[2, c]
+            w0, w1, w2 = J[3, c], J[4, c], J[5, c]
+            u0 = v0 + w1 * p[2] - w2 * p[1]     # v + omega x p
+            u1 = v1 + w2 * p[0] - w0 * p[2]
+            u2 = v2 + w0 * p[1] - w1 * p[0]
+            for a in range(3):
+                Jk[a, c] = R[0, a] * u0 + R[1, a] * u1 + R[2, a] * u2
+                Jk[3 + a, c] = R[0, a] * w0 + R[1, a] * w1 + R[2, a] * w2
+        if k > 0:
+            op, Dp = off[k - 1], D[k - 1]
+            for i in range(Dp):
+                for a in range(6):
+                    Jk[a, 4 + op + i] += L[a, op + i]
+        Jk[3, k] += 1.0
+        # body matrices at q: M_X = M6 + sum q_i M1_i, B = [P; H + sum_j q_j G_j]
+        Mx = M6[k].copy()
+        Bk = B0[:, o:o + Dk].copy()
+        if Dk > 0:
+            q = y[4 + o:4 + o + Dk].copy()
+            Mx += (q @ M1[k]).reshape(6, 6)
+            hq = q @ G[k]
+            for a in range(3):
+                Bk[3 + a] += hq[a * Dk:(a + 1) * Dk]
+        Pk = Mx @ Jk
+        for i in range(Dk):
+            for a in range(6):
+                Pk[a, 4 + o + i] += Bk[a, i]
+        BtJ[o:o + Dk] = Bk.T @ Jk
+        Jall[6 * k:6 * k + 6] = Jk
+        Pall[6 * k:6 * k + 6] = Pk
+        J = Jk
+    M = np.ascontiguousarray(Jall.T) @ Pall     # the one O(n^2) product
+    M[4:] += BtJ
+    for i in range(S):
+        M[4 + i, 4 + i] += 1.0
+    return M
+
+
+# ------------------------------------------------------------------ wrappers
+def mass_matrix_composite(data, y):
+    """M(y) (n, n) by the Jacobian (composite) assembly; data = ``pack_dense(chain)``."""
+    return _mass_matrix(np.ascontiguousarray(y, dtype=float), *data)
+
+
+def mass_matrix_columns(fast_chain, y):
+    """M(y) (n, n) column by column: M e_i = ID(y, 0, e_i) - ID(y, 0, 0), n + 1 compiled
+    inverse-dynamics calls without case motion (Walker-Orin method 1)."""
+    y = np.asarray(y, float)
+    n = y.size
+    zero, z6 = np.zeros(n), np.zeros(6)
+    base = fast_chain.inverse_dynamics(y, zero, zero, z6, z6)
+    M = np.empty((n, n))
+    e = np.zeros(n)
+    for i in range(n):
+        e[i] = 1.0
+        M[:, i] = fast_chain.inverse_dynamics(y, zero, e, z6, z6) - base
+        e[i] = 0.0
+    return M
+
+
+def cholesky_solve(M, f):
+    """x (n,) with M x = f by Cholesky (LAPACK dpotrf / dpotrs, n^3 / 3 flops), M (n, n)
+    symmetric, overwritten; None when M is not positive definite."""
+    # M is symmetric, so its C-order buffer is also its Fortran-order transpose: no copy
+    chol, info = lapack.dpotrf(M.T, lower=1, clean=0, overwrite_a=1)
+    if info != 0:
+        return None
+    x, info = lapack.dpotrs(chol, f, lower=1)
+    return x if info == 0 else None
+
+
+def lu_solve(M, f):
+    """x (n,) with M x = f by LU with partial pivoting (LAPACK dgetrf / dgetrs), M (n, n)
+    overwritten.  Raises DenseSolveError if M is singular."""
+    lu, piv, info = lapack.dgetrf(M, overwrite_a=1)
+    if info != 0:
+        raise DenseSolveError(f"dense LU of M(y) failed (LAPACK dgetrf info {info}): M is singular")
+    x, info = lapack.dgetrs(lu, piv, f)
+    if info != 0:
+        raise DenseSolveError(f"dense LU solve failed (LAPACK dgetrs info {info})")
+    return x
+
+
+def case_twist_function(case):
+    """twist(t) -> (w1 (6,), dw1 (6,)): the case twist [0; omega] [rad/s] and its rate
+    [rad/s^2] in case axes (``multibody.CaseMotion.twist``, written with math for speed)."""
+    amp = [float(a) for a in case.amplitude]
+    omf = [2 * math.pi * float(f) for f in case.frequency]
+    phase = [float(p) for p in case.phase]
+    om0 = [float(w) for w in case.omega0]
+
+    def twist(t):
+        w1, dw1 = np.zeros(6), np.zeros(6)
+        for k in range(3):
+            arg = omf[k] * t + phase[k]
+            dw1[3 + k] = amp[k] * math.cos(arg)
+            integ = ((math.sin(arg) - math.sin(phase[k])) / omf[k] if omf[k] > 0.0
+                     else math.cos(phase[k]) * t)
+            w1[3 + k] = om0[k] + amp[k] * integ
+        return w1, dw1
+    return twist
+
+
+def make_dense_rhs(chain, case=None, torque=None, assembly="composite"):
+    """rhs(t, y, y') -> y'' (n,) by dense assembly and Cholesky at every call.
+
+    chain: ``multibody.Chain``; case: ``multibody.CaseMotion`` (default at rest);
+    torque: (4,) motor torques [in lbf] or a callable t -> (4,); assembly:
+    "composite" (default, the fair baseline) or "columns" (n + 1 inverse
+    dynamics).  The returned function carries ``rk4_steps``, ``mass_matrix``,
+    ``fast_chain``, ``assembly`` and ``stats``.
+    """
+    if assembly not in ASSEMBLIES:
+        raise ValueError(f"unknown assembly {assembly!r}; known: {', '.join(ASSEMBLIES)}")
+    case = case or multibody.CaseMotion()
+    fc = fast_rhs.FastChain(chain)
+    data = pack_dense(chain)
+    tau_f = _torque_function(torque)
+    const_tau = None if callable(torque) else np.asarray(tau_f(0.0), float)
+    twist = case_twist_function(case)
+    n = chain.n_coordinates
+    zero = np.zeros(n)
+    stats = {"lu_fallbacks": 0}
+
+    def mass_matrix(y):
+        if assembly == "composite":
+            return mass_matrix_composite(data, y)
+        return mass_matrix_columns(fc, y)
+
+    def rhs(t, y, yd):
+        w1, dw1 = twist(t)
+        f = -fc.inverse_dynamics(y, yd, zero, w1, dw1)           # -c(y, y', t)
+        f[:4] += const_tau if const_tau is not None else np.asarray(tau_f(t), float)
+        x = cholesky_solve(mass_matrix(y), f)
+        if x is None:       # not positive definite: only at unphysically large q (see below)
+            stats["lu_fallbacks"] += 1
+            x = lu_solve(mass_matrix(y), f)
+        return x
+
+    def rk4_steps(y, yd, t0, h, n_steps):
+        """n_steps classical RK4 steps from (t0, y, y'); returns (y, y')."""
+        y, yd = np.array(y, float), np.array(yd, float)
+        for i in range(int(n_steps)):
+            y, yd = rk4_step(rhs, t0 + i * h, y, yd, h)
+        return y, yd
+
+    rhs.rk4_steps = rk4_steps
+    rhs.mass_matrix = mass_matrix
+    rhs.fast_chain = fc
+    rhs.assembly = assembly
+    rhs.stats = stats
+    return rhs
+
+
+def dense_problem(problem, assembly="composite"):
+    """A copy of a ``multibody.Problem`` whose rhs (and so RK4 and DOP853) is the dense
+    baseline; its omega_max (stability bound), energy monitor and implicit-solver
+    hooks are the original's."""
+    import copy
+    out = copy.copy(problem)
+    out.rhs = make_dense_rhs(problem.chain, problem.case, problem._torque, assembly)
+    return out
