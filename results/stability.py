@@ -1,0 +1,555 @@
+"""Numerical stability stress tests of the gimbal-chain integrators (issue 6, "Fast and stable").
+
+    MPLBACKEND=Agg .venv/bin/python -m results.stability --modes-dir results/modes \\
+        --reduction-dir results/reduction --out-dir results/stability \\
+        --figures-dir results/figures/stability [--quick]
+
+Three parts (method and measured numbers: docs/stability.md):
+
+a. **RK4 step sweep.**  For several reduced models the actual stability limit h*
+   of RK4 is found by bisection on the step: every coupled mode of the chain
+   (linearised at the thesis configuration) gets the same small kinetic energy,
+   RK4 runs ``n_steps`` steps, and a step is unstable when the energy grows by
+   ``growth``.  h* is compared with the project's bound 2.785/omega_max
+   (``integrators.RK4_STABILITY``, the negative-real-axis bound) and with the
+   exact bound for undamped modes, 2 sqrt 2 / omega (the imaginary-axis bound).
+b. **Energy drift** |E(t) - E(0)| / |E(0)| of every integrator over the 10 s
+   scene ``free_10s`` (case at rest: E = T + U is conserved).
+c. **Hard cases**: large gimbal rates, the case driven at the first coupled
+   elastic resonance, gimbal lock, several static modes on one body, and steps
+   beyond the limit.  Each must either run and agree with a tighter run
+   (thesis eq. 3.53 error measure E of the four gimbal rates) or stop with a
+   one-line diagnosis; a run that finishes but disagrees is ``garbage``.
+
+Outputs (atomic: temporary name, then rename): ``{out}/stability.json`` (every
+number, a boolean ``pass`` per check, provenance), ``{out}/rk4_limit.csv``,
+``{out}/energy_drift.csv``, ``{out}/hard_cases.csv``, and the figures
+``{figures}/rk4_limit.png``, ``{figures}/energy_drift.png``.
+
+Units: inch, lbf, second, rad; energies in in lbf; frequencies in rad/s.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import os
+import sys
+import time
+
+import numpy as np
+
+from results.errors import error_measure
+from solver import integrators, models, multibody, scenes, simulate
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+RK4_BOUND = integrators.RK4_STABILITY      # 2.785: the project's bound h omega_max (real axis)
+LIMIT_TOLERANCE = 0.05                     # |h* / (2.785 / omega_max) - 1| must stay below this
+DRIFT_TOLERANCE = 1e-6                     # relative energy drift over the 10 s free run
+HARD_CASE_TOLERANCE = 1e-6                 # E (eq. 3.53) of a run against its tighter run
+THESIS_ANGLES = (0.0, -np.pi / 2, 0.0, 0.0)
+
+# Models of the step sweep: vibration modes only (two rankings), one static mode per
+# body, one static mode on one body, and three static modes on one body (their Rayleigh
+# frequencies lie far above the kept modes: they set omega_max).
+SWEEP_MODELS = ("freq-5", "xmx-10", "static-8", "static-10@2:output_motor_fz",
+                "freq-6@2:output_motor_fz+output_motor_my+output_motor_mz")
+QUICK_SWEEP_MODELS = ("freq-5", "freq-6@2:output_motor_fz+output_motor_my+output_motor_mz")
+# The 10 s drift model: the first mode of the outer and of the middle gimbal only.  The cost
+# of every integrator grows with omega_max x duration: the first modes of the inner gimbal
+# and of the platform couple at 4.5e4 and 4.1e5 rad/s, which would take 10 s of RK4 to
+# 3e5 .. 3e6 steps (25 .. 250 s at the ~85 us per step measured for freq-2); this model's
+# omega_max is 1.2e4 rad/s (9e4 RK4 steps, ~10 s).
+DRIFT_MODEL = "freq-1,1,0,0"
+HARD_MODEL = "freq-5"
+# The twelve load cases of the output bearings: the most static modes one body can carry
+# (input-bearing loads partly act on the supports).
+OUTPUT_LOADS = tuple(f"output_{b}_{c}" for b in ("motor", "resolver")
+                     for c in ("fx", "fy", "fz", "mx", "my", "mz"))
+ALL_LOADS = tuple(f"{b}_{c}" for b in models.BEARINGS for c in ("fx", "fy", "fz", "mx", "my", "mz"))
+
+
+class StabilityInputError(ValueError):
+    """Bad input to a stability function (one-line message)."""
+
+
+def log(message):
+    """Progress on stderr (flushed, so a piped log shows where the run is)."""
+    print(f"stability: {message}", file=sys.stderr, flush=True)
+
+
+# ============================================================== RK4 theory
+def rk4_amplification(z):
+    """RK4's amplification factor R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24.
+
+    z: complex array (any shape), z = h lambda (dimensionless).  One RK4 step
+    multiplies the component of y' = lambda y along an eigenvector by R(h lambda):
+    the step is stable for that mode while |R| <= 1.  Returns complex, shape of z.
+    """
+    z = np.asarray(z, dtype=complex)
+    return 1.0 + z * (1.0 + z / 2.0 * (1.0 + z / 3.0 * (1.0 + z / 4.0)))   # Horner form
+
+
+def rk4_imaginary_axis_limit():
+    """Largest x with |R(i x)| <= 1: RK4's bound h omega for an undamped mode (lambda = +-i omega).
+
+    |R(ix)|^2 = (1 - x^2/2 + x^4/24)^2 + (x - x^3/6)^2 = 1 - x^6/72 + x^8/576, which
+    is <= 1 exactly for x^2 <= 8: x = 2 sqrt 2 = 2.8284.  Found here by root finding
+    on R itself (so a wrong R would show), returned as a float.
+    """
+    from scipy.optimize import brentq
+    return float(brentq(lambda x: abs(rk4_amplification(1j * x)) - 1.0, 2.5, 3.0, xtol=1e-15))
+
+
+def rk4_real_axis_limit():
+    """Largest x with |R(-x)| <= 1: RK4's bound h|lambda| for a decaying mode (lambda < 0).
+
+    R(-x) - 1 = x(-1 + x/2 - x^2/6 + x^3/24) vanishes at the real root of
+    x^3 - 4x^2 + 12x - 24 = 0, x = 2.7853 (the 2.785 the thesis quotes); beyond it
+    R(-x) > 1.  Float.
+    """
+    from scipy.optimize import brentq
+    return float(brentq(lambda x: rk4_amplification(-x).real - 1.0, 2.5, 3.0, xtol=1e-15))
+
+
+# ============================================================== bisection
+def bisect_stability_limit(is_stable, h_stable, h_unstable, rtol=1e-3, max_iter=60):
+    """The largest stable step [s] between a stable and an unstable one, by bisection.
+
+    is_stable: callable h [s] -> bool; h_stable < h_unstable [s] must bracket the
+    limit (checked first: a bad bracket raises StabilityInputError naming it).
+    Halves the bracket until (hi - lo) <= rtol lo.  Returns a dict: ``step`` the
+    bracket's midpoint [s], ``lo`` (largest stable step tried), ``hi`` (smallest
+    unstable one), ``trials`` list of (h, stable).
+    """
+    lo, hi = float(h_stable), float(h_unstable)
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0.0 < lo < hi):
+        raise StabilityInputError(f"bisection needs 0 < h_stable < h_unstable, got {lo!r}, {hi!r}")
+    if not 0.0 < rtol < 1.0:
+        raise StabilityInputError(f"bisection rtol must lie in (0, 1), got {rtol!r}")
+    trials = []
+
+    def judge(h):
+        ok = bool(is_stable(h))
+        trials.append((h, ok))
+        return ok
+
+    if not judge(lo):
+        raise StabilityInputError(f"bisection bracket: h = {lo:.4e} s is already unstable")
+    if judge(hi):
+        raise StabilityInputError(f"bisection bracket: h = {hi:.4e} s is still stable")
+    for _ in range(max_iter):
+        if hi - lo <= rtol * lo:
+            break
+        mid = 0.5 * (lo + hi)
+        if judge(mid):
+            lo = mid
+        else:
+            hi = mid
+    return {"step": 0.5 * (lo + hi), "lo": lo, "hi": hi, "trials": trials}
+
+
+# ============================================================== scalar oscillator
+def oscillator_energy_ratio(omega, h, n_steps):
+    """E(n h) / E(0) of RK4 (``integrators.rk4_step``) on x'' = -omega^2 x.
+
+    omega [rad/s], h [s], n_steps int; from x = 0, x' = 1; E = x'^2/2 + omega^2 x^2/2.
+    In the scaled state (omega x, x') one step is a normal matrix with eigenvalues
+    R(+-i h omega), so the ratio is |R(i h omega)|^(2n) exactly, for any start.
+    Returns a float (inf once the state overflows).
+    """
+    if not (omega > 0 and h > 0 and int(n_steps) >= 1):
+        raise StabilityInputError(f"oscillator needs omega > 0, h > 0, n_steps >= 1, got "
+                                  f"{omega!r}, {h!r}, {n_steps!r}")
+    w2 = float(omega) ** 2
+
+    def rhs(t, x, v):
+        return -w2 * x
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        x, v = integrators.rk4_steps(rhs, np.zeros(1), np.ones(1), 0.0, float(h), int(n_steps))
+        ratio = float(v[0] ** 2 + w2 * x[0] ** 2)
+    return ratio if np.isfinite(ratio) else np.inf
+
+
+def oscillator_rk4_limit(omega, n_steps=2000, growth=10.0, rtol=1e-6):
+    """Measured RK4 limit [s] of x'' = -omega^2 x (omega [rad/s]) by ``bisect_stability_limit``:
+    a step is unstable when the energy grows by ``growth`` in n_steps.  Should equal
+    2 sqrt 2 / omega up to ln(growth) / (2 n_steps x 7.1) (the slope of |R(ix)|^2 at the
+    root is x^5/36 = 5.03, times x = 2.83: growth per step 1 + 14.2 delta at h = h*(1 + delta)).
+    Returns the bisection dict."""
+    h0 = 2.0 * np.sqrt(2.0) / omega
+    return bisect_stability_limit(lambda h: oscillator_energy_ratio(omega, h, n_steps) <= growth,
+                                  0.8 * h0, 1.25 * h0, rtol=rtol)
+
+
+# ============================================================== coupled modes of the chain
+def coupled_modes(M, stiffness):
+    """Natural modes of the chain linearised at one configuration, in all coordinates.
+
+    M (n, n): the mass matrix M(y) (``multibody.mass_matrix_fast``); stiffness
+    (n - 4,) modal stiffness Omega^2 [(rad/s)^2] (the four joint angles have none).
+    The joints are free, so they are eliminated: S = M_qq - M_qg M_gg^-1 M_gq and
+    Omega^2 x = lambda S x (``multibody.coupled_frequencies``).  Each mode moves the
+    joints by g = -M_gg^-1 M_gq x, which makes its joint momenta M_gg g + M_gq x
+    vanish, so phi = [g; x] satisfies K phi = lambda M phi and phi_i^T M phi_j =
+    x_i^T S x_j = delta_ij: M-orthonormal in the full coordinates.
+
+    Returns (omega (m,) [rad/s] ascending, shapes (n, m)), m = n - 4.
+    """
+    import scipy.linalg
+    M = np.asarray(M, dtype=float)
+    k = np.asarray(stiffness, dtype=float)
+    n = M.shape[0]
+    if M.shape != (n, n) or k.shape != (n - 4,) or n < 5:
+        raise StabilityInputError(f"coupled_modes: M {M.shape} and stiffness {k.shape} do not match "
+                                  f"(need (n, n) and (n - 4,), n > 4)")
+    Mgg, Mgq, Mqq = M[:4, :4], M[:4, 4:], M[4:, 4:]
+    joint_of_mode = -np.linalg.solve(Mgg, Mgq)           # (4, m): g = joint_of_mode @ x
+    S = Mqq + Mgq.T @ joint_of_mode                       # Schur complement
+    lam, X = scipy.linalg.eigh(np.diag(k), 0.5 * (S + S.T))   # X^T S X = I
+    return np.sqrt(np.maximum(lam, 0.0)), np.vstack([joint_of_mode @ X, X])
+
+
+def equal_energy_velocity(shapes, energy, signs=None):
+    """Initial velocity (n,) that gives every coupled mode the kinetic energy energy/m [in lbf].
+
+    shapes (n, m): M-orthonormal modes (``coupled_modes``); energy [in lbf] total.
+    y' = sum_k s_k phi_k with |s_k| = sqrt(2 energy / m): the modes are M-orthogonal,
+    so T = sum s_k^2 / 2 = energy.  signs (m,) of +-1 (default all +1).
+    """
+    shapes = np.asarray(shapes, dtype=float)
+    m = shapes.shape[1]
+    if not (np.isfinite(energy) and energy > 0) or m == 0:
+        raise StabilityInputError(f"equal_energy_velocity needs energy > 0 and modes, got "
+                                  f"{energy!r}, {m} modes")
+    s = np.full(m, np.sqrt(2.0 * energy / m))
+    if signs is not None:
+        s = s * np.sign(np.asarray(signs, dtype=float))
+    return shapes @ s
+
+
+def excited_state(chain, angles=THESIS_ANGLES, energy=1e-6):
+    """(y0, y'0, omega (m,), M): the chain at gimbal ``angles`` [rad], undeformed, with
+    every coupled mode given energy / m of kinetic energy [in lbf] (``equal_energy_velocity``).
+    The joint rates of this state carry no momentum, so the gimbals do not drift away:
+    the linearisation at y0 holds for the whole run (small energy: linear regime)."""
+    n = chain.n_coordinates
+    if n == 4:
+        raise StabilityInputError("a rigid chain has no elastic modes to excite")
+    y0 = np.zeros(n)
+    y0[:4] = angles
+    M = multibody.mass_matrix_fast(chain, y0)
+    omega, shapes = coupled_modes(M, chain.stiffness_diagonal()[4:])
+    return y0, equal_energy_velocity(shapes, energy), omega, M
+
+
+# ============================================================== energy growth of a chain run
+def energy_growth(problem, y0, yd0, h, n_steps, growth=10.0, chunks=20):
+    """Largest E(t) / E(0) of an RK4 run [1], E = T + U (``problem.energy``, case at rest).
+
+    problem: ``multibody.Problem``; y0, yd0 (n,); h [s]; n_steps RK4 steps, checked every
+    n_steps / chunks steps (compiled loop ``integrators.rk4_steps``).  Stops as soon as
+    the ratio exceeds ``growth`` (returns it); inf for a non-finite state.
+    """
+    E0 = problem.energy(0.0, y0, yd0)
+    if not (np.isfinite(E0) and E0 > 0):
+        raise StabilityInputError(f"energy_growth needs a positive initial energy, got {E0!r}")
+    y, yd = np.array(y0, float), np.array(yd0, float)
+    per = max(int(n_steps) // int(chunks), 1)
+    worst, t, done = 1.0, 0.0, 0
+    with np.errstate(over="ignore", invalid="ignore"):
+        while done < n_steps:
+            k = min(per, n_steps - done)
+            y, yd = integrators.rk4_steps(problem.rhs, y, yd, t, h, k)
+            t += k * h
+            done += k
+            if not (np.all(np.isfinite(y)) and np.all(np.isfinite(yd))):
+                return np.inf
+            ratio = problem.energy(t, y, yd) / E0
+            if not np.isfinite(ratio):
+                return np.inf
+            worst = max(worst, ratio)
+            if worst > growth:
+                break
+    return float(worst)
+
+
+def measure_chain_rk4_limit(chain, angles=THESIS_ANGLES, energy=1e-6, n_steps=4000, growth=10.0,
+                            rtol=2e-4, bracket=(0.8, 1.3)):
+    """Measured RK4 stability limit of a chain against the theory (one dict).
+
+    The chain sits at gimbal ``angles`` [rad], undeformed, case at rest, with every
+    coupled mode excited equally (``excited_state``); a step h is stable when the energy
+    grows by less than ``growth`` in n_steps steps (the top mode's energy share is 1/m
+    and grows by 1 + 14.2 delta per step at h = h*(1 + delta): 4000 steps resolve
+    delta ~ 1e-4).  bracket: the bisection's start, in units of 2 sqrt 2 / omega_top.
+
+    Keys: omega_top (coupled top frequency at the configuration [rad/s]); omega_max
+    (``Problem.omega_max``: the maximum over it and three more sampled configurations,
+    what ``integrators.integrate`` uses); modal_omega_max (largest kept modal frequency);
+    h_measured, h_lo, h_hi [s]; h_bound = 2.785 / omega_max [s] (the project's limit);
+    h_imaginary = 2 sqrt 2 / omega_top [s]; ratio_bound = h_measured / h_bound (the
+    check); ratio_imaginary = h_measured / h_imaginary; trials; wall_s.
+    """
+    start = time.perf_counter()
+    y0, yd0, omega, _ = excited_state(chain, angles, energy)
+    problem = multibody.Problem(chain, y0=y0, yd0=yd0)
+    omega_top = float(omega[-1])
+    h_imag = 2.0 * np.sqrt(2.0) / omega_top
+    res = bisect_stability_limit(
+        lambda h: energy_growth(problem, y0, yd0, h, n_steps, growth) <= growth,
+        bracket[0] * h_imag, bracket[1] * h_imag, rtol=rtol)
+    h_bound = integrators.rk4_stability_limit(problem.omega_max)
+    return {"omega_top": omega_top, "omega_max": float(problem.omega_max),
+            "modal_omega_max": float(chain.omega_max), "n_modes": list(chain.n_modes),
+            "h_measured": res["step"], "h_lo": res["lo"], "h_hi": res["hi"],
+            "h_bound": h_bound, "h_imaginary": h_imag,
+            "ratio_bound": res["step"] / h_bound, "ratio_imaginary": res["step"] / h_imag,
+            "h_omega_top": res["step"] * omega_top, "trials": [[float(h), bool(s)] for h, s in res["trials"]],
+            "n_steps": int(n_steps), "growth": float(growth), "energy": float(energy),
+            "wall_s": time.perf_counter() - start}
+
+
+def omega_top_over_angles(chain, n_grid=12, gamma4=(0.0, 0.75)):
+    """Coupled top frequency [rad/s] over a grid of gimbal angles: (max, argmax angles (4,)).
+
+    gamma_2, gamma_3 on n_grid points in [-pi, pi), gamma_4 in ``gamma4``; gamma_1 does
+    not enter M(y) (the case is at rest).  ``Problem.omega_max`` samples four
+    configurations only; this shows how much the maximum over all of them can exceed it.
+    """
+    g = np.linspace(-np.pi, np.pi, int(n_grid), endpoint=False)
+    best, where = 0.0, None
+    y = np.zeros(chain.n_coordinates)
+    for a in g:
+        for b in g:
+            for c in gamma4:
+                y[1:4] = a, b, c
+                w = float(multibody.coupled_frequencies(chain, y)[-1])
+                if w > best:
+                    best, where = w, y[:4].copy()
+    return best, where
+
+
+# ============================================================== energy drift
+def relative_energy_drift(kinetic, potential, input_work=None):
+    """|E(t) - E(0) - W(t)| / |E(0)| (T,) [1], E = T + U [in lbf], W the work fed in [in lbf]
+    (None: a conservative scene, W = 0).  kinetic, potential, input_work (T,)."""
+    E = np.asarray(kinetic, float) + np.asarray(potential, float)
+    W = np.zeros_like(E) if input_work is None else np.asarray(input_work, float)
+    if E.shape != W.shape or E.ndim != 1 or E.size == 0:
+        raise StabilityInputError(f"energy histories of shapes {E.shape}, {W.shape} do not match")
+    if not E[0] != 0:
+        raise StabilityInputError("relative energy drift needs E(0) != 0")
+    return np.abs(E - E[0] - W) / abs(E[0])
+
+
+def drift_run(chain, scene, method, model_name="", **options):
+    """One run of ``scene`` (case at rest) with one integrator: its energy drift.
+
+    options: step, fraction, rho_inf, rtol, atol of ``simulate.run_scene``.
+    Returns a dict: t (T,) [s], drift (T,) [1], drift_max, drift_final, steps, step [s]
+    (dop853: mean step), wall_s, method, options.
+    """
+    run, prob = simulate.run_scene(chain, scene, method, model_name=model_name, **options)
+    T, U, W = simulate.energy_history(prob, run)
+    d = relative_energy_drift(T, U, W)
+    step = scene.duration / max(run.steps, 1) if method == "dop853" else run.step
+    return {"t": run.t, "drift": d, "drift_max": float(d.max()), "drift_final": float(d[-1]),
+            "steps": int(run.steps), "step": float(step), "wall_s": float(run.wall_time),
+            "method": method, "options": {k: v for k, v in options.items() if v is not None}}
+
+
+# ============================================================== gimbal lock geometry
+def drive_axes(angles):
+    """Drive axes (4, 3) of joints 1..4 in case axes, for the undeformed chain.
+
+    angles (4,) [rad].  Joint poses from docs/dynamics.md: A_2 = C_1 R_x(g_1),
+    A_{n+1} = A_n C R_x(g_{n+1}); joint j turns body j+1 about its own x, so its axis
+    is the first column of A_{j+1}.  x_4 is parallel to x_2 when g_2 = 0 (mod pi) and
+    x_5 to x_3 when g_3 = 0 (mod pi).
+    """
+    g = np.asarray(angles, dtype=float)
+    if g.shape != (4,):
+        raise StabilityInputError(f"drive_axes needs 4 gimbal angles, got shape {g.shape}")
+    A = multibody.CASE_TO_OUTER @ multibody.rot_x(g[0])
+    axes = [A[:, 0]]
+    for k in range(1, 4):
+        A = A @ multibody.PARENT_TO_CHILD @ multibody.rot_x(g[k])
+        axes.append(A[:, 0])
+    return np.array(axes)
+
+
+def lock_distance(axes):
+    """Smallest singular value of the (4, 3) matrix of unit drive axes [1].
+
+    0 exactly when the four axes lie in one plane (gimbal lock of the four-gimbal
+    platform: no joint rate turns the platform about the plane's normal); about the
+    angle [rad] by which the closest configuration misses it, near lock.
+    """
+    return float(np.linalg.svd(np.asarray(axes, float), compute_uv=False)[-1])
+
+
+def axis_alignment(axes):
+    """Smallest angle [rad] between two drive axes (lines, so 0 for parallel or antiparallel)."""
+    a = np.asarray(axes, float)
+    best = np.pi / 2
+    for i in range(len(a)):
+        for j in range(i + 1, len(a)):
+            c = abs(float(a[i] @ a[j])) / (np.linalg.norm(a[i]) * np.linalg.norm(a[j]))
+            best = min(best, float(np.arccos(min(c, 1.0))))
+    return best
+
+
+def mass_conditioning(M):
+    """Condition numbers (2-norm) of the chain's mass matrix M (n, n) at one configuration:
+    dict cond_M (all of it), cond_joints (M_gg, 4 x 4, the gimbals' articulated inertia
+    with the modes held), cond_schur (S = M_qq - M_qg M_gg^-1 M_gq, the modal inertia with
+    the joints free; its smallest eigenvalue is the share of a mode's unit mass left once
+    its rigid turn is shed), min_eig_schur."""
+    M = np.asarray(M, float)
+    out = {"cond_M": float(np.linalg.cond(M)), "cond_joints": float(np.linalg.cond(M[:4, :4]))}
+    if M.shape[0] > 4:
+        S = M[4:, 4:] - M[4:, :4] @ np.linalg.solve(M[:4, :4], M[:4, 4:])
+        ev = np.linalg.eigvalsh(0.5 * (S + S.T))
+        out.update(cond_schur=float(ev[-1] / ev[0]), min_eig_schur=float(ev[0]))
+    return out
+
+
+# ============================================================== static-mode conditioning
+def static_mode_conditioning(body, kept, load_cases):
+    """Conditioning of several static correction modes on one body (a dict).
+
+    body: a body-file dict (``models.load_body_file``); kept (k,) kept mode indices;
+    load_cases: names.  gram_condition: condition number of the mass Gram matrix of the
+    unit-mass residual attachment modes before they are made M-orthogonal (the modal
+    mass the thesis's eq. 3.52 would carry; large = nearly dependent loads);
+    frequencies_hz (p,) their Rayleigh frequencies; mass_coupling, stiffness_coupling
+    (largest normalised coupling to the kept modes).  Raises the reduction's one-line
+    StaticModeError for loads that act only on the supports.
+    """
+    from reduction.modal_integrals import supported_flexibility
+    from reduction.static_modes import load_case_vector, static_correction_modes
+    kept = np.asarray(kept, dtype=int)
+    Phi = np.asarray(body["modes"])[:, kept]
+    lam = np.asarray(body["eigenvalues"])[kept]
+    F = np.column_stack([load_case_vector(body["bearing_operator"], c, body["bearing_points"])
+                         for c in load_cases])
+    res = static_correction_modes(body["M"], body["K"],
+                                  supported_flexibility(body["K"], body["T"], body["rigid_modes"]),
+                                  F, Phi, lam, names=list(load_cases))
+    return {"gram_condition": float(res["gram_condition"]),
+            "frequencies_hz": [float(f) for f in res["frequencies_hz"]],
+            "mass_coupling": float(res["mass_coupling"]),
+            "stiffness_coupling": float(res["stiffness_coupling"])}
+
+
+# ============================================================== hard cases
+def scene_variant(scene, name, **changes):
+    """A copy of ``scene`` (scenes.Scene) with top-level or case_motion numbers replaced.
+
+    changes: key=value with key a scene key (duration, initial_rates, ...) or
+    ``case_<key>`` for a case_motion key; values in the scene file's units.  The result
+    is validated by ``scenes.parse_scene`` like a file (one-line SceneError).
+    """
+    raw = {k: (dict(v) if isinstance(v, dict) else v) for k, v in scene.raw.items()}
+    raw["case_motion"] = {k: dict(v) for k, v in scene.raw["case_motion"].items()}
+    raw["name"] = name
+    for key, value in changes.items():
+        value = np.asarray(value, float).tolist()
+        if key.startswith("case_"):
+            raw["case_motion"][key[5:]] = dict(raw["case_motion"][key[5:]], value=value,
+                                               source="results.stability (hard case)")
+        else:
+            raw[key] = dict(raw[key], value=value, source="results.stability (hard case)")
+    return scenes.parse_scene(raw, origin=name)
+
+
+def rate_error(reference, candidate, t):
+    """Eq. 3.53 E (4,) of the four gimbal rates of ``candidate`` against ``reference``.
+
+    reference, candidate (T, 4) [rad/s]; t (T,) [s].  A rate identically zero in both
+    counts as E = 0 (error_measure gives NaN for a zero reference)."""
+    E = np.asarray(error_measure(t, reference, candidate), float)
+    both_zero = np.all(reference == 0, axis=0) & np.all(candidate == 0, axis=0)
+    return np.where(np.isnan(E) & both_zero, 0.0, np.where(np.isnan(E), np.inf, E))
+
+
+def is_one_line_diagnosis(message, *must_name):
+    """A diagnosis is usable when it is one non-empty line naming what it must
+    (e.g. the model and the step): bool."""
+    text = str(message)
+    return bool(text) and "\n" not in text.strip() and all(str(m) in text for m in must_name)
+
+
+def checked_run(chain, scene, model_name, method="rk4", tol=HARD_CASE_TOLERANCE, problem=None,
+                **options):
+    """Run ``scene`` and judge the result against a tighter run (one dict).
+
+    The tighter run halves the step (rk4, generalized-alpha) or divides rtol by 100
+    (dop853).  outcome: ``verified`` (finite, E <= tol for every gimbal rate),
+    ``diagnosed`` (the run stopped with a DivergenceError / StepTooLargeError /
+    ValueError: message, and ``one_line`` whether it is one line naming the model),
+    or ``garbage`` (finished, but disagrees with the tighter run or is not finite).
+    Also: E (4,), energy_balance max |E(t) - E(0) - W(t)| / max(|E|, |W|) (W by the
+    trapezoid rule at the output samples, so only as good as their spacing), steps,
+    step [s], wall_s, omega_max.
+    """
+    out = {"model": model_name, "scene": scene.name, "method": method,
+           "options": {k: v for k, v in options.items() if v is not None}}
+    start = time.perf_counter()
+    try:
+        prob = simulate.scene_problem(chain, scene) if problem is None else problem
+        out["omega_max"] = float(prob.omega_max)
+        run, _ = simulate.run_scene(chain, scene, method, model_name=model_name, problem=prob,
+                                    **options)
+    except (integrators.DivergenceError, integrators.StepTooLargeError, ValueError) as exc:
+        msg = str(exc)
+        out.update(outcome="diagnosed", error=type(exc).__name__, message=msg,
+                   one_line=is_one_line_diagnosis(msg, repr(model_name)),
+                   wall_s=time.perf_counter() - start)
+        return out
+    tight = dict(options)
+    if method == "dop853":
+        tight["rtol"] = options.get("rtol", 1e-10) / 100.0
+    else:
+        tight.pop("fraction", None)
+        tight["step"] = run.step / 2.0
+    out.update(steps=int(run.steps), step=float(run.step))
+    try:
+        ref, _ = simulate.run_scene(chain, scene, method, model_name=model_name, problem=prob,
+                                    **tight)
+    except (integrators.DivergenceError, ValueError) as exc:
+        out.update(outcome="garbage", message=f"the run finished but its tighter run failed: {exc}",
+                   wall_s=time.perf_counter() - start)
+        return out
+    finite = bool(np.all(np.isfinite(run.yd)) and np.all(np.isfinite(run.y)))
+    E = rate_error(ref.yd[:, :4], run.yd[:, :4], run.t) if finite else np.full(4, np.inf)
+    T, U, W = simulate.energy_history(prob, run)
+    Etot = T + U
+    scale = max(float(np.abs(Etot).max()), float(np.abs(W).max()), 1e-300)
+    balance = float(np.abs(Etot - Etot[0] - W).max() / scale)
+    ok = finite and bool(np.all(E <= tol))
+    out.update(outcome="verified" if ok else "garbage", E=[float(e) for e in E], E_max=float(E.max()),
+               tolerance=tol, energy_balance=balance, tighter=tight,
+               max_rate=float(np.abs(run.yd[:, :4]).max()),
+               max_modal=float(np.abs(run.y[:, 4:]).max(initial=0.0)),
+               wall_s=time.perf_counter() - start)
+    if not ok:
+        out["message"] = (f"finished but E = {E.max():.3e} against the tighter run "
+                          f"(tolerance {tol:.0e})" if finite else "non-finite state")
+    return out
+
+
+def case_passes(result, expect=None):
+    """A hard case passes unless it is garbage; a diagnosis must be one line naming the
+    model.  expect: 'verified' or 'diagnosed' to demand that outcome.  bool."""
+    outcome = result.get("outcome")
+    if outcome == "garbage" or outcome is None:
+        return False
+    if expect is not None and outcome != expect:
+        return False
+    if outcome == "diagnosed":
+        return bool(result.get("one_line", False))
+    return True
