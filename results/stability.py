@@ -62,6 +62,11 @@ QUICK_SWEEP_MODELS = ("freq-5", "freq-6@2:output_motor_fz+output_motor_my+output
 # 3e5 .. 3e6 steps (25 .. 250 s at the ~85 us per step measured for freq-2); this model's
 # omega_max is 1.2e4 rad/s (9e4 RK4 steps, ~10 s).
 DRIFT_MODEL = "freq-1,1,0,0"
+# Integrator settings of the drift runs: the defaults (rk4 at RK4_DEFAULT_FRACTION of its
+# limit, dop853 at rtol 1e-10 / atol 1e-14), except generalized-alpha, whose default step is
+# the output interval (10 ms here): it gets 1 ms (h omega_max = 12: every elastic mode is
+# filtered, the gimbal motion resolved), rho_inf 0.9.
+DRIFT_OPTIONS = {"rk4": {}, "dop853": {}, "generalized-alpha": {"step": 1e-3}}
 HARD_MODEL = "freq-5"
 # The twelve load cases of the output bearings: the most static modes one body can carry
 # (input-bearing loads partly act on the supports).
@@ -484,7 +489,7 @@ def is_one_line_diagnosis(message, *must_name):
 
 
 def checked_run(chain, scene, model_name, method="rk4", tol=HARD_CASE_TOLERANCE, problem=None,
-                **options):
+                observe=None, **options):
     """Run ``scene`` and judge the result against a tighter run (one dict).
 
     The tighter run halves the step (rk4, generalized-alpha) or divides rtol by 100
@@ -494,7 +499,8 @@ def checked_run(chain, scene, model_name, method="rk4", tol=HARD_CASE_TOLERANCE,
     or ``garbage`` (finished, but disagrees with the tighter run or is not finite).
     Also: E (4,), energy_balance max |E(t) - E(0) - W(t)| / max(|E|, |W|) (W by the
     trapezoid rule at the output samples, so only as good as their spacing), steps,
-    step [s], wall_s, omega_max.
+    step [s], wall_s, omega_max.  observe: optional callable (run, problem) -> dict of
+    extra numbers about the (finished) run, merged into the result.
     """
     out = {"model": model_name, "scene": scene.name, "method": method,
            "options": {k: v for k, v in options.items() if v is not None}}
@@ -536,6 +542,8 @@ def checked_run(chain, scene, model_name, method="rk4", tol=HARD_CASE_TOLERANCE,
                max_rate=float(np.abs(run.yd[:, :4]).max()),
                max_modal=float(np.abs(run.y[:, 4:]).max(initial=0.0)),
                wall_s=time.perf_counter() - start)
+    if observe is not None:
+        out.update(observe(run, prob))
     if not ok:
         out["message"] = (f"finished but E = {E.max():.3e} against the tighter run "
                           f"(tolerance {tol:.0e})" if finite else "non-finite state")
@@ -553,3 +561,445 @@ def case_passes(result, expect=None):
     if outcome == "diagnosed":
         return bool(result.get("one_line", False))
     return True
+
+
+def case_axis_loading(chain, y, shape):
+    """Generalised force (3,) [lbf in-ish, per rad/s^2] that a unit case angular acceleration
+    about case X, Y, Z puts on one mode: -shape . c_a, c_a = inverse dynamics at rest with
+    only the case accelerating (the inertia load of the case motion).
+
+    chain, y (n,) configuration, shape (n,) a coupled mode (``coupled_modes``).  The case
+    axis with the largest |value| drives the mode hardest."""
+    n = chain.n_coordinates
+    out = np.zeros(3)
+    for a in range(3):
+        amp = np.zeros(3)
+        amp[a] = 1.0
+        c = multibody.inverse_dynamics(chain, np.asarray(y, float), np.zeros(n), np.zeros(n), 0.0,
+                                       multibody.CaseMotion(amplitude=tuple(amp)))
+        out[a] = -float(np.asarray(shape, float) @ c)
+    return out
+
+
+def potential_growth(run, fraction=0.2):
+    """max U over the last ``fraction`` of a run / max U over its first ``fraction`` [1]
+    (U = elastic energy at the output samples): ~ (1/f)^2 = 25 for f = 0.2 when an
+    undamped mode is driven at resonance (amplitude, so the envelope of U^(1/2), growing
+    linearly in time); ~1 for a bounded response."""
+    U = np.asarray(run.energy.get("potential", []), float)
+    k = max(int(round(fraction * U.size)), 1)
+    early = float(U[1:k + 1].max()) if U.size > 1 else 0.0
+    late = float(U[-k:].max()) if U.size else 0.0
+    return {"potential_growth": late / early if early > 0 else np.inf,
+            "potential_max": float(U.max()) if U.size else 0.0}
+
+
+# ============================================================== the study (CLI)
+def load_inputs(modes_dir, reduction_dir):
+    """(rankings, body data, provenance of the inputs) with one-line errors for missing files."""
+    for d, what in ((modes_dir, "modes"), (reduction_dir, "reduction")):
+        for b in models.BODIES:
+            path = os.path.join(d, f"body{b}.h5")
+            if not os.path.exists(path):
+                raise FileNotFoundError(f"{path} missing (run the {what} stage first)")
+    rankings = models.load_rankings(reduction_dir)
+    data = {b: models.load_body_file(os.path.join(modes_dir, f"body{b}.h5")) for b in models.BODIES}
+    prov = {f"body{b}": {"path": os.path.join(modes_dir, f"body{b}.h5"),
+                         "config_hash": str(data[b]["attrs"].get("config_hash", ""))}
+            for b in models.BODIES}
+    return rankings, data, prov
+
+
+def build(name, rankings, data, damping_ratio=0.0):
+    """Chain of a model name (``models.parse_model`` + ``models.build_chain``)."""
+    return models.build_chain(models.parse_model(name, rankings), data, damping_ratio)
+
+
+def run_rk4_sweep(model_names, rankings, data, n_steps, rtol=2e-4):
+    """Part a: ``measure_chain_rk4_limit`` per model at the thesis configuration, plus the
+    top coupled frequency over a grid of angles.  {model: dict with ``pass``}."""
+    out = {}
+    for name in model_names:
+        log(f"rk4 limit: {name} ...")
+        chain = build(name, rankings, data)
+        res = measure_chain_rk4_limit(chain, n_steps=n_steps, rtol=rtol)
+        grid_max, where = omega_top_over_angles(chain)
+        res.update(omega_grid_max=grid_max, omega_grid_argmax=where.tolist(),
+                   grid_over_omega_max=grid_max / res["omega_max"])
+        res["pass"] = bool(abs(res["ratio_bound"] - 1.0) < LIMIT_TOLERANCE)
+        log(f"rk4 limit: {name}: h* = {res['h_measured']:.4e} s, 2.785/omega_max = "
+            f"{res['h_bound']:.4e} s (ratio {res['ratio_bound']:.4f}), h* omega_top = "
+            f"{res['h_omega_top']:.4f} (2 sqrt 2 = 2.8284), {res['wall_s']:.1f} s")
+        out[name] = res
+    return out
+
+
+def run_energy_drift(scene, rankings, data, model=DRIFT_MODEL):
+    """Part b: every integrator of ``integrators.METHODS`` on ``scene`` with the settings
+    ``DRIFT_OPTIONS``.  {method: dict with ``pass``}."""
+    chain = build(model, rankings, data)
+    out = {}
+    for method in integrators.METHODS:
+        log(f"energy drift: {method} on {scene.name} ({scene.duration:g} s), model {model} ...")
+        res = drift_run(chain, scene, method, model_name=model, **DRIFT_OPTIONS.get(method, {}))
+        res["pass"] = bool(res["drift_max"] < DRIFT_TOLERANCE)
+        log(f"energy drift: {method}: max {res['drift_max']:.3e}, final {res['drift_final']:.3e}, "
+            f"{res['steps']} steps, {res['wall_s']:.1f} s")
+        out[method] = res
+    return out
+
+
+def _diagnosed_build(name, exc, *must_name):
+    """Result dict of a model that could not be built (a one-line ValueError naming must_name)."""
+    msg = str(exc)
+    return {"model": name, "outcome": "diagnosed", "error": type(exc).__name__, "message": msg,
+            "one_line": is_one_line_diagnosis(msg, *must_name)}
+
+
+def lock_table(chain, base_angles=(0.0, 0.0, 0.0, 0.0), distances=(1e-1, 1e-2, 1e-3, 0.0)):
+    """Conditioning of M(y) against the distance from the double gimbal lock gamma_2 =
+    gamma_3 = 0 (list of dicts), plus the thesis and free configurations for reference."""
+    rows = []
+    configs = [("thesis", THESIS_ANGLES), ("free", (0.1, -1.3707963267948966, -0.3, 0.4))]
+    configs += [(f"lock+{d:g}", (base_angles[0], d, d, base_angles[3])) for d in distances]
+    for label, ang in configs:
+        y = np.zeros(chain.n_coordinates)
+        y[:4] = ang
+        axes = drive_axes(ang)
+        row = {"configuration": label, "angles": [float(a) for a in ang],
+               "lock_distance": lock_distance(axes), "axis_alignment": axis_alignment(axes),
+               "omega_top": float(multibody.coupled_frequencies(chain, y)[-1])}
+        row.update(mass_conditioning(multibody.mass_matrix_fast(chain, y)))
+        rows.append(row)
+    return rows
+
+
+def run_hard_cases(rankings, data, quick=False, model=HARD_MODEL):
+    """Part c: every hard case (dict name -> result with ``pass``, ``expect`` and ``what``)."""
+    short = 0.005 if quick else 0.015
+    chain = build(model, rankings, data)
+    thesis = scenes.load_scene("thesis")
+    cases = {}
+
+    def record(name, what, result, expect=None):
+        result.update(what=what, expect=expect, **{"pass": case_passes(result, expect)})
+        cases[name] = result
+        extra = f"E = {result['E_max']:.2e}" if "E_max" in result else result.get("message", "")
+        log(f"hard case {name}: {result['outcome']} ({extra}), {result.get('wall_s', 0.0):.1f} s")
+
+    # 1, 2: large initial gimbal rates (case at rest)
+    for r in (10, 100):
+        sc = scenes.load_scene(f"stress_rates_{r}")
+        if quick:
+            sc = scene_variant(sc, sc.name, duration=short)
+        log(f"hard case rates_{r}: {model} on {sc.name} ...")
+        record(f"rates_{r}", f"initial gimbal rates {r} rad/s (scene {sc.name}), rk4 default step",
+               checked_run(chain, sc, model))
+
+    # 3: case driven at the first coupled elastic resonance, about the case axis loading it most
+    y0 = np.zeros(chain.n_coordinates)
+    y0[:4] = thesis.initial_angles
+    omega, shapes = coupled_modes(multibody.mass_matrix_fast(chain, y0), chain.stiffness_diagonal()[4:])
+    load = case_axis_loading(chain, y0, shapes[:, 0])
+    axis = int(np.argmax(np.abs(load)))
+    amp = np.zeros(3)
+    amp[axis] = 1.0
+    freq = np.zeros(3)
+    freq[axis] = omega[0] / (2 * np.pi)
+    sc = scene_variant(thesis, "stress_resonance", duration=0.01 if quick else 0.03,
+                       case_angular_acceleration_amplitude=amp,
+                       case_angular_acceleration_frequency=freq)
+    log(f"hard case resonance: {model}, case axis {'XYZ'[axis]} at {freq[axis]:.2f} Hz ...")
+    res = checked_run(chain, sc, model, observe=lambda run, prob: potential_growth(run))
+    res.update(resonance_omega=float(omega[0]), resonance_hz=float(freq[axis]), case_axis="XYZ"[axis],
+               case_axis_loading=load.tolist())
+    record("resonance", f"case rocked at the first coupled elastic frequency "
+                        f"({omega[0]:.1f} rad/s) about case {'XYZ'[axis]}, 1 rad/s^2", res)
+
+    # 4: near gimbal lock (thesis case motion about X, the normal of the locked axes' plane)
+    sc = scenes.load_scene("stress_lock")
+    if quick:
+        sc = scene_variant(sc, sc.name, duration=short)
+    log(f"hard case gimbal_lock: {model} on {sc.name} ...")
+    res = checked_run(chain, sc, model)
+    res["conditioning"] = lock_table(chain)
+    record("gimbal_lock", "gamma_2 = gamma_3 = 1e-3 rad from the double lock (all four drive axes "
+                          "within 1e-3 of one plane), case rocked about its normal", res)
+
+    # 5: twelve static modes on one body (every output-bearing load case of the outer gimbal)
+    name12 = "freq-6@2:" + "+".join(OUTPUT_LOADS)
+    log(f"hard case static_modes: {name12} ...")
+    spec = models.parse_model(name12, rankings)
+    cond = static_mode_conditioning(data[2], spec.kept[2], OUTPUT_LOADS)
+    chain12 = models.build_chain(spec, data)
+    y12 = np.zeros(chain12.n_coordinates)
+    y12[:4] = thesis.initial_angles
+    res = checked_run(chain12, scene_variant(thesis, "thesis", duration=short) if quick else thesis,
+                      name12)
+    chain6 = build("freq-6", rankings, data)
+    y6 = np.zeros(chain6.n_coordinates)
+    y6[:4] = thesis.initial_angles
+    res.update(static=cond, chain=mass_conditioning(multibody.mass_matrix_fast(chain12, y12)),
+               chain_without_static=mass_conditioning(multibody.mass_matrix_fast(chain6, y6)))
+    record("static_modes", f"12 static modes on the outer gimbal ({len(OUTPUT_LOADS)} output-bearing "
+                           f"load cases), thesis scene", res)
+
+    # 6: all 24 bearing load cases on one body: some act only on the supports
+    name24 = "freq-6@2:" + "+".join(ALL_LOADS)
+    try:
+        models.build_chain(models.parse_model(name24, rankings), data)
+        res = {"model": name24, "outcome": "garbage", "message": "built a model with loads on supports"}
+    except ValueError as exc:
+        # the reduction's message names the load case, not the model (build_chain does not add it)
+        res = _diagnosed_build(name24, exc, "static mode", "vanishes")
+    record("static_modes_on_supports", "all 24 bearing load cases on the outer gimbal", res,
+           expect="diagnosed")
+
+    # 7: a requested step beyond the limit
+    record("step_beyond_limit", "rk4 at 1.3 x 2.785/omega_max, thesis scene",
+           checked_run(chain, thesis, model, fraction=1.3), expect="diagnosed")
+
+    # 8: the old bound (largest kept modal frequency): the step is 3.5x too large
+    prob = multibody.Problem(chain, case=thesis.case, y0=y0, omega_max=chain.omega_max)
+    record("modal_frequency_bound", "rk4 at 0.5 x 2.785/(largest kept modal frequency), the bound "
+                                    "before the coupled-frequency fix, thesis scene",
+           checked_run(chain, thesis, model, problem=prob), expect="diagnosed")
+
+    # 9: a permitted step (fraction 1.0 of the sampled limit) through the configuration where
+    # the small model's top coupled frequency peaks (gamma_2 = 0), missed by the sampling
+    small = build(DRIFT_MODEL, rankings, data)
+    free = scenes.load_scene("free")
+    sc = scene_variant(free, "stress_sampling", duration=0.2, output_interval=0.02,
+                       initial_rates=(0.0, 10.0, 0.0, 0.0))
+    log(f"hard case sampled_omega_max: {DRIFT_MODEL} ...")
+    res = checked_run(small, sc, DRIFT_MODEL, fraction=1.0)
+    grid_max, where = omega_top_over_angles(small)
+    res.update(omega_grid_max=grid_max, omega_grid_argmax=where.tolist(),
+               grid_over_omega_max=grid_max / res.get("omega_max", np.nan),
+               h_omega_grid_max=integrators.RK4_STABILITY * grid_max / res.get("omega_max", np.nan))
+    record("sampled_omega_max", f"{DRIFT_MODEL}, rk4 at 1.0 x the limit, gamma_2 from -1.37 rad "
+                                f"through 0 at 10 rad/s", res)
+    return cases
+
+
+# ============================================================== outputs
+def _write_csv(path, header, rows):
+    from workflow.provenance import atomic_path
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    w.writerows(rows)
+    with atomic_path(path) as tmp:
+        tmp.write_text(buf.getvalue())
+    return path
+
+
+def write_csvs(out_dir, sweep, drift, cases):
+    """rk4_limit.csv, energy_drift.csv, hard_cases.csv, gimbal_lock.csv in out_dir; list of paths."""
+    paths = []
+    cols = ("n_modes", "modal_omega_max", "omega_top", "omega_max", "omega_grid_max", "h_measured",
+            "h_lo", "h_hi", "h_bound", "h_imaginary", "ratio_bound", "ratio_imaginary", "pass")
+    paths.append(_write_csv(os.path.join(out_dir, "rk4_limit.csv"), ("model",) + cols,
+                            [[m] + [("+".join(map(str, r[c])) if c == "n_modes" else r[c]) for c in cols]
+                             for m, r in sweep.items()]))
+    if drift:
+        methods = list(drift)
+        t = drift[methods[0]]["t"]
+        rows = [[f"{t[i]:.6g}"] + [f"{drift[m]['drift'][i]:.6e}" for m in methods] for i in range(t.size)]
+        paths.append(_write_csv(os.path.join(out_dir, "energy_drift.csv"),
+                                ["t_s"] + [f"drift_{m}" for m in methods], rows))
+    paths.append(_write_csv(os.path.join(out_dir, "hard_cases.csv"),
+                            ("case", "model", "scene", "outcome", "E_max", "message", "wall_s", "pass"),
+                            [[k, r.get("model", ""), r.get("scene", ""), r["outcome"], r.get("E_max", ""),
+                              r.get("message", ""), r.get("wall_s", ""), r["pass"]]
+                             for k, r in cases.items()]))
+    lock = cases.get("gimbal_lock", {}).get("conditioning")
+    if lock:
+        keys = ("lock_distance", "axis_alignment", "omega_top", "cond_M", "cond_joints", "cond_schur",
+                "min_eig_schur")
+        paths.append(_write_csv(os.path.join(out_dir, "gimbal_lock.csv"), ("configuration",) + keys,
+                                [[r["configuration"]] + [r[k] for k in keys] for r in lock]))
+    return paths
+
+
+def _save(fig, path):
+    from workflow.provenance import atomic_path
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=150)
+    return path
+
+
+def plot_rk4_limit(sweep, path):
+    """Measured h* against 2.785/omega_max (left), and h*/(2.785/omega_max) per model (right)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    names = list(sweep)
+    hb = np.array([sweep[m]["h_bound"] for m in names])
+    hm = np.array([sweep[m]["h_measured"] for m in names])
+    ratio = hm / hb
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    lo, hi = hb.min() / 1.3, hb.max() * 1.3
+    a1.loglog([lo, hi], [lo, hi], "k-", lw=0.8, label="h* = 2.785 / omega_max")
+    undamped = 2 * np.sqrt(2) / RK4_BOUND
+    a1.loglog([lo, hi], [lo * undamped, hi * undamped], "k--", lw=0.8,
+              label="h* = 2 sqrt 2 / omega_max")
+    for m, x, y in zip(names, hb, hm):
+        a1.loglog(x, y, "o")
+        a1.annotate(m if len(m) < 24 else m[:22] + "...", (x, y), fontsize=7, xytext=(4, -10),
+                    textcoords="offset points")
+    a1.set_xlabel("theory 2.785 / omega_max [s]")
+    a1.set_ylabel("measured RK4 limit h* [s]")
+    a1.legend(fontsize=8)
+    x = np.arange(len(names))
+    a2.axhspan(1 - LIMIT_TOLERANCE, 1 + LIMIT_TOLERANCE, color="0.9", label="check: +-5 %")
+    a2.axhline(1.0, color="k", lw=0.8)
+    a2.axhline(2 * np.sqrt(2) / RK4_BOUND, color="k", ls="--", lw=0.8,
+               label="2 sqrt 2 / 2.785 = 1.0156 (undamped)")
+    a2.plot(x, ratio, "o")
+    a2.set_xticks(x)
+    a2.set_xticklabels([m if len(m) < 16 else m[:14] + "..." for m in names], rotation=20, fontsize=7)
+    a2.set_ylabel("h* / (2.785 / omega_max)")
+    a2.set_ylim(0.93, 1.07)
+    a2.legend(fontsize=8, loc="lower right")
+    fig.suptitle("RK4 stability limit: measured (bisection) vs theory, thesis configuration")
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)
+    return path
+
+
+def plot_energy_drift(drift, path, title=""):
+    """|E(t) - E(0)| / |E(0)| against t for every integrator (log scale)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    floor = 1e-17
+    for m, r in drift.items():
+        label = f"{m} ({r['steps']} steps, {r['wall_s']:.1f} s)"
+        ax.semilogy(r["t"][1:], np.maximum(r["drift"][1:], floor), lw=0.8, label=label)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("|E(t) - E(0)| / |E(0)|")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)
+    return path
+
+
+def _summary(obj):
+    """JSON-ready copy: arrays to lists, long time series dropped (they go to the CSVs)."""
+    if isinstance(obj, dict):
+        return {k: _summary(v) for k, v in obj.items() if k not in ("t", "drift")}
+    if isinstance(obj, (list, tuple)):
+        return [_summary(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        return obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return str(obj)
+    return obj
+
+
+def _versions(versions):
+    """workflow.provenance.versions() plus numba (the compiled right-hand side)."""
+    out = versions()
+    try:
+        import numba
+        out["numba"] = numba.__version__
+    except ImportError:
+        out["numba"] = "missing (NumPy right-hand side)"
+    return out
+
+
+class _Parser(argparse.ArgumentParser):
+    """Argument errors as one line, exit status 2."""
+
+    def error(self, message):
+        self.exit(2, f"stability: {message} (see --help)\n")
+
+
+def main(argv=None):
+    ap = _Parser(prog="python -m results.stability",
+                 description="Numerical stability stress tests of the integrators (issue 6; "
+                             "docs/stability.md).")
+    ap.add_argument("--modes-dir", default=os.path.join(ROOT, "results", "modes"))
+    ap.add_argument("--reduction-dir", default=os.path.join(ROOT, "results", "reduction"))
+    ap.add_argument("--out-dir", default=os.path.join(ROOT, "results", "stability"))
+    ap.add_argument("--figures-dir", default=os.path.join(ROOT, "results", "figures", "stability"))
+    ap.add_argument("--quick", action="store_true",
+                    help="reduced version (2 models, 2000-step trials, 1 s drift, 5 ms hard cases)")
+    args = ap.parse_args(argv)
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    start = time.perf_counter()
+    try:
+        rankings, data, inputs = load_inputs(args.modes_dir, args.reduction_dir)
+        drift_scene = scenes.load_scene("free_10s")
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"stability: {exc}", file=sys.stderr)
+        return 2
+    from workflow.provenance import versions, write_json
+    if args.quick:
+        drift_scene = scene_variant(drift_scene, "free_10s (quick: 1 s)", duration=1.0)
+    log(f"{'quick' if args.quick else 'full'} run; inputs {args.modes_dir}, {args.reduction_dir}")
+
+    omega = 1000.0
+    osc = oscillator_rk4_limit(omega)
+    x_imag = rk4_imaginary_axis_limit()
+    oscillator = {"omega": omega, "h_measured": osc["step"], "h_omega": osc["step"] * omega,
+                  "exact": x_imag, "relative_offset": osc["step"] * omega / x_imag - 1.0,
+                  "pass": bool(abs(osc["step"] * omega / x_imag - 1.0) < 2e-4)}
+    log(f"scalar oscillator: h* omega = {oscillator['h_omega']:.6f} (2 sqrt 2 = {x_imag:.6f})")
+
+    sweep = run_rk4_sweep(QUICK_SWEEP_MODELS if args.quick else SWEEP_MODELS, rankings, data,
+                          n_steps=2000 if args.quick else 4000)
+    drift = run_energy_drift(drift_scene, rankings, data)
+    cases = run_hard_cases(rankings, data, quick=args.quick)
+
+    os.makedirs(args.out_dir, exist_ok=True)
+    csvs = write_csvs(args.out_dir, sweep, drift, cases)
+    figs = [plot_rk4_limit(sweep, os.path.join(args.figures_dir, "rk4_limit.png")),
+            plot_energy_drift(drift, os.path.join(args.figures_dir, "energy_drift.png"),
+                              f"scene {drift_scene.name}, model {DRIFT_MODEL}: relative energy drift")]
+    parts = {"scalar_oscillator": oscillator["pass"],
+             "rk4_limit": all(r["pass"] for r in sweep.values()),
+             "energy_drift": all(r["pass"] for r in drift.values()),
+             "hard_cases": all(r["pass"] for r in cases.values())}
+    wall = time.perf_counter() - start
+    report = {
+        "title": "Numerical stability stress tests (issue 6)",
+        "quick": bool(args.quick),
+        "theory": {"rk4_imaginary_axis": x_imag, "rk4_real_axis": rk4_real_axis_limit(),
+                   "project_bound": RK4_BOUND,
+                   "imaginary_over_bound": x_imag / RK4_BOUND},
+        "scalar_oscillator": oscillator,
+        "rk4_limit": {"tolerance": LIMIT_TOLERANCE, "configuration": list(THESIS_ANGLES),
+                      "check": "|h* / (2.785 / Problem.omega_max) - 1| < tolerance",
+                      "models": sweep, "pass": parts["rk4_limit"]},
+        "energy_drift": {"scene": drift_scene.name, "duration_s": drift_scene.duration,
+                         "model": DRIFT_MODEL, "tolerance": DRIFT_TOLERANCE,
+                         "model_choice": "first mode of the outer and middle gimbals only: omega_max "
+                                         "1.2e4 rad/s, so 10 s cost 9e4 RK4 steps; the first modes of "
+                                         "bodies 4 and 5 couple at 4.5e4 and 4.1e5 rad/s",
+                         "methods": drift, "pass": parts["energy_drift"]},
+        "hard_cases": {"model": HARD_MODEL, "tolerance": HARD_CASE_TOLERANCE, "cases": cases,
+                       "pass": parts["hard_cases"]},
+        "pass": all(parts.values()),
+        "parts": parts,
+        "outputs": {"csv": csvs, "figures": figs},
+        "provenance": {"command": " ".join(["python -m results.stability"] + list(sys.argv[1:] if argv is None else argv)),
+                       "wall_time_s": wall, "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
+                       "versions": _versions(versions), "inputs": inputs},
+    }
+    path = os.path.join(args.out_dir, "stability.json")
+    write_json(path, _summary(report))
+    log(f"{path}: {'all checks pass' if report['pass'] else 'FAILED: ' + ', '.join(k for k, v in parts.items() if not v)}"
+        f" ({wall:.0f} s)")
+    return 0 if report["pass"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
