@@ -5,6 +5,16 @@ config/scenes/thesis.yaml).  ``load_scene`` validates it completely before any
 integration: unknown or missing keys, wrong lengths, non-finite values, a
 negative duration or a non-positive output interval raise SceneError with a
 one-line message.
+
+A scene also states what it needs (optional ``needs`` block, so that the
+workflow computes nothing else):
+
+* ``needs.bodies``: the elastic bodies (default all of 2..5); the others are
+  rigid in every model simulated on this scene, so neither their reduction nor
+  their modal integrals are computed (their mass properties still come from
+  their body file);
+* ``needs.models``: the reduced models whose simulations make up the scene's
+  results (``snakemake results/sim/{scene}/needs.json`` builds exactly those).
 """
 
 import hashlib
@@ -32,6 +42,10 @@ _CASE = {
 }
 
 
+ALL_BODIES = (2, 3, 4, 5)
+_NEEDS = {"bodies": "body number", "models": "model name"}
+
+
 class SceneError(ValueError):
     """A scene file that cannot be used."""
 
@@ -48,9 +62,17 @@ class Scene:
     case: CaseMotion
     damping_ratio: float
     raw: dict
+    elastic_bodies: tuple = ALL_BODIES
+    models: tuple = ()
+
+    @property
+    def physics(self):
+        """The raw scene without ``needs`` and ``description``: what a simulation depends on."""
+        return {k: v for k, v in self.raw.items() if k not in ("needs", "description")}
 
     def config_hash(self):
-        return hashlib.sha256(json.dumps(self.raw, sort_keys=True, default=str).encode()).hexdigest()[:16]
+        """Hash of ``physics``: editing what the scene needs does not invalidate its simulations."""
+        return hashlib.sha256(json.dumps(self.physics, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
 def _number(where, entry, length, unit):
@@ -76,11 +98,44 @@ def _number(where, entry, length, unit):
     return float(arr) if length is None else tuple(float(v) for v in arr)
 
 
+def _needs(where, block):
+    """(elastic bodies, model names) of a scene's optional ``needs`` block."""
+    if block is None:
+        return ALL_BODIES, ()
+    if not isinstance(block, dict):
+        raise SceneError(f"{where}: needs must be a mapping with keys {', '.join(_NEEDS)}")
+    unknown = set(block) - set(_NEEDS)
+    if unknown:
+        raise SceneError(f"{where}: unknown needs key(s) {', '.join(sorted(unknown))} "
+                         f"(known: {', '.join(_NEEDS)})")
+    out = {}
+    for key, unit in _NEEDS.items():
+        entry = block.get(key)
+        if entry is None:
+            continue
+        if not isinstance(entry, dict) or "value" not in entry or set(entry) - {"value", "unit", "source"}:
+            raise SceneError(f"{where}: needs.{key} must be {{value, unit, source}}, got {entry!r}")
+        if entry.get("unit") != unit:
+            raise SceneError(f"{where}: needs.{key} unit must be {unit!r}, got {entry.get('unit')!r}")
+        value = entry["value"]
+        if not isinstance(value, list):
+            raise SceneError(f"{where}: needs.{key} must be a list, got {value!r}")
+        out[key] = value
+    bodies = out.get("bodies", list(ALL_BODIES))
+    if any(isinstance(b, bool) or b not in ALL_BODIES for b in bodies) or len(set(bodies)) != len(bodies):
+        raise SceneError(f"{where}: needs.bodies must be distinct body numbers out of 2, 3, 4, 5, "
+                         f"got {bodies!r}")
+    models = out.get("models", [])
+    if any(not isinstance(m, str) or not m or "/" in m for m in models):
+        raise SceneError(f"{where}: needs.models must be model names, got {models!r}")
+    return tuple(sorted(bodies)), tuple(models)
+
+
 def parse_scene(raw, origin="scene"):
     """Scene from a parsed YAML mapping; SceneError on anything invalid."""
     if not isinstance(raw, dict):
         raise SceneError(f"{origin}: a scene is a mapping, got {type(raw).__name__}")
-    allowed = set(_TOP) | {"name", "description", "case_motion"}
+    allowed = set(_TOP) | {"name", "description", "case_motion", "needs"}
     unknown = set(raw) - allowed
     if unknown:
         raise SceneError(f"{origin}: unknown key(s) {', '.join(sorted(unknown))} "
@@ -107,7 +162,9 @@ def parse_scene(raw, origin="scene"):
         raise SceneError(f"{origin}: damping_ratio must be >= 0, got {vals['damping_ratio']}")
     if any(f < 0 for f in case["angular_acceleration_frequency"]):
         raise SceneError(f"{origin}: case frequencies must be >= 0 Hz")
+    elastic_bodies, models = _needs(origin, raw.get("needs"))
     return Scene(
+        elastic_bodies=elastic_bodies, models=models,
         name=str(raw["name"]), description=str(raw.get("description", "")),
         duration=vals["duration"], output_interval=vals["output_interval"],
         initial_angles=vals["initial_angles"], initial_rates=vals["initial_rates"],
