@@ -2,9 +2,10 @@
 
 Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
 
-    model   := "truth" | "rigid" | family "-" counts statics
-    family  := "freq" | "xmx" | "xmgmx"                       vibration modes only
-             | "static" | "static-freq" | "static-xmx" | "static-xmgmx"
+    model   := "truth" | "rigid" | family "-" counts statics | pooled "-" N statics
+    family  := "freq" | "xmx" | "xmgmx" | "load"              vibration modes only
+             | "static" | "static-freq" | "static-xmx" | "static-xmgmx" | "static-load"
+    pooled  := "global" | "static-global"     N modes in total, pooled over the bodies
     counts  := N | N,N,N,N        kept vibration modes, all bodies or per body 2..5
     statics := ( "@" body ":" loadcase ( "+" loadcase )* )*
     loadcase:= {input_motor|input_resolver|output_motor|output_resolver}_{f|m}{x|y|z}
@@ -19,6 +20,15 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
   correction mode per body with the default load case (``output_motor_fz`` for
   bodies 2-4, as the thesis's Figure 4-12; ``input_motor_fx`` for the platform,
   which has no output bearings **[chosen]**); ``static-xmx-8`` with XMX-ranked modes.
+* ``load-10`` / ``load-10,10,5,5``: the first modes of every body in the scene's
+  load-aware ranking (``rank_load`` of results/reduction/load/{scene}.h5, written by
+  ``python -m reduction.load_aware``; docs/selection.md): the modes ranked by what
+  the scene's joint loads make them contribute to the gimbal rates.
+* ``global-40``: 40 vibration modes in total, the first 40 of the pooled load-aware
+  ranking of all four bodies' modes (thesis Section 5.1), however they fall on
+  the bodies (``pooled/body``, ``pooled/mode`` of the same file).
+  ``load-*`` and ``global-*`` need the scene's ranking file (``needs_load_ranking``,
+  ``load_load_ranking``; ``simulate --load-ranking``).
 * ``@body:case`` puts static modes on the listed bodies only, e.g.
   ``static-10@2:output_motor_fz`` (outer gimbal only) or
   ``freq-6@2:output_motor_fz+output_motor_my@3:output_motor_fz``.
@@ -38,6 +48,8 @@ BODIES = (2, 3, 4, 5)
 TRUTH_MODES = 100
 FAMILIES = ("freq", "xmx", "xmgmx")
 RANKING_KEYS = {"freq": "rank_frequency", "xmx": "rank_xmx", "xmgmx": "rank_xmgmx"}
+LOAD_FAMILY, LOAD_KEY = "load", "rank_load"          # per-body load-aware ranking
+GLOBAL_FAMILY, POOLED_KEY = "global", "pooled"       # pooled ranking: rankings["pooled"]
 BEARINGS = ("input_motor", "input_resolver", "output_motor", "output_resolver")
 DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_motor_fz",
                      5: "input_motor_fx"}
@@ -129,32 +141,96 @@ def parse_model(name, rankings):
         counts = dict.fromkeys(BODIES, n)
         family, with_static = "freq", False
     else:
-        m = re.fullmatch(r"(static-)?(?:(freq|xmx|xmgmx)-)?([0-9,]+)", base)
+        m = re.fullmatch(r"(static-)?(?:(freq|xmx|xmgmx|load|global)-)?([0-9,]+)", base)
         if not m or (m.group(1) is None and m.group(2) is None):
             raise ModelError(
-                f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, static-N, "
-                f"static-xmx-N, static-xmgmx-N (N or N,N,N,N; optional @body:loadcase)")
+                f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, load-N, "
+                f"global-N, static-N, static-xmx-N, static-xmgmx-N, static-load-N "
+                f"(N or N,N,N,N; global-N: one total N; optional @body:loadcase)")
         with_static = m.group(1) is not None
         family = m.group(2) or "freq"
+        if family == GLOBAL_FAMILY:
+            kept = _pooled_kept(name, m.group(3), rankings, available)
+            return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static),
+                             ranking=family)
         counts = _counts(m.group(3), name)
+    if family == LOAD_FAMILY and any(LOAD_KEY not in rankings[b] for b in BODIES):
+        raise ModelError(f"model {name!r}: no load-aware ranking loaded (python -m "
+                         f"reduction.load_aware; simulate --load-ranking PATH)")
+    key = LOAD_KEY if family == LOAD_FAMILY else RANKING_KEYS[family]
     kept = {}
     for b in BODIES:
         if counts[b] > available[b]:
             raise ModelError(f"model {name!r}: body {b} asks for {counts[b]} modes, only "
                              f"{available[b]} computed")
-        order = np.asarray(rankings[b][RANKING_KEYS[family]], dtype=int)
+        order = np.asarray(rankings[b][key], dtype=int)
         if order.size != available[b] or np.unique(order).size != order.size or \
                 (order.size and (order.min() < 0 or order.max() >= available[b])):
-            raise ModelError(f"model {name!r}: ranking {RANKING_KEYS[family]} of body {b} is not "
+            raise ModelError(f"model {name!r}: ranking {key} of body {b} is not "
                              f"a permutation of 0..{available[b] - 1}")
         kept[b] = np.sort(order[:counts[b]])
+    return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static), ranking=family)
+
+
+def _static_spec(statics, with_static):
+    """Static load cases per body: the @body:case list, the default case, or none."""
     if statics:
-        static = {b: statics.get(b, ()) for b in BODIES}
-    elif with_static:
-        static = {b: (DEFAULT_LOAD_CASE[b],) for b in BODIES}
-    else:
-        static = dict.fromkeys(BODIES, ())
-    return ModelSpec(name=name, kept=kept, static=static, ranking=family)
+        return {b: statics.get(b, ()) for b in BODIES}
+    if with_static:
+        return {b: (DEFAULT_LOAD_CASE[b],) for b in BODIES}
+    return dict.fromkeys(BODIES, ())
+
+
+def _pooled_kept(name, text, rankings, available):
+    """Kept modes per body of ``global-N``: the first N entries of the pooled ranking
+    rankings["pooled"] = {"body": (Q,), "mode": (Q,)} (body 2..5, 0-based mode)."""
+    if not re.fullmatch(r"\d+", text):
+        raise ModelError(f"model {name!r}: global-N takes one total count N (modes over all "
+                         f"bodies), got {text!r}")
+    n = int(text)
+    pooled = rankings.get(POOLED_KEY)
+    if pooled is None:
+        raise ModelError(f"model {name!r}: no pooled load-aware ranking loaded (python -m "
+                         f"reduction.load_aware; simulate --load-ranking PATH)")
+    body = np.asarray(pooled["body"], dtype=int)
+    mode = np.asarray(pooled["mode"], dtype=int)
+    total = sum(available.values())
+    pairs = set(zip(body.tolist(), mode.tolist()))
+    if body.shape != mode.shape or body.size != total or len(pairs) != total or \
+            any(b not in available or not 0 <= i < available[b] for b, i in pairs):
+        raise ModelError(f"model {name!r}: the pooled ranking is not a permutation of the "
+                         f"{total} computed modes of bodies 2..5")
+    if n > total:
+        raise ModelError(f"model {name!r}: asks for {n} modes in total, only {total} computed")
+    return {b: np.sort(mode[:n][body[:n] == b]) for b in BODIES}
+
+
+def needs_load_ranking(name):
+    """True if the model name uses the scene's load-aware ranking (load-*, global-*)."""
+    base = str(name).partition("@")[0]
+    return re.fullmatch(r"(static-)?(load|global)-[0-9,]+", base) is not None
+
+
+def load_load_ranking(path, rankings=None):
+    """Add the load-aware rankings of ``reduction.load_aware`` (file ``path``) to a
+    rankings dict (``load_rankings``): rankings[b]["rank_load"] (D,) and
+    rankings["pooled"] = {"body", "mode"} (Q,); returns it (a new dict if None)."""
+    import h5py
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"load-aware ranking {path} missing (run python -m "
+                                f"reduction.load_aware --scene SCENE --out {path})")
+    out = {} if rankings is None else rankings
+    try:
+        with h5py.File(path, "r") as f:
+            for b in BODIES:
+                out.setdefault(b, {})[LOAD_KEY] = f[f"body{b}/{LOAD_KEY}"][()]
+            out[POOLED_KEY] = {"body": f["pooled/body"][()], "mode": f["pooled/mode"][()],
+                               "scene": str(f.attrs.get("scene", "")),
+                               "body_config_hashes": str(f.attrs.get("body_config_hashes", ""))}
+    except (OSError, KeyError) as exc:
+        raise ModelError(f"load-aware ranking {path} unreadable or incomplete "
+                         f"({exc.__class__.__name__}: {' '.join(str(exc).split())})") from None
+    return out
 
 
 # ------------------------------------------------------------------ body files

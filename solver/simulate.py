@@ -11,8 +11,13 @@ case motion and motors minus damping, trapezoid at output samples);
 attributes: scene, model, integrator, step, steps, wall_time_s, config_hash,
 omega_max (the coupled chain's highest frequency at the initial state, which
 sets the RK4 limit), modal_omega_max (largest kept modal frequency),
-stability_limit, n_modes (4,), created.  Written to a temporary file
-and moved into place with os.replace (atomic).
+stability_limit, n_modes (4,), created; for ``load-*`` / ``global-*`` models also
+load_ranking (the ranking file used) and load_ranking_scene.  Written to a
+temporary file and moved into place with os.replace (atomic).
+
+``load-*`` and ``global-*`` models (solver/models.py) read the scene's load-aware
+ranking, ``--load-ranking PATH`` (default results/reduction/load/{scene}.h5, made by
+``python -m reduction.load_aware``); a missing file is a one-line error naming it.
 """
 
 import argparse
@@ -98,6 +103,16 @@ def write_result(path, run, prob, attrs, store_modal=False):
     return path
 
 
+def _check_load_ranking(path, rankings, body_data):
+    """ValueError (one line) if a load-aware ranking was made from other body files."""
+    import json
+    stored = rankings[models.POOLED_KEY].get("body_config_hashes") or ""
+    current = [str(body_data[b]["attrs"].get("config_hash", "")) for b in models.BODIES]
+    if stored and json.loads(stored) != current:
+        raise ValueError(f"load-aware ranking {path} was made from other body files (config "
+                         f"hashes differ): rerun python -m reduction.load_aware")
+
+
 class _Parser(argparse.ArgumentParser):
     """Argument errors as one line (no usage block), exit status 2."""
 
@@ -112,8 +127,8 @@ def main(argv=None):
                     "(docs/dynamics.md; model grammar in solver/models.py).")
     ap.add_argument("--scene", required=True, help="scene name (config/scenes/NAME.yaml) or path")
     ap.add_argument("--model", required=True,
-                    help="truth | rigid | freq-N | xmx-N | xmgmx-N | static-N | static-xmx-N | "
-                         "... with N or N,N,N,N and optional @body:loadcase")
+                    help="truth | rigid | freq-N | xmx-N | xmgmx-N | load-N | global-N | static-N | "
+                         "static-xmx-N | ... with N or N,N,N,N and optional @body:loadcase")
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
                     help="default rk4 (truth: models.TRUTH_DEFAULT, the converged setting)")
     ap.add_argument("--step", type=float, default=None, help="fixed step [s] (rk4, generalized-alpha)")
@@ -126,11 +141,19 @@ def main(argv=None):
     ap.add_argument("--modes-dir", default=os.path.join(ROOT, "results", "modes"))
     ap.add_argument("--reduction-dir", default=os.path.join(ROOT, "results", "reduction"))
     ap.add_argument("--out-dir", default=os.path.join(ROOT, "results", "sim"))
+    ap.add_argument("--load-ranking", default=None,
+                    help="load-aware ranking file for load-N / global-N models (default "
+                         "results/reduction/load/{scene}.h5, python -m reduction.load_aware)")
     ap.add_argument("--store-modal", action="store_true", help="also store q(t), q'(t)")
     args = ap.parse_args(argv)
     try:
         scene = scenes.load_scene(args.scene)
         rankings = models.load_rankings(args.reduction_dir)
+        load_ranking = None
+        if models.needs_load_ranking(args.model):
+            load_ranking = args.load_ranking or os.path.join(
+                ROOT, "results", "reduction", "load", f"{scene.name}.h5")
+            models.load_load_ranking(load_ranking, rankings)
         spec = models.parse_model(args.model, rankings)
         if args.integrator is None:
             args.integrator = "rk4"
@@ -144,6 +167,8 @@ def main(argv=None):
             raise ValueError(f"--step must be a positive number, got {args.step}")
         body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))
                      for b in models.BODIES}
+        if load_ranking is not None:
+            _check_load_ranking(load_ranking, rankings, body_data)
         chain = models.build_chain(spec, body_data, scene.damping_ratio)
         prob = scene_problem(chain, scene)
         if args.integrator == "rk4" and args.step is not None:
@@ -171,6 +196,9 @@ def main(argv=None):
              "stability_limit": integrators.rk4_stability_limit(prob.omega_max),
              "n_modes": np.array(chain.n_modes), "units": "in, lbf, s, rad",
              "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
+    if load_ranking is not None:
+        attrs["load_ranking"] = os.path.abspath(load_ranking)
+        attrs["load_ranking_scene"] = rankings[models.POOLED_KEY]["scene"]
     write_result(path, run, prob, attrs, args.store_modal)
     what = (f"(mean step {scene.duration / max(run.steps, 1):.3e} s)" if run.method == "dop853"
             else f"of {run.step:.3e} s")

@@ -1,0 +1,698 @@
+"""Load-aware mode selection: rank the modes by what the scene's loads make them do.
+
+    python -m reduction.load_aware --scene thesis --modes-dir results/modes \\
+        --reduction-dir results/reduction --out results/reduction/load/thesis.h5
+    python -m reduction.load_aware plot --truth results/sim/thesis/truth.h5 \\
+        --cases results/sim/thesis/*.h5 --ranking results/reduction/load/thesis.h5 \\
+        --table results/tables/selection.csv --figure results/figures/bench/global_ranking.png
+
+The thesis closes with "it is advantageous to take into account the given
+conditions applied to the system when reducing the model" and proposes (Section
+5.1) to rank the modes of all bodies in one pool.  This module does both.  The
+method, its maths and the measured results are in ``docs/selection.md``; in short:
+
+1. **Loads of the scene on every mode** (``rigid_run``, ``modal_loads``).  The
+   rigid chain (no modes) is integrated through the scene.  Along that motion
+   the elastic chain's modal equations, at q = 0, are driven by
+
+       Gamma_i(t) = -[P; H]_i^T dw_n/dt  +  1/2 w_n^T M_1,i w_n  -  L_i^T F_child(t)
+
+   the inertial load of the body's frame acceleration (momentum coefficients
+   P, H), the centrifugal load, and the bearing load: the wrench F_child that
+   the inner subtree needs, applied through the inside-frame motion of the
+   mode (L_i = [R^T Psi_i; R_j^T Theta_i], from the bearings' rigid-fit data).
+   That is minus the modal rows of the inverse dynamics at q = 0.
+
+2. **Frozen linear chain** (``linear_model``).  Over the scene the gimbal angles
+   change little (thesis scene: < 2e-4 rad) and the rates are ~1e-2 rad/s
+   against modal frequencies above 1e4 rad/s, so the deviation d = y - y_rigid
+   obeys  M(y0) d'' + K d = [0; Gamma(t)],  d(0) = d'(0) = 0  with
+   K = diag(0_4, Omega^2).  M(y0) holds the whole joint coupling: the modes'
+   momentum about the drive axes (P, H) and the inner bodies' inertia carried
+   by the inside-frame motion (Psi, Theta), which on the real bodies makes the
+   modal mass matrix far from diagonal (entries up to 93).
+
+3. **A-priori error of any kept set** (``estimate_error``).  The kept set's
+   pencil (K_S, M_S) is solved exactly, every coupled mode's velocity response
+   to its load is integrated in closed form (``velocity_response``), and
+   eq. 3.53 (``results.errors.error_measure``) compares the rates
+   gamma_dot_rigid + d_S with the full set's gamma_dot_rigid + d_full.  No
+   nonlinear simulation is involved; one evaluation costs 1-20 ms.
+
+4. **Scores and rankings.**  ``participation_scores``: the share of eq. 3.53 that
+   each coupled mode k of the full chain carries in rate n (e_nk), handed to
+   the body modes by their strain-energy share in it,
+   eps_ik = Omega_i^2 V_ik^2 / lambda_k: s_ni = sum_k e_nk eps_ik.  A mode that no
+   load reaches has s = 0 ("not excited").  The pooled ranking
+   (``pooled_ranking``) is the backward elimination of the a-priori error: from
+   a pool of the best-scored modes of all four bodies, repeatedly drop the
+   mode whose removal raises max_n E_n least.  Everything is in the same unit
+   (E of the gimbal rates), so modes of different bodies compare directly.
+   Each body's ``rank_load`` is the pooled order restricted to that body.
+
+Pure functions on numpy arrays; file reading and writing only in the CLI.
+Units: in, lbf, s, rad; mass lbf s^2/in.
+"""
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+from reduction.errors import ReductionError
+
+BODIES = (2, 3, 4, 5)
+N_JOINTS = 4
+FORMAT_VERSION = 1
+DEFAULT_POOL = 160          # pooled modes ranked by backward elimination (40 per body on average)
+GREEDY_STEPS = 0            # forward-selection steps that seed the pooled ranking (0: none; see docs)
+N_CURVE = 40                # a-priori estimates for N = 1..40 modes per body
+EXCITED_RTOL = 1e-12        # a mode carrying less than this share of the scores is "not excited"
+SERIES_LIMIT = 0.1          # |omega h| below which velocity_response uses its Taylor series
+
+
+class LoadAwareError(ReductionError):
+    """Bad input to the load-aware selection (one-line message)."""
+
+
+# ----------------------------------------------------------------- scene loads
+def scene_times(duration, output_interval):
+    """Output times (T,) [s] of a scene, exactly as ``solver.integrators.integrate`` makes them."""
+    if not (np.isfinite(duration) and duration > 0):
+        raise LoadAwareError(f"scene duration must be > 0 s, got {duration}")
+    n_out = max(int(round(duration / output_interval)), 1)
+    return np.linspace(0.0, duration, n_out + 1)
+
+
+def rigid_run(rigid_chain, scene, rtol=1e-12, atol=1e-14):
+    """The rigid chain (no modes) through a scene: dict t (T,), y, yd, ydd (T, 4).
+
+    DOP853 at rtol 1e-12 (4 coordinates: about a second); accelerations from the
+    equations of motion at the output samples."""
+    from solver import integrators, simulate
+    if sum(rigid_chain.n_modes):
+        raise LoadAwareError(f"rigid_run needs a chain without modes, got {rigid_chain.n_modes}")
+    prob = simulate.scene_problem(rigid_chain, scene)
+    run = integrators.integrate(prob, scene.duration, scene.output_interval, method="dop853",
+                                rtol=rtol, atol=atol, model="rigid")
+    ydd = np.array([prob.rhs(t, y, v) for t, y, v in zip(run.t, run.y, run.yd)])
+    return {"t": run.t, "y": run.y, "yd": run.yd, "ydd": ydd}
+
+
+def modal_loads(chain, t, y, yd, ydd, case):
+    """Gamma (T, sum D): the load of the scene on every mode along a rigid motion.
+
+    chain: the elastic chain (all modes to be ranked); t (T,) [s]; y, yd, ydd
+    (T, 4): gimbal angles, rates, accelerations of the rigid run.  With the
+    elastic coordinates at rest (q = q' = q'' = 0) the modal rows of the
+    inverse dynamics (``solver.multibody.inverse_dynamics``) are, per body n and
+    mode i (docs/dynamics.md, Section 3),
+
+        ID_q,i = [P; H]_i^T dw_n/dt - 1/2 w_n^T M_1,i w_n + L_i^T F_child,
+
+    so Gamma = -ID_q is the generalised force that the rigid motion leaves on the
+    modes: inertial (frame acceleration through P, H), centrifugal (M_1,i), and
+    the bearing wrench F_child of the inner subtree through the inside-frame
+    motion L_i (Psi, Theta).  Unit: lbf / sqrt(lbf s^2/in) (= in/s^2 times
+    sqrt(mass)), the generalised force of a mass-normalised modal coordinate."""
+    from solver import multibody
+    t = np.asarray(t, float)
+    y, yd, ydd = (np.asarray(a, float) for a in (y, yd, ydd))
+    if y.shape != (t.size, N_JOINTS) or yd.shape != y.shape or ydd.shape != y.shape:
+        raise LoadAwareError(f"rigid motion must be (T, 4) arrays for T = {t.size} samples, got "
+                             f"{y.shape}, {yd.shape}, {ydd.shape}")
+    n = chain.n_coordinates
+    out = np.zeros((t.size, n - N_JOINTS))
+    Y, V, A = np.zeros(n), np.zeros(n), np.zeros(n)
+    for k in range(t.size):
+        Y[:N_JOINTS], V[:N_JOINTS], A[:N_JOINTS] = y[k], yd[k], ydd[k]
+        out[k] = -multibody.inverse_dynamics(chain, Y, V, A, t[k], case)[N_JOINTS:]
+    return out
+
+
+def linear_model(chain, y0, t, gamma_rigid, loads):
+    """The frozen linear chain of a scene, as a dict of arrays (the a-priori estimator).
+
+    M (n, n) = M(y0) of the elastic chain, K (n,) = [0_4, Omega^2], t (T,) [s],
+    rigid_rates (T, 4) [rad/s] (gamma_dot of the rigid run), loads (T, n - 4)
+    (``modal_loads``), offsets (5,): body b's modes are columns offsets[k]:offsets[k+1]
+    of loads (k = b - 2), and the full set's response ``full`` (T, 4) [rad/s]."""
+    from solver import multibody
+    M = multibody.mass_matrix(chain, np.asarray(y0, float))
+    K = chain.stiffness_diagonal()
+    model = {"M": M, "K": K, "t": np.asarray(t, float),
+             "rigid_rates": np.asarray(gamma_rigid, float), "loads": np.asarray(loads, float),
+             "offsets": np.concatenate([[0], np.cumsum(chain.n_modes)]).astype(int)}
+    check_model(model)
+    model["full"] = rate_response(model, np.arange(model["loads"].shape[1]))
+    return model
+
+
+def check_model(model):
+    """Raise LoadAwareError unless the linear model's arrays fit together."""
+    M, K, t, g, L = (np.asarray(model[k]) for k in ("M", "K", "t", "rigid_rates", "loads"))
+    n = K.size
+    if M.shape != (n, n) or L.shape != (t.size, n - N_JOINTS) or g.shape != (t.size, N_JOINTS):
+        raise LoadAwareError(f"linear model: shapes M {M.shape}, K {K.shape}, t {t.shape}, "
+                             f"rigid_rates {g.shape}, loads {L.shape} do not fit")
+    if np.any(K[:N_JOINTS] != 0) or np.any(K[N_JOINTS:] <= 0):
+        raise LoadAwareError("linear model: K must be 0 on the 4 joints and > 0 on every mode")
+    if t.size < 2 or np.any(np.diff(t) <= 0):
+        raise LoadAwareError("linear model: t must hold at least 2 strictly increasing samples")
+
+
+# ------------------------------------------------------------ linear response
+def coupled_modes(M, K, n_free=N_JOINTS):
+    """Modes of the frozen chain: omega (n,) [rad/s] and V (n, n) with V^T M V = I,
+    V^T diag(K) V = diag(omega^2).  The first ``n_free`` (the free joints, K = 0)
+    have omega = 0 and no elastic components."""
+    import scipy.linalg
+    K = np.asarray(K, float)
+    lam, V = scipy.linalg.eigh(np.diag(K), np.asarray(M, float))
+    if K.size > n_free and lam[n_free] <= 1e-9 * lam[-1]:
+        raise LoadAwareError(f"linear model: more than {n_free} zero frequencies "
+                             f"(mass matrix not positive definite?)")
+    lam[:n_free] = 0.0
+    return np.sqrt(np.maximum(lam, 0.0)), V
+
+
+def _phi(a, order):
+    """phi_1(a) = (1 - e^-a)/a (order 1) or phi_2(a) = (1 - e^-a (1 + a))/a^2 (order 2),
+    complex a, by a Taylor series where |a| < SERIES_LIMIT (no cancellation)."""
+    a = np.asarray(a, complex)
+    small = np.abs(a) < SERIES_LIMIT
+    safe = np.where(small, 1.0, a)
+    e = np.exp(-safe)
+    out = (1 - e) / safe if order == 1 else (1 - e * (1 + safe)) / safe ** 2
+    if np.any(small):
+        s = a[small]
+        term = np.ones_like(s)
+        acc = np.zeros_like(s)
+        for k in range(12):             # sum_k (-a)^k / (k+1)!  or  (-a)^k / (k! (k+2))
+            acc += term / ((k + 1) if order == 1 else (k + 2))
+            term = term * (-s) / (k + 1)
+        out = np.where(small, 0, out)
+        out[small] = acc
+    return out
+
+
+def velocity_response(omega, g, t):
+    """eta' (T, n) of eta'' + omega^2 eta = g(t) from rest, g linear between samples.
+
+    omega (n,) [rad/s] (0 allowed: eta' = integral of g); g (T, n) sampled loads;
+    t (T,) [s].  Exact for the piecewise-linear load (Duhamel integral in closed
+    form), so omega h may be far above 1:
+
+        eta'(t) = int_0^t cos(omega (t - s)) g(s) ds = Re[e^{i omega t} I(t)],
+        I(t) = int_0^t e^{-i omega s} g(s) ds,
+
+    summed interval by interval with
+    int_0^h e^{-i w u} (g_a + g' u) du = h phi_1(i w h) g_a + h^2 phi_2(i w h) g'
+    (``_phi``).  Real arithmetic (cosines and sines of omega t), ~5 ms for
+    1500 samples and 160 modes."""
+    t = np.asarray(t, float)
+    g = np.asarray(g, float)
+    w = np.asarray(omega, float)
+    if g.ndim != 2 or g.shape != (t.size, w.size):
+        raise LoadAwareError(f"velocity_response: g must be (T, n) = ({t.size}, {w.size}), "
+                             f"got {g.shape}")
+    h = np.diff(t)
+    uniform = np.allclose(h, h[0], rtol=1e-9, atol=0.0)
+    hh = np.array([[h[0]]]) if uniform else h[:, None]
+    a = 1j * hh * w[None, :]
+    A1, A2 = hh * _phi(a, 1), hh * hh * _phi(a, 2)
+    slope = np.diff(g, axis=0) / h[:, None]
+    wt = np.outer(t, w)
+    c, s = np.cos(wt), np.sin(wt)
+    Br = g[:-1] * A1.real + slope * A2.real          # B = g_a A1 + g' A2 on every interval
+    Bi = g[:-1] * A1.imag + slope * A2.imag
+    re = np.zeros_like(c)                             # I = sum of e^{-i w t_a} B
+    im = np.zeros_like(c)
+    np.cumsum(c[:-1] * Br + s[:-1] * Bi, axis=0, out=re[1:])
+    np.cumsum(c[:-1] * Bi - s[:-1] * Br, axis=0, out=im[1:])
+    return c * re - s * im
+
+
+def _kept_index(model, keep):
+    keep = np.asarray(keep, dtype=int).ravel()
+    Q = model["loads"].shape[1]
+    if keep.size and (keep.min() < 0 or keep.max() >= Q or np.unique(keep).size != keep.size):
+        raise LoadAwareError(f"kept modes must be distinct indices in 0..{Q - 1}")
+    return np.sort(keep)
+
+
+def rate_response(model, keep):
+    """d gamma_dot (T, 4) [rad/s]: what the kept modes (indices into the pooled
+    modal coordinates, 0..sum D - 1) add to the rigid rates in the frozen chain."""
+    keep = _kept_index(model, keep)
+    t = model["t"]
+    if keep.size == 0:
+        return np.zeros((t.size, N_JOINTS))
+    idx = np.concatenate([np.arange(N_JOINTS), N_JOINTS + keep])
+    omega, V = coupled_modes(model["M"][np.ix_(idx, idx)], model["K"][idx])
+    g = model["loads"][:, keep] @ V[N_JOINTS:]               # load on every coupled mode
+    return velocity_response(omega, g, t) @ V[:N_JOINTS].T
+
+
+def estimate_error(model, keep):
+    """A-priori eq. 3.53 error (4,) of keeping ``keep``: rates of the kept set against the
+    full set, both in the frozen linear chain (``results.errors.error_measure``)."""
+    from results.errors import error_measure
+    t, g0, full = model["t"], model["rigid_rates"], model["full"]
+    return np.asarray(error_measure(t, g0 + full, g0 + rate_response(model, keep)), float)
+
+
+def kept_from_counts(offsets, orders, counts):
+    """Pooled indices (k,) of the first counts[b] modes of orders[b] of every body."""
+    return np.concatenate([offsets[k] + np.asarray(orders[k], int)[:int(c)]
+                           for k, c in enumerate(counts)]).astype(int)
+
+
+# -------------------------------------------------------------------- scores
+def participation_scores(model):
+    """Share of the error that every mode would carry: dict of arrays.
+
+    ``score`` (4, Q): s_ni = sum_k e_nk eps_ik, where, for the full frozen chain's
+    coupled modes k (``coupled_modes``), e_nk = int (V_nk eta'_k)^2 dt / int r_n^2 dt
+    is the part of eq. 3.53 that coupled mode k's response makes in rate n (r the
+    reference rate), and eps_ik = Omega_i^2 V_ik^2 / omega_k^2 the strain-energy
+    share of body mode i in coupled mode k (sum_i eps_ik = 1).  So s_ni is the share
+    of rate n's elastic signal that mode i builds; sum_i s_ni ~ E_n of the rigid
+    model (exact up to cross terms between coupled modes, which average out over
+    the scene when their frequencies differ by more than 1/duration).  A mode that
+    no load reaches and that is not coupled to one that is, has s = 0.
+    ``rate_share`` (4, n): e_nk; ``omega`` (n,) [rad/s]; ``strain_share`` (Q, n)."""
+    t, K, g0 = model["t"], model["K"], model["rigid_rates"]
+    omega, V = coupled_modes(model["M"], K)
+    g = model["loads"] @ V[N_JOINTS:]
+    eta = velocity_response(omega, g, t)
+    ref = np.trapz((g0 + model["full"]) ** 2, t, axis=0)               # (4,)
+    e = np.stack([np.trapz((eta * V[n]) ** 2, t, axis=0) for n in range(N_JOINTS)])
+    e = e / np.where(ref > 0, ref, 1.0)[:, None]
+    elastic = omega > 0
+    eps = np.zeros((K.size - N_JOINTS, K.size))
+    eps[:, elastic] = K[N_JOINTS:, None] * V[N_JOINTS:, elastic] ** 2 / omega[elastic] ** 2
+    e[:, ~elastic] = 0.0
+    return {"score": e @ eps.T, "rate_share": e, "omega": omega, "strain_share": eps}
+
+
+def additive_estimate(score, keep):
+    """Sum of the dropped modes' scores (4,): the additive a-priori estimate (it ignores
+    the ringing that kept modes add at frequencies the full chain does not have)."""
+    score = np.asarray(score, float)
+    dropped = np.ones(score.shape[1], bool)
+    dropped[np.asarray(keep, int)] = False
+    return score[:, dropped].sum(axis=1)
+
+
+def excited_modes(score, rtol=EXCITED_RTOL):
+    """(Q,) bool: modes whose score (max over rates) exceeds rtol times the largest
+    rate's total; the others the scene does not excite (dropped, ranked last)."""
+    s = np.max(np.asarray(score, float), axis=0)
+    total = float(np.max(np.sum(score, axis=1))) if s.size else 0.0
+    return s > rtol * total if total > 0 else np.zeros(s.size, bool)
+
+
+# ------------------------------------------------------------------ rankings
+def backward_elimination(evaluate, pool, protected=(), drop_fraction=0.0, log=None):
+    """Nested ranking of ``pool`` by backward elimination of a cost.
+
+    evaluate: callable(list of kept indices) -> float (smaller is better);
+    pool: indices to rank; protected: indices never dropped (ranked first, in the
+    given order).  Each round evaluates the removal of every unprotected member and
+    drops the one whose removal gives the smallest cost (ties: the later member of
+    the pool) -- or, with ``drop_fraction`` f > 0, the k = max(1, floor(f n))
+    cheapest removals at once (n kept; fewer rounds, a slightly coarser order).
+    Returns (order, cost): order (len(pool),) most important first (the last
+    dropped first), cost (len(pool) + 1,) with cost[N] the cost of order[:N]
+    (NaN for sizes a multi-drop round skipped)."""
+    pool = [int(i) for i in pool]
+    protected = [int(i) for i in protected]
+    if len(set(pool)) != len(pool) or not set(protected) <= set(pool):
+        raise LoadAwareError("backward elimination: pool must be distinct and hold the protected set")
+    if not 0.0 <= drop_fraction < 1.0:
+        raise LoadAwareError(f"backward elimination: drop_fraction must lie in [0, 1), got {drop_fraction}")
+    keep_set = set(protected)
+    current = list(pool)
+    cost = np.full(len(pool) + 1, np.nan)
+    cost[len(current)] = float(evaluate(current))
+    dropped = []
+    while len(current) > len(protected):
+        trials = []
+        for pos in range(len(current) - 1, -1, -1):
+            m = current[pos]
+            if m not in keep_set:
+                trials.append((float(evaluate(current[:pos] + current[pos + 1:])), -pos, m))
+        trials.sort()
+        k = max(1, int(drop_fraction * len(current)))
+        chosen = [m for _, _, m in trials[:k]]
+        current = [i for i in current if i not in set(chosen)]
+        dropped.extend(chosen)
+        cost[len(current)] = trials[0][0] if k == 1 else float(evaluate(current))
+        if log and (len(current) // 20) != ((len(current) + k) // 20):
+            log(f"backward elimination: {len(current)} kept, cost {cost[len(current)]:.3e}")
+    order = protected + dropped[::-1]
+    return np.array(order, int), cost
+
+
+def forward_selection(evaluate, candidates, max_size, min_gain=0.005):
+    """Greedy forward selection: from the empty set, add the candidate that gives the
+    lowest cost, ``max_size`` times (also when no addition lowers the cost: a single
+    mode may add ringing that a later one cancels), and keep the prefix with the
+    lowest cost if it beats the empty set by more than ``min_gain`` (relative).
+    Returns (prefix (k,) in order of selection, cost (max_size + 1,) of every prefix)."""
+    candidates = [int(i) for i in candidates]
+    selected = []
+    cost = [float(evaluate([]))]
+    for _ in range(min(int(max_size), len(candidates))):
+        best = min((float(evaluate(selected + [m])), m) for m in candidates if m not in selected)
+        selected.append(best[1])
+        cost.append(best[0])
+    cost = np.array(cost)
+    k = int(np.argmin(cost))
+    if cost[k] >= cost[0] * (1.0 - min_gain):
+        k = 0
+    return np.array(selected[:k], int), cost
+
+
+def decimated(model, stride):
+    """The linear model on every ``stride``-th output sample (a cheaper search grid)."""
+    if stride == 1:
+        return model
+    out = dict(model)
+    for key in ("t", "rigid_rates", "loads", "full"):
+        out[key] = model[key][::stride]
+    return out
+
+
+def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, stride=3,
+                   greedy_prefix=GREEDY_STEPS, log=None):
+    """Pooled load-aware ranking of every mode of every body.
+
+    score (4, Q) from ``participation_scores``.  The cost is J = max_n E_n, the
+    a-priori eq. 3.53 error (``estimate_error``) evaluated on every ``stride``-th
+    output sample (within 0.5 % of the full grid on the real bodies).  First a
+    forward selection (``greedy_prefix`` steps over the pool; 0 skips it) finds the
+    small set with the lowest J (``forward_selection``); then the ``pool_size``
+    best-scored excited modes (they include that prefix) are ordered by backward
+    elimination with the prefix protected.  The other excited
+    modes follow by score, the modes the scene does not excite come last.
+    Returns (order (Q,) pooled indices most important first, info dict:
+    ``prefix`` (k,), ``search_cost`` (pool + 1,) J on the search grid)."""
+    s = np.max(np.asarray(score, float), axis=0)
+    excited = excited_modes(score)
+    by_score = np.lexsort((np.arange(s.size), -s))
+    by_score = by_score[excited[by_score]]
+    search = decimated(model, stride)
+
+    def J(keep):
+        return float(np.max(estimate_error(search, keep)))
+    top = [int(i) for i in by_score[:max(0, min(int(pool_size), by_score.size))]]
+    prefix = np.zeros(0, int)
+    if greedy_prefix:
+        prefix, fcost = forward_selection(J, top, greedy_prefix)
+        if log:
+            log(f"forward selection: prefix of {prefix.size} modes, J {fcost[0]:.3e} -> "
+                f"{fcost[prefix.size]:.3e}")
+    pool = list(prefix) + [i for i in top if i not in set(prefix.tolist())]
+    order, cost = backward_elimination(J, pool, protected=prefix, drop_fraction=drop_fraction,
+                                       log=log)
+    ranked = set(order.tolist())
+    rest = [i for i in by_score if i not in ranked]
+    silent = np.flatnonzero(~excited)
+    return (np.concatenate([order, rest, silent]).astype(int),
+            {"prefix": prefix, "search_cost": cost, "pool": len(pool)})
+
+
+def split_by_body(order, offsets):
+    """Per-body rankings [(D_b,) local mode indices] from a pooled order and offsets (5,)."""
+    order = np.asarray(order, int)
+    out = []
+    for k in range(len(offsets) - 1):
+        mine = order[(order >= offsets[k]) & (order < offsets[k + 1])]
+        out.append(mine - offsets[k])
+    return out
+
+
+def pooled_xmx_order(radii, offsets):
+    """A load-blind pooled ranking for comparison: every body's XMX radius (D_b,) in one
+    list, largest first.  The radii are shares of each body's own rigid mass M_inf, so
+    they do not weigh the bodies by what they do to the gimbal rates."""
+    r = np.concatenate([np.asarray(x, float) for x in radii])
+    if r.size != offsets[-1]:
+        raise LoadAwareError(f"pooled XMX: {r.size} radii for {offsets[-1]} modes")
+    return np.lexsort((np.arange(r.size), -r))
+
+
+def estimate_curves(model, orders, n_max=N_CURVE):
+    """A-priori errors (n_max, 4) of keeping the first N = 1..n_max modes of every body's
+    order (orders: 4 arrays of local indices)."""
+    D = np.diff(model["offsets"])
+    out = np.full((n_max, N_JOINTS), np.nan)
+    for N in range(1, n_max + 1):
+        if N > D.min():
+            break
+        out[N - 1] = estimate_error(model, kept_from_counts(model["offsets"], orders, [N] * 4))
+    return out
+
+
+def body_curves(model, orders, n_max=N_CURVE):
+    """{body: (n_max, 4)}: a-priori errors of truncating one body to its first N modes
+    (N = 1..n_max), the other bodies keeping every mode."""
+    off = model["offsets"]
+    out = {}
+    for k, b in enumerate(BODIES):
+        curve = np.full((n_max, N_JOINTS), np.nan)
+        others = [np.arange(off[j], off[j + 1]) for j in range(len(BODIES)) if j != k]
+        for N in range(1, min(n_max, off[k + 1] - off[k]) + 1):
+            keep = np.concatenate(others + [off[k] + np.asarray(orders[k], int)[:N]])
+            curve[N - 1] = estimate_error(model, keep)
+        out[b] = curve
+    return out
+
+
+# ----------------------------------------------------------------- the stage
+def build_linear_model(scene, body_data, log=None):
+    """(model, info) of a scene and the body files {b: body dict}: every computed mode."""
+    from solver import models
+    log = log or (lambda *_: None)
+    D = {b: int(np.asarray(body_data[b]["eigenvalues"]).size) for b in BODIES}
+    rigid = models.build_chain(models.ModelSpec("rigid", {b: np.zeros(0, int) for b in BODIES},
+                                                dict.fromkeys(BODIES, ()), "freq"), body_data)
+    full = models.build_chain(models.ModelSpec("all", {b: np.arange(D[b]) for b in BODIES},
+                                               dict.fromkeys(BODIES, ()), "freq"), body_data,
+                              scene.damping_ratio)
+    t0 = time.perf_counter()
+    run = rigid_run(rigid, scene)
+    log(f"rigid run: {run['t'].size} samples in {time.perf_counter() - t0:.1f} s")
+    t0 = time.perf_counter()
+    loads = modal_loads(full, run["t"], run["y"], run["yd"], run["ydd"], scene.case)
+    log(f"modal loads of {loads.shape[1]} modes in {time.perf_counter() - t0:.1f} s")
+    y0 = np.zeros(full.n_coordinates)
+    y0[:N_JOINTS] = scene.initial_angles
+    t0 = time.perf_counter()
+    model = linear_model(full, y0, run["t"], run["yd"], loads)
+    log(f"frozen linear chain ({full.n_coordinates} coordinates) in {time.perf_counter() - t0:.1f} s")
+    excursion = np.max(np.abs(run["y"] - run["y"][0]), axis=0)
+    info = {"angle_excursion": excursion,
+            "rate_over_lowest_frequency": float(np.max(np.abs(run["yd"])) /
+                                                np.sqrt(np.min(full.stiffness_diagonal()[4:]))),
+            "rigid_motion": run}
+    return model, info
+
+
+def rank_scene(model, rankings, pool_size=DEFAULT_POOL, n_curve=N_CURVE, search=None, log=None):
+    """Everything the ranking file holds, as a dict of arrays (see ``write_ranking``)."""
+    log = log or (lambda *_: None)
+    off = model["offsets"]
+    t0 = time.perf_counter()
+    part = participation_scores(model)
+    log(f"participation scores in {time.perf_counter() - t0:.1f} s")
+    t0 = time.perf_counter()
+    order, info = pooled_ranking(model, part["score"], pool_size, log=log, **(search or {}))
+    n_pool = info["pool"]
+    log(f"pooled ranking (pool {n_pool}) in {time.perf_counter() - t0:.1f} s")
+    per_body = split_by_body(order, off)
+    t0 = time.perf_counter()
+    pooled_E = np.array([estimate_error(model, order[:N]) for N in range(1, n_pool + 1)])
+    J = np.concatenate([[np.max(estimate_error(model, []))], pooled_E.max(axis=1)])
+    curves = {"load": estimate_curves(model, per_body, n_curve)}
+    for fam, key in (("freq", "rank_frequency"), ("xmx", "rank_xmx"), ("xmgmx", "rank_xmgmx")):
+        curves[fam] = estimate_curves(model, [rankings[b][key] for b in BODIES], n_curve)
+    xmx_pool = None
+    if all("rho_xmx" in rankings[b] for b in BODIES):
+        xmx_pool = pooled_xmx_order([rankings[b]["rho_xmx"] for b in BODIES], off)
+        curves["global_xmx"] = np.array([estimate_error(model, xmx_pool[:N])
+                                         for N in range(1, len(J))])
+    curves["global_score"] = np.array([estimate_error(
+        model, np.lexsort((np.arange(off[-1]), -part["score"].max(axis=0)))[:N])
+        for N in range(1, len(J))])
+    bodies = body_curves(model, per_body, n_curve)
+    log(f"a-priori curves in {time.perf_counter() - t0:.1f} s")
+    additive_load = np.array([additive_estimate(
+        part["score"], kept_from_counts(off, per_body, [N] * 4)) for N in range(1, n_curve + 1)])
+    additive_global = np.array([additive_estimate(part["score"], order[:N])
+                                for N in range(1, len(J))])
+    return {"order": order, "J": J, "prefix": info["prefix"], "per_body": per_body, "score": part["score"],
+            "excited": excited_modes(part["score"]), "coupled_omega": part["omega"],
+            "rate_share": part["rate_share"], "pooled_estimate": pooled_E, "curves": curves,
+            "body_curves": bodies, "additive_load": additive_load,
+            "additive_global": additive_global, "rigid_estimate": estimate_error(model, [])}
+
+
+def write_ranking(path, result, model, attrs):
+    """Write the ranking file atomically (``workflow.provenance.atomic_h5``).
+
+    Layout (mode indices 0-based into the body file's modes; pooled indices run over
+    bodies 2..5 in turn, body b's block at offsets[b-2]:offsets[b-1]):
+    ``body{b}/rank_load`` (D,), ``body{b}/score`` (4, D), ``body{b}/excited`` (D,);
+    ``pooled/body``, ``pooled/mode`` (Q,) the pooled ranking; ``pooled/J`` (P+1,);
+    ``estimate/{load,freq,xmx,xmgmx}`` (40, 4) a-priori E of N = 1..40 per body;
+    ``estimate/{global,global_xmx,global_score}`` (P, 4) of the pooled top N = 1..P;
+    ``estimate/body{b}`` (40, 4) body b truncated alone; ``estimate/additive_load``,
+    ``estimate/additive_global``; ``estimate/rigid`` (4,); ``linear/{M,K,t,
+    rigid_rates,loads,offsets,full}`` the frozen linear chain (the a-priori estimator);
+    ``coupled/omega`` (n,) [rad/s], ``coupled/rate_share`` (4, n)."""
+    from workflow.provenance import atomic_h5
+    off = model["offsets"]
+    order = result["order"]
+    body_of = np.searchsorted(off, order, side="right") + 1          # 2..5
+    with atomic_h5(path) as f:
+        for k, b in enumerate(BODIES):
+            g = f.create_group(f"body{b}")
+            g["rank_load"] = np.asarray(result["per_body"][k], np.int64)
+            g["score"] = result["score"][:, off[k]:off[k + 1]]
+            g["excited"] = result["excited"][off[k]:off[k + 1]]
+        p = f.create_group("pooled")
+        p["body"] = body_of.astype(np.int64)
+        p["mode"] = (order - off[body_of - 2]).astype(np.int64)
+        p["J"] = result["J"]
+        p["prefix"] = np.asarray(result["prefix"], np.int64)
+        e = f.create_group("estimate")
+        e["global"] = result["pooled_estimate"]
+        for name, curve in result["curves"].items():
+            e[name] = curve
+        for b, curve in result["body_curves"].items():
+            e[f"body{b}"] = curve
+        e["additive_load"] = result["additive_load"]
+        e["additive_global"] = result["additive_global"]
+        e["rigid"] = result["rigid_estimate"]
+        lin = f.create_group("linear")
+        for key in ("M", "K", "t", "rigid_rates", "loads", "offsets", "full"):
+            lin[key] = model[key]
+        c = f.create_group("coupled")
+        c["omega"] = result["coupled_omega"]
+        c["rate_share"] = result["rate_share"]
+        for k, v in attrs.items():
+            f.attrs[k] = v
+
+
+def read_linear_model(path):
+    """The frozen linear chain stored in a ranking file (``write_ranking``)."""
+    from workflow.provenance import read_h5_checked
+    with read_h5_checked(path, ("linear/M", "linear/loads")) as f:
+        return {k: f["linear"][k][()] for k in f["linear"]}
+
+
+def ranking_config_hash(scene, body_hashes, options):
+    """16 hex digits of the scene, the body files' config hashes and the options (dict)."""
+    import hashlib
+    payload = {"scene": scene.raw, "bodies": list(body_hashes), "options": options,
+               "format": FORMAT_VERSION}
+    return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def rank_main(argv=None):
+    ap = _Parser(prog="python -m reduction.load_aware",
+                 description="Load-aware ranking of every body's modes for one scene, pooled and "
+                             "per body, with a-priori eq. 3.53 error estimates (docs/selection.md).")
+    ap.add_argument("--scene", required=True, help="scene name (config/scenes/NAME.yaml) or path")
+    ap.add_argument("--modes-dir", default="results/modes", help="body files body{2..5}.h5")
+    ap.add_argument("--reduction-dir", default="results/reduction",
+                    help="reduction files body{2..5}.h5 (frequency/XMX/XMGMX rankings)")
+    ap.add_argument("--out", required=True, help="ranking file, e.g. results/reduction/load/thesis.h5")
+    ap.add_argument("--pool", type=int, default=DEFAULT_POOL,
+                    help=f"modes ranked by backward elimination (default {DEFAULT_POOL})")
+    ap.add_argument("--curve", type=int, default=N_CURVE,
+                    help=f"a-priori curves for N = 1..CURVE modes per body (default {N_CURVE})")
+    ap.add_argument("--search-stride", type=int, default=3,
+                    help="the ranking search evaluates E on every STRIDE-th output sample (default 3)")
+    ap.add_argument("--drop-fraction", type=float, default=1 / 16,
+                    help="backward elimination drops this fraction of the kept modes per round "
+                         "(0: one at a time; default 1/16)")
+    ap.add_argument("--greedy-steps", type=int, default=GREEDY_STEPS,
+                    help=f"forward-selection steps that seed the ranking (0: none; default "
+                         f"{GREEDY_STEPS})")
+    ap.add_argument("--quiet", action="store_true")
+    args = ap.parse_args(argv)
+    log = (lambda *_: None) if args.quiet else (lambda m: print(f"load_aware: {m}", flush=True))
+    start = time.perf_counter()
+    try:
+        import h5py
+        from solver import models, scenes
+        from workflow.provenance import versions
+        if args.pool < 1 or args.curve < 1 or args.search_stride < 1:
+            raise LoadAwareError(f"--pool, --curve and --search-stride must be >= 1, got "
+                                 f"{args.pool}, {args.curve}, {args.search_stride}")
+        if not 0.0 <= args.drop_fraction < 1.0:
+            raise LoadAwareError(f"--drop-fraction must lie in [0, 1), got {args.drop_fraction}")
+        scene = scenes.load_scene(args.scene)
+        body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))
+                     for b in BODIES}
+        rankings = models.load_rankings(args.reduction_dir)
+        for b in BODIES:
+            path = os.path.join(args.reduction_dir, f"body{b}.h5")
+            with h5py.File(path, "r") as f:
+                if "rho_xmx" in f:
+                    rankings[b]["rho_xmx"] = f["rho_xmx"][()]
+            D = np.asarray(body_data[b]["eigenvalues"]).size
+            if np.asarray(rankings[b]["rank_frequency"]).size != D:
+                raise LoadAwareError(f"{path}: ranks {np.asarray(rankings[b]['rank_frequency']).size} "
+                                     f"modes, the body file has {D} (stale reduction file)")
+        model, info = build_linear_model(scene, body_data, log)
+        result = rank_scene(model, rankings, args.pool, args.curve,
+                            {"stride": args.search_stride, "drop_fraction": args.drop_fraction,
+                             "greedy_prefix": args.greedy_steps}, log)
+    except (ValueError, FileNotFoundError, OSError) as exc:
+        print(f"load_aware: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2
+    body_hashes = [str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES]
+    options = {"pool": args.pool, "curve": args.curve, "search_stride": args.search_stride,
+               "drop_fraction": args.drop_fraction, "greedy_steps": args.greedy_steps}
+    attrs = {"options": json.dumps(options, sort_keys=True), "format_version": FORMAT_VERSION, "scene": scene.name,
+             "config_hash": ranking_config_hash(scene, body_hashes, options),
+             "scene_hash": scene.config_hash(), "body_config_hashes": json.dumps(body_hashes),
+             "pool": int(min(args.pool, result["order"].size)), "curve": int(args.curve),
+             "criterion": "J = max over the 4 gimbal rates of eq. 3.53, frozen linear chain",
+             "n_modes": np.diff(model["offsets"]),
+             "angle_excursion_rad": info["angle_excursion"],
+             "rate_over_lowest_frequency": info["rate_over_lowest_frequency"],
+             "mode_index_base": 0, "units": "in, lbf, s, rad",
+             "versions": json.dumps(versions()), "wall_time_s": time.perf_counter() - start,
+             "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
+    write_ranking(args.out, result, model, attrs)
+    J = result["J"]
+    log(f"{args.out}: rigid J = {J[0]:.3e}; pooled top 40/80/160: " +
+        ", ".join(f"{J[n]:.3e}" for n in (40, 80, 160) if n < len(J)) +
+        f" ({attrs['wall_time_s']:.0f} s)")
+    return 0
+
+
+def main(argv=None):
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "plot":
+        from results import selection
+        return selection.main(argv[1:])
+    return rank_main(argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
