@@ -600,7 +600,7 @@ def read_linear_model(path):
 def ranking_config_hash(scene, body_hashes, options):
     """16 hex digits of the scene, the body files' config hashes and the options (dict)."""
     import hashlib
-    payload = {"scene": scene.raw, "bodies": list(body_hashes), "options": options,
+    payload = {"scene": scene.config_hash(), "bodies": list(body_hashes), "options": options,
                "format": FORMAT_VERSION}
     return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
