@@ -67,8 +67,8 @@ RIGID = {2: (6.0e-4, 3.375), 3: (5.0e-4, 2.875), 4: (4.0e-4, 2.375), 5: (1.8e-3,
 HUGHES_FRACTION = 0.95       # share of the rigid mass the kept modes' momentum spans (real: 0.95-0.9999)
 SIZES = (5, 10, 20, 50, 100, 200, 500, 1000, 2000)   # modes per body
 QUICK_SIZES = (5, 25, 50, 75)
-DENSE_MAX = 500              # modes per body: the dense baseline up to S = 2000
-COLUMNS_MAX = 100            # modes per body: the column assembly up to S = 400
+DENSE_MAX = 1000             # modes per body: the dense baseline up to S = 4000
+COLUMNS_MAX = 200            # modes per body: the column assembly up to S = 800
 FIT_MIN_ELASTIC = 200        # fit the growth law over S >= 200 (the large-n range)
 METHODS = ("structured", "structured_loop", "dense", "columns")
 CASE = multibody.CaseMotion(amplitude=(1.0, 0.0, 0.0), frequency=(2.0, 0.0, 0.0))  # scene thesis
@@ -240,6 +240,13 @@ def measure_size(n_modes, repeats=5, batch_seconds=0.05, dense=True, columns=Fal
     return row
 
 
+def local_exponents(rows, method):
+    """[(S_a, S_b, p)]: slope of log cost between consecutive sizes that have the method
+    (where the growth changes regime, e.g. when the Coriolis tensors leave the cache)."""
+    pts = [(r["n_elastic"], r[f"{method}_eval_s"]) for r in rows if r.get(f"{method}_eval_s")]
+    return [(a, b, float(np.log(cb / ca) / np.log(b / a))) for (a, ca), (b, cb) in zip(pts, pts[1:])]
+
+
 def growth_laws(rows, min_elastic=FIT_MIN_ELASTIC):
     """{method: {exponent, prefactor_s, sizes}}: cost per evaluation = a S^p over S >= min_elastic."""
     out = {}
@@ -316,7 +323,7 @@ def plot(rows, fits, path):
                 axs[2].plot(x, y, marker="o", ms=3, color=COLORS[m], label=LABELS[m])
         axs[2].set(xscale="log", yscale="log", xlabel="elastic coordinates S = 4 D",
                    ylabel="wall time per simulated second [s]",
-                   title="RK4 at 0.5 x 2.785/omega_max (assumed spectrum)")
+                   title="per simulated second (RK4, assumed spectrum)")
         axs[2].legend(fontsize=6)
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=150, format="png")
@@ -378,6 +385,7 @@ def main(argv=None) -> int:
                        "(solver.fast_rhs) vs dense baseline (solver.dense_baseline). Medians of "
                        f"{args.repeats} timed batches.",
         "rows": rows, "growth_laws": fits, "fit_min_elastic": FIT_MIN_ELASTIC,
+        "local_exponents": {m: local_exponents(rows, m) for m in METHODS},
         "assumptions": {"spectrum_hz": {str(b): {"c": c, "beta": be} for b, (c, be) in SPECTRUM.items()},
                         "coupled_ratio": COUPLED_RATIO,
                         "rk4_fraction": integrators.RK4_DEFAULT_FRACTION,
