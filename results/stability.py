@@ -934,6 +934,7 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true",
                     help="reduced version (2 models, 2000-step trials, 1 s drift, 5 ms hard cases)")
     args = ap.parse_args(argv)
+    command_args = list(sys.argv[1:] if argv is None else argv)
     os.environ.setdefault("MPLBACKEND", "Agg")
     start = time.perf_counter()
     try:
@@ -991,14 +992,14 @@ def main(argv=None):
         "pass": all(parts.values()),
         "parts": parts,
         "outputs": {"csv": csvs, "figures": figs},
-        "provenance": {"command": " ".join(["python -m results.stability"] + list(sys.argv[1:] if argv is None else argv)),
+        "provenance": {"command": " ".join(["python -m results.stability"] + command_args),
                        "wall_time_s": wall, "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
                        "versions": _versions(versions), "inputs": inputs},
     }
     path = os.path.join(args.out_dir, "stability.json")
     write_json(path, _summary(report))
-    log(f"{path}: {'all checks pass' if report['pass'] else 'FAILED: ' + ', '.join(k for k, v in parts.items() if not v)}"
-        f" ({wall:.0f} s)")
+    failed = [k for k, v in parts.items() if not v]
+    log(f"{path}: {'FAILED: ' + ', '.join(failed) if failed else 'all checks pass'} ({wall:.0f} s)")
     return 0 if report["pass"] else 1
 
 

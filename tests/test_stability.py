@@ -45,7 +45,8 @@ def test_bisection_on_a_scalar_oscillator_finds_2_sqrt_2():
     assert 0.0 < x / (2 * np.sqrt(2)) - 1.0 < 2e-4
     assert x > 2.81
     h = res["step"]
-    assert st.oscillator_energy_ratio(omega, 0.999 * h, 2000) < 1.0 < st.oscillator_energy_ratio(omega, 1.001 * h, 2000)
+    below, above = (st.oscillator_energy_ratio(omega, f * h, 2000) for f in (0.999, 1.001))
+    assert below < 1.0 < above
 
 
 def test_bisection_logic_and_bad_brackets():
