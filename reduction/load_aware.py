@@ -71,6 +71,9 @@ DEFAULT_POOL = 160          # pooled modes ranked by backward elimination (40 pe
 GREEDY_STEPS = 0            # forward-selection steps that seed the pooled ranking (0: none; see docs)
 N_CURVE = 40                # a-priori estimates for N = 1..40 modes per body
 EXCITED_RTOL = 1e-12        # a mode carrying less than this share of the scores is "not excited"
+FROZEN_ANGLE = 1e-2         # rad: larger gimbal excursions in a scene earn a warning
+FROZEN_RATE = 1e-3          # rate / lowest modal frequency above which the same warning is given
+TIE_RTOL = 1e-6             # removals changing the a-priori J by less are ties (decided by score)
 SERIES_LIMIT = 0.1          # |omega h| below which velocity_response uses its Taylor series
 
 
@@ -79,14 +82,6 @@ class LoadAwareError(ReductionError):
 
 
 # ----------------------------------------------------------------- scene loads
-def scene_times(duration, output_interval):
-    """Output times (T,) [s] of a scene, exactly as ``solver.integrators.integrate`` makes them."""
-    if not (np.isfinite(duration) and duration > 0):
-        raise LoadAwareError(f"scene duration must be > 0 s, got {duration}")
-    n_out = max(int(round(duration / output_interval)), 1)
-    return np.linspace(0.0, duration, n_out + 1)
-
-
 def rigid_run(rigid_chain, scene, rtol=1e-12, atol=1e-14):
     """The rigid chain (no modes) through a scene: dict t (T,), y, yd, ydd (T, 4).
 
@@ -116,8 +111,8 @@ def modal_loads(chain, t, y, yd, ydd, case):
     so Gamma = -ID_q is the generalised force that the rigid motion leaves on the
     modes: inertial (frame acceleration through P, H), centrifugal (M_1,i), and
     the bearing wrench F_child of the inner subtree through the inside-frame
-    motion L_i (Psi, Theta).  Unit: lbf / sqrt(lbf s^2/in) (= in/s^2 times
-    sqrt(mass)), the generalised force of a mass-normalised modal coordinate."""
+    motion L_i (Psi, Theta).  Unit: lbf / sqrt(lbf s^2/in) = sqrt(mass) in/s^2,
+    the generalised force of a mass-normalised modal coordinate."""
     from solver import multibody
     t = np.asarray(t, float)
     y, yd, ydd = (np.asarray(a, float) for a in (y, yd, ydd))
@@ -317,15 +312,29 @@ def excited_modes(score, rtol=EXCITED_RTOL):
 
 
 # ------------------------------------------------------------------ rankings
-def backward_elimination(evaluate, pool, protected=(), drop_fraction=0.0, log=None):
+def _removals(trials, tie_rtol):
+    """Candidate removals sorted best first.  trials: (cost, priority, member) tuples;
+    costs within ``tie_rtol`` (relative) of the smallest count as equal to it, and
+    equal costs go by priority (the lower priority is removed first)."""
+    if not trials:
+        return []
+    c_min = min(c for c, _, _ in trials)
+    tied = c_min + tie_rtol * abs(c_min)
+    return sorted(trials, key=lambda x: (c_min if x[0] <= tied else x[0], x[1]))
+
+
+def backward_elimination(evaluate, pool, protected=(), drop_fraction=0.0, priority=None,
+                         tie_rtol=0.0, log=None):
     """Nested ranking of ``pool`` by backward elimination of a cost.
 
     evaluate: callable(list of kept indices) -> float (smaller is better);
     pool: indices to rank; protected: indices never dropped (ranked first, in the
     given order).  Each round evaluates the removal of every unprotected member and
-    drops the one whose removal gives the smallest cost (ties: the later member of
-    the pool) -- or, with ``drop_fraction`` f > 0, the k = max(1, floor(f n))
-    cheapest removals at once (n kept; fewer rounds, a slightly coarser order).
+    drops the one whose removal gives the smallest cost -- or, with
+    ``drop_fraction`` f > 0, the k = max(1, floor(f n)) cheapest removals at once (n
+    kept; fewer rounds, a slightly coarser order).  Costs within ``tie_rtol`` of
+    the smallest are ties, resolved by ``priority`` (dict member -> number, the
+    lower removed first; default: the later member of the pool first).
     Returns (order, cost): order (len(pool),) most important first (the last
     dropped first), cost (len(pool) + 1,) with cost[N] the cost of order[:N]
     (NaN for sizes a multi-drop round skipped)."""
@@ -345,8 +354,9 @@ def backward_elimination(evaluate, pool, protected=(), drop_fraction=0.0, log=No
         for pos in range(len(current) - 1, -1, -1):
             m = current[pos]
             if m not in keep_set:
-                trials.append((float(evaluate(current[:pos] + current[pos + 1:])), -pos, m))
-        trials.sort()
+                rank = -pos if priority is None else (priority[m], -pos)
+                trials.append((float(evaluate(current[:pos] + current[pos + 1:])), rank, m))
+        trials = _removals(trials, tie_rtol)
         k = max(1, int(drop_fraction * len(current)))
         chosen = [m for _, _, m in trials[:k]]
         current = [i for i in current if i not in set(chosen)]
@@ -358,13 +368,14 @@ def backward_elimination(evaluate, pool, protected=(), drop_fraction=0.0, log=No
     return np.array(order, int), cost
 
 
-def lockstep_elimination(evaluate, pools, log=None):
+def lockstep_elimination(evaluate, pools, priority=None, tie_rtol=0.0, log=None):
     """Nested rankings of several groups kept at equal counts (the ``load-N`` models).
 
     evaluate: callable(list of kept indices) -> float; pools: one list of indices
     per group (body), all of the same length n.  Round by round (n -> n - 1 per
     group), each group in turn drops the member whose removal, with the other
-    groups as they stand, gives the smallest cost.  Returns (orders, cost): orders
+    groups as they stand, gives the smallest cost (ties within ``tie_rtol`` by
+    ``priority``, as in ``backward_elimination``).  Returns (orders, cost): orders
     a list of (n,) arrays, most important first; cost (n + 1,) with cost[N] the cost
     of keeping the first N of every group's order."""
     current = [[int(i) for i in p] for p in pools]
@@ -377,8 +388,10 @@ def lockstep_elimination(evaluate, pools, log=None):
     for size in range(n, 0, -1):
         for g in range(len(current)):
             others = [i for h, p in enumerate(current) if h != g for i in p]
-            best = min((float(evaluate(others + current[g][:k] + current[g][k + 1:])), -k, m)
-                       for k, m in enumerate(current[g]))
+            trials = [(float(evaluate(others + current[g][:k] + current[g][k + 1:])),
+                       -k if priority is None else (priority[m], -k), m)
+                      for k, m in enumerate(current[g])]
+            best = _removals(trials, tie_rtol)[0]
             current[g].remove(best[2])
             dropped[g].append(best[2])
         cost[size - 1] = best[0]
@@ -448,6 +461,7 @@ def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, s
                 f"{fcost[prefix.size]:.3e}")
     pool = list(prefix) + [i for i in top if i not in set(prefix.tolist())]
     order, cost = backward_elimination(J, pool, protected=prefix, drop_fraction=drop_fraction,
+                                       priority={int(i): s[i] for i in pool}, tie_rtol=TIE_RTOL,
                                        log=log)
     ranked = set(order.tolist())
     rest = [i for i in by_score if i not in ranked]
@@ -456,13 +470,15 @@ def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, s
             {"prefix": prefix, "search_cost": cost, "pool": len(pool)})
 
 
-def body_rankings(model, pooled_order, n_lockstep=N_CURVE, stride=3, log=None):
+def body_rankings(model, pooled_order, score=None, n_lockstep=N_CURVE, stride=3, log=None):
     """Per-body load-aware rankings for equal counts per body (``load-N``).
 
     The first ``n_lockstep`` modes of every body are ordered by ``lockstep_elimination``
     of J = max_n E_n (a-priori, every ``stride``-th sample), starting from each
     body's first n_lockstep modes in the pooled order; the others follow in the
-    pooled order.  (The pooled order restricted to a body is a good set only
+    pooled order.  Removals that change J by less than TIE_RTOL (relative) are
+    ties, resolved by the participation score (score (4, Q), max over rates):
+    the platform's modes, for one, hardly move J = E of the outer-gimbal rate.  (The pooled order restricted to a body is a good set only
     together with the other bodies' pooled picks: at equal counts its first 5 per
     body ring at frequencies the full chain does not have, J = 0.31 on the thesis
     scene, against 0.04 for the rigid model.)  Returns 4 arrays (D_b,) of local
@@ -477,7 +493,8 @@ def body_rankings(model, pooled_order, n_lockstep=N_CURVE, stride=3, log=None):
     def J(keep):
         return float(np.max(estimate_error(search, keep)))
     pools = [off[k] + p[:n] for k, p in enumerate(split)]
-    orders, _ = lockstep_elimination(J, pools, log=log)
+    prio = None if score is None else dict(enumerate(np.max(np.asarray(score), axis=0)))
+    orders, _ = lockstep_elimination(J, pools, priority=prio, tie_rtol=TIE_RTOL, log=log)
     return [np.concatenate([o - off[k], p[n:]]).astype(int)
             for k, (o, p) in enumerate(zip(orders, split))]
 
@@ -571,7 +588,8 @@ def rank_scene(model, rankings, pool_size=DEFAULT_POOL, n_curve=N_CURVE, search=
     n_pool = info["pool"]
     log(f"pooled ranking (pool {n_pool}) in {time.perf_counter() - t0:.1f} s")
     t0 = time.perf_counter()
-    per_body = body_rankings(model, order, n_curve, (search or {}).get("stride", 3), log)
+    per_body = body_rankings(model, order, part["score"], n_curve,
+                             (search or {}).get("stride", 3), log)
     log(f"per-body (equal counts) ranking in {time.perf_counter() - t0:.1f} s")
     t0 = time.perf_counter()
     pooled_E = np.array([estimate_error(model, order[:N]) for N in range(1, n_pool + 1)])
@@ -715,6 +733,12 @@ def rank_main(argv=None):
                 raise LoadAwareError(f"{path}: ranks {np.asarray(rankings[b]['rank_frequency']).size} "
                                      f"modes, the body file has {D} (stale reduction file)")
         model, info = build_linear_model(scene, body_data, log)
+        if np.max(info["angle_excursion"]) > FROZEN_ANGLE or \
+                info["rate_over_lowest_frequency"] > FROZEN_RATE:
+            print(f"load_aware: warning: the gimbals move {np.max(info['angle_excursion']):.2e} rad "
+                  f"(rate / lowest modal frequency {info['rate_over_lowest_frequency']:.1e}) in "
+                  f"scene {scene.name!r}: the frozen linear chain may not hold; check the a-priori "
+                  f"errors against a simulation", file=sys.stderr)
         result = rank_scene(model, rankings, args.pool, args.curve,
                             {"stride": args.search_stride, "drop_fraction": args.drop_fraction,
                              "greedy_prefix": args.greedy_steps}, log)

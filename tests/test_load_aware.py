@@ -321,3 +321,14 @@ def test_real_apriori_estimate_matches_measured_freq_10():
     assert np.allclose(est, meas, rtol=0.01)
     scene = scenes.load_scene("thesis")
     assert lin["t"].size == round(scene.duration / scene.output_interval) + 1
+
+
+def test_ties_are_broken_by_priority():
+    def cost(keep):                         # modes 1, 2, 3 do not matter at all
+        return 0.0 if 0 in keep else 1.0
+    order, _ = la.backward_elimination(cost, [0, 1, 2, 3], priority={0: 0, 1: 5, 2: 1, 3: 9},
+                                       tie_rtol=1e-6)
+    assert list(order) == [0, 3, 1, 2]
+    orders, _ = la.lockstep_elimination(cost, [[0, 1], [2, 3]], priority={0: 0, 1: 5, 2: 1, 3: 9},
+                                        tie_rtol=1e-6)
+    assert [list(o) for o in orders] == [[0, 1], [3, 2]]
