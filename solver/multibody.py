@@ -630,24 +630,34 @@ def coupled_frequencies(chain, y):
     return np.sqrt(np.maximum(lam, 0.0))
 
 
-# Gimbal-angle offsets at which coupled_omega_max samples the configuration (besides y0):
-# M(y) depends on the angles, the highest coupled frequency by < 0.1 % on the real bodies.
+# Gimbal-angle offsets at which coupled_omega_max samples the configuration (besides y0).
+# M(y) depends on the angles; the highest coupled frequency varies with them by up to ~1 %
+# on the real reduced models, and it peaks where two gimbal axes align (gamma_2 = 0: outer
+# and inner gimbal axes; gamma_3 = 0: middle gimbal and platform axes), measured by
+# results.stability (docs/stability.md): +5.4 % over the offsets alone for freq-1,1,0,0.
+# So the lock configurations are sampled too (LOCK_ANGLES: gamma_2, gamma_3 set to 0).
 COUPLED_SAMPLE_OFFSETS = ((0.0, 0.0, 0.0, 0.0), (0.7, -0.4, 1.1, 0.3), (-1.3, 0.9, -0.6, 2.1),
                           (2.4, 1.7, 0.5, -1.9))
+LOCK_ANGLES = ((1,), (2,), (1, 2))
 
 
-def coupled_omega_max(chain, y0=None, offsets=COUPLED_SAMPLE_OFFSETS):
-    """Highest frequency [rad/s] of the chain linearised at y0 and at the gimbal angles
-    y0 + offsets (elastic coordinates as in y0): the RK4 stability bound's omega_max."""
+def coupled_omega_max(chain, y0=None, offsets=COUPLED_SAMPLE_OFFSETS, lock_angles=LOCK_ANGLES):
+    """Highest frequency [rad/s] of the chain linearised at y0, at the gimbal angles
+    y0 + offsets, and at y0 with the angles of lock_angles (0-based indices into gamma)
+    set to zero (elastic coordinates as in y0): the RK4 stability bound's omega_max."""
     if sum(chain.n_modes) == 0:
         return 0.0
     y0 = np.zeros(chain.n_coordinates) if y0 is None else np.asarray(y0, float)
-    best = 0.0
+    samples = []
     for off in offsets:
         y = y0.copy()
         y[:4] += np.asarray(off, float)
-        best = max(best, float(coupled_frequencies(chain, y)[-1]))
-    return best
+        samples.append(y)
+    for idx in lock_angles:
+        y = y0.copy()
+        y[list(idx)] = 0.0
+        samples.append(y)
+    return max(float(coupled_frequencies(chain, y)[-1]) for y in samples)
 
 
 # ------------------------------------------------------------- problem bundle
