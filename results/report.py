@@ -46,6 +46,11 @@ DEFAULTS = {
     "config": "config/config.yaml",
     "scene": "config/scenes/thesis.yaml",
     "mode_shapes_dir": "results/figures",
+    "stability": "results/stability/stability.json",
+    "pareto": "results/benchmarks/pareto.csv",
+    "scaling": "results/benchmarks/scaling.json",
+    "selection": "results/tables/selection.csv",
+    "bench_figures_dir": "results/figures",
     "out": "results/report/report.pdf",
 }
 MAKES = {"ranking_table": "python -m results.errors", "static_table": "python -m results.errors",
@@ -53,7 +58,26 @@ MAKES = {"ranking_table": "python -m results.errors", "static_table": "python -m
          "fe": "snakemake verify_fe", "modes_benchmark": "snakemake modes",
          "reduction": "python -m reduction.report", "truth": "python -m solver.simulate --model truth",
          "config": "the project's config", "scene": "the scene file",
-         "mode_shapes_dir": "python -m results.shapes"}
+         "mode_shapes_dir": "python -m results.shapes",
+         "stability": "snakemake stability", "pareto": "snakemake pareto",
+         "scaling": "snakemake scaling", "selection": "snakemake selection",
+         "bench_figures_dir": "snakemake bench"}
+# Figures of the performance section: (key, file under bench_figures_dir, caption)
+BENCH_FIGURES = (
+    ("pareto", "bench/pareto.png", "Wall time (median of repeated runs) against the error E of eq. 3.53 "
+     "with respect to the converged truth, for every reduced model and integrator; the line is the "
+     "Pareto front (results.pareto)."),
+    ("scaling", "bench/scaling.png", "Cost per right-hand-side evaluation and per simulated second "
+     "against the number of elastic coordinates, structured recursion vs the dense-mass-matrix "
+     "baseline timed in the same run (results.scaling)."),
+    ("global", "bench/global_ranking.png", "Error against total elastic coordinates: the pooled "
+     "(global) load-aware ranking, the per-body load-aware ranking, XMX and frequency cutoff, with "
+     "the a-priori estimate (reduction.load_aware, results.selection)."),
+    ("rk4_limit", "stability/rk4_limit.png", "Measured RK4 stability limit against 2.785/omega_max "
+     "for several reduced models (results.stability)."),
+    ("drift", "stability/energy_drift.png", "Energy drift over 10 s of scene free_10s, per "
+     "integrator (results.stability)."),
+)
 BODY_KEYS = ("outer_gimbal", "middle_gimbal", "inner_gimbal", "stable_platform")
 N_FREQ_ROWS = 10
 
@@ -72,6 +96,20 @@ def _yaml(path):
     import yaml
     with open(path) as f:
         return yaml.safe_load(f)
+
+
+def _csv_rows(path):
+    """Rows of a CSV file as dicts of strings."""
+    import csv
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _num(text, default=np.nan):
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return default
 
 
 def gather(paths: dict) -> dict:
@@ -119,6 +157,13 @@ def gather(paths: dict) -> dict:
     ctx["figures"] = figs
     ctx["mode_shapes"] = [f for f in (os.path.join(p["mode_shapes_dir"], f"mode_shapes_body{b}.png")
                                       for b in study.BODIES) if os.path.exists(f)]
+    ctx["stability"] = load("stability", _json)
+    ctx["pareto_rows"] = load("pareto", _csv_rows) or []
+    ctx["scaling"] = load("scaling", _json)
+    ctx["selection_rows"] = load("selection", _csv_rows) or []
+    ctx["bench_figures"] = [(key, os.path.join(p["bench_figures_dir"], rel), cap)
+                            for key, rel, cap in BENCH_FIGURES
+                            if os.path.exists(os.path.join(p["bench_figures_dir"], rel))]
     ctx["versions"] = _versions()
     ctx["date"] = time.strftime("%Y-%m-%d %H:%M:%S %Z")
     return ctx
@@ -485,6 +530,92 @@ def _runtime_section(ctx, root):
     return "".join(out)
 
 
+def _bench_figure(ctx, key, root, width="85%"):
+    for k, path, cap in ctx["bench_figures"]:
+        if k == key:
+            return figure(path, s(cap), root, width=width, label=f"fig-bench-{key}")
+    return ""
+
+
+def _performance_section(ctx, root):
+    """Issue 6: run time against error, cost against size, stability stress tests, selection."""
+    out = ["= Fast and stable <performance>\n\n"]
+    rows = [r for r in ctx["pareto_rows"] if r.get("status", "ok") == "ok"]
+    out.append("== Run time against error\n\n")
+    out.append(_bench_figure(ctx, "pareto", root))
+    front = sorted((r for r in rows if r.get("pareto") == "1"), key=lambda r: _num(r["wall_time_s"]))
+    if front:
+        body = [[s(r["model"]), s(r["integrator"]), s(r.get("solver", "")), s(r["n_elastic"]),
+                 sci(_num(r["E"])), s(f"{_num(r['wall_time_s']):.3g}")] for r in front]
+        out.append(table(["model", "integrator", "solver", "elastic coord.", "E", "wall time [s]"], body,
+                         "The Pareto front of wall time against error (medians of repeated runs).",
+                         "tab-pareto", size="7pt"))
+    dense = [r for r in rows if r.get("solver") == "dense"]
+    for d in dense:
+        same = [r for r in rows if r.get("solver") != "dense" and r["model"] == d["model"] and
+                r["integrator"] == d["integrator"] and r.get("fraction") == d.get("fraction")]
+        if same:
+            ratio = _num(d["wall_time_s"]) / _num(same[0]["wall_time_s"])
+            out.append(f"Dense-mass-matrix baseline, {s(d['model'])} with {s(d['integrator'])}: "
+                       f"{_num(d['wall_time_s']):.3g} s against {_num(same[0]['wall_time_s']):.3g} s "
+                       f"for the structured recursion in the same run ({ratio:.0f}x).\n\n")
+    if not rows:
+        out.append(note(ctx["missing"].get("pareto", "no Pareto benchmark")))
+    out.append("== Cost against model size\n\n")
+    out.append(_bench_figure(ctx, "scaling", root))
+    sc = ctx["scaling"]
+    if sc:
+        laws = sc.get("growth_laws", {})
+        items = [[s(m), s(f"{v['exponent']:.2f}"), s(f"{min(v['n_elastic'])}-{max(v['n_elastic'])}")]
+                 for m, v in laws.items() if isinstance(v, dict) and "exponent" in v]
+        if items:
+            out.append(table(["method", "exponent p (cost ~ S^p)", "fitted over S"], items,
+                             "Growth laws of the cost per evaluation with the number of elastic "
+                             "coordinates S, least squares on log-log.", "tab-growth"))
+    else:
+        out.append(note(ctx["missing"].get("scaling", "no scaling benchmark")))
+    out.append("== Stability stress tests\n\n")
+    st = ctx["stability"]
+    if st:
+        lim = st.get("rk4_limit", {}).get("models", {})
+        body = [[s(m), sci(v["h_measured"]), s(f"{v['ratio_bound']:.4f}"), s(f"{v['h_omega_top']:.4f}"),
+                 s("yes" if v.get("pass") else "no")] for m, v in lim.items()]
+        if body:
+            out.append(table(["model", "measured limit [s]", "ratio to 2.785/omega_max", "limit x omega_top", "within 5 %"],
+                             body, "Measured RK4 stability limit (bisection) against theory; the exact "
+                             "bound of an undamped mode is 2 sqrt 2 = 2.8284.", "tab-rk4-limit"))
+        out.append(_bench_figure(ctx, "rk4_limit", root, width="70%"))
+        drift = st.get("energy_drift", {}).get("methods", {})
+        body = [[s(m), s(v["steps"]), sci(v["drift_max"]), sci(v["drift_final"]), s(f"{v['wall_s']:.3g}")]
+                for m, v in drift.items()]
+        if body:
+            out.append(table(["integrator", "steps", "max drift", "final drift", "wall time [s]"], body,
+                             f"Relative energy drift over 10 s of scene free_10s "
+                             f"(model {s(st['energy_drift'].get('model', ''))}).", "tab-drift"))
+        out.append(_bench_figure(ctx, "drift", root, width="70%"))
+        cases = st.get("hard_cases", {}).get("cases", {})
+        body = [[s(k), s(v.get("outcome", "")), sci(v["E_max"]) if v.get("E_max") is not None else
+                 s((v.get("message") or "")[:70])] for k, v in cases.items()]
+        if body:
+            out.append(table(["hard case", "outcome", "E against a tighter run, or the diagnosis"], body,
+                             "Hard cases: each runs correctly (checked against a half-step run) or "
+                             "stops with a diagnosis.", "tab-hard", size="7pt"))
+    else:
+        out.append(note(ctx["missing"].get("stability", "no stability tests")))
+    out.append("== Load-aware and global mode selection\n\n")
+    out.append(_bench_figure(ctx, "global", root))
+    sel = ctx["selection_rows"]
+    if sel:
+        body = [[s(r["model"]), s(r["n_elastic"]), sci(_num(r["E_max"])), sci(_num(r["apriori_max"]))]
+                for r in sel]
+        out.append(table(["model", "elastic coord.", "E (max over gimbals)", "a-priori estimate"], body,
+                         "Measured error and its a-priori estimate per selection.", "tab-selection",
+                         size="7pt"))
+    else:
+        out.append(note(ctx["missing"].get("selection", "no selection table")))
+    return "".join(out)
+
+
 def _front_idx(rows):
     from results.figures import pareto_front
     return np.array(pareto_front([r["wall_time_s"] for r in rows], [r["E_outer_gimbal"] for r in rows]),
@@ -527,7 +658,7 @@ def typst_source(ctx: dict, root: str) -> str:
             '#outline(depth: 2)\n\n')
     return (head + _summary(ctx) + _model_section(ctx, root) + _methods_section(ctx) +
             _results_section(ctx, root) + _findings_section(ctx) + _runtime_section(ctx, root) +
-            _provenance_section(ctx))
+            _performance_section(ctx, root) + _provenance_section(ctx))
 
 
 def compile_pdf(source: str, out_pdf: str, root: str) -> str:
@@ -547,7 +678,7 @@ def compile_pdf(source: str, out_pdf: str, root: str) -> str:
 def report_root(ctx, out_pdf):
     """Common folder of the report and every figure (Typst's project root)."""
     paths = [os.path.dirname(os.path.abspath(out_pdf))] + [f["pdf"] for f in ctx["figures"]] + \
-        list(ctx["mode_shapes"])
+        list(ctx["mode_shapes"]) + [path for _, path, _ in ctx.get("bench_figures", [])]
     return os.path.commonpath([os.path.abspath(p) for p in paths])
 
 
