@@ -189,8 +189,15 @@ def plot(rows: list[dict], curves: dict, path: str) -> list[str]:
     return out
 
 
+class _Parser(argparse.ArgumentParser):
+    """Argument errors as one line, exit status 2."""
+
+    def error(self, message):
+        self.exit(2, f"results.selection: error: {message} (see --help)\n")
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m results.selection",
+    ap = _Parser(prog="python -m results.selection",
                                  description="Measured vs a-priori eq. 3.53 errors of load-aware, "
                                              "global and ranked models (docs/selection.md).")
     ap.add_argument("--truth", required=True, help="truth simulation file")
