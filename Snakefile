@@ -8,6 +8,7 @@
 #   snakemake --cores 2 results/sim/thesis/freq-10.h5   any scene and reduced model, on request
 #   snakemake --cores 2 study      the thesis study: truth + every reduced case on the thesis scene
 #   snakemake --cores 2 report     error tables, findings, figures and results/report/report.pdf
+#   snakemake --cores 2 bench      run time vs error (Pareto), RHS cost vs size, stability stress tests
 configfile: "config/config.yaml"
 
 
@@ -18,6 +19,7 @@ include: "workflow/rules/verification.smk"
 include: "workflow/rules/reduction.smk"
 include: "workflow/rules/dynamics.smk"
 include: "workflow/rules/results.smk"
+include: "workflow/rules/bench.smk"
 
 
 rule all:

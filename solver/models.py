@@ -205,6 +205,30 @@ def _pooled_kept(name, text, rankings, available):
     return {b: np.sort(mode[:n][body[:n] == b]) for b in BODIES}
 
 
+def needs_reduction_rankings(name):
+    """True if the model's mode selection reads the reduction stage's rankings: xmx-*,
+    xmgmx-*, and load-* / global-* (whose ranking file is checked against them).  truth,
+    rigid, freq-* and static(-freq)-* select by frequency from the body files alone
+    (``frequency_rankings``), so their simulations do not wait for the reduction stage."""
+    base = str(name).partition("@")[0]
+    return re.fullmatch(r"(static-)?(xmx|xmgmx|load|global)-[0-9,]+", base) is not None
+
+
+def frequency_rankings(body_data):
+    """{body: {"rank_frequency": (D,)}}: the modes in ascending order of eigenvalue, from
+    the body files (the reduction stage's rank_frequency is the same order)."""
+    return {b: {RANKING_KEYS["freq"]: np.argsort(np.asarray(d["eigenvalues"]), kind="stable")}
+            for b, d in body_data.items()}
+
+
+def restrict_to_bodies(spec, bodies):
+    """The ModelSpec with every body outside ``bodies`` rigid (no kept or static modes):
+    a scene's ``needs.bodies``."""
+    kept = {b: (v if b in bodies else np.zeros(0, dtype=int)) for b, v in spec.kept.items()}
+    static = {b: (v if b in bodies else ()) for b, v in spec.static.items()}
+    return ModelSpec(name=spec.name, kept=kept, static=static, ranking=spec.ranking)
+
+
 def needs_load_ranking(name):
     """True if the model name uses the scene's load-aware ranking (load-*, global-*)."""
     base = str(name).partition("@")[0]

@@ -36,7 +36,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def config_hash(scene, spec, options, body_hashes=()):
-    payload = {"scene": scene.raw, "model": spec.name,
+    payload = {"scene": scene.physics, "model": spec.name,
                "kept": {str(b): np.asarray(v).tolist() for b, v in spec.kept.items()},
                "static": {str(b): list(v) for b, v in spec.static.items()},
                "options": options, "bodies": list(body_hashes)}
@@ -148,13 +148,18 @@ def main(argv=None):
     args = ap.parse_args(argv)
     try:
         scene = scenes.load_scene(args.scene)
-        rankings = models.load_rankings(args.reduction_dir)
+        body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))
+                     for b in models.BODIES}
+        if models.needs_reduction_rankings(args.model):
+            rankings = models.load_rankings(args.reduction_dir)
+        else:       # truth, rigid, freq-*, static-*: no reduction stage needed
+            rankings = models.frequency_rankings(body_data)
         load_ranking = None
         if models.needs_load_ranking(args.model):
             load_ranking = args.load_ranking or os.path.join(
                 ROOT, "results", "reduction", "load", f"{scene.name}.h5")
             models.load_load_ranking(load_ranking, rankings)
-        spec = models.parse_model(args.model, rankings)
+        spec = models.restrict_to_bodies(models.parse_model(args.model, rankings), scene.elastic_bodies)
         if args.integrator is None:
             args.integrator = "rk4"
             if spec.name == "truth" and args.step is None and args.fraction is None:
@@ -165,8 +170,6 @@ def main(argv=None):
             raise ValueError(f"--fraction must be a positive number, got {args.fraction}")
         if args.step is not None and not (np.isfinite(args.step) and args.step > 0):
             raise ValueError(f"--step must be a positive number, got {args.step}")
-        body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))
-                     for b in models.BODIES}
         if load_ranking is not None:
             _check_load_ranking(load_ranking, rankings, body_data)
         chain = models.build_chain(spec, body_data, scene.damping_ratio)

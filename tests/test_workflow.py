@@ -46,3 +46,35 @@ def test_stage_shares_from_benchmark_records(tmp_path):
     assert data["stage_seconds"] == {"geometry": 1.0, "modes": 3.0, "simulation": 6.0}
     assert abs(sum(data["stage_share"].values()) - 1) < 1e-12
     assert stage_of("verify_convergence_body5.tsv") == "fe verification"
+
+
+def _planned_jobs(stdout):
+    """{rule: count} from the 'Job stats' table of a dry run."""
+    lines = stdout.split("Job stats:")[1].splitlines()
+    jobs = {}
+    for line in lines[3:]:
+        parts = line.split()
+        if len(parts) != 2 or parts[0] == "total":
+            break
+        jobs[parts[0]] = int(parts[1])
+    return jobs
+
+
+def test_one_simulation_plans_only_what_it_needs():
+    """Issue 6: the DAG of results/sim/thesis/freq-10.h5 holds no other case, and no
+    reduction (a frequency cutoff reads the body files only)."""
+    run = snakemake("--dry-run", "--forceall", "results/sim/thesis/freq-10.h5")
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert _planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "simulate": 1}
+    run = snakemake("--dry-run", "--forceall", "results/sim/thesis/global-40.h5")
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert _planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "reduction_body": 4,
+                                         "load_ranking": 1, "simulate": 1}
+
+
+def test_a_scene_target_plans_exactly_its_declared_simulations():
+    from solver import scenes
+    declared = scenes.load_scene("thesis").models
+    run = snakemake("--dry-run", "--forceall", "results/sim/thesis/needs.done")
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert _planned_jobs(run.stdout)["simulate"] == len(declared)

@@ -7,18 +7,61 @@ wildcard_constraints:
     scene="[A-Za-z0-9_-]+",
 
 
-rule simulate:
+models_mod = importlib.import_module("solver.models")
+scenes_mod = importlib.import_module("solver.scenes")
+
+
+def simulation_inputs(wildcards):
+    """What one simulation needs, and nothing else: every body file (mass properties),
+    the reduction of the scene's elastic bodies only if the model's selection reads a
+    ranking (xmx, xmgmx, load, global), and the scene's load-aware ranking for load-* and
+    global-*.  So the DAG of results/sim/thesis/freq-10.h5 is four meshes, four modal
+    solutions and one simulation."""
+    scene = scenes_mod.load_scene(os.path.join("config", "scenes", f"{wildcards.scene}.yaml"))
+    needed = [f"results/modes/body{n}.h5" for n in BODIES]
+    if models_mod.needs_reduction_rankings(wildcards.model):
+        needed += [f"results/reduction/body{n}.h5" for n in BODIES]
+    if models_mod.needs_load_ranking(wildcards.model):
+        needed.append(f"results/reduction/load/{wildcards.scene}.h5")
+    return needed
+
+
+def scene_physics_hash(wildcards):
+    return scenes_mod.load_scene(os.path.join("config", "scenes", f"{wildcards.scene}.yaml")).config_hash()
+
+
+rule load_ranking:
     input:
-        DYNAMICS_CODE,
+        REDUCTION_CODE,
+        "reduction/load_aware.py",
         "config/scenes/{scene}.yaml",
         expand("results/modes/body{n}.h5", n=BODIES),
         expand("results/reduction/body{n}.h5", n=BODIES),
+    output:
+        "results/reduction/load/{scene}.h5",
+    log:
+        "logs/reduction/load_{scene}.log",
+    benchmark:
+        "results/benchmarks/rules/load_ranking_{scene}.tsv"
+    shell:
+        "OMP_NUM_THREADS=1 {PY} -m reduction.load_aware --scene {wildcards.scene} --modes-dir results/modes "
+        "--reduction-dir results/reduction --out {output} > {log} 2>&1"
+
+
+rule simulate:
+    input:
+        DYNAMICS_CODE,
+        simulation_inputs,
     output:
         "results/sim/{scene}/{model}.h5",
     log:
         "logs/sim/{scene}/{model}.log",
     benchmark:
         "results/benchmarks/rules/sim/{scene}/{model}.tsv"
+    params:
+        # the scene's physics (not what it needs) triggers a rerun; a missing scene file is
+        # reported by simulate in one line
+        scene=scene_physics_hash,
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.simulate --scene {wildcards.scene} --model '{wildcards.model}' "
         "--modes-dir results/modes --reduction-dir results/reduction --out-dir results/sim > {log} 2>&1"
@@ -42,10 +85,21 @@ rule dynamics_verification:
         "--benchmark {output.benchmark} > {log} 2>&1"
 
 
+def scene_simulations(scene):
+    """The simulations a scene's results use (its needs.models)."""
+    models = scenes_mod.load_scene(os.path.join("config", "scenes", f"{scene}.yaml")).models
+    return [f"results/sim/{scene}/{m}.h5" for m in models]
+
+
+rule scene:
+    """snakemake results/sim/{scene}/needs.done: exactly the simulations the scene declares."""
+    input:
+        lambda wildcards: scene_simulations(wildcards.scene),
+    output:
+        touch("results/sim/{scene}/needs.done"),
+
+
 rule dynamics:
     input:
-        "results/sim/thesis/truth.h5",
-        "results/sim/thesis/freq-10.h5",
-        "results/sim/thesis/xmx-10.h5",
-        "results/sim/thesis/static-8.h5",
+        scene_simulations("thesis"),
         "results/verification/dynamics.json",

@@ -1,5 +1,6 @@
 # Stage 3: momentum coefficients, Hughes-identity rankings and static correction modes.
-REDUCTION_CODE = COMMON_CODE + [str(p) for p in Path("reduction").glob("*.py")]
+# the reduction stage proper; reduction/load_aware.py is the scene-dependent ranking (dynamics.smk)
+REDUCTION_CODE = COMMON_CODE + [str(p) for p in sorted(Path("reduction").glob("*.py")) if p.name != "load_aware.py"]
 
 
 rule reduction_body:

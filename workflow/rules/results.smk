@@ -80,6 +80,12 @@ rule report:
         fe="results/verification/fe.json",
         modes="results/benchmarks/modes.json",
         reduction="results/verification/reduction.json",
+        stability="results/stability/stability.json",
+        pareto="results/benchmarks/pareto.csv",
+        scaling="results/benchmarks/scaling.json",
+        selection="results/tables/selection.csv",
+        bench_figures=["results/figures/bench/pareto.png", "results/figures/bench/scaling.png",
+                       "results/figures/bench/global_ranking.png"],
     output:
         "results/report/report.pdf",
     log:
@@ -91,4 +97,6 @@ rule report:
         "--findings {input.findings} --figures-dir results/figures/study --fe {input.fe} "
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
         "--config {CONFIG} --scene config/scenes/thesis.yaml --mode-shapes-dir results/figures "
+        "--stability {input.stability} --pareto {input.pareto} --scaling {input.scaling} "
+        "--selection {input.selection} --bench-figures-dir results/figures "
         "--out {output} > {log} 2>&1"

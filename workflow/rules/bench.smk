@@ -1,0 +1,101 @@
+# Stage 6: fast and stable (issue 6). Run time against error, the right-hand side's cost
+# against model size (with the dense-mass-matrix baseline timed in the same run), and the
+# stability stress tests. Every benchmark writes files; nothing here is a timed assertion.
+#   snakemake --cores 2 bench
+BENCH_CODE = DYNAMICS_CODE + ["solver/dense_baseline.py", "results/errors.py"]
+# Pareto: one model per family at ~40-100 elastic coordinates (each costs ~2 min of repeated
+# runs; the truth, always added, ~5 min).
+PARETO_MODELS = ["freq-10", "xmx-10", "static-8", "load-10", "global-40", "global-100"]
+# Load-aware and global selection against frequency / XMX / XMGMX at equal coordinate counts
+SELECTION_MODELS = (["rigid"] + [f"{f}-{n}" for f in ("freq", "xmx", "xmgmx") for n in (5, 10, 15, 20, 25)]
+                    + [f"load-{n}" for n in (5, 10, 15, 20, 25, 30, 40)]
+                    + [f"global-{n}" for n in (20, 40, 60, 80, 100, 120, 160)])
+
+
+rule stability:
+    input:
+        BENCH_CODE,
+        "results/stability.py",
+        "config/scenes/free_10s.yaml",
+        expand("results/modes/body{n}.h5", n=BODIES),
+        expand("results/reduction/body{n}.h5", n=BODIES),
+    output:
+        json="results/stability/stability.json",
+    log:
+        "logs/bench/stability.log",
+    benchmark:
+        "results/benchmarks/rules/bench/stability.tsv"
+    shell:
+        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.stability --modes-dir results/modes "
+        "--reduction-dir results/reduction --out-dir results/stability "
+        "--figures-dir results/figures/stability > {log} 2>&1"
+
+
+rule scaling:
+    input:
+        BENCH_CODE,
+        "results/scaling.py",
+    output:
+        csv="results/benchmarks/scaling.csv",
+        json="results/benchmarks/scaling.json",
+        figure="results/figures/bench/scaling.png",
+    log:
+        "logs/bench/scaling.log",
+    benchmark:
+        "results/benchmarks/rules/bench/scaling.tsv"
+    shell:
+        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.scaling --out-csv {output.csv} "
+        "--out-json {output.json} --figure {output.figure} > {log} 2>&1"
+
+
+rule pareto:
+    input:
+        BENCH_CODE,
+        "results/pareto.py",
+        expand("results/modes/body{n}.h5", n=BODIES),
+        expand("results/reduction/body{n}.h5", n=BODIES),
+        "results/reduction/load/thesis.h5",
+        truth="results/sim/thesis/truth.h5",
+    output:
+        csv="results/benchmarks/pareto.csv",
+        figure="results/figures/bench/pareto.png",
+    params:
+        models=" ".join(f"'{m}'" for m in PARETO_MODELS),
+    log:
+        "logs/bench/pareto.log",
+    benchmark:
+        "results/benchmarks/rules/bench/pareto.tsv"
+    shell:
+        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.pareto --scene thesis --truth {input.truth} "
+        "--models {params.models} --repeats 5 --modes-dir results/modes --reduction-dir results/reduction "
+        "--out-csv {output.csv} --figure {output.figure} > {log} 2>&1"
+
+
+rule selection:
+    input:
+        BENCH_CODE,
+        "reduction/load_aware.py",
+        "results/selection.py",
+        expand("results/reduction/body{n}.h5", n=BODIES),
+        truth="results/sim/thesis/truth.h5",
+        ranking="results/reduction/load/thesis.h5",
+        cases=expand("results/sim/thesis/{model}.h5", model=SELECTION_MODELS),
+    output:
+        table="results/tables/selection.csv",
+        figure="results/figures/bench/global_ranking.png",
+    log:
+        "logs/bench/selection.log",
+    benchmark:
+        "results/benchmarks/rules/bench/selection.tsv"
+    shell:
+        "MPLBACKEND=Agg {PY} -m results.selection --truth {input.truth} --cases {input.cases} "
+        "--ranking {input.ranking} --reduction-dir results/reduction --table {output.table} "
+        "--figure {output.figure} > {log} 2>&1"
+
+
+rule bench:
+    input:
+        rules.stability.output,
+        rules.scaling.output,
+        rules.pareto.output,
+        rules.selection.output,
