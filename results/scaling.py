@@ -17,8 +17,10 @@ coordinates, n = 4 + S):
 * ``columns``: the dense baseline with M from n + 1 inverse-dynamics calls
   (Walker-Orin method 1, ``multibody.mass_matrix_fast``'s route), small sizes only.
 
-Each cost is the median over ``repeats`` (>= 5) of a timed batch of calls
-divided by the batch size; a batch lasts at least ``batch_seconds``.  The
+Each cost is the median over ``repeats`` (default 9) of a timed batch of calls
+divided by the batch size; a batch lasts at least ``batch_seconds``, and the
+methods' batches are interleaved round by round (``time_interleaved``) so that
+the load of a shared machine hits them alike.  The
 bodies are synthetic (``synthetic_modal_chain``): random but physically valid
 modal integrals of the shapes the real ones have.  Timing does not depend on
 their values, only on D; the dense-vs-structured accelerations are compared at
@@ -74,8 +76,9 @@ METHODS = ("structured", "structured_loop", "dense", "columns")
 CASE = multibody.CaseMotion(amplitude=(1.0, 0.0, 0.0), frequency=(2.0, 0.0, 0.0))  # scene thesis
 CSV_COLUMNS = ("modes_per_body", "n_elastic", "n_coordinates", "omega_max_rad_s", "rk4_step_s",
                "evals_per_sim_second", "structured_eval_s", "structured_loop_eval_s", "dense_eval_s",
-               "columns_eval_s", "dense_assembly_s", "dense_factor_s", "dense_bias_s",
-               "speedup_eval", "speedup_sim_second", "speedup_columns_eval",
+               "columns_eval_s", "structured_eval_min_s", "dense_eval_min_s",
+               "dense_assembly_s", "dense_factor_s", "dense_bias_s",
+               "speedup_eval", "speedup_eval_min", "speedup_sim_second", "speedup_columns_eval",
                "structured_per_sim_second_s", "dense_per_sim_second_s", "columns_per_sim_second_s",
                "structured_spread", "dense_spread", "agreement", "repeats")
 
@@ -154,25 +157,32 @@ def timing_state(chain, seed=1):
 
 
 # ------------------------------------------------------------------ timing
-def time_per_call(fn, repeats=5, batch_seconds=0.05, calls_per_invocation=1):
-    """(median, min, spread) [s] per call of fn(), from ``repeats`` timed batches.
+def time_interleaved(fns, repeats=7, batch_seconds=0.05):
+    """{name: (median, min, spread)} [s] per call of each fns[name] = (fn, calls_per_invocation).
 
-    The batch size is calibrated by one untimed call so that a batch lasts about
-    batch_seconds; fn() may stand for several calls (calls_per_invocation).
-    spread = (max - min) / median of the batch times (noise indicator)."""
-    t0 = time.perf_counter()
-    fn()
-    first = time.perf_counter() - t0
-    batch = max(1, int(math.ceil(batch_seconds / max(first, 1e-9))))
-    times = []
-    for _ in range(int(repeats)):
+    Each function's batch size is calibrated by one untimed call so that a batch
+    lasts about batch_seconds; then ``repeats`` rounds each time one batch of
+    every function in turn, so that a load change on a shared machine hits all
+    of them alike and their ratios stay fair.  spread = (max - min) / median of
+    a function's batch times (noise indicator)."""
+    batch = {}
+    for name, (fn, _) in fns.items():
         t0 = time.perf_counter()
-        for _ in range(batch):
-            fn()
-        times.append((time.perf_counter() - t0) / (batch * calls_per_invocation))
-    times = np.array(times)
-    med = float(np.median(times))
-    return med, float(times.min()), float((times.max() - times.min()) / med)
+        fn()
+        batch[name] = max(1, int(math.ceil(batch_seconds / max(time.perf_counter() - t0, 1e-9))))
+    times = {name: [] for name in fns}
+    for _ in range(int(repeats)):
+        for name, (fn, calls) in fns.items():
+            t0 = time.perf_counter()
+            for _ in range(batch[name]):
+                fn()
+            times[name].append((time.perf_counter() - t0) / (batch[name] * calls))
+    out = {}
+    for name, ts in times.items():
+        ts = np.array(ts)
+        med = float(np.median(ts))
+        out[name] = (med, float(ts.min()), float((ts.max() - ts.min()) / med))
+    return out
 
 
 def fit_power_law(x, y):
@@ -190,8 +200,9 @@ def relative_difference(a, b):
     return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
 
 
-def measure_size(n_modes, repeats=5, batch_seconds=0.05, dense=True, columns=False, seed=0):
-    """One CSV row: costs [s] per evaluation at D = n_modes per body (module docstring)."""
+def measure_size(n_modes, repeats=7, batch_seconds=0.05, dense=True, columns=False, seed=0):
+    """One CSV row: costs [s] per evaluation at D = n_modes per body (module docstring),
+    all methods timed interleaved (``time_interleaved``)."""
     from solver import dense_baseline, fast_rhs
     chain = synthetic_modal_chain(n_modes, seed)
     n = chain.n_coordinates
@@ -202,41 +213,45 @@ def measure_size(n_modes, repeats=5, batch_seconds=0.05, dense=True, columns=Fal
     row = {"modes_per_body": n_modes, "n_elastic": n - 4, "n_coordinates": n, "omega_max_rad_s": om,
            "rk4_step_s": h, "evals_per_sim_second": 4.0 / h, "repeats": repeats}
     s_rhs = fast_rhs.make_rhs(chain, CASE, None)
-    a_ref = s_rhs(t, y, yd)                     # also the JIT warm-up
-    row["structured_eval_s"], _, row["structured_spread"] = time_per_call(
-        lambda: s_rhs(t, y, yd), repeats, batch_seconds)
-    steps = 4
+    a_ref = s_rhs(t, y, yd).copy()             # also the JIT warm-up
+    steps = 4                                   # compiled RK4 loop: 4 steps = 16 evaluations
     s_rhs.rk4_steps(y, yd, 0.0, 1e-9, steps)
-    row["structured_loop_eval_s"] = time_per_call(
-        lambda: s_rhs.rk4_steps(y, yd, 0.0, 1e-9, steps), repeats, batch_seconds, 4 * steps)[0]
+    fns = {"structured": (lambda: s_rhs(t, y, yd), 1),
+           "structured_loop": (lambda: s_rhs.rk4_steps(y, yd, 0.0, 1e-9, steps), 4 * steps)}
     if dense:
         d_rhs = dense_baseline.make_dense_rhs(chain, CASE, None)
         row["agreement"] = relative_difference(d_rhs(t, y, yd), a_ref)
-        row["dense_eval_s"], _, row["dense_spread"] = time_per_call(
-            lambda: d_rhs(t, y, yd), repeats, batch_seconds)
         data = dense_baseline.pack_dense(chain)
         M = dense_baseline.mass_matrix_composite(data, y)
         f = np.ones(n)
         w1, dw1 = dense_baseline.case_twist_function(CASE)(t)
         zero = np.zeros(n)
-        row["dense_assembly_s"] = time_per_call(
-            lambda: dense_baseline.mass_matrix_composite(data, y), repeats, batch_seconds)[0]
-        copy_s = time_per_call(lambda: M.copy(), repeats, batch_seconds)[0]
-        row["dense_factor_s"] = max(time_per_call(
-            lambda: dense_baseline.cholesky_solve(M.copy(), f), repeats, batch_seconds)[0] - copy_s, 0.0)
-        row["dense_bias_s"] = time_per_call(
-            lambda: d_rhs.fast_chain.inverse_dynamics(y, yd, zero, w1, dw1), repeats, batch_seconds)[0]
-        row["speedup_eval"] = row["dense_eval_s"] / row["structured_eval_s"]
-        row["dense_per_sim_second_s"] = row["dense_eval_s"] * row["evals_per_sim_second"]
+        fns.update({
+            "dense": (lambda: d_rhs(t, y, yd), 1),
+            "dense_assembly": (lambda: dense_baseline.mass_matrix_composite(data, y), 1),
+            "dense_copy": (lambda: M.copy(), 1),
+            "dense_factor": (lambda: dense_baseline.cholesky_solve(M.copy(), f), 1),
+            "dense_bias": (lambda: d_rhs.fast_chain.inverse_dynamics(y, yd, zero, w1, dw1), 1)})
     if columns:
         c_rhs = dense_baseline.make_dense_rhs(chain, CASE, None, assembly="columns")
         c_rhs(t, y, yd)
-        row["columns_eval_s"] = time_per_call(lambda: c_rhs(t, y, yd), repeats, batch_seconds)[0]
-        row["speedup_columns_eval"] = row["columns_eval_s"] / row["structured_eval_s"]
-        row["columns_per_sim_second_s"] = row["columns_eval_s"] * row["evals_per_sim_second"]
+        fns["columns"] = (lambda: c_rhs(t, y, yd), 1)
+    res = time_interleaved(fns, repeats, batch_seconds)
+    for m in METHODS:
+        if m in res:
+            row[f"{m}_eval_s"], row[f"{m}_eval_min_s"], row[f"{m}_spread"] = res[m]
     row["structured_per_sim_second_s"] = row["structured_loop_eval_s"] * row["evals_per_sim_second"]
     if dense:
+        row["dense_assembly_s"] = res["dense_assembly"][0]
+        row["dense_factor_s"] = max(res["dense_factor"][0] - res["dense_copy"][0], 0.0)
+        row["dense_bias_s"] = res["dense_bias"][0]
+        row["speedup_eval"] = row["dense_eval_s"] / row["structured_eval_s"]
+        row["speedup_eval_min"] = row["dense_eval_min_s"] / row["structured_eval_min_s"]
+        row["dense_per_sim_second_s"] = row["dense_eval_s"] * row["evals_per_sim_second"]
         row["speedup_sim_second"] = row["dense_per_sim_second_s"] / row["structured_per_sim_second_s"]
+    if columns:
+        row["speedup_columns_eval"] = row["columns_eval_s"] / row["structured_eval_s"]
+        row["columns_per_sim_second_s"] = row["columns_eval_s"] * row["evals_per_sim_second"]
     return row
 
 
@@ -354,7 +369,7 @@ def main(argv=None) -> int:
                     help="largest modes per body for the dense baseline")
     ap.add_argument("--columns-max", type=int, default=COLUMNS_MAX,
                     help="largest modes per body for the column assembly")
-    ap.add_argument("--repeats", type=int, default=5, help="timed batches per cost (median; >= 5)")
+    ap.add_argument("--repeats", type=int, default=9, help="timed batches per cost (median; >= 5)")
     ap.add_argument("--batch-seconds", type=float, default=None, help="least duration of a batch")
     args = ap.parse_args(argv)
     if args.repeats < 1:
@@ -362,7 +377,7 @@ def main(argv=None) -> int:
     sizes = args.sizes or (QUICK_SIZES if args.quick else SIZES)
     if min(sizes) < 1:
         ap.error(f"--sizes must be >= 1, got {min(sizes)}")
-    batch = args.batch_seconds if args.batch_seconds is not None else (0.01 if args.quick else 0.05)
+    batch = args.batch_seconds if args.batch_seconds is not None else (0.01 if args.quick else 0.03)
     from workflow.provenance import versions, write_json
     start = time.perf_counter()
     load0 = os.getloadavg()

@@ -227,3 +227,17 @@ def test_pareto_cli_missing_truth(tmp_path, capsys):
                       "--figure", str(tmp_path / "p.png")])
     err = capsys.readouterr().err
     assert rc == 2 and "none.h5" in err and err.count("\n") == 1
+
+
+def test_time_interleaved_runs_every_function_in_batches():
+    calls = {"a": 0, "b": 0}
+
+    def bump(k):
+        calls[k] += 1
+    res = scaling.time_interleaved({"a": (lambda: bump("a"), 1), "b": (lambda: bump("b"), 4)},
+                                   repeats=3, batch_seconds=1e-4)
+    assert set(res) == {"a", "b"}
+    for k in ("a", "b"):
+        med, low, spread = res[k]
+        assert 0 < low <= med and spread >= 0
+        assert (calls[k] - 1) % 3 == 0 and calls[k] >= 4      # calibration call + 3 equal batches
