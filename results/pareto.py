@@ -310,9 +310,15 @@ def plot(rows, path, title):
         if front:
             ax.step([r["wall_time_s"] for r in front], [max(r["E"], E_FLOOR) for r in front],
                     where="post", color="0.3", lw=1, ls="--", zorder=2)
-            for r in front:
-                ax.annotate(f"{r['model']} {r['integrator']}", (r["wall_time_s"], max(r["E"], E_FLOOR)),
-                            fontsize=6, xytext=(4, 3), textcoords="offset points")
+            lines = []                         # numbered labels: the cheap end is crowded
+            for k, r in enumerate(front, 1):
+                ax.annotate(str(k), (r["wall_time_s"], max(r["E"], E_FLOOR)), fontsize=6,
+                            xytext=(3, 3 if k % 2 else -9), textcoords="offset points")
+                lines.append(f"{k}  {r['model']} {r['integrator']}: {r['wall_time_s']:.3g} s, "
+                             f"E {r['E']:.2g}")
+            ax.text(0.52, 0.10, "Pareto front\n" + "\n".join(lines), transform=ax.transAxes,
+                    fontsize=6, ha="left", va="bottom", family="monospace", multialignment="left",
+                    bbox=dict(boxstyle="round", fc="white", ec="0.7", alpha=0.9))
         dense = [r for r in ok if r["solver"] != "structured"]
         for k, r in enumerate(dense):          # labels alternately below and above the marker
             note = (f"{r['solver']}, RK4 ({r['time_basis'].split(' from')[0]}):\n"
