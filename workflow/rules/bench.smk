@@ -58,6 +58,7 @@ rule pareto:
         truth="results/sim/thesis/truth.h5",
     output:
         csv="results/benchmarks/pareto.csv",
+        json="results/benchmarks/pareto.json",
         figure="results/figures/bench/pareto.png",
     params:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
@@ -67,7 +68,7 @@ rule pareto:
         "results/benchmarks/rules/bench/pareto.tsv"
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.pareto --scene thesis --truth {input.truth} "
-        "--models {params.models} --repeats 5 --modes-dir results/modes --reduction-dir results/reduction "
+        "--models {params.models} --repeats 5 --budget 600 --modes-dir results/modes --reduction-dir results/reduction "
         "--out-csv {output.csv} --figure {output.figure} > {log} 2>&1"
 
 
