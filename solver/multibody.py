@@ -585,24 +585,14 @@ def case_power(chain, y, yd, ydd, t=0.0, case=None):
 
 # ------------------------------------------------- coupled (linearised) frequencies
 def mass_matrix_fast(chain, y):
-    """M(y) (n_y, n_y) from n_y calls of the compiled inverse dynamics (NumPy path if
-    Numba is missing); symmetrised."""
+    """M(y) (n_y, n_y) from n_y calls of the compiled inverse dynamics without the modal
+    stiffness (``fast_rhs.FastChain.mass_matrix``; NumPy path if Numba is missing)."""
     y = np.asarray(y, float)
-    n = chain.n_coordinates
     try:
         from solver import fast_rhs
     except ImportError:
         return mass_matrix(chain, y)
-    fc = fast_rhs.FastChain(chain)
-    zero, z6 = np.zeros(n), np.zeros(6)
-    base = fc.inverse_dynamics(y, zero, zero, z6, z6)
-    M = np.empty((n, n))
-    e = np.zeros(n)
-    for i in range(n):
-        e[i] = 1.0
-        M[:, i] = fc.inverse_dynamics(y, zero, e, z6, z6) - base
-        e[i] = 0.0
-    return 0.5 * (M + M.T)
+    return fast_rhs.FastChain(chain).mass_matrix(y)
 
 
 def coupled_frequencies(chain, y):
