@@ -41,7 +41,6 @@ Units: y [rad; modal], y' per second, y'' per second squared, t [s],
 torque [in lbf].
 """
 
-import math
 
 import numba
 import numpy as np
@@ -59,108 +58,29 @@ class DenseSolveError(ArithmeticError):
 
 
 def pack_dense(chain):
-    """Flat arrays of the chain for the mass-matrix kernel.
-
-    Returns (D (4,) int, off (4,) int, M6 (4, 6, 6), B0 (6, S), M1 tuple of
-    (D_k, 36), G tuple of (D_k, 3 D_k), Psi (3, S), Th (3, S), C1 (3, 3),
-    C (3, 3), rho (3,)): per-body modal counts and offsets into the S = sum D
-    modal coordinates, rigid masses, momentum coefficients [P; H], inertia
-    gradients dM_X/dq_i (flattened 6x6), modal Coriolis tensors G (rows j,
-    columns a D + i), inside-frame translation / rotation maps, and the fixed
-    joint axes and gimbal offset [in].
-    """
-    D = np.array(chain.n_modes, dtype=np.int64)
-    off = np.zeros(4, dtype=np.int64)
-    off[1:] = np.cumsum(D)[:3]
-    S = int(D.sum())
-    M6 = np.zeros((4, 6, 6))
-    B0 = np.zeros((6, S))
-    Psi = np.zeros((3, S))
-    Th = np.zeros((3, S))
-    M1, G = [], []
-    for k, b in enumerate(chain.bodies):
-        s = slice(off[k], off[k] + D[k])
-        M6[k] = b.rigid_mass
-        B0[:, s] = b.momentum
-        M1.append(np.ascontiguousarray(np.asarray(b.inertia_gradient, float).reshape(D[k], 36)))
-        G.append(np.ascontiguousarray(np.asarray(b.coriolis, float).reshape(D[k], 3 * D[k])))
-        if k < 3 and D[k]:
-            Psi[:, s] = b.inside_translation
-            Th[:, s] = b.inside_rotation
-    return (D, off, M6, B0, tuple(M1), tuple(G), Psi, Th,
-            np.ascontiguousarray(chain.case_to_outer, dtype=float),
-            np.ascontiguousarray(chain.parent_to_child, dtype=float),
-            np.ascontiguousarray(chain.gimbal_offset, dtype=float))
-
-
-# ------------------------------------------------------------------ kernels
-@numba.njit(**_JIT)
-def _rot(axis, ang):
-    """Rotation (3, 3) by ang [rad] about coordinate axis 0, 1 or 2."""
-    c, s = math.cos(ang), math.sin(ang)
-    R = np.eye(3)
-    i, j = (axis + 1) % 3, (axis + 2) % 3
-    R[i, i] = c
-    R[j, j] = c
-    R[i, j] = -s
-    R[j, i] = s
-    return R
+    """The chain's flat arrays for the mass-matrix kernel: the same as the structured
+    solver's (``fast_rhs.pack``: modal counts and offsets, rigid masses, modal rows
+    V = [P; H; Psi; Theta], inertia-gradient rows, Coriolis tensors, joint axes)."""
+    return fast_rhs.pack(chain)
 
 
 @numba.njit(**_JIT)
-def _joint_poses(y, D, off, Psi, Th, C1, C, rho):
-    """Child poses in parent axes R (4, 3, 3), p (4, 3) [in] and joint maps L (6, S)
-    at configuration y (docs/dynamics.md Section 1): joint 1 is (C1 Rx(g1), rho);
-    joint j > 1 is (E(Theta q) C Rx(g_j), Psi q) with L = [R^T Psi; (C Rx)^T T_E Theta]
-    on the parent's modal columns."""
-    S = Psi.shape[1]
-    R_all = np.zeros((4, 3, 3))
-    p_all = np.zeros((4, 3))
-    L = np.zeros((6, S))
-    R_all[0] = C1 @ _rot(0, y[0])
-    p_all[0] = rho
-    for j in range(1, 4):
-        o, Dk = off[j - 1], D[j - 1]
-        CRx = C @ _rot(0, y[j])
-        if Dk == 0:
-            R_all[j] = CRx
-            continue
-        p = np.zeros(3)                         # Psi q, Theta q
-        th = np.zeros(3)
-        for i in range(Dk):
-            qi = y[4 + o + i]
-            for a in range(3):
-                p[a] += Psi[a, o + i] * qi
-                th[a] += Th[a, o + i] * qi
-        Ry, Rz = _rot(1, th[1]), _rot(2, th[2])
-        # omega_E = T_E th', T_E = [Rz^T Ry^T e_x, Rz^T e_y, e_z]
-        Te = np.zeros((3, 3))
-        Te[:, 0] = Rz.T @ Ry.T[:, 0]
-        Te[:, 1] = Rz.T[:, 1]
-        Te[2, 2] = 1.0
-        R = _rot(0, th[0]) @ Ry @ Rz @ CRx
-        R_all[j] = R
-        p_all[j] = p
-        W = CRx.T @ Te
-        for i in range(Dk):
-            for a in range(3):
-                sv, sw = 0.0, 0.0
-                for b in range(3):
-                    sv += R[b, a] * Psi[b, o + i]
-                    sw += W[a, b] * Th[b, o + i]
-                L[a, o + i] = sv
-                L[3 + a, o + i] = sw
-    return R_all, p_all, L
-
-
-@numba.njit(**_JIT)
-def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, B0, M1, G, Psi, Th, C1, C, rho):
+def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """Fill Jall (24, n) (the four bodies' twist Jacobians J_k), Pall (24, n)
     (P_k = M_X J_k + B E_k) and BtJ (S, n) (rows of the modal coordinates, B_k^T J_k),
-    so that M(y) = Jall^T Pall + [0; BtJ] + I_modal (module docstring)."""
-    S = B0.shape[1]
+    so that M(y) = Jall^T Pall + [0; BtJ] + I_modal (module docstring).  The joint
+    poses and maps are those of the structured solver's kinematics
+    (``fast_rhs._kinematics``: L = [R^T Psi; Lw Theta] on the parent's modes)."""
+    S = V.shape[1]
     n = 4 + S
-    R_all, p_all, L = _joint_poses(y, D, off, Psi, Th, C1, C, rho)
+    R_all = np.empty((4, 3, 3))
+    p_all = np.empty((4, 3))
+    Lw_all = np.empty((4, 3, 3))
+    W = np.empty((4, 6))
+    DW = np.empty((4, 6))
+    zero_n, zero6 = np.zeros(n), np.zeros(6)
+    fast_rhs._kinematics(y, zero_n, zero_n, zero6, zero6, D, off, V, C1, C, rho,
+                         R_all, p_all, Lw_all, W, DW)
     J = np.zeros((6, n))                        # twist Jacobian of the parent (case: zero)
     for k in range(4):
         R, p = R_all[k], p_all[k]
@@ -177,18 +97,24 @@ def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, B0, M1, G, Psi, Th, C1, C, rho
             for a in range(3):
                 Jk[a, c] = R[0, a] * u0 + R[1, a] * u1 + R[2, a] * u2
                 Jk[3 + a, c] = R[0, a] * w0 + R[1, a] * w1 + R[2, a] * w2
-        if k > 0:
+        if k > 0:                               # + L q'_parent, L = [R^T Psi; Lw Theta]
             op, Dp = off[k - 1], D[k - 1]
+            Lw = Lw_all[k]
             for i in range(Dp):
-                for a in range(6):
-                    Jk[a, 4 + op + i] += L[a, op + i]
+                for a in range(3):
+                    sv, sw = 0.0, 0.0
+                    for b in range(3):
+                        sv += R[b, a] * V[6 + b, op + i]
+                        sw += Lw[a, b] * V[9 + b, op + i]
+                    Jk[a, 4 + op + i] += sv
+                    Jk[3 + a, 4 + op + i] += sw
         Jk[3, k] += 1.0
         # body matrices at q: M_X = M6 + sum q_i M1_i, B = [P; H + sum_j q_j G_j]
         Mx = M6[k].copy()
-        Bk = B0[:, o:o + Dk].copy()
+        Bk = V[0:6, o:o + Dk].copy()
         if Dk > 0:
             q = y[4 + o:4 + o + Dk].copy()
-            Mx += (q @ M1[k]).reshape(6, 6)
+            fast_rhs._add_inertia(Mx, M1, o, Dk, q)
             hq = q @ G[k]
             for a in range(3):
                 Bk[3 + a] += hq[a * Dk:(a + 1) * Dk]
@@ -232,19 +158,14 @@ def mass_matrix_composite(data, y, work=None):
 
 
 def mass_matrix_columns(fast_chain, y, out=None):
-    """M(y) (n, n) column by column: M e_i = ID(y, 0, e_i) - ID(y, 0, 0), n + 1 compiled
-    inverse-dynamics calls without case motion (Walker-Orin method 1); into ``out`` if given."""
-    y = np.asarray(y, float)
-    n = y.size
-    zero, z6 = np.zeros(n), np.zeros(6)
-    base = fast_chain.inverse_dynamics(y, zero, zero, z6, z6)
-    M = np.empty((n, n)) if out is None else out
-    e = np.zeros(n)
-    for i in range(n):
-        e[i] = 1.0
-        M[:, i] = fast_chain.inverse_dynamics(y, zero, e, z6, z6) - base
-        e[i] = 0.0
-    return M
+    """M(y) (n, n) column by column, n + 1 compiled inverse-dynamics calls with unit
+    accelerations (Walker-Orin method 1: ``fast_rhs.FastChain.mass_matrix``); copied into
+    ``out`` if given."""
+    M = fast_chain.mass_matrix(y)
+    if out is None:
+        return M
+    out[...] = M
+    return out
 
 
 def cholesky_solve(M, f):
@@ -272,22 +193,8 @@ def lu_solve(M, f):
 
 def case_twist_function(case):
     """twist(t) -> (w1 (6,), dw1 (6,)): the case twist [0; omega] [rad/s] and its rate
-    [rad/s^2] in case axes (``multibody.CaseMotion.twist``, written with math for speed)."""
-    amp = [float(a) for a in case.amplitude]
-    omf = [2 * math.pi * float(f) for f in case.frequency]
-    phase = [float(p) for p in case.phase]
-    om0 = [float(w) for w in case.omega0]
-
-    def twist(t):
-        w1, dw1 = np.zeros(6), np.zeros(6)
-        for k in range(3):
-            arg = omf[k] * t + phase[k]
-            dw1[3 + k] = amp[k] * math.cos(arg)
-            integ = ((math.sin(arg) - math.sin(phase[k])) / omf[k] if omf[k] > 0.0
-                     else math.cos(phase[k]) * t)
-            w1[3 + k] = om0[k] + amp[k] * integ
-        return w1, dw1
-    return twist
+    [rad/s^2] in case axes (``multibody.CaseMotion.twist``)."""
+    return case.twist
 
 
 def make_dense_rhs(chain, case=None, torque=None, assembly="composite"):
