@@ -165,15 +165,22 @@ def build_tables(truth: dict, cases: list[dict]) -> tuple[list[dict], list[dict]
     return ranking, static
 
 
-def format_csv(rows: list[dict]) -> str:
-    """CSV text of table rows (columns TABLE_COLUMNS; floats with 8 significant digits)."""
+def csv_text(rows: list[dict], columns, digits: int = 8) -> str:
+    """CSV text of dict rows in the given columns: floats with ``digits`` significant
+    digits, None or a missing key as an empty cell, other keys ignored (every table of
+    the results stage is written by this)."""
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=TABLE_COLUMNS, lineterminator="\n")
+    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n", extrasaction="ignore")
     w.writeheader()
     for r in rows:
-        w.writerow({k: (f"{r[k]:.8g}" if isinstance(r.get(k), float) else
-                        ("" if r.get(k) is None else r.get(k))) for k in TABLE_COLUMNS})
+        w.writerow({k: (f"{r[k]:.{digits}g}" if isinstance(r.get(k), float) else
+                        ("" if r.get(k) is None else r.get(k))) for k in columns})
     return buf.getvalue()
+
+
+def format_csv(rows: list[dict]) -> str:
+    """CSV text of table rows (columns TABLE_COLUMNS; floats with 8 significant digits)."""
+    return csv_text(rows, TABLE_COLUMNS, 8)
 
 
 def read_table(path) -> list[dict]:

@@ -47,8 +47,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import csv  # noqa: E402
-import io  # noqa: E402
 import re  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -255,13 +253,7 @@ def dense_row(truth_rows, comp, duration, t_ref, g_ref):
 # ------------------------------------------------------------------ output
 def format_csv(rows):
     """CSV text (CSV_COLUMNS; floats with 6 significant digits, missing = empty)."""
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n", extrasaction="ignore")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: (f"{r[k]:.6g}" if isinstance(r.get(k), float) else
-                        ("" if r.get(k) is None else r.get(k))) for k in CSV_COLUMNS})
-    return buf.getvalue()
+    return errors.csv_text(rows, CSV_COLUMNS, 6)
 
 
 MARKERS = {"rk4": ("o", "s", "h"), "dop853": ("^", "v", "<", ">"),

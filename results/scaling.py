@@ -48,14 +48,13 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import csv  # noqa: E402
-import io  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from results import errors  # noqa: E402
 from solver import integrators, multibody  # noqa: E402
 
 # Modal spectrum of each real body, f_k = c k^beta [Hz] (least squares on log-log over modes
@@ -281,13 +280,7 @@ def growth_laws(rows, min_elastic=FIT_MIN_ELASTIC):
 # ------------------------------------------------------------------ output
 def format_csv(rows):
     """CSV text, columns CSV_COLUMNS (floats with 6 significant digits, missing = empty)."""
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n", extrasaction="ignore")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: (f"{r[k]:.6g}" if isinstance(r.get(k), float) else r.get(k, ""))
-                    for k in CSV_COLUMNS})
-    return buf.getvalue()
+    return errors.csv_text(rows, CSV_COLUMNS, 6)
 
 
 LABELS = {"structured": "structured (rhs call)", "structured_loop": "structured (compiled RK4 loop)",

@@ -26,8 +26,6 @@ every rate and case.  Missing or mismatched files end with one line
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import os
 import re
 import sys
@@ -106,13 +104,8 @@ def case_rows(truth: dict, cases: list[dict], linear: dict | None, rankings: dic
 
 
 def format_csv(rows: list[dict]) -> str:
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=TABLE_COLUMNS, lineterminator="\n")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: (f"{r[k]:.6g}" if isinstance(r.get(k), float) else
-                        ("" if r.get(k) is None else r[k])) for k in TABLE_COLUMNS})
-    return buf.getvalue()
+    """CSV text (TABLE_COLUMNS; floats with 6 significant digits, missing = empty)."""
+    return errors.csv_text(rows, TABLE_COLUMNS, 6)
 
 
 def read_ranking(path) -> dict:

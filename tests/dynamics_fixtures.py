@@ -19,11 +19,31 @@ inside frame found by solving the bearing conditions, the elastic energy
 and gets M(y) and f(y, y', t) by automatic differentiation of L.
 """
 
+import os
+
 import numpy as np
+import pytest
 import scipy.linalg
 
 from reduction import modal_integrals
-from solver import multibody
+from solver import models, multibody
+
+# The real body files of the workflow (FE and reduction stages), for the tests that use
+# them; those tests skip in a clean clone, before `make all` has run.
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REAL_MODES = os.path.join(ROOT, "results", "modes")
+REAL_REDUCTION = os.path.join(ROOT, "results", "reduction")
+HAVE_REAL_BODIES = all(os.path.exists(os.path.join(d, f"body{b}.h5"))
+                       for d in (REAL_MODES, REAL_REDUCTION) for b in models.BODIES)
+real_bodies_only = pytest.mark.skipif(not HAVE_REAL_BODIES,
+                                      reason="real body files missing (run the workflow)")
+
+
+def load_real_bodies():
+    """(rankings, {body: body-file dict}) of the workflow's real bodies."""
+    rankings = models.load_rankings(REAL_REDUCTION)
+    data = {b: models.load_body_file(os.path.join(REAL_MODES, f"body{b}.h5")) for b in models.BODIES}
+    return rankings, data
 
 MOTOR_SIGN = {2: 1.0, 3: 1.0, 4: -1.0, 5: 1.0}           # thesis Table 2.2
 HALF_OUTER = {2: 3.625, 3: 3.125, 4: 2.625, 5: 1.935}    # half bearing distances [in]

@@ -8,20 +8,15 @@ import numpy as np
 import pytest
 
 from solver import integrators, models, multibody, scenes, simulate
+from tests.dynamics_fixtures import REAL_MODES as MODES, REAL_REDUCTION as REDUCTION
+from tests.dynamics_fixtures import load_real_bodies, real_bodies_only
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-MODES = os.path.join(ROOT, "results", "modes")
-REDUCTION = os.path.join(ROOT, "results", "reduction")
-HAVE_REAL = all(os.path.exists(os.path.join(d, f"body{b}.h5")) for d in (MODES, REDUCTION)
-                for b in models.BODIES)
-pytestmark = pytest.mark.skipif(not HAVE_REAL, reason="real body files missing (run the workflow)")
+pytestmark = real_bodies_only
 
 
 @pytest.fixture(scope="module")
 def real():
-    rankings = models.load_rankings(REDUCTION)
-    data = {b: models.load_body_file(os.path.join(MODES, f"body{b}.h5")) for b in models.BODIES}
-    return rankings, data
+    return load_real_bodies()
 
 
 def test_coupled_frequency_above_kept_frequencies_on_real_bodies(real):

@@ -5,21 +5,13 @@ Each test checks a measured number against theory, so it fails if the bisection,
 excitation, the drift measure or the hard-case judgement is wrong.
 """
 
-import os
-
 import numpy as np
 import pytest
 
 from results import stability as st
 from solver import integrators, models, multibody, scenes
-from tests.dynamics_fixtures import synthetic_chain
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-MODES = os.path.join(ROOT, "results", "modes")
-REDUCTION = os.path.join(ROOT, "results", "reduction")
-HAVE_REAL = all(os.path.exists(os.path.join(d, f"body{b}.h5")) for d in (MODES, REDUCTION)
-                for b in models.BODIES)
-real_only = pytest.mark.skipif(not HAVE_REAL, reason="real body files missing (run the workflow)")
+from tests.dynamics_fixtures import load_real_bodies, synthetic_chain
+from tests.dynamics_fixtures import real_bodies_only as real_only
 
 
 # ------------------------------------------------------------------ RK4 theory, bisection
@@ -239,8 +231,7 @@ def test_cli_missing_inputs_one_line(tmp_path, capsys):
 
 @real_only
 def test_real_freq5_rk4_limit_within_5_percent_and_old_bound_diagnosed():
-    rankings = models.load_rankings(REDUCTION)
-    data = {b: models.load_body_file(os.path.join(MODES, f"body{b}.h5")) for b in models.BODIES}
+    rankings, data = load_real_bodies()
     chain = models.build_chain(models.parse_model("freq-5", rankings), data)
     res = st.measure_chain_rk4_limit(chain, n_steps=1500, rtol=1e-3)
     assert abs(res["ratio_bound"] - 1.0) < st.LIMIT_TOLERANCE
