@@ -95,81 +95,123 @@ def pack(chain):
             np.ascontiguousarray(chain.gimbal_offset, dtype=float))
 
 
-# ------------------------------------------------------------------ helpers
-# Small fixed-size products written out: numba's ``@`` calls BLAS, whose call
-# overhead dwarfs a 3x3 or 6x6 product.
-@numba.njit(**_JIT)
-def _mm(A, B):
-    n, m, p = A.shape[0], A.shape[1], B.shape[1]
-    out = np.zeros((n, p))
-    for i in range(n):
-        for k in range(m):
-            a = A[i, k]
-            for j in range(p):
-                out[i, j] += a * B[k, j]
-    return out
+# ------------------------------------------------------------------ small vectors
+# Why no small arrays: an evaluation used to allocate ~600 of them (3-vectors, 6x6
+# temporaries), ~17 ns each to allocate and free, plus the cache traffic; that was half
+# of the fixed cost of an evaluation.  Now 3-vectors are tuples, which Numba keeps in
+# registers, and 6x6 temporaries live in scratch arrays allocated once per evaluation.
+# Reassociation only (no "no-NaN/no-Inf" assumptions: a diverging state must stay visible).
+_FAST = dict(cache=True, fastmath={"reassoc", "contract", "nsz"}, error_model="numpy")
 
 
 @numba.njit(**_JIT)
-def _mv(A, x):
-    n, m = A.shape
-    out = np.zeros(n)
-    for i in range(n):
-        s = 0.0
-        for k in range(m):
-            s += A[i, k] * x[k]
-        out[i] = s
-    return out
+def _cr(a, b):
+    """a x b for 3-vectors (tuples or arrays) -> tuple."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 @numba.njit(**_JIT)
-def _mtv(A, x):
-    n, m = A.shape
-    out = np.zeros(m)
-    for k in range(n):
-        xk = x[k]
-        for i in range(m):
-            out[i] += A[k, i] * xk
-    return out
+def _add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@numba.njit(fastmath={"reassoc", "contract", "nsz"}, error_model="numpy", cache=True)
-def _mm6(A, B):
-    """A B for 6x6 A, B."""
-    out = np.empty((6, 6))
+@numba.njit(**_JIT)
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@numba.njit(**_JIT)
+def _scale(s, a):
+    return (s * a[0], s * a[1], s * a[2])
+
+
+@numba.njit(**_JIT)
+def _mv3(R, x):
+    """R x for a (3, 3) array R -> tuple."""
+    return (R[0, 0] * x[0] + R[0, 1] * x[1] + R[0, 2] * x[2],
+            R[1, 0] * x[0] + R[1, 1] * x[1] + R[1, 2] * x[2],
+            R[2, 0] * x[0] + R[2, 1] * x[1] + R[2, 2] * x[2])
+
+
+@numba.njit(**_JIT)
+def _mtv3(R, x):
+    """R^T x for a (3, 3) array R -> tuple."""
+    return (R[0, 0] * x[0] + R[1, 0] * x[1] + R[2, 0] * x[2],
+            R[0, 1] * x[0] + R[1, 1] * x[1] + R[2, 1] * x[2],
+            R[0, 2] * x[0] + R[1, 2] * x[1] + R[2, 2] * x[2])
+
+
+@numba.njit(**_JIT)
+def _adinv(R, p, w):
+    """Ad_{g^-1} w = [R^T (v + omega x p); R^T omega] (6,) for the pose g = (R, p)."""
+    om = (w[3], w[4], w[5])
+    v = _mtv3(R, _add((w[0], w[1], w[2]), _cr(om, p)))
+    o = _mtv3(R, om)
+    return np.array([v[0], v[1], v[2], o[0], o[1], o[2]])
+
+
+# 6x6 algebra into preallocated outputs (out must not alias an input)
+@numba.njit(**_FAST)
+def _mm6(A, B, out):
+    """out = A B."""
     for i in range(6):
-        r0 = r1 = r2 = r3 = r4 = r5 = 0.0
-        for k in range(6):
-            a = A[i, k]
-            r0 += a * B[k, 0]
-            r1 += a * B[k, 1]
-            r2 += a * B[k, 2]
-            r3 += a * B[k, 3]
-            r4 += a * B[k, 4]
-            r5 += a * B[k, 5]
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = r0, r1, r2, r3, r4, r5
-    return out
+        for j in range(6):
+            s = 0.0
+            for k in range(6):
+                s += A[i, k] * B[k, j]
+            out[i, j] = s
 
 
-@numba.njit(fastmath={"reassoc", "contract", "nsz"}, error_model="numpy", cache=True)
-def _mm6t(A, B):
-    """A B^T for 6x6 A, B."""
-    out = np.empty((6, 6))
+@numba.njit(**_FAST)
+def _mm6t(A, B, out):
+    """out = A B^T."""
     for i in range(6):
         for j in range(6):
             s = 0.0
             for k in range(6):
                 s += A[i, k] * B[j, k]
             out[i, j] = s
-    return out
+
+
+@numba.njit(**_FAST)
+def _mtm6(A, B, out):
+    """out = A^T B."""
+    for i in range(6):
+        for j in range(6):
+            s = 0.0
+            for k in range(6):
+                s += A[k, i] * B[k, j]
+            out[i, j] = s
+
+
+@numba.njit(**_FAST)
+def _mv6(A, x, out):
+    """out = A x."""
+    for i in range(6):
+        s = 0.0
+        for k in range(6):
+            s += A[i, k] * x[k]
+        out[i] = s
+
+
+@numba.njit(**_FAST)
+def _mtv6(A, x, out):
+    """out = A^T x."""
+    for i in range(6):
+        s = 0.0
+        for k in range(6):
+            s += A[k, i] * x[k]
+        out[i] = s
 
 
 @numba.njit(**_JIT)
-def _inv(A):
-    """Inverse of a small matrix by Gauss-Jordan elimination with partial pivoting."""
-    n = A.shape[0]
-    M = A.copy()
-    X = np.eye(n)
+def _inv6(A, X, M):
+    """X = A^-1 (6x6) by Gauss-Jordan elimination with partial pivoting; M is scratch."""
+    n = 6
+    for i in range(n):
+        for j in range(n):
+            M[i, j] = A[i, j]
+            X[i, j] = 1.0 if i == j else 0.0
     for c in range(n):
         piv = c
         big = abs(M[c, c])
@@ -192,67 +234,112 @@ def _inv(A):
                     for j in range(n):
                         M[r, j] -= f * M[c, j]
                         X[r, j] -= f * X[c, j]
-    return X
 
 
 @numba.njit(**_JIT)
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+def _adinv_matrix(R, p, A):
+    """A (6, 6) = Ad_{g^-1} = [[R^T, -R^T p~], [0, R^T]], in place."""
+    for i in range(3):
+        for j in range(3):
+            A[i, j] = R[j, i]
+            A[3 + i, 3 + j] = R[j, i]
+            A[3 + i, j] = 0.0
+        # row i of -R^T p~:  -(R^T p~)[i, :] = (p x R[:, i])^T ... written out
+        c0, c1, c2 = R[0, i], R[1, i], R[2, i]      # column i of R = row i of R^T
+        # (R^T p~)[i, j] = sum_m R[m, i] p~[m, j],  p~ = [[0, -p2, p1], [p2, 0, -p0], [-p1, p0, 0]]
+        A[i, 3] = -(c1 * p[2] - c2 * p[1])
+        A[i, 4] = -(-c0 * p[2] + c2 * p[0])
+        A[i, 5] = -(c0 * p[1] - c1 * p[0])
 
 
-@numba.njit(**_JIT)
-def _rot(axis, ang):
-    c, s = np.cos(ang), np.sin(ang)
-    R = np.eye(3)
-    i, j = (axis + 1) % 3, (axis + 2) % 3
-    R[i, i] = c
-    R[j, j] = c
-    R[i, j] = -s
-    R[j, i] = s
-    return R
+# ------------------------------------------------------------------ O(D) passes
+# Long loops over a body's modes are written on 1-D row views (V[a, o:o + D]):
+# indexing a 2-D array inside the loop defeats vectorisation (measured 4-5x slower).
+@numba.njit(**_FAST)
+def _dot(a, b):
+    s = 0.0
+    for i in range(a.shape[0]):
+        s += a[i] * b[i]
+    return s
 
 
-@numba.njit(**_JIT)
-def _adinv(R, p, w):
-    """Ad_{g^-1} w = [R^T (v + omega x p); R^T omega]."""
-    out = np.empty(6)
-    vp = w[:3] + _cross(w[3:], p)
-    out[:3] = _mtv(R, vp)
-    out[3:] = _mtv(R, w[3:])
-    return out
+@numba.njit(**_FAST)
+def _dotw(a, b, w):
+    """sum_i a_i b_i w_i."""
+    s = 0.0
+    for i in range(a.shape[0]):
+        s += a[i] * b[i] * w[i]
+    return s
 
 
-@numba.njit(**_JIT)
-def _adinv_matrix(R, p):
-    A = np.zeros((6, 6))
-    RT = R.T.copy()
-    A[:3, :3] = RT
-    A[3:, 3:] = RT
-    S = np.array([[0.0, -p[2], p[1]], [p[2], 0.0, -p[0]], [-p[1], p[0], 0.0]])
-    A[:3, 3:] = -_mm(RT, S)
-    return A
+@numba.njit(**_FAST)
+def _axpy(alpha, x, y):
+    """y += alpha x, in place."""
+    for i in range(x.shape[0]):
+        y[i] += alpha * x[i]
 
 
-@numba.njit(**_JIT)
-def _adinv_T(R, p, F):
-    out = np.empty(6)
-    f = _mv(R, F[:3])
-    out[:3] = f
-    out[3:] = _cross(p, f) + _mv(R, F[3:])
-    return out
+@numba.njit(**_FAST)
+def _rows_dot(V, o, D, x, out, r0, nrows):
+    """out[r] = V[r0 + r, o:o+D] . x for r < nrows."""
+    for r in range(nrows):
+        out[r] = _dot(V[r0 + r, o:o + D], x)
 
 
-@numba.njit(**_JIT)
-def _bracket(w, xi):
-    out = np.empty(6)
-    out[:3] = _cross(w[3:], xi[:3]) - _cross(xi[3:], w[:3])
-    out[3:] = _cross(w[3:], xi[3:])
-    return out
+@numba.njit(**_FAST)
+def _rows_dot2(A, o, D, x, xd, out, outd):
+    """out[r] = A[r, o:o+D] . x and outd[r] = A[r, o:o+D] . xd for every row r of A
+    (one read of each row for both vectors)."""
+    for r in range(A.shape[0]):
+        a = A[r, o:o + D]
+        s = 0.0
+        sd = 0.0
+        for i in range(D):
+            s += a[i] * x[i]
+            sd += a[i] * xd[i]
+        out[r] = s
+        outd[r] = sd
 
 
-# ------------------------------------------------------------------ kernels
-# Reassociation only (no "no-NaN/no-Inf" assumptions: a diverging state must stay visible).
-_FAST = dict(cache=True, fastmath={"reassoc", "contract", "nsz"}, error_model="numpy")
+@numba.njit(**_FAST)
+def _project(V, M1, o, Dk, q, qd, qdd, has_acc, pq, pqd, pqdd):
+    """A body's modal rows applied to its modal state, in one read of the rows:
+    pq (27,) = [V; M1] q, pqd (27,) = [V; M1] q', pqdd (12,) = V q'' (0 if not has_acc).
+    V rows: [P; H; Psi; Theta] (momentum, inside-frame translation and rotation);
+    M1 rows: the 15 entries of dM_X/dq_i (inertia_gradient_rows)."""
+    _rows_dot2(V, o, Dk, q, qd, pq[0:12], pqd[0:12])
+    _rows_dot2(M1, o, Dk, q, qd, pq[12:27], pqd[12:27])
+    if has_acc:
+        _rows_dot(V, o, Dk, qdd, pqdd, 0, 12)
+    else:
+        pqdd[:] = 0.0
+
+
+@numba.njit(**_FAST)
+def _hb_products(V, HB, o, Dk, x, out):
+    """out (12,) = [P; H + hq; Psi; Theta] x for one body: the rows B(q) and Y of the
+    solve (H + hq = HB), twelve dot products in one pass over the modes."""
+    r0, r1, r2 = V[0, o:o + Dk], V[1, o:o + Dk], V[2, o:o + Dk]
+    r3, r4, r5 = HB[0, o:o + Dk], HB[1, o:o + Dk], HB[2, o:o + Dk]
+    r6, r7, r8 = V[6, o:o + Dk], V[7, o:o + Dk], V[8, o:o + Dk]
+    r9, r10, r11 = V[9, o:o + Dk], V[10, o:o + Dk], V[11, o:o + Dk]
+    s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = s9 = s10 = s11 = 0.0
+    for i in range(Dk):
+        xi = x[i]
+        s0 += r0[i] * xi
+        s1 += r1[i] * xi
+        s2 += r2[i] * xi
+        s3 += r3[i] * xi
+        s4 += r4[i] * xi
+        s5 += r5[i] * xi
+        s6 += r6[i] * xi
+        s7 += r7[i] * xi
+        s8 += r8[i] * xi
+        s9 += r9[i] * xi
+        s10 += r10[i] * xi
+        s11 += r11[i] * xi
+    out[0], out[1], out[2], out[3], out[4], out[5] = s0, s1, s2, s3, s4, s5
+    out[6], out[7], out[8], out[9], out[10], out[11] = s6, s7, s8, s9, s10, s11
 
 
 @numba.njit(**_FAST)
@@ -263,8 +350,8 @@ def _coriolis_pass(G2, q, qd, om):
     gq_j = omega . G_j q' (the Coriolis part of dT/dq): 9 D^2 multiply-adds.
     Rows are taken two at a time, so hq and hqd are loaded and stored once per
     two rows (measured 1.4x faster than one row at a time; four rows at a time
-    spill registers and are slower).  The outputs are allocated here so that
-    the compiler knows they alias nothing and vectorises the inner loop."""
+    are 2.6x slower: the compiler stops vectorising).  The outputs are allocated
+    here so that the compiler knows they alias nothing and vectorises the inner loop."""
     D = q.shape[0]
     D3 = 3 * D
     hq = np.zeros(D3)
@@ -306,53 +393,28 @@ def _coriolis_pass(G2, q, qd, om):
     return hq, hqd, gq
 
 
-# Long loops over a body's modes are written on 1-D row views (V[a, o:o + D]):
-# indexing a 2-D array inside the loop defeats vectorisation (measured 4-5x slower).
 @numba.njit(**_FAST)
-def _dot(a, b):
-    s = 0.0
-    for i in range(a.shape[0]):
-        s += a[i] * b[i]
-    return s
-
-
-@numba.njit(**_FAST)
-def _dotw(a, b, w):
-    """sum_i a_i b_i w_i."""
-    s = 0.0
-    for i in range(a.shape[0]):
-        s += a[i] * b[i] * w[i]
-    return s
-
-
-@numba.njit(**_FAST)
-def _axpy(alpha, x, y):
-    """y += alpha x, in place."""
-    for i in range(x.shape[0]):
-        y[i] += alpha * x[i]
-
-
-@numba.njit(**_FAST)
-def _rows_dot(V, o, D, x, out, r0, nrows):
-    """out[r] = V[r0 + r, o:o+D] . x for r < nrows."""
-    for r in range(nrows):
-        out[r] = _dot(V[r0 + r, o:o + D], x)
+def _add_inertia_rows(Mx, m):
+    """Mx (6, 6) += sum_i x_i dM_X/dq_i given m (15,) = M1 x (inertia_gradient_rows)."""
+    for a in range(3):
+        for b in range(3):
+            s = m[3 * a + b]
+            Mx[3 + a, b] += s
+            Mx[b, 3 + a] += s
+    for c in range(6):
+        a, b = _YS_PAIRS[c]
+        s = m[9 + c]
+        Mx[3 + a, 3 + b] += s
+        if a != b:
+            Mx[3 + b, 3 + a] += s
 
 
 @numba.njit(**_FAST)
 def _add_inertia(Mx, M1, o, Dk, x):
     """Mx (6, 6) += sum_i x_i dM_X/dq_i, from the 15 rows of M1 (inertia_gradient_rows)."""
-    for a in range(3):
-        for b in range(3):
-            s = _dot(M1[3 * a + b, o:o + Dk], x)
-            Mx[3 + a, b] += s
-            Mx[b, 3 + a] += s
-    for c in range(6):
-        a, b = _YS_PAIRS[c]
-        s = _dot(M1[9 + c, o:o + Dk], x)
-        Mx[3 + a, 3 + b] += s
-        if a != b:
-            Mx[3 + b, 3 + a] += s
+    m = np.empty(15)
+    _rows_dot(M1, o, Dk, x, m, 0, 15)
+    _add_inertia_rows(Mx, m)
 
 
 @numba.njit(**_JIT)
@@ -366,210 +428,318 @@ def _inertia_weights(w, ww):
         ww[9 + c] = (0.5 if a == b else 1.0) * w[3 + a] * w[3 + b]
 
 
+# ------------------------------------------------------------------ kinematics
+@numba.njit(**_FAST)
+def _joint(gam, gd, gdd, Cj, base_p, elastic, has_acc, pq, pqd, pqdd, wp, dwp,
+           R, p, Lw, w, dw, CR):
+    """One joint of the forward pass, in place: its pose (R, p), the rotation part Lw of
+    the joint map L = [R^T Psi; Lw Theta] of the parent's modes, and the child's twist w
+    and its rate dw (6,) from the parent's wp, dwp.
+
+    The joint rotates by gam about its fixed axis frame Cj: R = E Cj Rx(gam), where E is
+    the parent's elastic rotation at the output bearings (x-y-z angles th = Theta q) and
+    the joint sits at the elastic translation p = Psi q (pq, pqd, pqdd (12,): the parent's
+    rows V q, V q', V q''; used only if elastic).  Otherwise p = base_p and E = I."""
+    c, s = math.cos(gam), math.sin(gam)
+    for i in range(3):                        # CR = Cj Rx(gam)
+        CR[i, 0] = Cj[i, 0]
+        CR[i, 1] = Cj[i, 1] * c + Cj[i, 2] * s
+        CR[i, 2] = Cj[i, 2] * c - Cj[i, 1] * s
+    xv = (0.0, 0.0, 0.0)                      # joint twist xi = [xv; xw] and bias [bv; bw]
+    xw = (gd, 0.0, 0.0)
+    bv = (0.0, 0.0, 0.0)
+    bw = (0.0, 0.0, 0.0)
+    if not elastic:
+        for i in range(3):
+            for m in range(3):
+                R[i, m] = CR[i, m]
+                Lw[i, m] = 0.0
+            p[i] = base_p[i]
+    else:
+        pd = (pqd[6], pqd[7], pqd[8])
+        thd = (pqd[9], pqd[10], pqd[11])
+        c0, s0 = math.cos(pq[9]), math.sin(pq[9])
+        c1, s1 = math.cos(pq[10]), math.sin(pq[10])
+        c2, s2 = math.cos(pq[11]), math.sin(pq[11])
+        # E = Rx(th0) Ry(th1) Rz(th2), rows e0, e1, e2 (Ry Rz has rows a0, a1, a2)
+        a0 = (c1 * c2, -c1 * s2, s1)
+        a1 = (s2, c2, 0.0)
+        a2 = (-s1 * c2, s1 * s2, c1)
+        e0 = a0
+        e1 = _sub(_scale(c0, a1), _scale(s0, a2))
+        e2 = _add(_scale(s0, a1), _scale(c0, a2))
+        for m in range(3):
+            R[0, m] = e0[0] * CR[0, m] + e0[1] * CR[1, m] + e0[2] * CR[2, m]
+            R[1, m] = e1[0] * CR[0, m] + e1[1] * CR[1, m] + e1[2] * CR[2, m]
+            R[2, m] = e2[0] * CR[0, m] + e2[1] * CR[1, m] + e2[2] * CR[2, m]
+            p[m] = pq[6 + m]
+        # angular velocity of E: omE = Te th', Te = [cx, cy, ez] (columns)
+        cx = (c1 * c2, -c1 * s2, s1)
+        cy = (s2, c2, 0.0)
+        for i in range(3):                    # Lw = (Cj Rx)^T Te
+            Lw[i, 0] = CR[0, i] * cx[0] + CR[1, i] * cx[1] + CR[2, i] * cx[2]
+            Lw[i, 1] = CR[0, i] * cy[0] + CR[1, i] * cy[1]
+            Lw[i, 2] = CR[2, i]
+        t1 = _scale(thd[0], cx)
+        t2 = _scale(thd[1], cy)
+        t3 = (0.0, 0.0, thd[2])
+        omE = _add(_add(t1, t2), t3)
+        domE = _add(_cr(t1, _add(t2, t3)), _cr(t2, t3))    # Te' th'
+        xv = _mtv3(R, pd)
+        t = _mtv3(CR, omE)
+        xw = (t[0] + gd, t[1], t[2])
+        bv = _scale(-1.0, _cr(xw, xv))
+        u = _mtv3(CR, domE)                   # - (gd ex) x xw + (Cj Rx)^T domE
+        bw = (u[0], u[1] + gd * xw[2], u[2] - gd * xw[1])
+    pp = (p[0], p[1], p[2])
+    # w = Ad^-1 wp + xi;  dw = Ad^-1 dwp + [w, xi] + bias (+ gdd ex + L q''_parent)
+    wpw = (wp[3], wp[4], wp[5])
+    wv = _add(_mtv3(R, _add((wp[0], wp[1], wp[2]), _cr(wpw, pp))), xv)
+    ww = _add(_mtv3(R, wpw), xw)
+    dpw = (dwp[3], dwp[4], dwp[5])
+    dv = _mtv3(R, _add((dwp[0], dwp[1], dwp[2]), _cr(dpw, pp)))
+    dv = _add(_add(dv, bv), _sub(_cr(ww, xv), _cr(xw, wv)))
+    dww = _add(_add(_mtv3(R, dpw), bw), _cr(ww, xw))
+    if elastic and has_acc:
+        dv = _add(dv, _mtv3(R, (pqdd[6], pqdd[7], pqdd[8])))
+        dww = _add(dww, _mv3(Lw, (pqdd[9], pqdd[10], pqdd[11])))
+    for i in range(3):
+        w[i] = wv[i]
+        w[3 + i] = ww[i]
+        dw[i] = dv[i]
+        dw[3 + i] = dww[i]
+    dw[3] += gdd
+
+
+@numba.njit(**_FAST)
+def _forward(y, yd, ydd, has_acc, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd,
+             R_all, p_all, Lw_all, W, DW):
+    """Forward pass over the four joints, in place: R_all (4,3,3), p_all (4,3), Lw_all
+    (4,3,3), body twists W (4,6) and their rates DW (4,6) at accelerations ydd, from the
+    bodies' projected modal rows Pq, Pqd (4, 27) and Pqdd (4, 12) (``_project``)."""
+    CR = np.empty((3, 3))
+    zero3 = np.zeros(3)
+    for j in range(4):
+        k = j - 1
+        elastic = j > 0 and D[k] > 0
+        kk = k if j > 0 else 0
+        wp = w1 if j == 0 else W[k]
+        dwp = dw1 if j == 0 else DW[k]
+        _joint(y[j], yd[j], ydd[j] if has_acc else 0.0, C1 if j == 0 else C,
+               rho if j == 0 else zero3, elastic, has_acc, Pq[kk], Pqd[kk], Pqdd[kk],
+               wp, dwp, R_all[j], p_all[j], Lw_all[j], W[j], DW[j], CR)
+
+
+@numba.njit(**_FAST)
+def _project_all(y, yd, ydd, has_acc, D, off, V, M1):
+    """Pq, Pqd (4, 27), Pqdd (4, 12): every body's ``_project``."""
+    Pq = np.zeros((4, 27))
+    Pqd = np.zeros((4, 27))
+    Pqdd = np.zeros((4, 12))
+    for k in range(4):
+        Dk = D[k]
+        if Dk > 0:
+            s = 4 + off[k]
+            _project(V, M1, off[k], Dk, y[s:s + Dk], yd[s:s + Dk], ydd[s:s + Dk], has_acc,
+                     Pq[k], Pqd[k], Pqdd[k])
+    return Pq, Pqd, Pqdd
+
+
 @numba.njit(**_JIT)
 def _kinematics(y, yd, ydd, w1, dw1, D, off, V, C1, C, rho, R_all, p_all, Lw_all, W, DW):
     """Forward pass, in place: joint poses R_all (4,3,3), p_all (4,3), the rotation part
     Lw_all (4,3,3) of each joint map L = [R^T Psi; Lw Theta] of the parent's modes,
     body twists W (4,6) and their rates DW (4,6) at accelerations ydd."""
-    w_par = w1.copy()
-    dw_par = dw1.copy()
-    ex = np.array([1.0, 0.0, 0.0])
-    ey = np.array([0.0, 1.0, 0.0])
-    v4 = np.empty(4)
-    for j in range(4):
-        gd = yd[j]
-        Rx = _rot(0, y[j])
-        xi = np.zeros(6)
-        bias = np.zeros(6)
-        Lw = np.zeros((3, 3))
-        k = j - 1
-        if j == 0:
-            R = _mm(C1, Rx)
-            p = rho.copy()
-            xi[3] = gd
-        elif D[k] == 0:
-            R = _mm(C, Rx)
-            p = np.zeros(3)
-            xi[3] = gd
-        else:
-            Dk = D[k]
-            o = off[k]
-            RjT = _mm(C, Rx).T.copy()
-            # inside-frame translation t = Psi q and rotation th = Theta q, and their rates
-            qk = y[4 + o:4 + o + Dk]
-            qdk = yd[4 + o:4 + o + Dk]
-            p = np.empty(3)
-            pd = np.empty(3)
-            th = np.empty(3)
-            thd = np.empty(3)
-            _rows_dot(V, o, Dk, qk, p, 6, 3)
-            _rows_dot(V, o, Dk, qdk, pd, 6, 3)
-            _rows_dot(V, o, Dk, qk, th, 9, 3)
-            _rows_dot(V, o, Dk, qdk, thd, 9, 3)
-            Rz = _rot(2, th[2])
-            Ry = _rot(1, th[1])
-            cx = _mtv(Rz, _mtv(Ry, ex))
-            cy = _mtv(Rz, ey)
-            Te = np.zeros((3, 3))
-            Te[:, 0] = cx
-            Te[:, 1] = cy
-            Te[2, 2] = 1.0
-            E = _mm(_mm(_rot(0, th[0]), Ry), Rz)
-            R = _mm(_mm(E, C), Rx)
-            a1 = cx * thd[0]
-            a2 = cy * thd[1]
-            a3 = np.array([0.0, 0.0, thd[2]])
-            omE = a1 + a2 + a3
-            domE = _cross(a1, a2 + a3) + _cross(a2, a3)
-            v_rel = _mtv(R, pd)
-            w_rel = _mv(RjT, omE)
-            w_rel[0] += gd
-            xi[:3] = v_rel
-            xi[3:] = w_rel
-            Lw = _mm(RjT, Te)
-            bias[:3] = -_cross(w_rel, v_rel)
-            bias[3:] = -_cross(ex * gd, w_rel - ex * gd) + _mv(RjT, domE)
-        w = _adinv(R, p, w_par) + xi
-        dw = _adinv(R, p, dw_par) + _bracket(w, xi) + bias
-        dw[3] += ydd[j]
-        if j > 0 and D[k] > 0:            # + L q''_parent
-            Dk = D[k]
-            o = off[k]
-            qdd = ydd[4 + o:4 + o + Dk]
-            pdd = np.empty(3)
-            thdd = np.empty(3)
-            _rows_dot(V, o, Dk, qdd, pdd, 6, 3)
-            _rows_dot(V, o, Dk, qdd, thdd, 9, 3)
-            dw[:3] += _mtv(R, pdd)
-            dw[3:] += _mv(Lw, thdd)
-        R_all[j] = R
-        p_all[j] = p
-        Lw_all[j] = Lw
-        W[j] = w
-        DW[j] = dw
-        w_par = w
-        dw_par = dw
+    M1 = np.zeros((15, V.shape[1]))
+    Pq, Pqd, Pqdd = _project_all(y, yd, ydd, True, D, off, V, M1)
+    _forward(y, yd, ydd, True, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd, R_all, p_all, Lw_all, W, DW)
 
 
+# ------------------------------------------------------------------ inverse dynamics
 @numba.njit(**_FAST)
-def _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
-    """out (n,) = M(y) ydd + c(y, y', t) by the recursive Newton-Euler passes, and what
-    the solve reuses: Mx_all (4,6,6) = M_X(q) per body, HB (3, S) = H + sum_j q_j G_j (the angular rows of B(q)),
-    the joint data (R_all, p_all, Lw_all) and F0, the composite wrench on body 2."""
-    S = V.shape[1]
-    n = 4 + S
-    R_all = np.empty((4, 3, 3))
-    p_all = np.empty((4, 3))
-    Lw_all = np.empty((4, 3, 3))
-    W = np.empty((4, 6))
-    DW = np.empty((4, 6))
-    _kinematics(y, yd, ydd, w1, dw1, D, off, V, C1, C, rho, R_all, p_all, Lw_all, W, DW)
-    out = np.zeros(n)
-    Mx_all = np.empty((4, 6, 6))
-    HB = np.zeros((3, S))
-    F_child = np.zeros(6)
+def _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
+              R_all, p_all, Lw_all, W, DW, out, Mx_all, HB):
+    """Backward (Newton-Euler) pass, in place: out (n,) = M(y) ydd + c(y, y', t), Mx_all
+    (4,6,6) = M_X(q) per body, HB (3, S) = H + sum_j q_j G_j; returns F0 (6,), the
+    composite wrench on body 2."""
+    F = np.zeros(6)
+    Fc = np.zeros(6)
+    mu = np.empty(6)
+    dmu = np.empty(6)
+    dMx = np.empty((6, 6))
     ww = np.empty(15)
+    cv = np.empty(12)
     for k in range(3, -1, -1):
         Dk = D[k]
         o = off[k]
         w = W[k]
         dw = DW[k]
-        om = w[3:]
-        Mx = M6[k].copy()
-        dMx = np.zeros((6, 6))
-        mu = np.zeros(6)
-        dmu = np.zeros(6)
+        om = (w[3], w[4], w[5])
+        Mx = Mx_all[k]
+        Mx[:, :] = M6[k]
+        dMx[:, :] = 0.0
+        for a in range(6):
+            mu[a] = 0.0
+            dmu[a] = 0.0
         if Dk > 0:
-            qk = y[4 + o:4 + o + Dk]
-            qdk = yd[4 + o:4 + o + Dk]
-            qddk = ydd[4 + o:4 + o + Dk]
-            # dM_X/dq_i through its 15 independent rows: M_X(q) = M6 + sum q_i M1_i,
-            # its rate sum q'_i M1_i, and half_i = 1/2 w^T M1_i w = w_a Yv_ab v_b + 1/2 w^T Ys w
-            _add_inertia(Mx, M1, o, Dk, qk)
-            _add_inertia(dMx, M1, o, Dk, qdk)
-            _inertia_weights(w, ww)
-            half = np.zeros(Dk)
-            for c in range(15):
-                _axpy(ww[c], M1[c, o:o + Dk], half)
+            s = 4 + o
+            qk = y[s:s + Dk]
+            qdk = yd[s:s + Dk]
+            qddk = ydd[s:s + Dk]
+            # M_X(q) = M6 + sum q_i M1_i and its rate sum q'_i M1_i (15 rows, projected)
+            _add_inertia_rows(Mx, Pq[k, 12:27])
+            _add_inertia_rows(dMx, Pqd[k, 12:27])
             hq, hqd, gq = _coriolis_pass(G[k], qk, qdk, om)
-            # B(q) q' and B(q) q'' with B = [P; H + hq]; u = (sum q'_j G_j) q'
-            Bqd = np.empty(6)
-            Bqdd = np.empty(6)
-            _rows_dot(V, o, Dk, qdk, Bqd, 0, 6)
-            _rows_dot(V, o, Dk, qddk, Bqdd, 0, 6)
+            # HB = H + hq (the angular rows of B(q)); (hq q', hq q'', hqd q') per axis
             for a in range(3):
                 h = hq[a * Dk:(a + 1) * Dk]
-                HB[a, o:o + Dk] = V[3 + a, o:o + Dk] + h
-                Bqd[3 + a] += _dot(h, qdk)
-                Bqdd[3 + a] += _dot(h, qddk)
-                dmu[3 + a] += _dot(hqd[a * Dk:(a + 1) * Dk], qdk)
-            mu += Bqd
-            dmu += Bqdd
-        mu += _mv(Mx, w)
-        dmu += _mv(Mx, dw) + _mv(dMx, w)
-        F = dmu.copy()
-        F[:3] += _cross(om, mu[:3])
-        F[3:] += _cross(om, mu[3:]) + _cross(w[:3], mu[:3])
+                hd = hqd[a * Dk:(a + 1) * Dk]
+                Ha = V[3 + a, o:o + Dk]
+                HBa = HB[a, o:o + Dk]
+                s1 = 0.0
+                s2 = 0.0
+                s3 = 0.0
+                for i in range(Dk):
+                    HBa[i] = Ha[i] + h[i]
+                    s1 += h[i] * qdk[i]
+                    s3 += hd[i] * qdk[i]
+                if has_acc:
+                    for i in range(Dk):
+                        s2 += h[i] * qddk[i]
+                mu[3 + a] += s1                       # B(q) q'
+                dmu[3 + a] += s2 + s3                 # B(q) q'' + (sum q'_j G_j) q'
+            for a in range(6):
+                mu[a] += Pqd[k, a]
+                dmu[a] += Pqdd[k, a]
+        for a in range(6):
+            s1 = 0.0
+            s2 = 0.0
+            for b in range(6):
+                s1 += Mx[a, b] * w[b]
+                s2 += Mx[a, b] * dw[b] + dMx[a, b] * w[b]
+            mu[a] += s1
+            dmu[a] += s2
+        # F = d/dt mu + [om x mu_v; om x mu_w + v x mu_v] + Ad^-T F_child
+        t1 = _cr(om, (mu[0], mu[1], mu[2]))
+        t2 = _add(_cr(om, (mu[3], mu[4], mu[5])), _cr((w[0], w[1], w[2]), (mu[0], mu[1], mu[2])))
+        for a in range(3):
+            F[a] = dmu[a] + t1[a]
+            F[3 + a] = dmu[3 + a] + t2[a]
         if k < 3:
             Rc = R_all[k + 1]
-            F += _adinv_T(Rc, p_all[k + 1], F_child)
+            f = _mv3(Rc, (Fc[0], Fc[1], Fc[2]))
+            m = _add(_cr(p_all[k + 1], f), _mv3(Rc, (Fc[3], Fc[4], Fc[5])))
+            for a in range(3):
+                F[a] += f[a]
+                F[3 + a] += m[a]
         if Dk > 0:
             # modal forces Q = B^T dw + (sum q'_j G_j)^T omega + q'' - dT/dq + Omega^2 q + C q'
-            # (+ L^T F_child): one pass over the rows [P; H; Psi; Theta] and hq
-            cv = np.zeros(12)
-            cv[0:6] = dw
+            # (+ L^T F_child), dT/dq = 1/2 w^T M1_i w + gq: row by row over [P; H; Psi; Theta]
+            s = 4 + o
+            for a in range(6):
+                cv[a] = dw[a]
             if k < 3:
-                cv[6:9] = _mv(R_all[k + 1], F_child[:3])
-                cv[9:12] = _mtv(Lw_all[k + 1], F_child[3:])
-            Q = out[4 + o:4 + o + Dk]
+                f = _mv3(R_all[k + 1], (Fc[0], Fc[1], Fc[2]))
+                m = _mtv3(Lw_all[k + 1], (Fc[3], Fc[4], Fc[5]))
+                for a in range(3):
+                    cv[6 + a] = f[a]
+                    cv[9 + a] = m[a]
+            nrows = 12 if k < 3 else 6
+            Q = out[s:s + Dk]
+            yk = y[s:s + Dk]
+            ydk = yd[s:s + Dk]
+            o2 = om2[o:o + Dk]
+            c2 = cd[o:o + Dk]
             for i in range(Dk):
-                ii = o + i
-                Q[i] = ydd[4 + ii] + om2[ii] * y[4 + ii] + cd[ii] * yd[4 + ii] - half[i] - gq[i]
-            for a in range(12):
+                Q[i] = o2[i] * yk[i] + c2[i] * ydk[i] - gq[i]
+            if has_acc:
+                _axpy(1.0, ydd[s:s + Dk], Q)
+            for a in range(nrows):
                 _axpy(cv[a], V[a, o:o + Dk], Q)
+            _inertia_weights(w, ww)
+            for c in range(15):
+                _axpy(-ww[c], M1[c, o:o + Dk], Q)
             for a in range(3):
                 _axpy(dw[3 + a], hq[a * Dk:(a + 1) * Dk], Q)
                 _axpy(om[a], hqd[a * Dk:(a + 1) * Dk], Q)
         out[k] = F[3]
-        F_child = F
-        Mx_all[k] = Mx
-    return out, Mx_all, HB, R_all, p_all, Lw_all, F_child
+        for a in range(6):
+            Fc[a] = F[a]
+    return Fc
 
 
+@numba.njit(**_FAST)
+def _inverse_dynamics_into(y, yd, ydd, has_acc, w1, dw1, D, off, M6, V, M1, G, om2, cd,
+                           C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all):
+    """out (n,) = M(y) ydd + c(y, y', t) (ydd taken as 0 if not has_acc), and the data the
+    solve reuses, in place; returns F0 (6,), the composite wrench on body 2."""
+    Pq, Pqd, Pqdd = _project_all(y, yd, ydd, has_acc, D, off, V, M1)
+    W = np.empty((4, 6))
+    DW = np.empty((4, 6))
+    _forward(y, yd, ydd, has_acc, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd, R_all, p_all, Lw_all, W, DW)
+    return _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
+                     R_all, p_all, Lw_all, W, DW, out, Mx_all, HB)
+
+
+@numba.njit(**_JIT)
+def _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """out (n,) = M(y) ydd + c(y, y', t) by the recursive Newton-Euler passes, and what
+    the solve reuses: Mx_all (4,6,6) = M_X(q) per body, HB (3, S) = H + sum_j q_j G_j (the
+    angular rows of B(q)), the joint data (R_all, p_all, Lw_all) and F0, the composite
+    wrench on body 2."""
+    S = V.shape[1]
+    out = np.zeros(4 + S)
+    Mx_all = np.empty((4, 6, 6))
+    HB = np.zeros((3, S))
+    R_all = np.empty((4, 3, 3))
+    p_all = np.empty((4, 3))
+    Lw_all = np.empty((4, 3, 3))
+    F0 = _inverse_dynamics_into(y, yd, ydd, True, w1, dw1, D, off, M6, V, M1, G, om2, cd,
+                                C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all)
+    return out, Mx_all, HB, R_all, p_all, Lw_all, F0
+
+
+# ------------------------------------------------------------------ articulated-body solve
 @numba.njit(**_FAST)
 def _gram_blocks(V, HB, o, Dk, dinv, gram_k, unit, BB, BY, YY):
     """Weighted Gram blocks (6, 6) of a body's modal rows, W = diag(dinv):
     BB = B W B^T, BY = B W Y^T, YY = Y W Y^T, with B = [P; H + hq] and
     Y = [Psi; Theta].  With W = I only the rows of H + hq are new (gram_k holds
-    the constant Gram of [P; H; Psi; Theta])."""
+    the constant Gram of [P; H; Psi; Theta]): three fused passes."""
+    if unit:
+        prod = np.empty(12)
+        for a in range(6):
+            for b in range(6):
+                YY[a, b] = gram_k[6 + a, 6 + b]
+        for a in range(3):
+            for b in range(3):
+                BB[a, b] = gram_k[a, b]
+            for b in range(6):
+                BY[a, b] = gram_k[a, 6 + b]
+        for a in range(3):
+            _hb_products(V, HB, o, Dk, HB[a, o:o + Dk], prod)
+            for b in range(6):
+                BB[3 + a, b] = prod[b]
+                BB[b, 3 + a] = prod[b]
+                BY[3 + a, b] = prod[6 + b]
+        return
     w = dinv[o:o + Dk]
     for a in range(6):
         ra = V[a, o:o + Dk] if a < 3 else HB[a - 3, o:o + Dk]
         for b in range(a + 1):
-            if unit and a < 3:
-                s = gram_k[a, b]
-            else:
-                rb = V[b, o:o + Dk] if b < 3 else HB[b - 3, o:o + Dk]
-                s = _dot(ra, rb) if unit else _dotw(ra, rb, w)
+            rb = V[b, o:o + Dk] if b < 3 else HB[b - 3, o:o + Dk]
+            s = _dotw(ra, rb, w)
             BB[a, b] = s
             BB[b, a] = s
         for b in range(6):
-            if unit and a < 3:
-                s = gram_k[a, 6 + b]
-            else:
-                s = _dot(ra, V[6 + b, o:o + Dk]) if unit else _dotw(ra, V[6 + b, o:o + Dk], w)
-            BY[a, b] = s
-        for b in range(6):
-            if a < 6 and b <= a:
-                if unit:
-                    s = gram_k[6 + a, 6 + b]
-                else:
-                    s = _dotw(V[6 + a, o:o + Dk], V[6 + b, o:o + Dk], w)
-                YY[a, b] = s
-                YY[b, a] = s
+            BY[a, b] = _dotw(ra, V[6 + b, o:o + Dk], w)
+        for b in range(a + 1):
+            s = _dotw(V[6 + a, o:o + Dk], V[6 + b, o:o + Dk], w)
+            YY[a, b] = s
+            YY[b, a] = s
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_FAST)
 def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
     """x with (M + diag(0, dg - 1)) x = r: the articulated-body recursion of
     multibody.solve_mass (docs/dynamics.md, Section 3).
@@ -580,11 +750,11 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
     product over the modes that the Woodbury elimination needs (K N^-1 K^T,
     K N^-1 L^T, L N^-1 L^T, K N^-1 r, ...) is a 6x6 expression in the Gram blocks
     BB, BY, YY of _gram_blocks and the projections B r/dg, Y r/dg: per body
-    three passes over the modes remain (Gram rows of H + hq, projections,
-    back-substitution), everything else is 6x6 algebra."""
+    three kinds of passes over the modes remain (Gram rows of H + hq, projections,
+    back-substitution), everything else is 6x6 algebra in scratch arrays."""
     S = V.shape[1]
     n = 4 + S
-    dinv = 1.0 / dg
+    dinv = np.ones(1) if unit else 1.0 / dg
     IA = np.zeros((4, 6, 6))
     bA = np.zeros((4, 6))
     BB = np.zeros((4, 6, 6))
@@ -597,62 +767,109 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
     pa_all = np.zeros((4, 6))
     Itils = np.zeros((4, 6, 6))
     Zinvs = np.zeros((4, 6, 6))
+    T = np.empty((8, 6, 6))                  # 6x6 scratch
+    v = np.zeros((6, 6))                     # 6-vector scratch
+    prod = np.empty(12)
+    A, AtI, T2, T3, KNK, KdL, T6, T7 = T[0], T[1], T[2], T[3], T[4], T[5], T[6], T[7]
+    yh, KNr, t6, Lz, eY, acc = v[0], v[1], v[2], v[3], v[4], v[5]
     for k in range(3, -1, -1):
         Dk = D[k]
         o = off[k]
-        I_art = Mx_all[k].copy()
-        b_art = np.zeros(6)
+        I_art = IA[k]
+        I_art[:, :] = Mx_all[k]
+        b_art = bA[k]
         child = k < 3
         if child:
+            # the child's articulated inertia with its joint axis eliminated, moved here
             Ic = IA[k + 1]
             bc = bA[k + 1]
             d = Ic[3, 3]
-            Is = Ic[:, 3].copy()
             u = r[k + 1] - bc[3]
             Itil = Itils[k]
+            pa = pa_all[k]
             for a in range(6):
+                pa[a] = bc[a] + Ic[a, 3] * (u / d)
                 for b in range(6):
-                    Itil[a, b] = Ic[a, b] - Is[a] * Is[b] / d
-            pa = bc + Is * (u / d)
-            pa_all[k] = pa
-            A = _adinv_matrix(R_all[k + 1], p_all[k + 1])
-            AtI = _mm6(A.T.copy(), Itil)
-            I_art += _mm6(AtI, A)
-            b_art += _mtv(A, pa)
+                    Itil[a, b] = Ic[a, b] - Ic[a, 3] * Ic[b, 3] / d
+            _adinv_matrix(R_all[k + 1], p_all[k + 1], A)
+            _mtm6(A, Itil, AtI)
+            _mm6(AtI, A, T2)
+            _mtv6(A, pa, t6)
+            for a in range(6):
+                b_art[a] += t6[a]
+                for b in range(6):
+                    I_art[a, b] += T2[a, b]
             Lm = Lam[k]
-            Lm[:3, :3] = R_all[k + 1].T
-            Lm[3:, 3:] = Lw_all[k + 1]
-            Mk[k] = _mm6(AtI, Lm)
+            Rc = R_all[k + 1]
+            Lwc = Lw_all[k + 1]
+            for a in range(3):
+                for b in range(3):
+                    Lm[a, b] = Rc[b, a]
+                    Lm[3 + a, 3 + b] = Lwc[a, b]
+            _mm6(AtI, Lm, Mk[k])
         if Dk > 0:
             _gram_blocks(V, HB, o, Dk, dinv, gram[k], unit, BB[k], BY[k], YY[k])
-            rd = r[4 + o:4 + o + Dk] * dinv[o:o + Dk]
+            s = 4 + o
+            if unit:
+                _hb_products(V, HB, o, Dk, r[s:s + Dk], prod)
+            else:
+                _hb_products(V, HB, o, Dk, r[s:s + Dk] * dinv[o:o + Dk], prod)
             for a in range(6):
-                Br[k, a] = _dot(V[a, o:o + Dk] if a < 3 else HB[a - 3, o:o + Dk], rd)
-                Yr[k, a] = _dot(V[6 + a, o:o + Dk], rd)
+                Br[k, a] = prod[a]
+                Yr[k, a] = prod[6 + a]
             if child:
                 M = Mk[k]
                 Lm = Lam[k]
-                yh = _mtv(Lm, pa_all[k])                 # L^T pa = Y^T yh
-                Bz = Br[k] - _mv(BY[k], yh)              # B zd, zd = (r_q - L^T pa)/dg
-                Yz = Yr[k] - _mv(YY[k], yh)              # Y zd
-                MBYt = _mm6t(M, BY[k])
-                KNK = BB[k] + MBYt + MBYt.T + _mm6t(_mm6(M, YY[k]), M)
-                KNr = Bz + _mv(M, Yz)
-                KdL = _mm6t(BY[k] + _mm6(M, YY[k]), Lm)
-                LdL = _mm6t(_mm6(Lm, YY[k]), Lm)
-                Lz = _mv(Lm, Yz)
-                Zinv = _inv(np.eye(6) + _mm6(LdL, Itils[k]))
-                Zinvs[k] = Zinv
-                KIZ = _mm6(_mm6(KdL, Itils[k]), Zinv)
-                KNK = KNK - _mm6t(KIZ, KdL)
-                KNr = KNr - _mv(KIZ, Lz)
+                Itil = Itils[k]
+                _mtv6(Lm, pa_all[k], yh)                 # L^T pa = Y^T yh
+                # KNr = B zd + M Y zd, zd = (r_q - L^T pa)/dg
+                _mv6(BY[k], yh, t6)
+                for a in range(6):
+                    KNr[a] = Br[k, a] - t6[a]
+                _mv6(YY[k], yh, t6)
+                for a in range(6):
+                    t6[a] = Yr[k, a] - t6[a]             # Y zd
+                _mv6(Lm, t6, Lz)
+                _mv6(M, t6, yh)
+                for a in range(6):
+                    KNr[a] += yh[a]
+                # KNK = BB + M BY^T + BY M^T + M YY M^T
+                _mm6t(M, BY[k], T2)
+                _mm6(M, YY[k], T3)
+                _mm6t(T3, M, KNK)
+                for a in range(6):
+                    for b in range(6):
+                        KNK[a, b] += BB[k, a, b] + T2[a, b] + T2[b, a]
+                        T3[a, b] += BY[k, a, b]          # BY + M YY
+                _mm6t(T3, Lm, KdL)                       # K N^-1 L^T
+                _mm6(Lm, YY[k], T6)
+                _mm6t(T6, Lm, T7)                        # L N^-1 L^T
+                _mm6(T7, Itil, T6)                       # Z = I + L N^-1 L^T Itil
+                for a in range(6):
+                    T6[a, a] += 1.0
+                _inv6(T6, Zinvs[k], T7)
+                _mm6(KdL, Itil, T2)
+                _mm6(T2, Zinvs[k], T3)                   # KIZ
+                _mm6t(T3, KdL, T2)
+                _mv6(T3, Lz, t6)
+                for a in range(6):
+                    KNr[a] -= t6[a]
+                    for b in range(6):
+                        KNK[a, b] -= T2[a, b]
+                for a in range(6):
+                    b_art[a] += KNr[a]
+                    for b in range(6):
+                        I_art[a, b] -= KNK[a, b]
             else:
-                KNK = BB[k]
-                KNr = Br[k].copy()
-            I_art -= KNK
-            b_art += KNr
-        IA[k] = 0.5 * (I_art + I_art.T)
-        bA[k] = b_art
+                for a in range(6):
+                    b_art[a] += Br[k, a]
+                    for b in range(6):
+                        I_art[a, b] -= BB[k, a, b]
+        for a in range(6):                       # symmetrise
+            for b in range(a):
+                m = 0.5 * (I_art[a, b] + I_art[b, a])
+                I_art[a, b] = m
+                I_art[b, a] = m
     x = np.zeros(n)
     a_base = np.zeros(6)
     for k in range(4):
@@ -663,46 +880,72 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
             xg -= Ic[3, a] * a_base[a]
         xg /= Ic[3, 3]
         x[k] = xg
-        acc = a_base.copy()
+        for a in range(6):
+            acc[a] = a_base[a]
+            Lz[a] = 0.0
         acc[3] += xg
         Dk = D[k]
         o = off[k]
         child = k < 3
-        Lz = np.zeros(6)
         if Dk > 0:
             # z = (r_q - B^T acc - Y^T eY)/dg with eY = Lam^T (pa + corr) + Mk^T acc;
             # corr = Itil Zinv L z0 (Woodbury), z0 the same without corr
-            eY = np.zeros(6)
-            if child:
-                Lm = Lam[k]
-                eY = _mtv(Lm, pa_all[k]) + _mtv(Mk[k], acc)
-                Yz0 = Yr[k] - _mtv(BY[k], acc) - _mv(YY[k], eY)
-                corr = _mv(Itils[k], _mv(Zinvs[k], _mv(Lm, Yz0)))
-                eY += _mtv(Lm, corr)
-            z = r[4 + o:4 + o + Dk].copy()
+            s = 4 + o
+            z = x[s:s + Dk]
+            z[:] = r[s:s + Dk]
             for a in range(3):
                 _axpy(-acc[a], V[a, o:o + Dk], z)
                 _axpy(-acc[3 + a], HB[a, o:o + Dk], z)
             if child:
+                Lm = Lam[k]
+                _mtv6(Lm, pa_all[k], eY)
+                _mtv6(Mk[k], acc, t6)
+                for a in range(6):
+                    eY[a] += t6[a]
+                _mtv6(BY[k], acc, yh)
+                _mv6(YY[k], eY, t6)
+                for a in range(6):
+                    t6[a] = Yr[k, a] - yh[a] - t6[a]     # Y z0
+                _mv6(Lm, t6, KNr)
+                _mv6(Zinvs[k], KNr, t6)
+                _mv6(Itils[k], t6, KNr)                  # corr
+                _mtv6(Lm, KNr, t6)
+                for a in range(6):
+                    eY[a] += t6[a]
                 for a in range(6):
                     _axpy(-eY[a], V[6 + a, o:o + Dk], z)
-                Lz = _mv(Lam[k], Yr[k] - _mtv(BY[k], acc) - _mv(YY[k], eY))   # L z = Lam Y z
-            x[4 + o:4 + o + Dk] = z * dinv[o:o + Dk]
+                _mv6(YY[k], eY, t6)
+                for a in range(6):
+                    t6[a] = Yr[k, a] - yh[a] - t6[a]     # Y z
+                _mv6(Lm, t6, Lz)                         # L z = Lam Y z
+            if not unit:
+                for i in range(Dk):
+                    z[i] *= dinv[o + i]
         if child:
-            a_base = _adinv(R_all[k + 1], p_all[k + 1], acc) + Lz
+            a_base = _adinv(R_all[k + 1], p_all[k + 1], acc)
+            for a in range(6):
+                a_base[a] += Lz[a]
     return x
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_FAST)
 def _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """y'' = M(y)^-1 (tau - c(y, y', t))."""
     n = y.shape[0]
-    c, Mx_all, HB, R_all, p_all, Lw_all, _ = _inverse_dynamics(
-        y, yd, np.zeros(n), w1, dw1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-    r = -c
+    S = n - 4
+    c = np.zeros(n)
+    Mx_all = np.empty((4, 6, 6))
+    HB = np.zeros((3, S))
+    R_all = np.empty((4, 3, 3))
+    p_all = np.empty((4, 3))
+    Lw_all = np.empty((4, 3, 3))
+    _inverse_dynamics_into(y, yd, y, False, w1, dw1, D, off, M6, V, M1, G, om2, cd,
+                           C1, C, rho, c, Mx_all, HB, R_all, p_all, Lw_all)
+    for i in range(n):
+        c[i] = -c[i]
     for j in range(4):
-        r[j] += tau[j]
-    return _solve(r, np.ones(n - 4), True, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all)
+        c[j] += tau[j]
+    return _solve(c, c, True, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all)
 
 
 @numba.njit(**_JIT)
@@ -734,7 +977,9 @@ def _kinetic_energy(y, yd, w1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
             for i in range(Dk):
                 T += 0.5 * qdk[i] * qdk[i]
             T += np.dot(w, Bqd)
-        T += 0.5 * np.dot(w, _mv(Mx, w))
+        for a in range(6):
+            for b in range(6):
+                T += 0.5 * w[a] * Mx[a, b] * w[b]
     return T
 
 
