@@ -27,7 +27,7 @@ from solver import multibody
 _JIT = dict(cache=True, fastmath=False, error_model="numpy")
 
 
-def _allow_runtime_alias_checks(limit=64):
+def _allow_runtime_alias_checks(limit=16):
     """Let LLVM vectorise loops over many row views.  Numba cannot tell LLVM that two
     array views do not overlap, so a loop that writes one and reads several is
     vectorised only behind runtime overlap checks, at most 8 by default: the Coriolis
@@ -462,6 +462,49 @@ def _coriolis_pass(G2, q, qd, om):
 
 
 @numba.njit(**_FAST)
+def _coriolis_rate_pass(G2, qd, om):
+    """hqd (3D,) = sum_j q'_j G_j and gq (D,) as in ``_coriolis_pass``, without hq:
+    6 D^2 multiply-adds, for when hq = sum_j q_j G_j is already known (``_rk4_run``)."""
+    D = qd.shape[0]
+    D3 = 3 * D
+    hqd = np.zeros(D3)
+    gq = np.empty(D)
+    wq = np.empty(D3)
+    for a in range(3):
+        for i in range(D):
+            wq[a * D + i] = om[a] * qd[i]
+    j = 0
+    while j + 4 <= D:
+        d0, d1, d2, d3 = qd[j], qd[j + 1], qd[j + 2], qd[j + 3]
+        r0, r1, r2, r3 = G2[j], G2[j + 1], G2[j + 2], G2[j + 3]
+        s0 = s1 = s2 = s3 = 0.0
+        for c in range(D3):
+            g0 = r0[c]
+            g1 = r1[c]
+            g2 = r2[c]
+            g3 = r3[c]
+            hqd[c] += d0 * g0 + d1 * g1 + d2 * g2 + d3 * g3
+            w = wq[c]
+            s0 += g0 * w
+            s1 += g1 * w
+            s2 += g2 * w
+            s3 += g3 * w
+        gq[j], gq[j + 1], gq[j + 2], gq[j + 3] = s0, s1, s2, s3
+        j += 4
+    while j < D:
+        dj = qd[j]
+        r0 = G2[j]
+        s = 0.0
+        for c in range(D3):
+            g = r0[c]
+            hqd[c] += dj * g
+            s += g * wq[c]
+        gq[j] = s
+        j += 1
+    return hqd, gq
+
+
+@numba.njit(**_FAST)
 def _add_inertia_rows(Mx, m):
     """Mx (6, 6) += sum_i x_i dM_X/dq_i given m (15,) = M1 x (inertia_gradient_rows)."""
     for a in range(3):
@@ -626,10 +669,12 @@ def _kinematics(y, yd, ydd, w1, dw1, D, off, V, C1, C, rho, R_all, p_all, Lw_all
 # ------------------------------------------------------------------ inverse dynamics
 @numba.njit(**_FAST)
 def _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
-              R_all, p_all, Lw_all, W, DW, out, Mx_all, HB):
+              R_all, p_all, Lw_all, W, DW, out, Mx_all, HB, HQ, hq_given, HQD):
     """Backward (Newton-Euler) pass, in place: out (n,) = M(y) ydd + c(y, y', t), Mx_all
     (4,6,6) = M_X(q) per body, HB (3, S) = H + sum_j q_j G_j; returns F0 (6,), the
-    composite wrench on body 2."""
+    composite wrench on body 2.  HQ, HQD (3S,): every body's hq = sum_j q_j G_j and
+    hqd = sum_j q'_j G_j (body k at 3 off[k], layout a D_k + i); HQ is taken as given
+    if hq_given (else computed and stored), HQD is always stored."""
     F = np.zeros(6)
     Fc = np.zeros(6)
     mu = np.empty(6)
@@ -657,7 +702,14 @@ def _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
             # M_X(q) = M6 + sum q_i M1_i and its rate sum q'_i M1_i (15 rows, projected)
             _add_inertia_rows(Mx, Pq[k, 12:27])
             _add_inertia_rows(dMx, Pqd[k, 12:27])
-            hq, hqd, gq = _coriolis_pass(G[k], qk, qdk, om)
+            b3 = 3 * o
+            if hq_given:
+                hqd, gq = _coriolis_rate_pass(G[k], qdk, om)
+            else:
+                hq_new, hqd, gq = _coriolis_pass(G[k], qk, qdk, om)
+                HQ[b3:b3 + 3 * Dk] = hq_new
+            hq = HQ[b3:b3 + 3 * Dk]
+            HQD[b3:b3 + 3 * Dk] = hqd
             # HB = H + hq (the angular rows of B(q)); (hq q', hq q'', hqd q') per axis
             for a in range(3):
                 h = hq[a * Dk:(a + 1) * Dk]
@@ -740,7 +792,7 @@ def _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
 
 @numba.njit(**_FAST)
 def _inverse_dynamics_into(y, yd, ydd, has_acc, w1, dw1, D, off, M6, V, M1, G, om2, cd,
-                           C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all):
+                           C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all, HQ, hq_given, HQD):
     """out (n,) = M(y) ydd + c(y, y', t) (ydd taken as 0 if not has_acc), and the data the
     solve reuses, in place; returns F0 (6,), the composite wrench on body 2."""
     Pq, Pqd, Pqdd = _project_all(y, yd, ydd, has_acc, D, off, V, M1)
@@ -748,7 +800,7 @@ def _inverse_dynamics_into(y, yd, ydd, has_acc, w1, dw1, D, off, M6, V, M1, G, o
     DW = np.empty((4, 6))
     _forward(y, yd, ydd, has_acc, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd, R_all, p_all, Lw_all, W, DW)
     return _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
-                     R_all, p_all, Lw_all, W, DW, out, Mx_all, HB)
+                     R_all, p_all, Lw_all, W, DW, out, Mx_all, HB, HQ, hq_given, HQD)
 
 
 @numba.njit(**_JIT)
@@ -765,7 +817,8 @@ def _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, V, gram, M1, G, om2, cd, 
     p_all = np.empty((4, 3))
     Lw_all = np.empty((4, 3, 3))
     F0 = _inverse_dynamics_into(y, yd, ydd, True, w1, dw1, D, off, M6, V, M1, G, om2, cd,
-                                C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all)
+                                C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all,
+                                np.empty(3 * S), False, np.empty(3 * S))
     return out, Mx_all, HB, R_all, p_all, Lw_all, F0
 
 
@@ -1001,8 +1054,10 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
 
 
 @numba.njit(**_FAST)
-def _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
-    """y'' = M(y)^-1 (tau - c(y, y', t))."""
+def _accelerations_hq(y, yd, w1, dw1, tau, HQ, hq_given, HQD,
+                      D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """y'' = M(y)^-1 (tau - c(y, y', t)), with every body's hq = sum_j q_j G_j taken from
+    HQ (3S,) if hq_given (else computed into it) and hqd = sum_j q'_j G_j stored in HQD."""
     n = y.shape[0]
     S = n - 4
     c = np.zeros(n)
@@ -1012,7 +1067,7 @@ def _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1,
     p_all = np.empty((4, 3))
     Lw_all = np.empty((4, 3, 3))
     _inverse_dynamics_into(y, yd, y, False, w1, dw1, D, off, M6, V, M1, G, om2, cd,
-                           C1, C, rho, c, Mx_all, HB, R_all, p_all, Lw_all)
+                           C1, C, rho, c, Mx_all, HB, R_all, p_all, Lw_all, HQ, hq_given, HQD)
     for i in range(n):
         c[i] = -c[i]
     for j in range(4):
@@ -1020,39 +1075,59 @@ def _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1,
     return _solve(c, c, True, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all)
 
 
+@numba.njit(**_FAST)
+def _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """y'' = M(y)^-1 (tau - c(y, y', t))."""
+    S = y.shape[0] - 4
+    return _accelerations_hq(y, yd, w1, dw1, tau, np.empty(3 * S), False, np.empty(3 * S),
+                             D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+
+
 @numba.njit(**_JIT)
 def _kinetic_energy(y, yd, w1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """T = sum_n 1/2 w^T M_X(q) w + w^T B(q) q' + 1/2 q'^T q' (multibody.kinetic_energy)."""
-    n = y.shape[0]
     R_all = np.empty((4, 3, 3))
     p_all = np.empty((4, 3))
     Lw_all = np.empty((4, 3, 3))
     W = np.empty((4, 6))
     DW = np.empty((4, 6))
-    _kinematics(y, yd, np.zeros(n), w1, np.zeros(6), D, off, V, C1, C, rho, R_all, p_all, Lw_all, W, DW)
+    Pq, Pqd, Pqdd = _project_all(y, yd, y, False, D, off, V, M1)
+    _forward(y, yd, y, False, w1, np.zeros(6), D, C1, C, rho, Pq, Pqd, Pqdd, R_all, p_all, Lw_all, W, DW)
     T = 0.0
+    Mx = np.empty((6, 6))
     for k in range(4):
         Dk = D[k]
         o = off[k]
         w = W[k]
-        Mx = M6[k].copy()
+        Mx[:, :] = M6[k]
         if Dk > 0:
-            qk = y[4 + o:4 + o + Dk]
-            qdk = yd[4 + o:4 + o + Dk]
-            _add_inertia(Mx, M1, o, Dk, qk)
+            s = 4 + o
+            qk = y[s:s + Dk]
+            qdk = yd[s:s + Dk]
+            _add_inertia_rows(Mx, Pq[k, 12:27])
             hq, _, _ = _coriolis_pass(G[k], qk, qdk, w[3:])
-            Bqd = np.empty(6)
-            _rows_dot(V, o, Dk, qdk, Bqd, 0, 6)
+            Bqd = Pqd[k, 0:6].copy()                   # B(q) q' = [P; H + hq] q'
             for a in range(3):
                 for i in range(Dk):
                     Bqd[3 + a] += hq[a * Dk + i] * qdk[i]
             for i in range(Dk):
                 T += 0.5 * qdk[i] * qdk[i]
-            T += np.dot(w, Bqd)
+            for a in range(6):
+                T += w[a] * Bqd[a]
         for a in range(6):
             for b in range(6):
                 T += 0.5 * w[a] * Mx[a, b] * w[b]
     return T
+
+
+@numba.njit(**_JIT)
+def _case_power(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """Power the case motion feeds into bodies 2-5, (Ad_{g1^-1} w1) . F0, with F0 the
+    composite wrench on body 2 at the accelerations the equations give."""
+    ydd = _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    out = _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    F0 = out[6]
+    return np.dot(_adinv(out[3][0], out[4][0], w1), F0)
 
 
 @numba.njit(**_JIT)
@@ -1072,28 +1147,52 @@ def _case_twist(t, amp, omf, phase, om0, w1, dw1):
 def _rk4_run(y, yd, t0, h, n_steps, amp, omf, phase, om0, tau,
              D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """n_steps classical RK4 steps of (y, y')' = (y', y'') from t0 with constant torques
-    (integrators.rk4_step, compiled: no Python call per stage)."""
+    (integrators.rk4_step, compiled: no Python call per stage).
+
+    The modal Coriolis sums hq = sum_j q_j G_j are linear in q, and every RK4 stage
+    position is q plus a multiple of the previous stage's velocity (q2 = q + h/2 v1,
+    q3 = q + h/2 v2, q4 = q + h v3, q_next = q + h/6 (v1 + 2 v2 + 2 v3 + v4)), whose
+    hqd = sum_j v_j G_j each evaluation computes anyway.  So hq is carried along
+    exactly (to round-off) instead of recomputed: the Coriolis pass of an evaluation
+    drops from 9 D^2 to 6 D^2 multiply-adds per body.  hq is computed directly at the
+    first stage of each call (every output sample), so round-off cannot accumulate."""
+    n = y.shape[0]
+    S3 = 3 * (n - 4)
     y = y.copy()
     yd = yd.copy()
     w1 = np.zeros(6)
     dw1 = np.zeros(6)
+    HQ = np.empty(S3)
+    HQs = np.empty(S3)
+    HQD = np.empty((4, S3))          # hqd of each stage
+    K = np.empty((4, n))             # accelerations of each stage
+    Vs = np.empty((4, n))            # velocities of each stage
+    ys = np.empty(n)
+    c_stage = (0.0, 0.5, 0.5, 1.0)
+    weight = (1.0, 2.0, 2.0, 1.0)
     for i in range(n_steps):
         t = t0 + i * h
-        _case_twist(t, amp, omf, phase, om0, w1, dw1)
-        k1 = _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-        y2 = y + 0.5 * h * yd
-        v2 = yd + 0.5 * h * k1
-        _case_twist(t + 0.5 * h, amp, omf, phase, om0, w1, dw1)
-        k2 = _accelerations(y2, v2, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-        y3 = y + 0.5 * h * v2
-        v3 = yd + 0.5 * h * k2
-        k3 = _accelerations(y3, v3, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-        y4 = y + h * v3
-        v4 = yd + h * k3
-        _case_twist(t + h, amp, omf, phase, om0, w1, dw1)
-        k4 = _accelerations(y4, v4, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-        y = y + (h / 6.0) * (yd + 2.0 * v2 + 2.0 * v3 + v4)
-        yd = yd + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        for st in range(4):          # one call site: the compiler inlines the RHS once
+            c = c_stage[st] * h
+            if st == 0:
+                Vs[0, :] = yd
+                ys[:] = y
+            else:
+                for m in range(n):
+                    ys[m] = y[m] + c * Vs[st - 1, m]
+                    Vs[st, m] = yd[m] + c * K[st - 1, m]
+                for m in range(S3):
+                    HQs[m] = HQ[m] + c * HQD[st - 1, m]
+            if st != 2:
+                _case_twist(t + c, amp, omf, phase, om0, w1, dw1)
+            K[st, :] = _accelerations_hq(ys, Vs[st], w1, dw1, tau, HQ if st == 0 else HQs,
+                                         st > 0 or i > 0, HQD[st],
+                                         D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+        for m in range(n):
+            y[m] += (h / 6.0) * (Vs[0, m] + 2.0 * Vs[1, m] + 2.0 * Vs[2, m] + Vs[3, m])
+            yd[m] += (h / 6.0) * (K[0, m] + 2.0 * K[1, m] + 2.0 * K[2, m] + K[3, m])
+        for m in range(S3):
+            HQ[m] += (h / 6.0) * (HQD[0, m] + 2.0 * HQD[1, m] + 2.0 * HQD[2, m] + HQD[3, m])
     return y, yd
 
 
@@ -1153,6 +1252,11 @@ class FastChain:
         R, p, F = out[3][0], out[4][0], out[6]
         return float(_adinv(R, p, w1) @ F)
 
+    def case_power_at(self, y, yd, w1, dw1, tau):
+        """case_power at the accelerations of the equations (one compiled call)."""
+        return float(_case_power(np.asarray(y, float), np.asarray(yd, float), w1, dw1,
+                                 np.asarray(tau, float), *self.data))
+
 
 def make_rhs(chain, case=None, torque=None):
     """rhs(t, y, y') -> y'' (compiled)."""
@@ -1177,6 +1281,13 @@ def make_rhs(chain, case=None, torque=None):
         tau = const_tau if const_tau is not None else np.asarray(tau_f(t), float)
         return _accelerations(y, yd, w1, dw1, tau, *data)
     rhs.fast_chain = fc
+
+    def case_twist(t):
+        """(w1, dw1) (6,) each, compiled (multibody.CaseMotion.twist)."""
+        w, dw = np.zeros(6), np.zeros(6)
+        _case_twist(float(t), c_amp, c_omf, c_ph, c_om0, w, dw)
+        return w, dw
+    rhs.case_twist = case_twist
     if const_tau is not None:
         tau_c = np.ascontiguousarray(const_tau, dtype=float)
 

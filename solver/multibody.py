@@ -675,6 +675,7 @@ class Problem:
         self.stiffness_diagonal = chain.stiffness_diagonal()
         self.damping_diagonal = chain.damping_diagonal()
         self._fast = getattr(self.rhs, "fast_chain", None)   # compiled kernels, if available
+        self._twist = getattr(self.rhs, "case_twist", self.case.twist)   # compiled if available
 
     def tau(self, t):
         out = np.zeros(self.chain.n_coordinates)
@@ -697,7 +698,7 @@ class Problem:
     def kinetic_energy(self, t, y, yd):
         """T [in lbf] (compiled path when available)."""
         if self._fast is not None:
-            w1, _ = self.case.twist(t)
+            w1, _ = self._twist(t)
             return float(self._fast.kinetic_energy(y, yd, w1))
         return kinetic_energy(self.chain, y, yd, t, self.case)
 
@@ -710,10 +711,9 @@ class Problem:
         tau = self._torque(t)
         P = float(np.dot(tau, yd[:4])) - float(np.sum(self.damping_diagonal * yd * yd))
         if not self.case.at_rest:
-            ydd = self.rhs(t, y, yd)
-            if self._fast is not None:
-                w1, dw1 = self.case.twist(t)
-                P += self._fast.case_power(y, yd, ydd, w1, dw1)
+            if self._fast is not None:          # accelerations and wrench in one compiled call
+                w1, dw1 = self._twist(t)
+                P += self._fast.case_power_at(y, yd, w1, dw1, tau)
             else:
-                P += case_power(self.chain, y, yd, ydd, t, self.case)
+                P += case_power(self.chain, y, yd, self.rhs(t, y, yd), t, self.case)
         return P

@@ -258,5 +258,10 @@ def test_compiled_rk4_loop_energy_and_case_power_match_reference():
     a = fast.rhs.rk4_steps(y, yd, 0.1, 1e-4, 20)
     b = integrators.rk4_steps(ref.rhs, y, yd, 0.1, 1e-4, 20)
     assert dc.relative_difference(a[0], b[0]) < 1e-12 and dc.relative_difference(a[1], b[1]) < 1e-12
+    # the compiled loop carries sum_j q_j G_j from stage to stage instead of recomputing it:
+    # over 150 steps in one call it must still agree to round-off
+    a = fast.rhs.rk4_steps(y, yd, 0.1, 1e-4, 150)
+    b = integrators.rk4_steps(ref.rhs, y, yd, 0.1, 1e-4, 150)
+    assert dc.relative_difference(a[0], b[0]) < 1e-12 and dc.relative_difference(a[1], b[1]) < 1e-12
     assert fast.energy(0.3, y, yd) == pytest.approx(ref.energy(0.3, y, yd), rel=1e-12)
     assert fast.input_power(0.3, y, yd) == pytest.approx(ref.input_power(0.3, y, yd), rel=1e-10)
