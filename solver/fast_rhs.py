@@ -1162,8 +1162,8 @@ def _rk4_run(y, yd, t0, h, n_steps, amp, omf, phase, om0, tau,
     yd = yd.copy()
     w1 = np.zeros(6)
     dw1 = np.zeros(6)
-    HQ = np.empty(S3)
-    HQs = np.empty(S3)
+    HQS = np.empty((4, S3))          # hq of each stage; HQS[0] is the step's own
+    HQ = HQS[0]
     HQD = np.empty((4, S3))          # hqd of each stage
     K = np.empty((4, n))             # accelerations of each stage
     Vs = np.empty((4, n))            # velocities of each stage
@@ -1182,10 +1182,10 @@ def _rk4_run(y, yd, t0, h, n_steps, amp, omf, phase, om0, tau,
                     ys[m] = y[m] + c * Vs[st - 1, m]
                     Vs[st, m] = yd[m] + c * K[st - 1, m]
                 for m in range(S3):
-                    HQs[m] = HQ[m] + c * HQD[st - 1, m]
+                    HQS[st, m] = HQ[m] + c * HQD[st - 1, m]
             if st != 2:
                 _case_twist(t + c, amp, omf, phase, om0, w1, dw1)
-            K[st, :] = _accelerations_hq(ys, Vs[st], w1, dw1, tau, HQ if st == 0 else HQs,
+            K[st, :] = _accelerations_hq(ys, Vs[st], w1, dw1, tau, HQS[st],
                                          st > 0 or i > 0, HQD[st],
                                          D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
         for m in range(n):
