@@ -39,6 +39,7 @@ Divergence (a non-finite state, or the energy growing beyond
 stops a run with DivergenceError naming the time, the model and the step.
 """
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -152,13 +153,15 @@ class Monitor:
         self.history = []          # (t, T, U, P, work) at every call (the output samples)
 
     def __call__(self, t, y, yd, h, method):
-        if not (np.all(np.isfinite(y)) and np.all(np.isfinite(yd))):
+        # one reduction: a non-finite entry (or an overflowing one: divergence too) makes it so
+        if not math.isfinite(float(np.dot(y, y)) + float(np.dot(yd, yd))):
             raise DivergenceError(
                 f"{method} diverged at t = {t:.6g} s (non-finite state), model {self.model!r}, "
                 f"step {h:.3e} s")
         if hasattr(self.problem, "kinetic_energy"):
             T = self.problem.kinetic_energy(t, y, yd)
-            U = multibody.potential_energy(self.problem.chain, y)
+            U = self.problem.potential_energy(y) if hasattr(self.problem, "potential_energy") \
+                else multibody.potential_energy(self.problem.chain, y)
             E = T + U
         else:
             E, T, U = self.problem.energy(t, y, yd), np.nan, np.nan

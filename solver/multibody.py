@@ -702,9 +702,14 @@ class Problem:
             return float(self._fast.kinetic_energy(y, yd, w1))
         return kinetic_energy(self.chain, y, yd, t, self.case)
 
+    def potential_energy(self, y):
+        """U = 1/2 sum Omega^2 q^2 [in lbf] (precomputed stiffness diagonal)."""
+        y = np.asarray(y, float)
+        return float(0.5 * np.dot(self.stiffness_diagonal * y, y))
+
     def energy(self, t, y, yd):
         """T + U [in lbf]."""
-        return self.kinetic_energy(t, y, yd) + potential_energy(self.chain, y)
+        return self.kinetic_energy(t, y, yd) + self.potential_energy(y)
 
     def input_power(self, t, y, yd):
         """Power fed in by the case motion and the motors, minus modal damping [in lbf/s]."""
