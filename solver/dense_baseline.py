@@ -79,7 +79,7 @@ def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C
     W = np.empty((4, 6))
     DW = np.empty((4, 6))
     zero_n, zero6 = np.zeros(n), np.zeros(6)
-    fast_rhs._kinematics(y, zero_n, zero_n, zero6, zero6, D, off, V, C1, C, rho,
+    fast_rhs._kinematics(y, zero_n, zero_n, zero6, zero6, D, off, V, M1, C1, C, rho,
                          R_all, p_all, Lw_all, W, DW)
     J = np.zeros((6, n))                        # twist Jacobian of the parent (case: zero)
     for k in range(4):

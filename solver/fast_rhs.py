@@ -165,8 +165,9 @@ def _adinv(R, p, w):
     return np.array([v[0], v[1], v[2], o[0], o[1], o[2]])
 
 
-# 6x6 algebra into preallocated outputs (out must not alias an input).  A row of the
-# result is accumulated in six scalars: 1.5x faster than the plain triple loop.
+# 6x6 algebra into preallocated outputs (out must not alias an input); transposes are
+# passed as views (A.T).  A row of the result is accumulated in six scalars: 1.5x
+# faster than the plain triple loop.
 @numba.njit(**_FAST)
 def _mm6(A, B, out):
     """out = A B."""
@@ -184,54 +185,12 @@ def _mm6(A, B, out):
 
 
 @numba.njit(**_FAST)
-def _mm6t(A, B, out):
-    """out = A B^T."""
-    for i in range(6):
-        r0 = r1 = r2 = r3 = r4 = r5 = 0.0
-        for k in range(6):
-            a = A[i, k]
-            r0 += a * B[0, k]
-            r1 += a * B[1, k]
-            r2 += a * B[2, k]
-            r3 += a * B[3, k]
-            r4 += a * B[4, k]
-            r5 += a * B[5, k]
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = r0, r1, r2, r3, r4, r5
-
-
-@numba.njit(**_FAST)
-def _mtm6(A, B, out):
-    """out = A^T B."""
-    for i in range(6):
-        r0 = r1 = r2 = r3 = r4 = r5 = 0.0
-        for k in range(6):
-            a = A[k, i]
-            r0 += a * B[k, 0]
-            r1 += a * B[k, 1]
-            r2 += a * B[k, 2]
-            r3 += a * B[k, 3]
-            r4 += a * B[k, 4]
-            r5 += a * B[k, 5]
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = r0, r1, r2, r3, r4, r5
-
-
-@numba.njit(**_FAST)
 def _mv6(A, x, out):
     """out = A x."""
     for i in range(6):
         s = 0.0
         for k in range(6):
             s += A[i, k] * x[k]
-        out[i] = s
-
-
-@numba.njit(**_FAST)
-def _mtv6(A, x, out):
-    """out = A^T x."""
-    for i in range(6):
-        s = 0.0
-        for k in range(6):
-            s += A[k, i] * x[k]
         out[i] = s
 
 
@@ -657,11 +616,10 @@ def _project_all(y, yd, ydd, has_acc, D, off, V, M1):
 
 
 @numba.njit(**_JIT)
-def _kinematics(y, yd, ydd, w1, dw1, D, off, V, C1, C, rho, R_all, p_all, Lw_all, W, DW):
+def _kinematics(y, yd, ydd, w1, dw1, D, off, V, M1, C1, C, rho, R_all, p_all, Lw_all, W, DW):
     """Forward pass, in place: joint poses R_all (4,3,3), p_all (4,3), the rotation part
     Lw_all (4,3,3) of each joint map L = [R^T Psi; Lw Theta] of the parent's modes,
     body twists W (4,6) and their rates DW (4,6) at accelerations ydd."""
-    M1 = np.zeros((15, V.shape[1]))
     Pq, Pqd, Pqdd = _project_all(y, yd, ydd, True, D, off, V, M1)
     _forward(y, yd, ydd, True, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd, R_all, p_all, Lw_all, W, DW)
 
@@ -915,9 +873,9 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
                 for b in range(6):
                     Itil[a, b] = Ic[a, b] - Ic[a, 3] * Ic[b, 3] / d
             _adinv_matrix(R_all[k + 1], p_all[k + 1], A)
-            _mtm6(A, Itil, AtI)
+            _mm6(A.T, Itil, AtI)
             _mm6(AtI, A, T2)
-            _mtv6(A, pa, t6)
+            _mv6(A.T, pa, t6)
             for a in range(6):
                 b_art[a] += t6[a]
                 for b in range(6):
@@ -944,7 +902,7 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
                 M = Mk[k]
                 Lm = Lam[k]
                 Itil = Itils[k]
-                _mtv6(Lm, pa_all[k], yh)                 # L^T pa = Y^T yh
+                _mv6(Lm.T, pa_all[k], yh)                 # L^T pa = Y^T yh
                 # KNr = B zd + M Y zd, zd = (r_q - L^T pa)/dg
                 _mv6(BY[k], yh, t6)
                 for a in range(6):
@@ -957,23 +915,23 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
                 for a in range(6):
                     KNr[a] += yh[a]
                 # KNK = BB + M BY^T + BY M^T + M YY M^T
-                _mm6t(M, BY[k], T2)
+                _mm6(M, BY[k].T, T2)
                 _mm6(M, YY[k], T3)
-                _mm6t(T3, M, KNK)
+                _mm6(T3, M.T, KNK)
                 for a in range(6):
                     for b in range(6):
                         KNK[a, b] += BB[k, a, b] + T2[a, b] + T2[b, a]
                         T3[a, b] += BY[k, a, b]          # BY + M YY
-                _mm6t(T3, Lm, KdL)                       # K N^-1 L^T
+                _mm6(T3, Lm.T, KdL)                       # K N^-1 L^T
                 _mm6(Lm, YY[k], T6)
-                _mm6t(T6, Lm, T7)                        # L N^-1 L^T
+                _mm6(T6, Lm.T, T7)                        # L N^-1 L^T
                 _mm6(T7, Itil, T6)                       # Z = I + L N^-1 L^T Itil
                 for a in range(6):
                     T6[a, a] += 1.0
                 _inv6(T6, Zinvs[k], T7)
                 _mm6(KdL, Itil, T2)
                 _mm6(T2, Zinvs[k], T3)                   # KIZ
-                _mm6t(T3, KdL, T2)
+                _mm6(T3, KdL.T, T2)
                 _mv6(T3, Lz, t6)
                 for a in range(6):
                     KNr[a] -= t6[a]
@@ -1022,18 +980,18 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
             _rows_combine(HB[:, o:o + Dk], 0, Dk, t6[3:6], 3, z)
             if child:
                 Lm = Lam[k]
-                _mtv6(Lm, pa_all[k], eY)
-                _mtv6(Mk[k], acc, t6)
+                _mv6(Lm.T, pa_all[k], eY)
+                _mv6(Mk[k].T, acc, t6)
                 for a in range(6):
                     eY[a] += t6[a]
-                _mtv6(BY[k], acc, yh)
+                _mv6(BY[k].T, acc, yh)
                 _mv6(YY[k], eY, t6)
                 for a in range(6):
                     t6[a] = Yr[k, a] - yh[a] - t6[a]     # Y z0
                 _mv6(Lm, t6, KNr)
                 _mv6(Zinvs[k], KNr, t6)
                 _mv6(Itils[k], t6, KNr)                  # corr
-                _mtv6(Lm, KNr, t6)
+                _mv6(Lm.T, KNr, t6)
                 for a in range(6):
                     eY[a] += t6[a]
                 for a in range(6):
@@ -1244,13 +1202,6 @@ class FastChain:
     def kinetic_energy(self, y, yd, w1):
         """T [in lbf] with the case twist w1 (6,)."""
         return _kinetic_energy(np.asarray(y, float), np.asarray(yd, float), w1, *self.data)
-
-    def case_power(self, y, yd, ydd, w1, dw1):
-        """Power the case motion feeds into bodies 2-5 (multibody.case_power)."""
-        out = _inverse_dynamics(np.asarray(y, float), np.asarray(yd, float), np.asarray(ydd, float),
-                                w1, dw1, *self.data)
-        R, p, F = out[3][0], out[4][0], out[6]
-        return float(_adinv(R, p, w1) @ F)
 
     def case_power_at(self, y, yd, w1, dw1, tau):
         """case_power at the accelerations of the equations (one compiled call)."""
