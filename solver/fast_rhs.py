@@ -312,6 +312,27 @@ def _rows_dot2(A, o, D, x, xd, out, outd):
 
 
 @numba.njit(**_FAST)
+def _rows_dot4(A, o, D, x, out):
+    """out[r] = A[r, o:o+D] . x for every row r of A, four rows per pass over x."""
+    nr = A.shape[0]
+    r = 0
+    while r + 4 <= nr:
+        a0, a1, a2, a3 = A[r, o:o + D], A[r + 1, o:o + D], A[r + 2, o:o + D], A[r + 3, o:o + D]
+        s0 = s1 = s2 = s3 = 0.0
+        for i in range(D):
+            xi = x[i]
+            s0 += a0[i] * xi
+            s1 += a1[i] * xi
+            s2 += a2[i] * xi
+            s3 += a3[i] * xi
+        out[r], out[r + 1], out[r + 2], out[r + 3] = s0, s1, s2, s3
+        r += 4
+    while r < nr:
+        out[r] = _dot(A[r, o:o + D], x)
+        r += 1
+
+
+@numba.njit(**_FAST)
 def _rows_combine(A, o, D, coef, nrows, y):
     """y += sum_{r < nrows} coef[r] A[r, o:o+D], four rows per pass over y."""
     r = 0
@@ -327,13 +348,18 @@ def _rows_combine(A, o, D, coef, nrows, y):
 
 
 @numba.njit(**_FAST)
-def _project(V, M1, o, Dk, q, qd, qdd, has_acc, pq, pqd, pqdd):
+def _project(V, M1, o, Dk, q, qd, qdd, has_acc, pq_given, pq, pqd, pqdd):
     """A body's modal rows applied to its modal state, in one read of the rows:
-    pq (27,) = [V; M1] q, pqd (27,) = [V; M1] q', pqdd (12,) = V q'' (0 if not has_acc).
-    V rows: [P; H; Psi; Theta] (momentum, inside-frame translation and rotation);
-    M1 rows: the 15 entries of dM_X/dq_i (inertia_gradient_rows)."""
-    _rows_dot2(V, o, Dk, q, qd, pq[0:12], pqd[0:12])
-    _rows_dot2(M1, o, Dk, q, qd, pq[12:27], pqd[12:27])
+    pq (27,) = [V; M1] q (taken as given if pq_given), pqd (27,) = [V; M1] q',
+    pqdd (12,) = V q'' (0 if not has_acc).  V rows: [P; H; Psi; Theta] (momentum,
+    inside-frame translation and rotation); M1 rows: the 15 entries of dM_X/dq_i
+    (inertia_gradient_rows)."""
+    if pq_given:
+        _rows_dot4(V, o, Dk, qd, pqd[0:12])
+        _rows_dot4(M1, o, Dk, qd, pqd[12:27])
+    else:
+        _rows_dot2(V, o, Dk, q, qd, pq[0:12], pqd[0:12])
+        _rows_dot2(M1, o, Dk, q, qd, pq[12:27], pqd[12:27])
     if has_acc:
         _rows_dot(V, o, Dk, qdd, pqdd, 0, 12)
     else:
@@ -423,7 +449,9 @@ def _coriolis_pass(G2, q, qd, om):
 @numba.njit(**_FAST)
 def _coriolis_rate_pass(G2, qd, om):
     """hqd (3D,) = sum_j q'_j G_j and gq (D,) as in ``_coriolis_pass``, without hq:
-    6 D^2 multiply-adds, for when hq = sum_j q_j G_j is already known (``_rk4_run``)."""
+    6 D^2 multiply-adds, for when hq = sum_j q_j G_j is already known (``_rk4_run``).
+    Eight rows of G per sweep, then four, then one: the sweep's loads of hqd and
+    omega (x) q' are shared by more rows (eight measured ~8 % faster than four)."""
     D = qd.shape[0]
     D3 = 3 * D
     hqd = np.zeros(D3)
@@ -433,6 +461,35 @@ def _coriolis_rate_pass(G2, qd, om):
         for i in range(D):
             wq[a * D + i] = om[a] * qd[i]
     j = 0
+    while j + 8 <= D:
+        d0, d1, d2, d3 = qd[j], qd[j + 1], qd[j + 2], qd[j + 3]
+        d4, d5, d6, d7 = qd[j + 4], qd[j + 5], qd[j + 6], qd[j + 7]
+        r0, r1, r2, r3 = G2[j], G2[j + 1], G2[j + 2], G2[j + 3]
+        r4, r5, r6, r7 = G2[j + 4], G2[j + 5], G2[j + 6], G2[j + 7]
+        s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = 0.0
+        for c in range(D3):
+            g0 = r0[c]
+            g1 = r1[c]
+            g2 = r2[c]
+            g3 = r3[c]
+            g4 = r4[c]
+            g5 = r5[c]
+            g6 = r6[c]
+            g7 = r7[c]
+            hqd[c] += (d0 * g0 + d1 * g1 + d2 * g2 + d3 * g3
+                       + d4 * g4 + d5 * g5 + d6 * g6 + d7 * g7)
+            w = wq[c]
+            s0 += g0 * w
+            s1 += g1 * w
+            s2 += g2 * w
+            s3 += g3 * w
+            s4 += g4 * w
+            s5 += g5 * w
+            s6 += g6 * w
+            s7 += g7 * w
+        gq[j], gq[j + 1], gq[j + 2], gq[j + 3] = s0, s1, s2, s3
+        gq[j + 4], gq[j + 5], gq[j + 6], gq[j + 7] = s4, s5, s6, s7
+        j += 8
     while j + 4 <= D:
         d0, d1, d2, d3 = qd[j], qd[j + 1], qd[j + 2], qd[j + 3]
         r0, r1, r2, r3 = G2[j], G2[j + 1], G2[j + 2], G2[j + 3]
@@ -601,18 +658,23 @@ def _forward(y, yd, ydd, has_acc, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd,
 
 
 @numba.njit(**_FAST)
-def _project_all(y, yd, ydd, has_acc, D, off, V, M1):
-    """Pq, Pqd (4, 27), Pqdd (4, 12): every body's ``_project``."""
-    Pq = np.zeros((4, 27))
-    Pqd = np.zeros((4, 27))
-    Pqdd = np.zeros((4, 12))
+def _project_all(y, yd, ydd, has_acc, D, off, V, M1, pq_given, Pq, Pqd, Pqdd):
+    """Pq, Pqd (4, 27), Pqdd (4, 12) in place: every body's ``_project`` (rows of bodies
+    without modes are left alone: zero)."""
     for k in range(4):
         Dk = D[k]
         if Dk > 0:
             s = 4 + off[k]
             _project(V, M1, off[k], Dk, y[s:s + Dk], yd[s:s + Dk], ydd[s:s + Dk], has_acc,
-                     Pq[k], Pqd[k], Pqdd[k])
+                     pq_given, Pq[k], Pqd[k], Pqdd[k])
     return Pq, Pqd, Pqdd
+
+
+@numba.njit(**_FAST)
+def _projections(y, yd, ydd, has_acc, D, off, V, M1):
+    """Pq, Pqd (4, 27), Pqdd (4, 12): every body's ``_project``, in new arrays."""
+    return _project_all(y, yd, ydd, has_acc, D, off, V, M1, False, np.zeros((4, 27)),
+                        np.zeros((4, 27)), np.zeros((4, 12)))
 
 
 @numba.njit(**_JIT)
@@ -620,7 +682,7 @@ def _kinematics(y, yd, ydd, w1, dw1, D, off, V, M1, C1, C, rho, R_all, p_all, Lw
     """Forward pass, in place: joint poses R_all (4,3,3), p_all (4,3), the rotation part
     Lw_all (4,3,3) of each joint map L = [R^T Psi; Lw Theta] of the parent's modes,
     body twists W (4,6) and their rates DW (4,6) at accelerations ydd."""
-    Pq, Pqd, Pqdd = _project_all(y, yd, ydd, True, D, off, V, M1)
+    Pq, Pqd, Pqdd = _projections(y, yd, ydd, True, D, off, V, M1)
     _forward(y, yd, ydd, True, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd, R_all, p_all, Lw_all, W, DW)
 
 
@@ -750,15 +812,26 @@ def _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
 
 @numba.njit(**_FAST)
 def _inverse_dynamics_into(y, yd, ydd, has_acc, w1, dw1, D, off, M6, V, M1, G, om2, cd,
-                           C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all, HQ, hq_given, HQD):
+                           C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all, LIN, lin_given, LIND):
     """out (n,) = M(y) ydd + c(y, y', t) (ydd taken as 0 if not has_acc), and the data the
-    solve reuses, in place; returns F0 (6,), the composite wrench on body 2."""
-    Pq, Pqd, Pqdd = _project_all(y, yd, ydd, has_acc, D, off, V, M1)
+    solve reuses, in place; returns F0 (6,), the composite wrench on body 2.
+
+    LIN (3S + 108,) holds what is linear in q: [hq (3S); Pq (4, 27) row by row], every
+    body's sum_j q_j G_j and projected rows [V; M1] q; it is taken as given if lin_given
+    (``_rk4_run`` carries it from stage to stage), else computed and stored.  LIND gets
+    the same of q': [hqd; Pqd]."""
+    S3 = LIN.shape[0] - 108
+    HQ = LIN[:S3]
+    HQD = LIND[:S3]
+    Pq = LIN[S3:].reshape((4, 27))
+    Pqd = LIND[S3:].reshape((4, 27))
+    Pqdd = np.zeros((4, 12))
+    _project_all(y, yd, ydd, has_acc, D, off, V, M1, lin_given, Pq, Pqd, Pqdd)
     W = np.empty((4, 6))
     DW = np.empty((4, 6))
     _forward(y, yd, ydd, has_acc, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd, R_all, p_all, Lw_all, W, DW)
     return _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
-                     R_all, p_all, Lw_all, W, DW, out, Mx_all, HB, HQ, hq_given, HQD)
+                     R_all, p_all, Lw_all, W, DW, out, Mx_all, HB, HQ, lin_given, HQD)
 
 
 @numba.njit(**_JIT)
@@ -776,7 +849,7 @@ def _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, V, gram, M1, G, om2, cd, 
     Lw_all = np.empty((4, 3, 3))
     F0 = _inverse_dynamics_into(y, yd, ydd, True, w1, dw1, D, off, M6, V, M1, G, om2, cd,
                                 C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all,
-                                np.empty(3 * S), False, np.empty(3 * S))
+                                np.zeros(3 * S + 108), False, np.zeros(3 * S + 108))
     return out, Mx_all, HB, R_all, p_all, Lw_all, F0
 
 
@@ -1012,10 +1085,11 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
 
 
 @numba.njit(**_FAST)
-def _accelerations_hq(y, yd, w1, dw1, tau, HQ, hq_given, HQD,
-                      D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
-    """y'' = M(y)^-1 (tau - c(y, y', t)), with every body's hq = sum_j q_j G_j taken from
-    HQ (3S,) if hq_given (else computed into it) and hqd = sum_j q'_j G_j stored in HQD."""
+def _accelerations_lin(y, yd, w1, dw1, tau, LIN, lin_given, LIND,
+                       D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """y'' = M(y)^-1 (tau - c(y, y', t)), with what is linear in q taken from LIN
+    (3S + 108,) if lin_given (else computed into it) and the same of q' stored in LIND
+    (``_inverse_dynamics_into``)."""
     n = y.shape[0]
     S = n - 4
     c = np.zeros(n)
@@ -1025,7 +1099,7 @@ def _accelerations_hq(y, yd, w1, dw1, tau, HQ, hq_given, HQD,
     p_all = np.empty((4, 3))
     Lw_all = np.empty((4, 3, 3))
     _inverse_dynamics_into(y, yd, y, False, w1, dw1, D, off, M6, V, M1, G, om2, cd,
-                           C1, C, rho, c, Mx_all, HB, R_all, p_all, Lw_all, HQ, hq_given, HQD)
+                           C1, C, rho, c, Mx_all, HB, R_all, p_all, Lw_all, LIN, lin_given, LIND)
     for i in range(n):
         c[i] = -c[i]
     for j in range(4):
@@ -1037,20 +1111,24 @@ def _accelerations_hq(y, yd, w1, dw1, tau, HQ, hq_given, HQD,
 def _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """y'' = M(y)^-1 (tau - c(y, y', t))."""
     S = y.shape[0] - 4
-    return _accelerations_hq(y, yd, w1, dw1, tau, np.empty(3 * S), False, np.empty(3 * S),
-                             D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return _accelerations_lin(y, yd, w1, dw1, tau, np.zeros(3 * S + 108), False,
+                              np.zeros(3 * S + 108), D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
 
 
 @numba.njit(**_JIT)
-def _kinetic_energy(y, yd, w1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
-    """T = sum_n 1/2 w^T M_X(q) w + w^T B(q) q' + 1/2 q'^T q' (multibody.kinetic_energy)."""
+def _kinetic_energy_lin(y, yd, w1, LIN, LIND, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """T = sum_n 1/2 w^T M_X(q) w + w^T B(q) q' + 1/2 q'^T q' (multibody.kinetic_energy),
+    with LIN = [hq; Pq] and LIND = [hqd; Pqd] of the state given (``_inverse_dynamics_into``)."""
+    S3 = LIN.shape[0] - 108
+    Pq = LIN[S3:].reshape((4, 27))
+    Pqd = LIND[S3:].reshape((4, 27))
     R_all = np.empty((4, 3, 3))
     p_all = np.empty((4, 3))
     Lw_all = np.empty((4, 3, 3))
     W = np.empty((4, 6))
     DW = np.empty((4, 6))
-    Pq, Pqd, Pqdd = _project_all(y, yd, y, False, D, off, V, M1)
-    _forward(y, yd, y, False, w1, np.zeros(6), D, C1, C, rho, Pq, Pqd, Pqdd, R_all, p_all, Lw_all, W, DW)
+    _forward(y, yd, y, False, w1, np.zeros(6), D, C1, C, rho, Pq, Pqd, np.zeros((4, 12)),
+             R_all, p_all, Lw_all, W, DW)
     T = 0.0
     Mx = np.empty((6, 6))
     for k in range(4):
@@ -1060,14 +1138,12 @@ def _kinetic_energy(y, yd, w1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
         Mx[:, :] = M6[k]
         if Dk > 0:
             s = 4 + o
-            qk = y[s:s + Dk]
             qdk = yd[s:s + Dk]
             _add_inertia_rows(Mx, Pq[k, 12:27])
-            hq, _, _ = _coriolis_pass(G[k], qk, qdk, w[3:])
             Bqd = Pqd[k, 0:6].copy()                   # B(q) q' = [P; H + hq] q'
             for a in range(3):
-                for i in range(Dk):
-                    Bqd[3 + a] += hq[a * Dk + i] * qdk[i]
+                b0 = 3 * o + a * Dk
+                Bqd[3 + a] += _dot(LIN[b0:b0 + Dk], qdk)
             for i in range(Dk):
                 T += 0.5 * qdk[i] * qdk[i]
             for a in range(6):
@@ -1079,13 +1155,58 @@ def _kinetic_energy(y, yd, w1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
 
 
 @numba.njit(**_JIT)
+def _linear_data(y, yd, D, off, V, M1, G):
+    """LIN = [hq; Pq] and LIND = [hqd; Pqd] of a state (3S + 108,) each, directly:
+    hq = sum_j q_j G_j by row combination (3 D^2), Pq, Pqd by projection."""
+    S = y.shape[0] - 4
+    LIN = np.zeros(3 * S + 108)
+    LIND = np.zeros(3 * S + 108)
+    for k in range(4):
+        Dk = D[k]
+        if Dk > 0:
+            s = 4 + off[k]
+            b0 = 3 * off[k]
+            _rows_combine(G[k], 0, 3 * Dk, y[s:s + Dk], Dk, LIN[b0:b0 + 3 * Dk])
+            _rows_combine(G[k], 0, 3 * Dk, yd[s:s + Dk], Dk, LIND[b0:b0 + 3 * Dk])
+    _project_all(y, yd, y, False, D, off, V, M1, False, LIN[3 * S:].reshape((4, 27)),
+                 LIND[3 * S:].reshape((4, 27)), np.zeros((4, 12)))
+    return LIN, LIND
+
+
+@numba.njit(**_JIT)
+def _kinetic_energy(y, yd, w1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """T = sum_n 1/2 w^T M_X(q) w + w^T B(q) q' + 1/2 q'^T q' (multibody.kinetic_energy)."""
+    LIN, LIND = _linear_data(y, yd, D, off, V, M1, G)
+    return _kinetic_energy_lin(y, yd, w1, LIN, LIND, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+
+
+@numba.njit(**_JIT)
 def _case_power(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """Power the case motion feeds into bodies 2-5, (Ad_{g1^-1} w1) . F0, with F0 the
     composite wrench on body 2 at the accelerations the equations give."""
-    ydd = _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-    out = _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-    F0 = out[6]
-    return np.dot(_adinv(out[3][0], out[4][0], w1), F0)
+    S = y.shape[0] - 4
+    LIN = np.zeros(3 * S + 108)                      # [hq; Pq], reused by the second pass
+    LIND = np.zeros(3 * S + 108)
+    ydd = _accelerations_lin(y, yd, w1, dw1, tau, LIN, False, LIND,
+                             D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return _case_power_lin(y, yd, ydd, w1, dw1, LIN, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+
+
+@numba.njit(**_JIT)
+def _case_power_lin(y, yd, ydd, w1, dw1, LIN, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """``_case_power`` at accelerations ydd, with LIN = [hq; Pq] of the state given."""
+    n = y.shape[0]
+    S = n - 4
+    out = np.zeros(n)
+    Mx_all = np.empty((4, 6, 6))
+    HB = np.zeros((3, S))
+    R_all = np.empty((4, 3, 3))
+    p_all = np.empty((4, 3))
+    Lw_all = np.empty((4, 3, 3))
+    F0 = _inverse_dynamics_into(y, yd, ydd, True, w1, dw1, D, off, M6, V, M1, G, om2, cd,
+                                C1, C, rho, out, Mx_all, HB, R_all, p_all, Lw_all, LIN, True,
+                                np.zeros(3 * S + 108))
+    return np.dot(_adinv(R_all[0], p_all[0], w1), F0)
 
 
 @numba.njit(**_JIT)
@@ -1102,32 +1223,35 @@ def _case_twist(t, amp, omf, phase, om0, w1, dw1):
 
 
 @numba.njit(**_JIT)
-def _rk4_run(y, yd, t0, h, n_steps, amp, omf, phase, om0, tau,
-             D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+def _rk4_core(y, yd, t0, h, n_steps, first_given, K0, LIN0, LIND0, amp, omf, phase, om0, tau,
+              D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """n_steps classical RK4 steps of (y, y')' = (y', y'') from t0 with constant torques
-    (integrators.rk4_step, compiled: no Python call per stage).
+    (integrators.rk4_step, compiled: no Python call per stage).  If first_given, the first
+    stage's evaluation (accelerations K0 (n,), LIN0 and LIND0 at (t0, y, y')) is given.
 
-    The modal Coriolis sums hq = sum_j q_j G_j are linear in q, and every RK4 stage
-    position is q plus a multiple of the previous stage's velocity (q2 = q + h/2 v1,
-    q3 = q + h/2 v2, q4 = q + h v3, q_next = q + h/6 (v1 + 2 v2 + 2 v3 + v4)), whose
-    hqd = sum_j v_j G_j each evaluation computes anyway.  So hq is carried along
-    exactly (to round-off) instead of recomputed: the Coriolis pass of an evaluation
-    drops from 9 D^2 to 6 D^2 multiply-adds per body.  hq is computed directly at the
-    first stage of each call (every output sample), so round-off cannot accumulate."""
+    What an evaluation needs that is linear in q, LIN = [hq; Pq] (the modal Coriolis
+    sums hq = sum_j q_j G_j and the projected rows Pq = [V; M1] q, see
+    ``_inverse_dynamics_into``), is carried from stage to stage instead of recomputed:
+    every RK4 stage position is q plus a multiple of the previous stage's velocity
+    (q2 = q + h/2 v1, q3 = q + h/2 v2, q4 = q + h v3, q_next = q + h/6 (v1 + 2 v2 +
+    2 v3 + v4)), and each evaluation computes the same quantities of its velocity,
+    LIND = [sum_j v_j G_j; [V; M1] v], anyway.  So the Coriolis pass of an evaluation
+    drops from 9 D^2 to 6 D^2 multiply-adds per body and the projections from 54 to 27
+    rows.  LIN is computed directly at the first stage of each call (every output
+    sample), so round-off cannot accumulate."""
     n = y.shape[0]
-    S3 = 3 * (n - 4)
+    L = 3 * (n - 4) + 108
     y = y.copy()
     yd = yd.copy()
     w1 = np.zeros(6)
     dw1 = np.zeros(6)
-    HQS = np.empty((4, S3))          # hq of each stage; HQS[0] is the step's own
-    HQ = HQS[0]
-    HQD = np.empty((4, S3))          # hqd of each stage
+    LINS = np.zeros((4, L))          # LIN of each stage; LINS[0] is the step's own
+    LIN = LINS[0]
+    LINDS = np.zeros((4, L))         # LIND of each stage
     K = np.empty((4, n))             # accelerations of each stage
     Vs = np.empty((4, n))            # velocities of each stage
     ys = np.empty(n)
     c_stage = (0.0, 0.5, 0.5, 1.0)
-    weight = (1.0, 2.0, 2.0, 1.0)
     for i in range(n_steps):
         t = t0 + i * h
         for st in range(4):          # one call site: the compiler inlines the RHS once
@@ -1139,19 +1263,107 @@ def _rk4_run(y, yd, t0, h, n_steps, amp, omf, phase, om0, tau,
                 for m in range(n):
                     ys[m] = y[m] + c * Vs[st - 1, m]
                     Vs[st, m] = yd[m] + c * K[st - 1, m]
-                for m in range(S3):
-                    HQS[st, m] = HQ[m] + c * HQD[st - 1, m]
+                for m in range(L):
+                    LINS[st, m] = LIN[m] + c * LINDS[st - 1, m]
+            if i == 0 and st == 0 and first_given:
+                K[0, :] = K0
+                LIN[:] = LIN0
+                LINDS[0, :] = LIND0
+                continue
             if st != 2:
                 _case_twist(t + c, amp, omf, phase, om0, w1, dw1)
-            K[st, :] = _accelerations_hq(ys, Vs[st], w1, dw1, tau, HQS[st],
-                                         st > 0 or i > 0, HQD[st],
-                                         D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+            K[st, :] = _accelerations_lin(ys, Vs[st], w1, dw1, tau, LINS[st],
+                                          st > 0 or i > 0, LINDS[st],
+                                          D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
         for m in range(n):
             y[m] += (h / 6.0) * (Vs[0, m] + 2.0 * Vs[1, m] + 2.0 * Vs[2, m] + Vs[3, m])
             yd[m] += (h / 6.0) * (K[0, m] + 2.0 * K[1, m] + 2.0 * K[2, m] + K[3, m])
-        for m in range(S3):
-            HQ[m] += (h / 6.0) * (HQD[0, m] + 2.0 * HQD[1, m] + 2.0 * HQD[2, m] + HQD[3, m])
+        for m in range(L):
+            LIN[m] += (h / 6.0) * (LINDS[0, m] + 2.0 * LINDS[1, m] + 2.0 * LINDS[2, m] + LINDS[3, m])
     return y, yd
+
+
+@numba.njit(**_JIT)
+def _rk4_run(y, yd, t0, h, n_steps, amp, omf, phase, om0, tau,
+             D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """n_steps classical RK4 steps from (t0, y, y') (``_rk4_core``)."""
+    dummy = np.zeros(0)
+    return _rk4_core(y, yd, t0, h, n_steps, False, dummy, dummy, dummy, amp, omf, phase, om0,
+                     tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+
+
+@numba.njit(**_JIT)
+def _rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, amp, omf, phase, om0, tau,
+                   D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """A whole RK4 run with outputs and the energy watch, compiled (integrators.integrate
+    with integrators.Monitor, without a Python call per output sample).
+
+    From (y0, y0') at t_out[0], n_sub steps of h per output interval.  At every output
+    time t_out[k] it stores the state Y, Yd (T, n) and energy (T, 4) = kinetic T,
+    potential U, input power P [in lbf/s] and the input work so far (trapezoidal), and
+    applies Monitor's test: the state must be finite and |T + U| must stay within
+    growth x scale, scale = max(|E0|, |work|) so far.  The accelerations the power
+    needs are those of the sample's own state: the first stage of the next interval,
+    so they are computed once for both.  Returns (Y, Yd, energy, info), info (4,) =
+    (status, k, E, scale): status 0 (done, k = T), 1 (non-finite state at sample k) or
+    2 (energy growth at sample k); rows from k on are not filled (NaN)."""
+    n = y0.shape[0]
+    S = n - 4
+    nt = t_out.shape[0]
+    Y = np.full((nt, n), np.nan)
+    Yd = np.full((nt, n), np.nan)
+    energy = np.full((nt, 4), np.nan)
+    info = np.zeros(4)
+    info[1] = nt
+    y = y0.copy()
+    yd = yd0.copy()
+    w1 = np.zeros(6)
+    dw1 = np.zeros(6)
+    LIN = np.zeros(3 * S + 108)
+    LIND = np.zeros(3 * S + 108)
+    E0 = 0.0
+    scale = 0.0
+    work = 0.0
+    P0 = 0.0
+    for k in range(nt):
+        t = t_out[k]
+        if not math.isfinite(_dot(y, y) + _dot(yd, yd)):
+            info[0], info[1] = 1.0, k
+            return Y, Yd, energy, info
+        Y[k, :] = y
+        Yd[k, :] = yd
+        _case_twist(t, amp, omf, phase, om0, w1, dw1)
+        acc = _accelerations_lin(y, yd, w1, dw1, tau, LIN, False, LIND,
+                                 D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+        T = _kinetic_energy_lin(y, yd, w1, LIN, LIND, D, off, M6, V, gram, M1, G, om2, cd,
+                                C1, C, rho)
+        U = 0.0
+        P = 0.0
+        for j in range(4):
+            P += tau[j] * yd[j]
+        for i in range(S):
+            U += 0.5 * om2[i] * y[4 + i] * y[4 + i]
+            P -= cd[i] * yd[4 + i] * yd[4 + i]
+        if not at_rest:
+            P += _case_power_lin(y, yd, acc, w1, dw1, LIN, D, off, M6, V, gram, M1, G, om2, cd,
+                                 C1, C, rho)
+        E = T + U
+        if k == 0:
+            E0 = E
+            scale = abs(E)
+        else:
+            work += 0.5 * (P + P0) * (t - t_out[k - 1])
+        P0 = P
+        scale = max(scale, abs(E0), abs(work))
+        energy[k, 0], energy[k, 1], energy[k, 2], energy[k, 3] = T, U, P, work
+        if not math.isfinite(E) or (scale > 0 and abs(E) > growth * scale) or \
+                (scale == 0 and abs(E) > 0):
+            info[0], info[1], info[2], info[3] = 2.0, k, E, scale
+            return Y, Yd, energy, info
+        if k + 1 < nt:
+            y, yd = _rk4_core(y, yd, t, h, n_sub, True, acc, LIN, LIND, amp, omf, phase, om0,
+                              tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return Y, Yd, energy, info
 
 
 # ------------------------------------------------------------------ wrappers
@@ -1247,4 +1459,11 @@ def make_rhs(chain, case=None, torque=None):
             return _rk4_run(np.asarray(y, float), np.asarray(yd, float), float(t0), float(h), int(n),
                             c_amp, c_omf, c_ph, c_om0, tau_c, *data)
         rhs.rk4_steps = rk4_steps
+
+        def rk4_integrate(y0, yd0, t_out, h, n_sub, growth):
+            """A whole RK4 run with outputs and energy watch (``_rk4_integrate``)."""
+            return _rk4_integrate(np.asarray(y0, float), np.asarray(yd0, float),
+                                  np.asarray(t_out, float), float(h), int(n_sub), float(growth),
+                                  bool(at_rest), c_amp, c_omf, c_ph, c_om0, tau_c, *data)
+        rhs.rk4_integrate = rk4_integrate
     return rhs

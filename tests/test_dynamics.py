@@ -265,3 +265,50 @@ def test_compiled_rk4_loop_energy_and_case_power_match_reference():
     assert dc.relative_difference(a[0], b[0]) < 1e-12 and dc.relative_difference(a[1], b[1]) < 1e-12
     assert fast.energy(0.3, y, yd) == pytest.approx(ref.energy(0.3, y, yd), rel=1e-12)
     assert fast.input_power(0.3, y, yd) == pytest.approx(ref.input_power(0.3, y, yd), rel=1e-10)
+
+
+def _without_whole_run(prob):
+    """The same problem run through the per-interval compiled loop and the Python monitor."""
+    del prob.rhs.rk4_integrate
+    return prob
+
+
+@needs_numba
+def test_compiled_whole_run_matches_per_interval_loop_and_monitor():
+    """integrate's compiled whole RK4 run (energy watch included) gives the states, the
+    energy terms and the input work of the per-interval loop with the Python monitor."""
+    chain, _ = synthetic_chain(seed=4, damping_ratio=0.01, omega_max=300.0)
+    case = multibody.CaseMotion(amplitude=(1.0, 0.3, -0.2), frequency=(20.0, 10.0, 0.0),
+                                omega0=(0.1, 0.0, 0.2))
+    torque = (0.1, 0.0, -0.2, 0.05)
+    y0 = np.zeros(chain.n_coordinates)
+    y0[:4] = (0.3, -1.2, 0.4, 0.1)
+    yd0 = np.zeros(chain.n_coordinates)
+    yd0[:4] = (0.5, -0.3, 0.2, 0.4)
+    whole = multibody.Problem(chain, case=case, torque=torque, y0=y0, yd0=yd0)
+    loop = _without_whole_run(multibody.Problem(chain, case=case, torque=torque, y0=y0, yd0=yd0))
+    assert hasattr(whole.rhs, "rk4_integrate") and not hasattr(loop.rhs, "rk4_integrate")
+    a = integrators.integrate(whole, 0.05, 1e-3, method="rk4", fraction=0.8)
+    b = integrators.integrate(loop, 0.05, 1e-3, method="rk4", fraction=0.8)
+    assert a.steps == b.steps and a.step == b.step
+    assert dc.relative_difference(a.y, b.y) < 1e-13 and dc.relative_difference(a.yd, b.yd) < 1e-13
+    for key in ("kinetic", "potential", "power", "input_work"):
+        assert dc.relative_difference(a.energy[key], b.energy[key]) < 1e-12, key
+    assert a.stats["energy_input"] == pytest.approx(b.stats["energy_input"], rel=1e-12)
+    assert abs(a.energy["input_work"][-1]) > 1e-4 * abs(a.energy["kinetic"][-1])   # not trivial
+
+
+@needs_numba
+def test_compiled_whole_run_stops_divergence_like_the_monitor():
+    """Beyond the true stability limit both paths stop at the same sample with the same message."""
+    chain, _ = synthetic_chain(seed=4, omega_max=400.0)
+    y0, yd0 = free_state(chain)
+    msgs = []
+    for prob in (multibody.Problem(chain, y0=y0, yd0=yd0),
+                 _without_whole_run(multibody.Problem(chain, y0=y0, yd0=yd0))):
+        prob.omega_max = prob.modal_omega_max          # the old, too optimistic limit
+        step = 0.9 * integrators.rk4_stability_limit(prob.omega_max)
+        with pytest.raises(integrators.DivergenceError) as err:
+            integrators.integrate(prob, 0.5, 0.01, method="rk4", step=step, model="m")
+        msgs.append(str(err.value))
+    assert msgs[0] == msgs[1] and "energy" in msgs[0]
