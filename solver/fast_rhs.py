@@ -454,9 +454,10 @@ def _coriolis_rate_pass(G2, qd, om):
     omega (x) q' are shared by more rows (eight measured ~8 % faster than four)."""
     D = qd.shape[0]
     D3 = 3 * D
-    hqd = np.zeros(D3)
-    gq = np.empty(D)
-    wq = np.empty(D3)
+    out = np.zeros(7 * D)                   # one allocation: [hqd; omega (x) q'; gq]
+    hqd = out[0:D3]
+    wq = out[D3:2 * D3]
+    gq = out[2 * D3:]
     for a in range(3):
         for i in range(D):
             wq[a * D + i] = om[a] * qd[i]
@@ -644,8 +645,9 @@ def _forward(y, yd, ydd, has_acc, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd,
     """Forward pass over the four joints, in place: R_all (4,3,3), p_all (4,3), Lw_all
     (4,3,3), body twists W (4,6) and their rates DW (4,6) at accelerations ydd, from the
     bodies' projected modal rows Pq, Pqd (4, 27) and Pqdd (4, 12) (``_project``)."""
-    CR = np.empty((3, 3))
-    zero3 = np.zeros(3)
+    small = np.zeros(12)
+    CR = small[0:9].reshape((3, 3))
+    zero3 = small[9:12]
     for j in range(4):
         k = j - 1
         elastic = j > 0 and D[k] > 0
@@ -695,13 +697,10 @@ def _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
     composite wrench on body 2.  HQ, HQD (3S,): every body's hq = sum_j q_j G_j and
     hqd = sum_j q'_j G_j (body k at 3 off[k], layout a D_k + i); HQ is taken as given
     if hq_given (else computed and stored), HQD is always stored."""
-    F = np.zeros(6)
-    Fc = np.zeros(6)
-    mu = np.empty(6)
-    dmu = np.empty(6)
-    dMx = np.empty((6, 6))
-    ww = np.empty(15)
-    cv = np.empty(12)
+    scratch = np.zeros(87)                  # one allocation for the small vectors
+    F, Fc, mu, dmu = scratch[0:6], scratch[6:12], scratch[12:18], scratch[18:24]
+    cv, ww = scratch[24:36], scratch[36:51]
+    dMx = scratch[51:87].reshape((6, 6))
     for k in range(3, -1, -1):
         Dk = D[k]
         o = off[k]
@@ -825,10 +824,11 @@ def _inverse_dynamics_into(y, yd, ydd, has_acc, w1, dw1, D, off, M6, V, M1, G, o
     HQD = LIND[:S3]
     Pq = LIN[S3:].reshape((4, 27))
     Pqd = LIND[S3:].reshape((4, 27))
-    Pqdd = np.zeros((4, 12))
+    small = np.zeros(96)
+    Pqdd = small[0:48].reshape((4, 12))
+    W = small[48:72].reshape((4, 6))
+    DW = small[72:96].reshape((4, 6))
     _project_all(y, yd, ydd, has_acc, D, off, V, M1, lin_given, Pq, Pqd, Pqdd)
-    W = np.empty((4, 6))
-    DW = np.empty((4, 6))
     _forward(y, yd, ydd, has_acc, w1, dw1, D, C1, C, rho, Pq, Pqd, Pqdd, R_all, p_all, Lw_all, W, DW)
     return _backward(y, yd, ydd, has_acc, D, off, M6, V, M1, G, om2, cd, Pq, Pqd, Pqdd,
                      R_all, p_all, Lw_all, W, DW, out, Mx_all, HB, HQ, lin_given, HQD)
@@ -908,22 +908,17 @@ def _solve(r, dg, unit, D, off, V, gram, Mx_all, HB, R_all, p_all, Lw_all):
     back-substitution), everything else is 6x6 algebra in scratch arrays."""
     S = V.shape[1]
     n = 4 + S
-    dinv = np.ones(1) if unit else 1.0 / dg
-    IA = np.zeros((4, 6, 6))
-    bA = np.zeros((4, 6))
-    BB = np.zeros((4, 6, 6))
-    BY = np.zeros((4, 6, 6))
-    YY = np.zeros((4, 6, 6))
-    Br = np.zeros((4, 6))
-    Yr = np.zeros((4, 6))
-    Lam = np.zeros((4, 6, 6))
-    Mk = np.zeros((4, 6, 6))
-    pa_all = np.zeros((4, 6))
-    Itils = np.zeros((4, 6, 6))
-    Zinvs = np.zeros((4, 6, 6))
-    T = np.empty((8, 6, 6))                  # 6x6 scratch
-    v = np.zeros((6, 6))                     # 6-vector scratch
-    prod = np.empty(12)
+    dinv = dg if unit else 1.0 / dg         # (not read when unit)
+    # the 6x6 blocks and 6-vectors of the recursion, in two allocations (each costs
+    # ~30 ns; the evaluation used to make 55 of them)
+    mats = np.zeros((10, 4, 6, 6))
+    IA, BB, BY, YY, Lam = mats[0], mats[1], mats[2], mats[3], mats[4]
+    Mk, Itils, Zinvs = mats[5], mats[6], mats[7]
+    T = mats[8:10].reshape((8, 6, 6))        # 6x6 scratch
+    vecs = np.zeros((24, 6))
+    bA, Br, Yr, pa_all = vecs[0:4], vecs[4:8], vecs[8:12], vecs[12:16]
+    v = vecs[16:22]                          # 6-vector scratch
+    prod = vecs[22:24].reshape(12)
     A, AtI, T2, T3, KNK, KdL, T6, T7 = T[0], T[1], T[2], T[3], T[4], T[5], T[6], T[7]
     yh, KNr, t6, Lz, eY, acc = v[0], v[1], v[2], v[3], v[4], v[5]
     for k in range(3, -1, -1):
@@ -1093,11 +1088,12 @@ def _accelerations_lin(y, yd, w1, dw1, tau, LIN, lin_given, LIND,
     n = y.shape[0]
     S = n - 4
     c = np.zeros(n)
-    Mx_all = np.empty((4, 6, 6))
     HB = np.zeros((3, S))
-    R_all = np.empty((4, 3, 3))
-    p_all = np.empty((4, 3))
-    Lw_all = np.empty((4, 3, 3))
+    small = np.empty(228)
+    Mx_all = small[0:144].reshape((4, 6, 6))
+    R_all = small[144:180].reshape((4, 3, 3))
+    p_all = small[180:192].reshape((4, 3))
+    Lw_all = small[192:228].reshape((4, 3, 3))
     _inverse_dynamics_into(y, yd, y, False, w1, dw1, D, off, M6, V, M1, G, om2, cd,
                            C1, C, rho, c, Mx_all, HB, R_all, p_all, Lw_all, LIN, lin_given, LIND)
     for i in range(n):
