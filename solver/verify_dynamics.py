@@ -304,7 +304,7 @@ def main(argv=None):
     ap.add_argument("--reduction-dir", required=True)
     ap.add_argument("--verification", required=True, help="output JSON of the checks")
     ap.add_argument("--benchmark", required=True, help="output JSON of the truth-model timings")
-    ap.add_argument("--repeats", type=int, default=3, help="runs per integrator (median)")
+    ap.add_argument("--repeats", type=int, default=5, help="runs per integrator (median)")
     args = ap.parse_args(argv)
     from workflow.provenance import versions, write_json
     start = time.perf_counter()
