@@ -43,6 +43,7 @@ rule scaling:
         "logs/bench/scaling.log",
     benchmark:
         "results/benchmarks/rules/bench/scaling.tsv"
+    threads: 2  # both cores: timed runs, no other job beside them
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.scaling --out-csv {output.csv} "
         "--out-json {output.json} --figure {output.figure} > {log} 2>&1"
@@ -66,6 +67,7 @@ rule pareto:
         "logs/bench/pareto.log",
     benchmark:
         "results/benchmarks/rules/bench/pareto.tsv"
+    threads: 2  # both cores: timed runs, no other job beside them
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.pareto --scene thesis --truth {input.truth} "
         "--models {params.models} --repeats 5 --budget 600 --modes-dir results/modes --reduction-dir results/reduction "

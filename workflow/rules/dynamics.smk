@@ -79,6 +79,8 @@ rule dynamics_verification:
         "logs/sim/verification.log",
     benchmark:
         "results/benchmarks/rules/dynamics_verification.tsv"
+    # both cores: its wall times are the issue-4 benchmark, so no other job runs beside it
+    threads: 2
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.verify_dynamics --modes-dir results/modes "
         "--reduction-dir results/reduction --verification {output.verification} "
