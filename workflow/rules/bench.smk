@@ -43,9 +43,11 @@ rule scaling:
         "logs/bench/scaling.log",
     benchmark:
         "results/benchmarks/rules/bench/scaling.tsv"
-    threads: 2  # both cores: timed runs, no other job beside them
+    # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
+    # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
+    threads: 2
     shell:
-        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.scaling --out-csv {output.csv} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.scaling --out-csv {output.csv} "
         "--out-json {output.json} --figure {output.figure} > {log} 2>&1"
 
 
@@ -67,9 +69,11 @@ rule pareto:
         "logs/bench/pareto.log",
     benchmark:
         "results/benchmarks/rules/bench/pareto.tsv"
-    threads: 2  # both cores: timed runs, no other job beside them
+    # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
+    # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
+    threads: 2
     shell:
-        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.pareto --scene thesis --truth {input.truth} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.pareto --scene thesis --truth {input.truth} "
         "--models {params.models} --repeats 5 --budget 600 --modes-dir results/modes --reduction-dir results/reduction "
         "--out-csv {output.csv} --figure {output.figure} > {log} 2>&1"
 

@@ -80,9 +80,10 @@ rule dynamics_verification:
     benchmark:
         "results/benchmarks/rules/dynamics_verification.tsv"
     # both cores: its wall times are the issue-4 benchmark, so no other job runs beside it
+    # (BLAS still pinned to one thread, as everywhere)
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.verify_dynamics --modes-dir results/modes "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m solver.verify_dynamics --modes-dir results/modes "
         "--reduction-dir results/reduction --verification {output.verification} "
         "--benchmark {output.benchmark} > {log} 2>&1"
 
