@@ -1112,12 +1112,11 @@ def _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1,
 
 
 @numba.njit(**_JIT)
-def _kinetic_energy_lin(y, yd, w1, LIN, LIND, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+def _kinetic_energy_lin(y, yd, w1, LIN, Pqd, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """T = sum_n 1/2 w^T M_X(q) w + w^T B(q) q' + 1/2 q'^T q' (multibody.kinetic_energy),
-    with LIN = [hq; Pq] and LIND = [hqd; Pqd] of the state given (``_inverse_dynamics_into``)."""
+    with LIN = [hq; Pq] (``_inverse_dynamics_into``) and Pqd (4, 27) = [V; M1] q' given."""
     S3 = LIN.shape[0] - 108
     Pq = LIN[S3:].reshape((4, 27))
-    Pqd = LIND[S3:].reshape((4, 27))
     R_all = np.empty((4, 3, 3))
     p_all = np.empty((4, 3))
     Lw_all = np.empty((4, 3, 3))
@@ -1152,28 +1151,27 @@ def _kinetic_energy_lin(y, yd, w1, LIN, LIND, D, off, M6, V, gram, M1, G, om2, c
 
 @numba.njit(**_JIT)
 def _linear_data(y, yd, D, off, V, M1, G):
-    """LIN = [hq; Pq] and LIND = [hqd; Pqd] of a state (3S + 108,) each, directly:
-    hq = sum_j q_j G_j by row combination (3 D^2), Pq, Pqd by projection."""
+    """LIN (3S + 108,) = [hq; Pq] of a state (``_inverse_dynamics_into``) and Pqd (4, 27),
+    directly: hq = sum_j q_j G_j by row combination (3 D^2), Pq and Pqd by projection."""
     S = y.shape[0] - 4
     LIN = np.zeros(3 * S + 108)
-    LIND = np.zeros(3 * S + 108)
+    Pqd = np.zeros((4, 27))
     for k in range(4):
         Dk = D[k]
         if Dk > 0:
             s = 4 + off[k]
             b0 = 3 * off[k]
             _rows_combine(G[k], 0, 3 * Dk, y[s:s + Dk], Dk, LIN[b0:b0 + 3 * Dk])
-            _rows_combine(G[k], 0, 3 * Dk, yd[s:s + Dk], Dk, LIND[b0:b0 + 3 * Dk])
     _project_all(y, yd, y, False, D, off, V, M1, False, LIN[3 * S:].reshape((4, 27)),
-                 LIND[3 * S:].reshape((4, 27)), np.zeros((4, 12)))
-    return LIN, LIND
+                 Pqd, np.zeros((4, 12)))
+    return LIN, Pqd
 
 
 @numba.njit(**_JIT)
 def _kinetic_energy(y, yd, w1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """T = sum_n 1/2 w^T M_X(q) w + w^T B(q) q' + 1/2 q'^T q' (multibody.kinetic_energy)."""
-    LIN, LIND = _linear_data(y, yd, D, off, V, M1, G)
-    return _kinetic_energy_lin(y, yd, w1, LIN, LIND, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    LIN, Pqd = _linear_data(y, yd, D, off, V, M1, G)
+    return _kinetic_energy_lin(y, yd, w1, LIN, Pqd, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
 
 
 @numba.njit(**_JIT)
@@ -1331,8 +1329,8 @@ def _rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, amp, omf, phase, o
         _case_twist(t, amp, omf, phase, om0, w1, dw1)
         acc = _accelerations_lin(y, yd, w1, dw1, tau, LIN, False, LIND,
                                  D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-        T = _kinetic_energy_lin(y, yd, w1, LIN, LIND, D, off, M6, V, gram, M1, G, om2, cd,
-                                C1, C, rho)
+        T = _kinetic_energy_lin(y, yd, w1, LIN, LIND[3 * S:].reshape((4, 27)), D, off, M6, V,
+                                gram, M1, G, om2, cd, C1, C, rho)
         U = 0.0
         P = 0.0
         for j in range(4):

@@ -251,16 +251,17 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None,
             Y, V, energy, info = whole_run(y, yd, t_out, h, n_sub, growth_factor)
             steps = n_sub * max(int(info[1]) - 1, 0)
             monitor.record(t_out, energy, info, h, method)
-        for k in range(1, t_out.size if whole_run is None else 0):
-            t0 = t_out[k - 1]
-            if compiled is not None:
-                y, yd = compiled(y, yd, t0, h, n_sub)
-            else:
-                for i in range(n_sub):
-                    y, yd = rk4_step(rhs, t0 + i * h, y, yd, h)
-            steps += n_sub
-            monitor(t_out[k], y, yd, h, method)
-            Y[k], V[k] = y, yd
+        else:
+            for k in range(1, t_out.size):
+                t0 = t_out[k - 1]
+                if compiled is not None:
+                    y, yd = compiled(y, yd, t0, h, n_sub)
+                else:
+                    for i in range(n_sub):
+                        y, yd = rk4_step(rhs, t0 + i * h, y, yd, h)
+                steps += n_sub
+                monitor(t_out[k], y, yd, h, method)
+                Y[k], V[k] = y, yd
         stats.update(stability_limit=limit, fraction=h / limit if np.isfinite(limit) else 0.0)
     elif method == "dop853":
         from scipy.integrate import solve_ivp
