@@ -15,7 +15,7 @@ Physical groups (names are the contract with the solver):
   ``input_motor``, ``input_resolver``, ``eccentric_mass``.
 
 The bearing regions are where the bearing points are joined to the body by a
-rigid-fit connection (see ``solver.bearings``); meshing them as curves/faces
+rigid-fit connection (see ``solver.fe.bearings``); meshing them as curves/faces
 puts mesh nodes exactly on them.
 """
 from __future__ import annotations

@@ -5,7 +5,7 @@
 * :func:`band_solid` - the same ring as a 3D solid (rectangular cross-section);
 * :func:`annulus_surface` - the platform's mid-surface, for the shell-vs-solid comparison.
 
-Each writes a first-order ``.msh`` file readable by ``solver.fe.load_mesh``.
+Each writes a first-order ``.msh`` file readable by ``solver.fe.forms.load_mesh``.
 """
 from __future__ import annotations
 

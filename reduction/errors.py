@@ -3,7 +3,9 @@
 Every error is a ``ValueError`` subclass with a one-line message that names the
 culprit (file, load case, bearing, mode count, matrix), raised before the
 expensive work (factorisations, solves) wherever the check is cheap.
+A bad body file raises ``solver.bodydata.BodyFileError`` (the contract's owner).
 """
+from solver.bodydata import BodyFileError  # noqa: F401  (raised by the reduction stage's reads)
 
 
 class ReductionError(ValueError):
@@ -39,7 +41,3 @@ class SingularMassError(ReductionError):
 
 class StaticModeError(ReductionError):
     """A static correction mode vanishes or the static set is degenerate."""
-
-
-class BodyFileError(ReductionError):
-    """A body file that is missing, truncated, stale or inconsistent."""

@@ -35,7 +35,7 @@ method, its maths and the measured results are in ``docs/selection.md``; in shor
 3. **A-priori error of any kept set** (``estimate_error``).  The kept set's
    pencil (K_S, M_S) is solved exactly, every coupled mode's velocity response
    to its load is integrated in closed form (``velocity_response``), and
-   eq. 3.53 (``results.errors.error_measure``) compares the rates
+   eq. 3.53 (``solver.dynamics.error_measure.error_measure``) compares the rates
    gamma_dot_rigid + d_S with the full set's gamma_dot_rigid + d_full.  No
    nonlinear simulation is involved; one evaluation costs 1-20 ms.
 
@@ -87,7 +87,7 @@ def rigid_run(rigid_chain, scene, rtol=1e-12, atol=1e-14):
 
     DOP853 at rtol 1e-12 (4 coordinates: about a second); accelerations from the
     equations of motion at the output samples."""
-    from solver import integrators, simulate
+    from solver.dynamics import integrators, simulate
     if sum(rigid_chain.n_modes):
         raise LoadAwareError(f"rigid_run needs a chain without modes, got {rigid_chain.n_modes}")
     prob = simulate.scene_problem(rigid_chain, scene)
@@ -103,7 +103,7 @@ def modal_loads(chain, t, y, yd, ydd, case):
     chain: the elastic chain (all modes to be ranked); t (T,) [s]; y, yd, ydd
     (T, 4): gimbal angles, rates, accelerations of the rigid run.  With the
     elastic coordinates at rest (q = q' = q'' = 0) the modal rows of the
-    inverse dynamics (``solver.multibody.inverse_dynamics``) are, per body n and
+    inverse dynamics (``solver.dynamics.multibody.inverse_dynamics``) are, per body n and
     mode i (docs/dynamics.md, Section 3),
 
         ID_q,i = [P; H]_i^T dw_n/dt - 1/2 w_n^T M_1,i w_n + L_i^T F_child,
@@ -113,7 +113,7 @@ def modal_loads(chain, t, y, yd, ydd, case):
     the bearing wrench F_child of the inner subtree through the inside-frame
     motion L_i (Psi, Theta).  Unit: lbf / sqrt(lbf s^2/in) = sqrt(mass) in/s^2,
     the generalised force of a mass-normalised modal coordinate."""
-    from solver import multibody
+    from solver.dynamics import multibody
     t = np.asarray(t, float)
     y, yd, ydd = (np.asarray(a, float) for a in (y, yd, ydd))
     if y.shape != (t.size, N_JOINTS) or yd.shape != y.shape or ydd.shape != y.shape:
@@ -135,7 +135,7 @@ def linear_model(chain, y0, t, gamma_rigid, loads):
     rigid_rates (T, 4) [rad/s] (gamma_dot of the rigid run), loads (T, n - 4)
     (``modal_loads``), offsets (5,): body b's modes are columns offsets[k]:offsets[k+1]
     of loads (k = b - 2), and the full set's response ``full`` (T, 4) [rad/s]."""
-    from solver import multibody
+    from solver.dynamics import multibody
     M = multibody.mass_matrix(chain, np.asarray(y0, float))
     K = chain.stiffness_diagonal()
     model = {"M": M, "K": K, "t": np.asarray(t, float),
@@ -254,8 +254,8 @@ def rate_response(model, keep):
 
 def estimate_error(model, keep):
     """A-priori eq. 3.53 error (4,) of keeping ``keep``: rates of the kept set against the
-    full set, both in the frozen linear chain (``results.errors.error_measure``)."""
-    from results.errors import error_measure
+    full set, both in the frozen linear chain (``solver.dynamics.error_measure.error_measure``)."""
+    from solver.dynamics.error_measure import error_measure
     t, g0, full = model["t"], model["rigid_rates"], model["full"]
     return np.asarray(error_measure(t, g0 + full, g0 + rate_response(model, keep)), float)
 
@@ -549,7 +549,7 @@ def body_curves(model, orders, n_max=N_CURVE):
 # ----------------------------------------------------------------- the stage
 def build_linear_model(scene, body_data, log=None):
     """(model, info) of a scene and the body files {b: body dict}: every computed mode."""
-    from solver import models
+    from reduction import models
     log = log or (lambda *_: None)
     D = {b: int(np.asarray(body_data[b]["eigenvalues"]).size) for b in BODIES}
     rigid = models.build_chain(models.ModelSpec("rigid", {b: np.zeros(0, int) for b in BODIES},
@@ -712,7 +712,8 @@ def rank_main(argv=None):
     start = time.perf_counter()
     try:
         import h5py
-        from solver import models, scenes
+        from reduction import models
+        from solver.dynamics import scenes
         from workflow.provenance import versions
         if args.pool < 1 or args.curve < 1 or args.search_stride < 1:
             raise LoadAwareError(f"--pool, --curve and --search-stride must be >= 1, got "
@@ -770,7 +771,7 @@ def rank_main(argv=None):
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "plot":
-        from results import selection
+        from results.bench import selection
         return selection.main(argv[1:])
     return rank_main(argv)
 

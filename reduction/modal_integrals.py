@@ -55,6 +55,7 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph
 import scipy.sparse.linalg
 
+from solver.bodydata import BEARING_NAMES, RIGID_MOTION_NAMES, rigid_modes, skew  # noqa: F401 (re-used names)
 from reduction.errors import (
     BearingIndexError,
     ModeCountError,
@@ -63,41 +64,6 @@ from reduction.errors import (
     SingularMassError,
     SingularStiffnessError,
 )
-
-RIGID_MOTION_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
-BEARING_NAMES = ("input_motor", "input_resolver", "output_motor", "output_resolver")
-
-
-def skew(r):
-    """Cross-product matrix: ``skew(r) @ v == np.cross(r, v)``; r (..., 3) -> (..., 3, 3)."""
-    r = np.asarray(r, dtype=float)
-    s = np.zeros(r.shape[:-1] + (3, 3))
-    s[..., 0, 1], s[..., 0, 2] = -r[..., 2], r[..., 1]
-    s[..., 1, 0], s[..., 1, 2] = r[..., 2], -r[..., 0]
-    s[..., 2, 0], s[..., 2, 1] = -r[..., 1], r[..., 0]
-    return s
-
-
-def rigid_modes(dof_coords, dof_component):
-    """Rigid modes X (ndof, 6) from DOF positions (ndof, 3) [in] and components (ndof,).
-
-    Columns: unit translations x, y, z [in/in], then unit (small) rotations
-    about x, y, z through the origin [in/rad on translations, rad/rad on
-    rotations]: a translation DOF of component c at r moves by (e_a x r)_c.
-    """
-    coords = np.asarray(dof_coords, dtype=float)
-    comp = np.asarray(dof_component)
-    ndof = comp.shape[0]
-    X = np.zeros((ndof, 6))
-    rows = np.arange(ndof)
-    is_translation = comp < 3
-    X[rows[is_translation], comp[is_translation]] = 1.0
-    X[rows[~is_translation], comp[~is_translation]] = 1.0
-    for axis in range(3):
-        moved = np.cross(np.eye(3)[axis], coords)  # (ndof, 3)
-        X[rows[is_translation], 3 + axis] = moved[rows[is_translation], comp[is_translation]]
-    return X
-
 
 def momentum_coefficients(M, X, modes):
     """Linear and angular momentum coefficients of every mode (eq 3.11).

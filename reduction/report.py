@@ -9,7 +9,7 @@
 
 Inputs: the body files (docs/body-data.md), the reduction files that
 ``reduction.stage`` made from them, and a coarse body file holding *every*
-finite supported mode (``solver.modes --all-modes``) for the discrete Hughes
+finite supported mode (``solver.fe.modes --all-modes``) for the discrete Hughes
 identities.
 
 Outputs (all written atomically):
@@ -53,8 +53,8 @@ from reduction import ranking as rk
 from reduction import stage
 from reduction import static_modes as st
 from reduction import verification as vf
-from reduction.bodyfile import read_body_file
-from reduction.errors import ReductionError
+from solver.bodydata import read_body_file
+from reduction.errors import BodyFileError, ReductionError
 
 TABLE_ROWS = 40
 SHARE_COUNTS = (5, 10, 25)
@@ -179,7 +179,7 @@ def coarse_identity_checks(coarse):
     finite = m - details["n_massless_local"]  # upper bound on the finite supported modes
     if D < 0.5 * finite:
         raise ReportInputError(f"{where}: coarse body holds {D} modes of up to {finite} finite "
-                               f"supported modes; make it with solver.modes --all-modes")
+                               f"supported modes; make it with solver.fe.modes --all-modes")
     apply_G = mi.supported_flexibility(K, T, X)
     MGM_inf = mi.flexibility_matrix(M, X, apply_G)
     common = {"file": where, "n_modes": int(D), "n_supported_coordinates": int(m),
@@ -577,7 +577,7 @@ def main(argv=None):
         pairs = load_inputs(args.bodies, args.reductions)
         coarse = read_body_file(args.coarse_body)
         checks, bodies, rows, bench = build_report(pairs, coarse, log)
-    except ReductionError as exc:
+    except (ReductionError, BodyFileError) as exc:
         print(f"reduction.report: error: {exc}", file=sys.stderr)
         return 2
     from workflow.provenance import versions, write_json

@@ -30,8 +30,8 @@ from reduction import modal_integrals as mi
 from reduction import ranking as rk
 from reduction import static_modes as st
 from reduction import verification as vf
-from reduction.bodyfile import read_body_file, write_h5_atomic
-from reduction.errors import MissingBearingError, ReductionError
+from solver.bodydata import read_body_file, write_h5_atomic
+from reduction.errors import BodyFileError, MissingBearingError, ReductionError
 
 FORMAT_VERSION = 1
 
@@ -260,7 +260,7 @@ def main(argv=None):
                              args.load_cases, args.table_rows, log)
         result["timings"]["wall_time_s"] = time.perf_counter() - started
         write_reduction_file(args.out, result, body)
-    except ReductionError as exc:
+    except (ReductionError, BodyFileError) as exc:
         print(f"reduction.stage: error: {exc}", file=sys.stderr)
         return 2
     failed = [c["name"] for c in result["checks"] if not c["passed"]]

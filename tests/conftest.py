@@ -22,7 +22,7 @@ def config_copy(config) -> dict:
 def inner_gimbal_file(tmp_path_factory, config):
     """Body file of the inner gimbal (default mesh, 20 modes), written through the stage's own code."""
     from geometry.mesh import mesh_from_config
-    from solver import modes
+    from solver.fe import modes
 
     tmp = tmp_path_factory.mktemp("body4")
     mesh = tmp / "body4.msh"

@@ -2,7 +2,7 @@
 # against model size (with the dense-mass-matrix baseline timed in the same run), and the
 # stability stress tests. Every benchmark writes files; nothing here is a timed assertion.
 #   snakemake --cores 2 bench
-BENCH_CODE = DYNAMICS_CODE + ["solver/dense_baseline.py", "results/errors.py"]
+BENCH_CODE = DYNAMICS_CODE + ["solver/dynamics/dense_baseline.py", "results/study/tables.py"]
 # Pareto: one model per family at ~40-100 elastic coordinates (each costs ~2 min of repeated
 # runs; the truth, always added, ~5 min).
 PARETO_MODELS = ["freq-10", "xmx-10", "load-10", "global-100"]
@@ -15,7 +15,7 @@ SELECTION_MODELS = (["rigid"] + [f"{f}-{n}" for f in ("freq", "xmx", "xmgmx") fo
 rule stability:
     input:
         BENCH_CODE,
-        "results/stability.py",
+        "results/bench/stability.py",
         "config/scenes/free_10s.yaml",
         expand("results/modes/body{n}.h5", n=BODIES),
         expand("results/reduction/body{n}.h5", n=BODIES),
@@ -26,7 +26,7 @@ rule stability:
     benchmark:
         "results/benchmarks/rules/bench/stability.tsv"
     shell:
-        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.stability --modes-dir results/modes "
+        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.stability --modes-dir results/modes "
         "--reduction-dir results/reduction --out-dir results/stability "
         "--figures-dir results/figures/stability > {log} 2>&1"
 
@@ -34,7 +34,7 @@ rule stability:
 rule scaling:
     input:
         BENCH_CODE,
-        "results/scaling.py",
+        "results/bench/scaling.py",
     output:
         csv="results/benchmarks/scaling.csv",
         json="results/benchmarks/scaling.json",
@@ -47,14 +47,14 @@ rule scaling:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.scaling --out-csv {output.csv} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.scaling --out-csv {output.csv} "
         "--out-json {output.json} --figure {output.figure} > {log} 2>&1"
 
 
 rule pareto:
     input:
         BENCH_CODE,
-        "results/pareto.py",
+        "results/bench/pareto.py",
         expand("results/modes/body{n}.h5", n=BODIES),
         expand("results/reduction/body{n}.h5", n=BODIES),
         "results/reduction/load/thesis.h5",
@@ -73,7 +73,7 @@ rule pareto:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.pareto --scene thesis --truth {input.truth} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.pareto --scene thesis --truth {input.truth} "
         "--models {params.models} --repeats 5 --budget 600 --modes-dir results/modes --reduction-dir results/reduction "
         "--out-csv {output.csv} --figure {output.figure} > {log} 2>&1"
 
@@ -82,7 +82,7 @@ rule selection:
     input:
         BENCH_CODE,
         "reduction/load_aware.py",
-        "results/selection.py",
+        "results/bench/selection.py",
         expand("results/reduction/body{n}.h5", n=BODIES),
         truth="results/sim/thesis/truth.h5",
         ranking="results/reduction/load/thesis.h5",
@@ -95,7 +95,7 @@ rule selection:
     benchmark:
         "results/benchmarks/rules/bench/selection.tsv"
     shell:
-        "MPLBACKEND=Agg {PY} -m results.selection --truth {input.truth} --cases {input.cases} "
+        "MPLBACKEND=Agg {PY} -m results.bench.selection --truth {input.truth} --cases {input.cases} "
         "--ranking {input.ranking} --reduction-dir results/reduction --table {output.table} "
         "--figure {output.figure} > {log} 2>&1"
 

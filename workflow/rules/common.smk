@@ -36,5 +36,5 @@ def body_hash(wildcards):
 
 COMMON_CODE = ["workflow/config.py", "workflow/provenance.py", "workflow/schemas/config.schema.yaml"]
 GEOMETRY_CODE = COMMON_CODE + ["geometry/gimbal.py", "geometry/mesh.py"]
-MODES_CODE = COMMON_CODE + ["solver/fe.py", "solver/bearings.py", "solver/eigen.py", "solver/modes.py", "solver/io.py",
+MODES_CODE = COMMON_CODE + ["solver/fe/forms.py", "solver/fe/bearings.py", "solver/fe/eigen.py", "solver/fe/modes.py", "solver/bodydata.py",
                             "reduction/modal_integrals.py", "reduction/errors.py"]

@@ -1,14 +1,14 @@
 # Stage 4: the flexible multibody simulation of the gimbal chain, any scene and reduced model.
-DYNAMICS_CODE = REDUCTION_CODE + [f"solver/{name}.py" for name in (
-    "multibody", "fast_rhs", "integrators", "scenes", "models", "simulate")]
-DYNAMICS_CHECK_CODE = DYNAMICS_CODE + ["solver/dynamics_checks.py", "solver/verify_dynamics.py", "results/errors.py"]
+DYNAMICS_CODE = REDUCTION_CODE + ["solver/bodydata.py", "reduction/models.py"] + [f"solver/dynamics/{name}.py" for name in (
+    "multibody", "fast_rhs", "integrators", "scenes", "simulate", "chainfile", "error_measure")]
+DYNAMICS_CHECK_CODE = DYNAMICS_CODE + ["solver/dynamics/checks.py", "results/bench/verify_dynamics.py", "results/study/tables.py"]
 
 wildcard_constraints:
     scene="[A-Za-z0-9_-]+",
 
 
-models_mod = importlib.import_module("solver.models")
-scenes_mod = importlib.import_module("solver.scenes")
+models_mod = importlib.import_module("reduction.models")
+scenes_mod = importlib.import_module("solver.dynamics.scenes")
 
 
 def simulation_inputs(wildcards):
@@ -63,7 +63,7 @@ rule simulate:
         # reported by simulate in one line
         scene=scene_physics_hash,
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.simulate --scene {wildcards.scene} --model '{wildcards.model}' "
+        "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {wildcards.scene} --model '{wildcards.model}' "
         "--modes-dir results/modes --reduction-dir results/reduction --out-dir results/sim > {log} 2>&1"
 
 
@@ -83,7 +83,7 @@ rule dynamics_verification:
     # (BLAS still pinned to one thread, as everywhere)
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m solver.verify_dynamics --modes-dir results/modes "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.verify_dynamics --modes-dir results/modes "
         "--reduction-dir results/reduction --verification {output.verification} "
         "--benchmark {output.benchmark} > {log} 2>&1"
 

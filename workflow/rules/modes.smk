@@ -14,7 +14,7 @@ rule modes_body:
     benchmark:
         "results/benchmarks/rules/modes_body{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.modes --body {wildcards.n} --mesh {input.mesh} "
+        "OMP_NUM_THREADS=1 {PY} -m solver.fe.modes --body {wildcards.n} --mesh {input.mesh} "
         "--out {output} --config {CONFIG} > {log} 2>&1"
 
 
@@ -31,13 +31,13 @@ rule modes_benchmark:
     log:
         "logs/modes/benchmark.log",
     shell:
-        "{PY} -m results.benchmarks modes {input} --out {output} > {log} 2>&1"
+        "{PY} -m results.bench.summary modes {input} --out {output} > {log} 2>&1"
 
 
 rule mode_shapes_body:
     input:
         "results/modes/body{n}.h5",
-        "results/shapes.py",
+        "results/study/mode_shapes.py",
         mesh="results/mesh/body{n}.msh",
     output:
         png="results/figures/mode_shapes_body{n}.png",
@@ -47,7 +47,7 @@ rule mode_shapes_body:
     benchmark:
         "results/benchmarks/rules/mode_shapes_body{n}.tsv"
     shell:
-        "{PY} -m results.shapes --body-file {input[0]} --mesh {input.mesh} --png {output.png} "
+        "{PY} -m results.study.mode_shapes --body-file {input[0]} --mesh {input.mesh} --png {output.png} "
         "--vtu {output.vtu} > {log} 2>&1"
 
 

@@ -34,7 +34,7 @@ rule coarse_body_all_modes:
     benchmark:
         "results/benchmarks/rules/coarse_body_all_modes.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.modes --body 4 --mesh {input.mesh} --out {output} --all-modes "
+        "OMP_NUM_THREADS=1 {PY} -m solver.fe.modes --body 4 --mesh {input.mesh} --out {output} --all-modes "
         "--config {CONFIG} > {log} 2>&1"
 
 

@@ -1,7 +1,7 @@
 # Stage 5: the thesis study on the `thesis` scene, error tables, findings, figures and the PDF report.
-STUDY_MODELS = importlib.import_module("results.study").study_models()
-RESULTS_CODE = COMMON_CODE + ["results/study.py", "results/errors.py", "results/findings.py",
-                              "results/figures.py", "results/report.py"]
+STUDY_MODELS = importlib.import_module("results.study.cases").study_models()
+RESULTS_CODE = COMMON_CODE + ["results/study/cases.py", "results/study/tables.py", "results/study/findings.py",
+                              "results/study/figures.py", "results/study/report.py"]
 STUDY_SIMS = expand("results/sim/thesis/{model}.h5", model=STUDY_MODELS)
 TRUTH = "results/sim/thesis/truth.h5"
 
@@ -25,7 +25,7 @@ rule error_tables:
     benchmark:
         "results/benchmarks/rules/error_tables.tsv"
     shell:
-        "{PY} -m results.errors --truth {input.truth} --cases {input.cases} "
+        "{PY} -m results.study.tables --truth {input.truth} --cases {input.cases} "
         "--ranking-table {output.ranking} --static-table {output.static} > {log} 2>&1"
 
 
@@ -43,7 +43,7 @@ rule findings:
     benchmark:
         "results/benchmarks/rules/findings.tsv"
     shell:
-        "{PY} -m results.findings --ranking-table {input.ranking} --static-table {input.static} "
+        "{PY} -m results.study.findings --ranking-table {input.ranking} --static-table {input.static} "
         "--reduction {input.reduction} --csv {output.csv} --json {output.json} > {log} 2>&1"
 
 
@@ -61,7 +61,7 @@ rule study_figures:
     benchmark:
         "results/benchmarks/rules/study_figures.tsv"
     shell:
-        "MPLBACKEND=Agg {PY} -m results.figures --truth {input.truth} --cases {input.cases} "
+        "MPLBACKEND=Agg {PY} -m results.study.figures --truth {input.truth} --cases {input.cases} "
         "--ranking-table {input.ranking} --static-table {input.static} --out-dir results/figures/study "
         "> {log} 2>&1"
 
@@ -93,7 +93,7 @@ rule report:
     benchmark:
         "results/benchmarks/rules/report.tsv"
     shell:
-        "{PY} -m results.report --ranking-table {input.ranking} --static-table {input.static} "
+        "{PY} -m results.study.report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures-dir results/figures/study --fe {input.fe} "
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
         "--config {CONFIG} --scene config/scenes/thesis.yaml --mode-shapes-dir results/figures "

@@ -1,6 +1,6 @@
 # Verification of the finite-element stage: each check is its own job
 # (results/verification/parts/*.json), combined into results/verification/fe.json.
-VERIFY_CODE = MODES_CODE + ["solver/verification.py", "solver/verify.py", "solver/io.py",
+VERIFY_CODE = MODES_CODE + ["solver/fe/checks.py", "solver/fe/verify.py", "solver/bodydata.py",
                             "geometry/gimbal.py", "geometry/mesh.py", "geometry/verification.py"]
 GLOBAL_CHECKS = ["ring", "plate", "solid-ring", "platform", "hughes", "connection"]
 
@@ -19,7 +19,7 @@ rule verify_check:
     benchmark:
         "results/benchmarks/rules/verify_{check}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.verify {wildcards.check} --config {CONFIG} --out {output} > {log} 2>&1"
+        "OMP_NUM_THREADS=1 {PY} -m solver.fe.verify {wildcards.check} --config {CONFIG} --out {output} > {log} 2>&1"
 
 
 rule verify_convergence:
@@ -34,7 +34,7 @@ rule verify_convergence:
     benchmark:
         "results/benchmarks/rules/verify_convergence_body{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.verify convergence --body {wildcards.n} --config {CONFIG} "
+        "OMP_NUM_THREADS=1 {PY} -m solver.fe.verify convergence --body {wildcards.n} --config {CONFIG} "
         "--out {output} > {log} 2>&1"
 
 
@@ -50,8 +50,8 @@ rule verify_body:
     benchmark:
         "results/benchmarks/rules/verify_body{n}.tsv"
     shell:
-        "({PY} -m solver.verify body-file --body-file {input.body} --config {CONFIG} --out {output.modes} && "
-        "{PY} -m solver.verify spectra --body-file {input.body} --config {CONFIG} --out {output.spectra}) "
+        "({PY} -m solver.fe.verify body-file --body-file {input.body} --config {CONFIG} --out {output.modes} && "
+        "{PY} -m solver.fe.verify spectra --body-file {input.body} --config {CONFIG} --out {output.spectra}) "
         "> {log} 2>&1"
 
 
@@ -68,7 +68,7 @@ rule verify_mpi:
     benchmark:
         "results/benchmarks/rules/verify_mpi.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.verify mpi --body-file {input.body} --mesh {input.mesh} "
+        "OMP_NUM_THREADS=1 {PY} -m solver.fe.verify mpi --body-file {input.body} --mesh {input.mesh} "
         "--config {CONFIG} --out {output} > {log} 2>&1"
 
 
@@ -87,5 +87,5 @@ rule verify_fe:
     benchmark:
         "results/benchmarks/rules/verify_fe.tsv"
     shell:
-        "{PY} -m solver.verify combine {input} --config {CONFIG} --out {output.json} "
+        "{PY} -m solver.fe.verify combine {input} --config {CONFIG} --out {output.json} "
         "--summary {output.summary} > {log} 2>&1"

@@ -1,0 +1,429 @@
+"""Reduced models named by compact strings, and their assembly from the body files.
+
+Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
+
+    model   := "truth" | "rigid" | family "-" counts statics | pooled "-" N statics
+    family  := "freq" | "xmx" | "xmgmx" | "load"              vibration modes only
+             | "static" | "static-freq" | "static-xmx" | "static-xmgmx" | "static-load"
+    pooled  := "global" | "static-global"     N modes in total, pooled over the bodies
+    counts  := N | N,N,N,N        kept vibration modes, all bodies or per body 2..5
+    statics := ( "@" body ":" loadcase ( "+" loadcase )* )*
+    loadcase:= {input_motor|input_resolver|output_motor|output_resolver}_{f|m}{x|y|z}
+
+* ``truth``: the 100 lowest-frequency vibration modes of every body (thesis).
+* ``rigid``: no elastic modes (the rigid limit).
+* ``freq-10`` / ``xmx-10`` / ``xmgmx-10``: the 10 first modes of every body in the
+  frequency / XMX / XMGMX ranking (``rank_frequency`` ... of
+  results/reduction/body{n}.h5, 0-based, most important first);
+  ``freq-10,10,5,5`` keeps 10, 10, 5, 5 on bodies 2..5.
+* ``static-8`` (= ``static-freq-8``): the 8 lowest modes plus one static
+  correction mode per body with the default load case (``output_motor_fz`` for
+  bodies 2-4, as the thesis's Figure 4-12; ``input_motor_fx`` for the platform,
+  which has no output bearings **[chosen]**); ``static-xmx-8`` with XMX-ranked modes.
+* ``load-10`` / ``load-10,10,5,5``: the first modes of every body in the scene's
+  load-aware ranking (``rank_load`` of results/reduction/load/{scene}.h5, written by
+  ``python -m reduction.load_aware``; docs/selection.md): the modes ranked by what
+  the scene's joint loads make them contribute to the gimbal rates.
+* ``global-40``: 40 vibration modes in total, the first 40 of the pooled load-aware
+  ranking of all four bodies' modes (thesis Section 5.1), however they fall on
+  the bodies (``pooled/body``, ``pooled/mode`` of the same file).
+  ``load-*`` and ``global-*`` need the scene's ranking file (``needs_load_ranking``,
+  ``load_load_ranking``; ``simulate --load-ranking``).
+* ``@body:case`` puts static modes on the listed bodies only, e.g.
+  ``static-10@2:output_motor_fz`` (outer gimbal only) or
+  ``freq-6@2:output_motor_fz+output_motor_my@3:output_motor_fz``.
+
+``parse_model`` is a pure function of the name and the rankings; bad names,
+counts above what was computed and malformed load cases raise ModelError with
+a one-line message, before anything is integrated.
+"""
+
+import argparse
+import hashlib
+import json
+import os
+import re
+import sys
+import time
+from dataclasses import dataclass
+
+import h5py
+import numpy as np
+
+from reduction import modal_integrals
+from reduction.static_modes import load_case_vector, static_correction_modes
+from solver.bodydata import BODIES, BEARING_NAMES, read_body_file
+from solver.dynamics import chainfile, multibody, scenes
+from workflow.provenance import versions
+
+TRUTH_MODES = 100
+FAMILIES = ("freq", "xmx", "xmgmx")
+RANKING_KEYS = {"freq": "rank_frequency", "xmx": "rank_xmx", "xmgmx": "rank_xmgmx"}
+LOAD_FAMILY, LOAD_KEY = "load", "rank_load"          # per-body load-aware ranking
+GLOBAL_FAMILY, POOLED_KEY = "global", "pooled"       # pooled ranking: rankings["pooled"]
+BEARINGS = BEARING_NAMES
+DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_motor_fz",
+                     5: "input_motor_fx"}
+_LOAD_RE = re.compile(r"^(input_motor|input_resolver|output_motor|output_resolver)_[fm][xyz]$")
+
+
+# The truth model's default integration (simulate --model truth without --integrator/--step/
+# --fraction): chosen so that halving the step changes every gimbal rate on scene thesis by
+# E < 1e-10 (results.bench.verify_dynamics; docs/dynamics.md Section 8).  A fraction of the RK4
+# stability limit 2.785 / omega_max, omega_max the coupled chain's highest frequency.
+# Measured on the real bodies (thesis, 15 ms): RK4 needs 1/8 of its stability limit (264k steps,
+# ~100 s; E(h, h/2) ~ 1e-11, E(h/4, h/2) = 2e-7 at half the limit: the top coupled modes,
+# excited by the case's sudden acceleration, are stable but their phase is not resolved), while
+# DOP853 at rtol 1e-10 runs near its larger stability limit (21k steps, 12 evaluations each) and
+# agrees with that RK4 run to E = 4e-12: the cheaper converged choice.
+TRUTH_DEFAULT = {"integrator": "dop853", "rtol": 1e-10, "atol": 1e-14}
+
+
+def truth_default():
+    """The truth model's default integrator settings (a copy of TRUTH_DEFAULT)."""
+    return dict(TRUTH_DEFAULT)
+
+
+class ModelError(ValueError):
+    """A model name that cannot be built."""
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """What a model name means: kept vibration mode indices and static load cases per body."""
+    name: str
+    kept: dict          # body -> int array (0-based indices into the body file's modes)
+    static: dict        # body -> tuple of load case names
+    ranking: str
+
+    def n_modes(self, body):
+        return len(self.kept[body]) + len(self.static[body])
+
+
+def _counts(text, name):
+    parts = text.split(",")
+    if len(parts) not in (1, 4) or not all(re.fullmatch(r"\d+", p) for p in parts):
+        raise ModelError(f"model {name!r}: counts must be N or N,N,N,N (bodies 2..5), got {text!r}")
+    vals = [int(p) for p in parts]
+    return dict(zip(BODIES, vals * 4 if len(vals) == 1 else vals))
+
+
+def _statics(text, name):
+    out = {}
+    for chunk in text.split("@")[1:]:
+        body_s, sep, cases = chunk.partition(":")
+        if not sep or not re.fullmatch(r"[2-5]", body_s):
+            raise ModelError(f"model {name!r}: static spec must be @body:loadcase with body 2..5, "
+                             f"got '@{chunk}'")
+        body = int(body_s)
+        if body in out:
+            raise ModelError(f"model {name!r}: body {body} given twice")
+        names = tuple(cases.split("+"))
+        for c in names:
+            if not _LOAD_RE.match(c):
+                raise ModelError(f"model {name!r}: unknown load case {c!r} (expected "
+                                 f"{{bearing}}_{{f|m}}{{x|y|z}}, bearing in {', '.join(BEARINGS)})")
+        if len(set(names)) != len(names):
+            raise ModelError(f"model {name!r}: repeated load case on body {body}")
+        if body == 5 and any(c.startswith("output") for c in names):
+            raise ModelError(f"model {name!r}: the platform (body 5) has no output bearings")
+        out[body] = names
+    return out
+
+
+def parse_model(name, rankings):
+    """ModelSpec from a model name and the rankings.
+
+    rankings: {body: {"rank_frequency": (D,), "rank_xmx": (D,), "rank_xmgmx": (D,)}}
+    (0-based mode indices, most important first; D = computed modes)."""
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"model name must be a non-empty string, got {name!r}")
+    base, _, _ = name.partition("@")
+    statics = _statics(name, name) if "@" in name else {}
+    available = {}
+    for b in BODIES:
+        if b not in rankings:
+            raise ModelError(f"model {name!r}: no ranking data for body {b}")
+        available[b] = len(np.asarray(rankings[b]["rank_frequency"]))
+    if base in ("truth", "rigid"):
+        if statics:
+            raise ModelError(f"model {name!r}: '{base}' takes no static modes")
+        n = TRUTH_MODES if base == "truth" else 0
+        counts = dict.fromkeys(BODIES, n)
+        family, with_static = "freq", False
+    else:
+        m = re.fullmatch(r"(static-)?(?:(freq|xmx|xmgmx|load|global)-)?([0-9,]+)", base)
+        if not m or (m.group(1) is None and m.group(2) is None):
+            raise ModelError(
+                f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, load-N, "
+                f"global-N, static-N, static-xmx-N, static-xmgmx-N, static-load-N "
+                f"(N or N,N,N,N; global-N: one total N; optional @body:loadcase)")
+        with_static = m.group(1) is not None
+        family = m.group(2) or "freq"
+        if family == GLOBAL_FAMILY:
+            kept = _pooled_kept(name, m.group(3), rankings, available)
+            return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static),
+                             ranking=family)
+        counts = _counts(m.group(3), name)
+    if family == LOAD_FAMILY and any(LOAD_KEY not in rankings[b] for b in BODIES):
+        raise ModelError(f"model {name!r}: no load-aware ranking loaded (python -m "
+                         f"reduction.load_aware; simulate --load-ranking PATH)")
+    key = LOAD_KEY if family == LOAD_FAMILY else RANKING_KEYS[family]
+    kept = {}
+    for b in BODIES:
+        if counts[b] > available[b]:
+            raise ModelError(f"model {name!r}: body {b} asks for {counts[b]} modes, only "
+                             f"{available[b]} computed")
+        order = np.asarray(rankings[b][key], dtype=int)
+        if order.size != available[b] or np.unique(order).size != order.size or \
+                (order.size and (order.min() < 0 or order.max() >= available[b])):
+            raise ModelError(f"model {name!r}: ranking {key} of body {b} is not "
+                             f"a permutation of 0..{available[b] - 1}")
+        kept[b] = np.sort(order[:counts[b]])
+    return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static), ranking=family)
+
+
+def _static_spec(statics, with_static):
+    """Static load cases per body: the @body:case list, the default case, or none."""
+    if statics:
+        return {b: statics.get(b, ()) for b in BODIES}
+    if with_static:
+        return {b: (DEFAULT_LOAD_CASE[b],) for b in BODIES}
+    return dict.fromkeys(BODIES, ())
+
+
+def _pooled_kept(name, text, rankings, available):
+    """Kept modes per body of ``global-N``: the first N entries of the pooled ranking
+    rankings["pooled"] = {"body": (Q,), "mode": (Q,)} (body 2..5, 0-based mode)."""
+    if not re.fullmatch(r"\d+", text):
+        raise ModelError(f"model {name!r}: global-N takes one total count N (modes over all "
+                         f"bodies), got {text!r}")
+    n = int(text)
+    pooled = rankings.get(POOLED_KEY)
+    if pooled is None:
+        raise ModelError(f"model {name!r}: no pooled load-aware ranking loaded (python -m "
+                         f"reduction.load_aware; simulate --load-ranking PATH)")
+    body = np.asarray(pooled["body"], dtype=int)
+    mode = np.asarray(pooled["mode"], dtype=int)
+    total = sum(available.values())
+    pairs = set(zip(body.tolist(), mode.tolist()))
+    if body.shape != mode.shape or body.size != total or len(pairs) != total or \
+            any(b not in available or not 0 <= i < available[b] for b, i in pairs):
+        raise ModelError(f"model {name!r}: the pooled ranking is not a permutation of the "
+                         f"{total} computed modes of bodies 2..5")
+    if n > total:
+        raise ModelError(f"model {name!r}: asks for {n} modes in total, only {total} computed")
+    return {b: np.sort(mode[:n][body[:n] == b]) for b in BODIES}
+
+
+def needs_reduction_rankings(name):
+    """True if the model's mode selection reads the reduction stage's rankings: xmx-*,
+    xmgmx-*, and load-* / global-* (whose ranking file is checked against them).  truth,
+    rigid, freq-* and static(-freq)-* select by frequency from the body files alone
+    (``frequency_rankings``), so their simulations do not wait for the reduction stage."""
+    base = str(name).partition("@")[0]
+    return re.fullmatch(r"(static-)?(xmx|xmgmx|load|global)-[0-9,]+", base) is not None
+
+
+def frequency_rankings(body_data):
+    """{body: {"rank_frequency": (D,)}}: the modes in ascending order of eigenvalue, from
+    the body files (the reduction stage's rank_frequency is the same order)."""
+    return {b: {RANKING_KEYS["freq"]: np.argsort(np.asarray(d["eigenvalues"]), kind="stable")}
+            for b, d in body_data.items()}
+
+
+def restrict_to_bodies(spec, bodies):
+    """The ModelSpec with every body outside ``bodies`` rigid (no kept or static modes):
+    a scene's ``needs.bodies``."""
+    kept = {b: (v if b in bodies else np.zeros(0, dtype=int)) for b, v in spec.kept.items()}
+    static = {b: (v if b in bodies else ()) for b, v in spec.static.items()}
+    return ModelSpec(name=spec.name, kept=kept, static=static, ranking=spec.ranking)
+
+
+def needs_load_ranking(name):
+    """True if the model name uses the scene's load-aware ranking (load-*, global-*)."""
+    base = str(name).partition("@")[0]
+    return re.fullmatch(r"(static-)?(load|global)-[0-9,]+", base) is not None
+
+
+def load_load_ranking(path, rankings=None):
+    """Add the load-aware rankings of ``reduction.load_aware`` (file ``path``) to a
+    rankings dict (``load_rankings``): rankings[b]["rank_load"] (D,) and
+    rankings["pooled"] = {"body", "mode"} (Q,); returns it (a new dict if None)."""
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"load-aware ranking {path} missing (run python -m "
+                                f"reduction.load_aware --scene SCENE --out {path})")
+    out = {} if rankings is None else rankings
+    try:
+        with h5py.File(path, "r") as f:
+            for b in BODIES:
+                out.setdefault(b, {})[LOAD_KEY] = f[f"body{b}/{LOAD_KEY}"][()]
+            out[POOLED_KEY] = {"body": f["pooled/body"][()], "mode": f["pooled/mode"][()],
+                               "scene": str(f.attrs.get("scene", "")),
+                               "body_config_hashes": str(f.attrs.get("body_config_hashes", ""))}
+    except (OSError, KeyError) as exc:
+        raise ModelError(f"load-aware ranking {path} unreadable or incomplete "
+                         f"({exc.__class__.__name__}: {' '.join(str(exc).split())})") from None
+    return out
+
+
+# ------------------------------------------------------------------ body files
+def load_body_file(path):
+    """The FE stage's per-body file (docs/body-data.md), read and checked by its one owner
+    (``solver.bodydata.read_body_file``)."""
+    return read_body_file(path)
+
+
+def read_rankings(paths):
+    """{body: {rank_frequency, rank_xmx, rank_xmgmx}} from the reduction files {body: path}."""
+    out = {}
+    for b, path in paths.items():
+        if not os.path.exists(path):
+            raise FileNotFoundError(f"ranking file {path} missing (run the reduction stage first)")
+        try:
+            with h5py.File(path, "r") as f:
+                out[b] = {k: f[k][()] for k in RANKING_KEYS.values()}
+        except (OSError, KeyError) as exc:
+            raise ModelError(f"ranking file {path} unreadable or incomplete ({exc.__class__.__name__}: "
+                             f"{' '.join(str(exc).split())}): delete it and rerun the reduction stage") from None
+    return out
+
+
+def load_rankings(reduction_dir, bodies=BODIES):
+    """{body: {rank_frequency, rank_xmx, rank_xmgmx}} from reduction_dir/body{n}.h5."""
+    return read_rankings({b: os.path.join(reduction_dir, f"body{b}.h5") for b in bodies})
+
+
+def static_modes_for(data, load_cases, kept_modes, kept_eigenvalues):
+    """Static correction modes of one body (reduction.static_modes, eq. 3.48) for a kept set:
+    (modes (ndof, s), modal stiffness (s,))."""
+    apply_G = modal_integrals.supported_flexibility(data["K"], data["T"], data["rigid_modes"])
+    F = np.column_stack([load_case_vector(data["bearing_operator"], c, data["bearing_points"])
+                         for c in load_cases])
+    res = static_correction_modes(data["M"], data["K"], apply_G, F, kept_modes, kept_eigenvalues,
+                                  names=list(load_cases))
+    return res["modes"], res["modal_stiffness"]
+
+
+def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rotation_blocks=True):
+    """multibody.Body of one body: kept vibration modes plus static correction modes."""
+    kept = np.asarray(kept, dtype=int)
+    Phi = np.asarray(data["modes"])[:, kept]
+    lam = np.asarray(data["eigenvalues"])[kept]
+    labels = [f"mode {i}" for i in kept]
+    bearing_modes = np.asarray(data["bearing_modes"])[kept]
+    if load_cases:
+        S, k_s = static_modes_for(data, load_cases, Phi, lam)
+        Phi = np.hstack([Phi, S])
+        lam = np.concatenate([lam, k_s])
+        labels += [f"static {c}" for c in load_cases]
+        bm_s = np.asarray(data["bearing_operator"] @ S).T.reshape(S.shape[1], 4, 6)
+        bearing_modes = np.concatenate([bearing_modes, bm_s])
+    integ = modal_integrals.chain_integrals(data["M"], Phi, data["rigid_modes"], data["dof_coords"],
+                                       data["dof_component"], bearing_modes, data["bearing_points"],
+                                       rotate_rotation_blocks=rotate_rotation_blocks)
+    return multibody.make_body(number, integ, lam, damping_ratio, labels)
+
+
+def build_chain(spec, body_data, damping_ratio=0.0):
+    """multibody.Chain of a ModelSpec from {body: body-file dict}."""
+    bodies = tuple(build_body(b, body_data[b], spec.kept[b], spec.static[b], damping_ratio)
+                   for b in BODIES)
+    return multibody.Chain(bodies, name=spec.name)
+
+
+# ------------------------------------------------------------------ the reduced-model file
+def model_config_hash(spec, body_data, scene, ranking_hashes=()):
+    """Hash of what a reduced-model file is made from: the model's kept modes and static
+    load cases, the body files' config hashes, the rankings used and the scene's elastic
+    bodies (16 hex digits)."""
+    payload = {"model": spec.name,
+               "kept": {str(b): np.asarray(v).tolist() for b, v in spec.kept.items()},
+               "static": {str(b): list(v) for b, v in spec.static.items()},
+               "bodies": [str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES],
+               "rankings": list(ranking_hashes), "elastic_bodies": list(scene.elastic_bodies)}
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def check_load_ranking(path, rankings, body_data):
+    """ModelError (one line) if a load-aware ranking was made from other body files."""
+    stored = rankings[POOLED_KEY].get("body_config_hashes") or ""
+    current = [str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES]
+    if stored and json.loads(stored) != current:
+        raise ModelError(f"load-aware ranking {path} was made from other body files (config "
+                         f"hashes differ): rerun python -m reduction.load_aware")
+
+
+def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None):
+    """(Chain, ModelSpec, attrs) of model ``name`` on ``scene`` (undamped: damping is the
+    scene's, applied when the model file is read).
+
+    body_files: {body: path} of the modal stage's files; reduction_files: {body: path} of
+    the reduction stage's files (needed by xmx-, xmgmx-, load- and global- models);
+    load_ranking: the scene's load-aware ranking file (load- and global- models)."""
+    body_data = {b: load_body_file(body_files[b]) for b in BODIES}
+    if needs_reduction_rankings(name):
+        if not reduction_files:
+            raise ModelError(f"model {name!r} ranks modes by the reduction stage: pass its files "
+                             f"(--reductions)")
+        rankings = read_rankings(reduction_files)
+    else:       # truth, rigid, freq-*, static-*: no reduction stage needed
+        rankings = frequency_rankings(body_data)
+    ranking_hashes = []
+    if needs_load_ranking(name):
+        if load_ranking is None:
+            raise ModelError(f"model {name!r} needs the scene's load-aware ranking (--load-ranking)")
+        load_load_ranking(load_ranking, rankings)
+        check_load_ranking(load_ranking, rankings, body_data)
+        ranking_hashes.append(str(rankings[POOLED_KEY].get("body_config_hashes", "")))
+    spec = restrict_to_bodies(parse_model(name, rankings), scene.elastic_bodies)
+    chain = build_chain(spec, body_data)
+    attrs = {"model": spec.name, "scene": scene.name,
+             "config_hash": model_config_hash(spec, body_data, scene, ranking_hashes),
+             "n_modes": np.array(chain.n_modes), "units": "in, lbf, s"}
+    if load_ranking is not None:
+        attrs["load_ranking"] = os.path.abspath(load_ranking)
+        attrs["load_ranking_scene"] = rankings[POOLED_KEY]["scene"]
+    return chain, spec, attrs
+
+
+class _Parser(argparse.ArgumentParser):
+    """Argument errors as one line (no usage block), exit status 2."""
+
+    def error(self, message):
+        self.exit(2, f"reduction.models: {message} (see --help)\n")
+
+
+def main(argv=None):
+    ap = _Parser(prog="python -m reduction.models",
+                 description="Reduce the chain to one model on one scene: the reduced-model file "
+                             "(solver/dynamics/chainfile.py, docs/models.md) a simulation reads.")
+    ap.add_argument("--model", required=True, help="model name (grammar: reduction/models.py)")
+    ap.add_argument("--scene", required=True, help="scene file (config/scenes/NAME.yaml) or name")
+    ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE",
+                    help="the modal stage's files of bodies 2, 3, 4, 5")
+    ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE",
+                    help="the reduction stage's files of bodies 2..5 (xmx-, xmgmx-, load-, global-)")
+    ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global-)")
+    ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
+    args = ap.parse_args(argv)
+    t0 = time.perf_counter()
+    try:
+        scene = scenes.load_scene(args.scene)
+        chain, spec, attrs = reduce_model(
+            args.model, scene, dict(zip(BODIES, args.bodies)),
+            dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"reduction.models: {exc}", file=sys.stderr)
+        return 2
+    attrs.update({f"version_{k}": str(v) for k, v in versions().items()})
+    attrs["wall_time_s"] = time.perf_counter() - t0
+    attrs["created"] = time.strftime("%Y-%m-%dT%H:%M:%S")
+    chainfile.write_chain(args.out, chain, spec.kept, spec.static, attrs)
+    print(f"reduction.models: {args.out}: model {spec.name} on scene {scene.name}, "
+          f"{sum(chain.n_modes)} elastic coordinates {chain.n_modes} in {attrs['wall_time_s']:.2f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,190 @@
+"""Error of reduced models against the truth model (thesis eq 3.53) and Tables 4.2 / 4.3.
+
+    python -m results.study.tables --truth results/sim/thesis/truth.h5 \\
+        --cases results/sim/thesis/freq-5.h5 ... \\
+        --ranking-table results/tables/errors_ranking.csv \\
+        --static-table results/tables/errors_static.csv
+
+For every gimbal rate n (gamma_dot[:, n], rad/s)::
+
+    E_n = int e_n(t)^2 dt / int r_n(t)^2 dt,   r = truth rate, e = reduced rate - r
+
+with both integrals by the trapezoid rule on the common output grid ``t``
+(s).  E is dimensionless; E = 1 means an error as large as the signal.  The
+grids must be the same (same scene and output interval): a case on another
+grid is refused with a one-line error (no resampling, which would hide a
+scene mismatch).
+
+Simulation files (written by ``solver.dynamics.simulate``): datasets ``t`` (T,) [s],
+``gamma`` (T, 4) [rad], ``gamma_dot`` (T, 4) [rad/s]; attributes ``model``,
+``scene``, ``integrator``, ``step`` [s], ``steps``, ``wall_time_s`` [s],
+``integration_time_s`` [s], ``config_hash``, ``n_modes`` (4,).
+
+Tables (CSV, one row per case, long format; the report pivots them):
+``--ranking-table``: the truth row (E = 0) and groups freq, xmx, xmgmx
+(Table 4.2 analogue); ``--static-table``: groups static-freq, static-xmx,
+static-xmgmx, load-case (Table 4.3 analogue and Figs 4-21..4-27).  Cases
+outside the study go to the ranking table with group ``other``.  Columns:
+``TABLE_COLUMNS``.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import os
+import sys
+
+import numpy as np
+
+from results.study import cases as study
+from solver.dynamics.error_measure import GRID_RTOL, ErrorsInputError, check_same_grid, error_measure  # noqa: F401
+
+RATE_COLUMNS = tuple(f"E_{study.BODY_NAMES[b]}" for b in study.BODIES)
+TABLE_COLUMNS = ("group", "model", "ranking", "count", "static", "load_case", "thesis_figure",
+                 "n_elastic", *RATE_COLUMNS, "wall_time_s", "integration_time_s", "integrator",
+                 "step_s", "steps", "samples", "scene", "config_hash", "file")
+def read_sim(path) -> dict:
+    """A simulation file as {t (T,), gamma (T,4), gamma_dot (T,4), attrs, path}."""
+    import h5py
+    if not os.path.exists(path):
+        raise ErrorsInputError(f"{path}: simulation file missing (run solver.dynamics.simulate first)")
+    try:
+        with h5py.File(path, "r") as f:
+            for key in ("t", "gamma_dot"):
+                if key not in f:
+                    raise ErrorsInputError(f"{path}: dataset '{key}' missing (not a simulation file)")
+            out = {"t": f["t"][()], "gamma_dot": f["gamma_dot"][()],
+                   "gamma": f["gamma"][()] if "gamma" in f else None,
+                   "attrs": {k: _plain(v) for k, v in f.attrs.items()}}
+            if "energy" in f:
+                out["energy"] = {k: f["energy"][k][()] for k in f["energy"]}
+    except OSError as exc:
+        raise ErrorsInputError(f"{path}: unreadable HDF5 file ({exc.__class__.__name__})") from None
+    t, gd = np.asarray(out["t"], float), np.asarray(out["gamma_dot"], float)
+    if t.ndim != 1 or gd.shape != (t.size, 4):
+        raise ErrorsInputError(f"{path}: gamma_dot has shape {gd.shape}, expected ({t.size}, 4)")
+    if not (np.all(np.isfinite(gd)) and np.all(np.isfinite(t))):
+        raise ErrorsInputError(f"{path}: non-finite gamma_dot or t (diverged run)")
+    out["t"], out["gamma_dot"], out["path"] = t, gd, str(path)
+    out["model"] = str(out["attrs"].get("model") or os.path.splitext(os.path.basename(path))[0])
+    return out
+
+
+def _plain(v):
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def case_row(truth: dict, case: dict) -> dict:
+    """One table row: the case's description, E per gimbal rate and its cost attributes."""
+    label = case.get("path", case.get("model", "case"))
+    check_same_grid(truth["t"], case["t"], label)
+    ts, cs = truth["attrs"].get("scene"), case["attrs"].get("scene")
+    if ts and cs and ts != cs:
+        raise ErrorsInputError(f"{label}: scene {cs!r}, the truth's is {ts!r}")
+    E = error_measure(truth["t"], truth["gamma_dot"], case["gamma_dot"])
+    desc = study.describe_model(case["model"])
+    a = case["attrs"]
+    n_modes = a.get("n_modes")
+    n_elastic = int(np.sum(n_modes)) if n_modes is not None else desc["n_elastic"]
+    row = {k: desc[k] for k in ("group", "model", "ranking", "count", "static", "load_case",
+                                "thesis_figure")}
+    row.update({"n_elastic": n_elastic, **{c: float(e) for c, e in zip(RATE_COLUMNS, E)},
+                "wall_time_s": _num(a.get("wall_time_s")),
+                "integration_time_s": _num(a.get("integration_time_s")),
+                "integrator": a.get("integrator", ""), "step_s": _num(a.get("step")),
+                "steps": a.get("steps", ""), "samples": int(case["t"].size),
+                "scene": a.get("scene", ""), "config_hash": a.get("config_hash", ""),
+                "file": case.get("path", "")})
+    return row
+
+
+def _num(v):
+    return float(v) if v is not None and v != "" else float("nan")
+
+
+def build_tables(truth: dict, cases: list[dict]) -> tuple[list[dict], list[dict]]:
+    """(ranking rows, static rows) of the cases, each sorted in study order (group, count)."""
+    rows = [case_row(truth, truth)] + [case_row(truth, c) for c in cases]
+    seen = set()
+    for r in rows:
+        if r["model"] in seen:
+            raise ErrorsInputError(f"model {r['model']!r} given twice")
+        seen.add(r["model"])
+    order = {c["model"]: i for i, c in enumerate(study.study_cases())}
+    rows.sort(key=lambda r: (r["group"] != "truth", order.get(r["model"], len(order)), r["model"]))
+    static = [r for r in rows if r["group"] in study.STATIC_TABLE_GROUPS]
+    ranking = [r for r in rows if r["group"] not in study.STATIC_TABLE_GROUPS]
+    return ranking, static
+
+
+def csv_text(rows: list[dict], columns, digits: int = 8) -> str:
+    """CSV text of dict rows in the given columns: floats with ``digits`` significant
+    digits, None or a missing key as an empty cell, other keys ignored (every table of
+    the results stage is written by this)."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n", extrasaction="ignore")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: (f"{r[k]:.{digits}g}" if isinstance(r.get(k), float) else
+                        ("" if r.get(k) is None else r.get(k))) for k in columns})
+    return buf.getvalue()
+
+
+def format_csv(rows: list[dict]) -> str:
+    """CSV text of table rows (columns TABLE_COLUMNS; floats with 8 significant digits)."""
+    return csv_text(rows, TABLE_COLUMNS, 8)
+
+
+def read_table(path) -> list[dict]:
+    """Rows of a table written by this module, numbers converted (E_*, times: float;
+    count, static, n_elastic, steps, samples: int or None)."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        for k in (*RATE_COLUMNS, "wall_time_s", "integration_time_s", "step_s"):
+            r[k] = float(r[k]) if r.get(k) not in (None, "") else float("nan")
+        for k in ("count", "static", "n_elastic", "steps", "samples"):
+            r[k] = int(float(r[k])) if r.get(k) not in (None, "") else None
+        r["load_case"] = r.get("load_case") or None
+    return rows
+
+
+def write_text_atomic(path, text):
+    from workflow.provenance import atomic_path
+    with atomic_path(path) as tmp:
+        with open(tmp, "w") as f:
+            f.write(text)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m results.study.tables",
+        description="Eq 3.53 error of every case against the truth model; Table 4.2 / 4.3 analogues.")
+    parser.add_argument("--truth", required=True, help="truth simulation file (results/sim/{scene}/truth.h5)")
+    parser.add_argument("--cases", nargs="+", required=True, help="reduced-model simulation files")
+    parser.add_argument("--ranking-table", required=True, help="CSV: truth, freq, xmx, xmgmx cases")
+    parser.add_argument("--static-table", required=True, help="CSV: static and load-case cases")
+    args = parser.parse_args(argv)
+    try:
+        truth = read_sim(args.truth)
+        cases = [read_sim(p) for p in args.cases if os.path.abspath(p) != os.path.abspath(args.truth)]
+        ranking, static = build_tables(truth, cases)
+    except ErrorsInputError as exc:
+        print(f"results.study.tables: error: {exc}", file=sys.stderr)
+        return 2
+    write_text_atomic(args.ranking_table, format_csv(ranking))
+    write_text_atomic(args.static_table, format_csv(static))
+    print(f"results.study.tables: {len(ranking)} rows -> {args.ranking_table}, {len(static)} rows -> "
+          f"{args.static_table}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,205 @@
+"""The body file: the contract between the FE stage and everything after it.
+
+This module owns ``docs/body-data.md``: the body numbering and bearing names,
+the rigid-motion basis X(dof_coords, dof_component), the one checked reader
+and the writer's CSR layout.  It sits below both engines (``solver.fe``
+writes body files, ``reduction`` and ``solver.dynamics`` read what follows
+from them), so it imports nothing from them.
+
+``read_body_file`` checks the contract (every dataset present, shapes
+consistent, eigenvalues positive and ascending, modes mass-normalised, rigid
+modes matching the DOF layout, optional config hash) and raises
+``BodyFileError`` with a one-line message naming the file otherwise -- a
+stale, truncated or foreign file is caught before any expensive work.
+
+``write_h5_atomic`` writes to a temporary file in the target's folder and
+renames it with ``os.replace``: a killed run never leaves a truncated file.
+"""
+
+import os
+import tempfile
+
+import h5py
+import numpy as np
+import scipy.sparse as sp
+
+
+BODIES = (2, 3, 4, 5)   # outer, middle, inner gimbal, stable platform (thesis numbering)
+
+
+class BodyFileError(ValueError):
+    """A body file that is missing, truncated, stale or inconsistent (one-line message)."""
+
+    def __init__(self, message):
+        super().__init__(" ".join(str(message).split()))
+
+
+RIGID_MOTION_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
+BEARING_NAMES = ("input_motor", "input_resolver", "output_motor", "output_resolver")
+
+
+def skew(r):
+    """Cross-product matrix: ``skew(r) @ v == np.cross(r, v)``; r (..., 3) -> (..., 3, 3)."""
+    r = np.asarray(r, dtype=float)
+    s = np.zeros(r.shape[:-1] + (3, 3))
+    s[..., 0, 1], s[..., 0, 2] = -r[..., 2], r[..., 1]
+    s[..., 1, 0], s[..., 1, 2] = r[..., 2], -r[..., 0]
+    s[..., 2, 0], s[..., 2, 1] = -r[..., 1], r[..., 0]
+    return s
+
+
+def rigid_modes(dof_coords, dof_component):
+    """Rigid modes X (ndof, 6) from DOF positions (ndof, 3) [in] and components (ndof,).
+
+    Columns: unit translations x, y, z [in/in], then unit (small) rotations
+    about x, y, z through the origin [in/rad on translations, rad/rad on
+    rotations]: a translation DOF of component c at r moves by (e_a x r)_c.
+    """
+    coords = np.asarray(dof_coords, dtype=float)
+    comp = np.asarray(dof_component)
+    ndof = comp.shape[0]
+    X = np.zeros((ndof, 6))
+    rows = np.arange(ndof)
+    is_translation = comp < 3
+    X[rows[is_translation], comp[is_translation]] = 1.0
+    X[rows[~is_translation], comp[~is_translation]] = 1.0
+    for axis in range(3):
+        moved = np.cross(np.eye(3)[axis], coords)  # (ndof, 3)
+        X[rows[is_translation], 3 + axis] = moved[rows[is_translation], comp[is_translation]]
+    return X
+
+
+
+DENSE_DATASETS = ("frequencies_hz", "eigenvalues", "modes", "rigid_modes", "dof_coords",
+                  "dof_component", "bearing_points", "bearing_modes")
+SPARSE_DATASETS = ("M", "K", "T", "bearing_operator")
+
+
+def _read_csr(group, where):
+    try:
+        shape = tuple(int(n) for n in group.attrs["shape"])
+        return sp.csr_matrix((group["data"][...], group["indices"][...], group["indptr"][...]),
+                             shape=shape)
+    except KeyError as exc:
+        raise BodyFileError(f"{where}: sparse group {group.name!r} lacks {exc}") from None
+    except ValueError as exc:
+        raise BodyFileError(f"{where}: sparse group {group.name!r} is inconsistent ({exc})") from None
+
+
+def read_body_file(path, expect_config_hash=None, mass_normalisation_tol=1e-6, check=True):
+    """Load and check a body file; the one reader of the contract (docs/body-data.md).
+
+    Returns a dict: the dense datasets as numpy arrays, the sparse ones (M, K, T,
+    bearing_operator) as CSR, ``attrs`` (dict of the file's attributes, bytes decoded),
+    ``path`` and ``number`` (the body, 2..5).  ``check=False`` skips the contract
+    checks (``check_body``), for a caller that checks later.
+    """
+    where = str(path)
+    if not os.path.isfile(where):
+        raise BodyFileError(f"{where}: body file not found (run the modal stage: snakemake results/modes/bodyN.h5)")
+    try:
+        with h5py.File(where, "r") as f:
+            missing = [k for k in DENSE_DATASETS + SPARSE_DATASETS if k not in f]
+            if missing:
+                raise BodyFileError(
+                    f"{where}: missing {', '.join(missing)} (stale or incomplete body file: delete it and rerun)")
+            body = {k: f[k][...] for k in DENSE_DATASETS}
+            for k in SPARSE_DATASETS:
+                body[k] = _read_csr(f[k], where)
+            attrs = {}
+            for k, v in f.attrs.items():
+                attrs[k] = v.decode() if isinstance(v, bytes) else v
+            body["attrs"] = attrs
+    except BodyFileError:
+        raise
+    except OSError:
+        raise BodyFileError(f"{where}: not a readable HDF5 file (corrupt or truncated): delete it and "
+                            f"rerun the modal stage") from None
+    except (KeyError, ValueError, TypeError) as exc:
+        raise BodyFileError(f"{where}: cannot read body file ({exc})") from None
+    body["path"] = where
+    body["number"] = int(body["attrs"].get("body", 0))
+    if check:
+        check_body(body, expect_config_hash, mass_normalisation_tol)
+    return body
+
+
+def check_body(body, expect_config_hash=None, mass_normalisation_tol=1e-6):
+    """Contract checks on a body dict (see ``read_body_file``); BodyFileError if violated."""
+    where = body.get("path", "body")
+    modes = np.asarray(body["modes"])
+    if modes.ndim != 2:
+        raise BodyFileError(f"{where}: modes must be (ndof, D), got shape {modes.shape}")
+    ndof, D = modes.shape
+    m = body["T"].shape[1]
+    expected = {
+        "eigenvalues": (D,), "frequencies_hz": (D,), "rigid_modes": (ndof, 6),
+        "dof_coords": (ndof, 3), "dof_component": (ndof,), "bearing_points": (4, 3),
+        "bearing_modes": (D, 4, 6), "M": (ndof, ndof), "K": (ndof, ndof), "T": (ndof, m),
+        "bearing_operator": (24, ndof)}
+    for key, shape in expected.items():
+        if tuple(body[key].shape) != shape:
+            raise BodyFileError(f"{where}: {key} has shape {tuple(body[key].shape)}, "
+                                f"expected {shape} (stale body file?)")
+    if D == 0:
+        raise BodyFileError(f"{where}: no modes")
+    lam = np.asarray(body["eigenvalues"], float)
+    if not np.all(np.isfinite(lam)) or np.any(lam <= 0):
+        raise BodyFileError(f"{where}: eigenvalues must be finite and positive")
+    if np.any(np.diff(lam) < -1e-9 * lam.max()):
+        raise BodyFileError(f"{where}: eigenvalues are not ascending")
+    if not np.all(np.isfinite(modes)):
+        raise BodyFileError(f"{where}: modes contain non-finite values")
+    for key in ("M", "K", "T", "bearing_operator"):
+        if not np.all(np.isfinite(body[key].data)):
+            raise BodyFileError(f"{where}: {key} contains non-finite values")
+    comp = np.asarray(body["dof_component"])
+    if comp.min() < 0 or comp.max() > 5:
+        raise BodyFileError(f"{where}: dof_component outside 0..5")
+    X = rigid_modes(body["dof_coords"], comp)
+    scale = max(np.max(np.abs(X)), 1.0)
+    if np.max(np.abs(X - body["rigid_modes"])) > 1e-8 * scale:
+        raise BodyFileError(f"{where}: rigid_modes do not match dof_coords/dof_component")
+    mass = np.einsum("ij,ij->j", modes, body["M"] @ modes)
+    if np.max(np.abs(mass - 1.0)) > mass_normalisation_tol:
+        raise BodyFileError(f"{where}: modes are not mass-normalised with M "
+                            f"(max |phi^T M phi - 1| = {np.max(np.abs(mass - 1.0)):.1e}; stale?)")
+    if expect_config_hash is not None:
+        found = body["attrs"].get("config_hash")
+        if str(found) != str(expect_config_hash):
+            raise BodyFileError(f"{where}: stale body file (config_hash {found!r}, "
+                                f"expected {expect_config_hash!r})")
+
+
+def write_h5_atomic(path, write):
+    """Call ``write(h5py.File)`` on a temporary file beside ``path``, then rename it onto path."""
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    os.makedirs(folder, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=os.path.basename(path) + ".", suffix=".tmp", dir=folder)
+    os.close(fd)
+    try:
+        with h5py.File(tmp, "w") as f:
+            write(f)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    return path
+
+
+# ---------------------------------------------------------------- the writer's layout
+BODY_KEYS = ("frequencies_hz", "eigenvalues", "modes", "M", "K", "T", "rigid_modes", "dof_coords",
+             "dof_component", "bearing_points", "bearing_operator", "bearing_modes")
+CSR_KEYS = ("M", "K", "T", "bearing_operator")
+
+
+def write_csr(h5, key: str, matrix) -> None:
+    """Store a sparse matrix as the group ``key`` with data, indices, indptr and a ``shape`` attribute."""
+    A = sp.csr_matrix(matrix)
+    group = h5.create_group(key)
+    group.create_dataset("data", data=A.data)
+    group.create_dataset("indices", data=A.indices)
+    group.create_dataset("indptr", data=A.indptr)
+    group.attrs["shape"] = A.shape

@@ -1,0 +1,264 @@
+"""Dense baseline right-hand side: assemble M(y), factorise it, solve -- at every evaluation.
+
+The textbook way to get the accelerations of ``M(y) y'' = tau - c(y, y', t)``
+(thesis eq 2.1) is the one the structured solver (``solver.dynamics.fast_rhs``: the
+articulated-body recursion with every modal block eliminated by Woodbury,
+docs/dynamics.md Section 3) is benchmarked against:
+
+1. the bias ``c`` by the recursive Newton-Euler inverse dynamics at y'' = 0
+   (the project's compiled one, ``fast_rhs.FastChain.inverse_dynamics``);
+2. the full dense mass matrix ``M(y)`` (n x n, n = 4 + sum D);
+3. a dense Cholesky factorisation of M and two triangular solves (LAPACK
+   ``dpotrf`` / ``dpotrs``).  M(y), the kinetic energy's Hessian, is positive
+   definite at physical states; the first-order energy (docs/dynamics.md
+   Section 2) is not at unphysically large modal amplitudes (q ~ 1e-2 on the
+   small synthetic test bodies), and there LU with partial pivoting takes over
+   (counted in ``rhs.stats["lu_fallbacks"]``).
+
+It is meant to be a *fair* baseline, not a slow one: everything is compiled
+or LAPACK, and M is assembled the efficient way, from the kinetic energy
+``T = 1/2 sum_k v_k^T N_k v_k`` with ``v_k = [w_k; q'_k] = [J_k; E_k] y'``
+(``J_k`` (6, n) the twist Jacobian of body k, ``E_k`` the selector of its
+modal rates, ``N_k = [[M_X(q), B(q)], [B(q)^T, I]]``)::
+
+    M = sum_k J_k^T (M_X J_k + B E_k)  +  sum_k E_k^T B^T J_k  +  I_modal
+
+The first sum is ONE matrix product (n x 24)(24 x n) with the four bodies'
+J_k and P_k = M_X J_k + B E_k stacked -- the composite-rigid-body idea
+written for floating-frame bodies: O(48 n^2) flops, while the Cholesky
+factorisation costs n^3 / 3.  ``assembly="columns"`` instead builds M column
+by column from n + 1 inverse-dynamics calls with unit accelerations
+(Walker & Orin's method 1, what ``multibody.mass_matrix_fast`` does):
+O(n sum D^2), the naive textbook route, kept for comparison.
+
+Public API (same call signature as ``fast_rhs.make_rhs``)::
+
+    rhs = make_dense_rhs(chain, case, torque)     # rhs(t, y, y') -> y''  (n,)
+    rhs.rk4_steps(y, y', t0, h, n_steps)          # -> (y, y'), Python loop of rk4_step
+    rhs.mass_matrix(y)                            # M(y) (n, n)
+
+Units: y [rad; modal], y' per second, y'' per second squared, t [s],
+torque [in lbf].
+"""
+
+
+import numba
+import numpy as np
+from scipy.linalg import lapack
+
+from solver.dynamics import fast_rhs, multibody
+from solver.dynamics.integrators import _torque_function, rk4_step
+
+_JIT = dict(cache=True, fastmath=False)
+ASSEMBLIES = ("composite", "columns")
+
+
+class DenseSolveError(ArithmeticError):
+    """M(y) is not positive definite (dense Cholesky failed)."""
+
+
+def pack_dense(chain):
+    """The chain's flat arrays for the mass-matrix kernel: the same as the structured
+    solver's (``fast_rhs.pack``: modal counts and offsets, rigid masses, modal rows
+    V = [P; H; Psi; Theta], inertia-gradient rows, Coriolis tensors, joint axes)."""
+    return fast_rhs.pack(chain)
+
+
+@numba.njit(**_JIT)
+def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """Fill Jall (24, n) (the four bodies' twist Jacobians J_k), Pall (24, n)
+    (P_k = M_X J_k + B E_k) and BtJ (S, n) (rows of the modal coordinates, B_k^T J_k),
+    so that M(y) = Jall^T Pall + [0; BtJ] + I_modal (module docstring).  The joint
+    poses and maps are those of the structured solver's kinematics
+    (``fast_rhs._kinematics``: L = [R^T Psi; Lw Theta] on the parent's modes)."""
+    S = V.shape[1]
+    n = 4 + S
+    R_all = np.empty((4, 3, 3))
+    p_all = np.empty((4, 3))
+    Lw_all = np.empty((4, 3, 3))
+    W = np.empty((4, 6))
+    DW = np.empty((4, 6))
+    zero_n, zero6 = np.zeros(n), np.zeros(6)
+    fast_rhs._kinematics(y, zero_n, zero_n, zero6, zero6, D, off, V, M1, C1, C, rho,
+                         R_all, p_all, Lw_all, W, DW)
+    J = np.zeros((6, n))                        # twist Jacobian of the parent (case: zero)
+    for k in range(4):
+        R, p = R_all[k], p_all[k]
+        o, Dk = off[k], D[k]
+        m = 4 + o                               # J_k is zero beyond the angles and ancestors' modes
+        # J_k = Ad^-1(R, p) J_parent + L E_parent + s e_k;  Ad^-1 = [[R^T, -R^T p~], [0, R^T]]
+        Jk = np.zeros((6, n))
+        for c in range(m):
+            v0, v1, v2 = J[0, c], J[1, c], J[2, c]
+            w0, w1, w2 = J[3, c], J[4, c], J[5, c]
+            u0 = v0 + w1 * p[2] - w2 * p[1]     # v + omega x p
+            u1 = v1 + w2 * p[0] - w0 * p[2]
+            u2 = v2 + w0 * p[1] - w1 * p[0]
+            for a in range(3):
+                Jk[a, c] = R[0, a] * u0 + R[1, a] * u1 + R[2, a] * u2
+                Jk[3 + a, c] = R[0, a] * w0 + R[1, a] * w1 + R[2, a] * w2
+        if k > 0:                               # + L q'_parent, L = [R^T Psi; Lw Theta]
+            op, Dp = off[k - 1], D[k - 1]
+            Lw = Lw_all[k]
+            for i in range(Dp):
+                for a in range(3):
+                    sv, sw = 0.0, 0.0
+                    for b in range(3):
+                        sv += R[b, a] * V[6 + b, op + i]
+                        sw += Lw[a, b] * V[9 + b, op + i]
+                    Jk[a, 4 + op + i] += sv
+                    Jk[3 + a, 4 + op + i] += sw
+        Jk[3, k] += 1.0
+        # body matrices at q: M_X = M6 + sum q_i M1_i, B = [P; H + sum_j q_j G_j]
+        Mx = M6[k].copy()
+        Bk = V[0:6, o:o + Dk].copy()
+        if Dk > 0:
+            q = y[4 + o:4 + o + Dk].copy()
+            fast_rhs._add_inertia(Mx, M1, o, Dk, q)
+            hq = q @ G[k]
+            for a in range(3):
+                Bk[3 + a] += hq[a * Dk:(a + 1) * Dk]
+        Pk = Mx @ Jk
+        for i in range(Dk):
+            for a in range(6):
+                Pk[a, 4 + o + i] += Bk[a, i]
+        BtJ[o:o + Dk] = Bk.T @ Jk
+        Jall[6 * k:6 * k + 6] = Jk
+        Pall[6 * k:6 * k + 6] = Pk
+        J = Jk
+
+
+# ------------------------------------------------------------------ wrappers
+class Workspace:
+    """Buffers of the composite assembly for n coordinates, reused from call to call:
+    Jall, Pall (24, n), BtJ (n - 4, n), M (n, n).  Reuse matters beyond the copy: a fresh
+    n x n array is fresh memory, and its first touch costs a page fault per 4 kB page
+    (measured: ~5 ms of a 7 ms assembly at n = 804 on the benchmark VM)."""
+
+    def __init__(self, n):
+        self.Jall = np.zeros((24, n))
+        self.Pall = np.zeros((24, n))
+        self.BtJ = np.zeros((n - 4, n))
+        self.M = np.zeros((n, n))
+
+
+def mass_matrix_composite(data, y, work=None):
+    """M(y) (n, n) by the Jacobian (composite) assembly; data = ``pack_dense(chain)``.
+
+    With a ``Workspace`` the result is written into (and returned as) work.M;
+    without one, into a new array."""
+    y = np.ascontiguousarray(y, dtype=float)
+    work = Workspace(y.size) if work is None else work
+    _mass_factors(y, work.Jall, work.Pall, work.BtJ, *data)
+    M = np.dot(work.Jall.T, work.Pall, out=work.M)     # the one O(n^2) product: BLAS dgemm
+    M[4:] += work.BtJ
+    idx = np.arange(4, y.size)
+    M[idx, idx] += 1.0
+    return M
+
+
+def mass_matrix_columns(fast_chain, y, out=None):
+    """M(y) (n, n) column by column, n + 1 compiled inverse-dynamics calls with unit
+    accelerations (Walker-Orin method 1: ``fast_rhs.FastChain.mass_matrix``); copied into
+    ``out`` if given."""
+    M = fast_chain.mass_matrix(y)
+    if out is None:
+        return M
+    out[...] = M
+    return out
+
+
+def cholesky_solve(M, f):
+    """x (n,) with M x = f by Cholesky (LAPACK dpotrf / dpotrs, n^3 / 3 flops), M (n, n)
+    symmetric, overwritten; None when M is not positive definite."""
+    # M is symmetric, so its C-order buffer is also its Fortran-order transpose: no copy
+    chol, info = lapack.dpotrf(M.T, lower=1, clean=0, overwrite_a=1)
+    if info != 0:
+        return None
+    x, info = lapack.dpotrs(chol, f, lower=1)
+    return x if info == 0 else None
+
+
+def lu_solve(M, f):
+    """x (n,) with M x = f by LU with partial pivoting (LAPACK dgetrf / dgetrs), M (n, n)
+    overwritten.  Raises DenseSolveError if M is singular."""
+    lu, piv, info = lapack.dgetrf(M, overwrite_a=1)
+    if info != 0:
+        raise DenseSolveError(f"dense LU of M(y) failed (LAPACK dgetrf info {info}): M is singular")
+    x, info = lapack.dgetrs(lu, piv, f)
+    if info != 0:
+        raise DenseSolveError(f"dense LU solve failed (LAPACK dgetrs info {info})")
+    return x
+
+
+def case_twist_function(case):
+    """twist(t) -> (w1 (6,), dw1 (6,)): the case twist [0; omega] [rad/s] and its rate
+    [rad/s^2] in case axes (``multibody.CaseMotion.twist``)."""
+    return case.twist
+
+
+def make_dense_rhs(chain, case=None, torque=None, assembly="composite"):
+    """rhs(t, y, y') -> y'' (n,) by dense assembly and Cholesky at every call.
+
+    chain: ``multibody.Chain``; case: ``multibody.CaseMotion`` (default at rest);
+    torque: (4,) motor torques [in lbf] or a callable t -> (4,); assembly:
+    "composite" (default, the fair baseline) or "columns" (n + 1 inverse
+    dynamics).  The returned function carries ``rk4_steps``, ``mass_matrix``,
+    ``fast_chain``, ``assembly`` and ``stats``.
+    """
+    if assembly not in ASSEMBLIES:
+        raise ValueError(f"unknown assembly {assembly!r}; known: {', '.join(ASSEMBLIES)}")
+    case = case or multibody.CaseMotion()
+    fc = fast_rhs.FastChain(chain)
+    data = pack_dense(chain)
+    tau_f = _torque_function(torque)
+    const_tau = None if callable(torque) else np.asarray(tau_f(0.0), float)
+    twist = case_twist_function(case)
+    n = chain.n_coordinates
+    zero = np.zeros(n)
+    stats = {"lu_fallbacks": 0}
+
+    work = Workspace(n)
+
+    def assemble(y):            # into the reused buffer (the Cholesky overwrites it)
+        if assembly == "composite":
+            return mass_matrix_composite(data, y, work)
+        return mass_matrix_columns(fc, y, work.M)
+
+    def mass_matrix(y):
+        """M(y) (n, n), a new array."""
+        return assemble(y).copy()
+
+    def rhs(t, y, yd):
+        w1, dw1 = twist(t)
+        f = -fc.inverse_dynamics(y, yd, zero, w1, dw1)           # -c(y, y', t)
+        f[:4] += const_tau if const_tau is not None else np.asarray(tau_f(t), float)
+        x = cholesky_solve(assemble(y), f)
+        if x is None:       # not positive definite: only at unphysically large q (module doc)
+            stats["lu_fallbacks"] += 1
+            x = lu_solve(assemble(y), f)
+        return x
+
+    def rk4_steps(y, yd, t0, h, n_steps):
+        """n_steps classical RK4 steps from (t0, y, y'); returns (y, y')."""
+        y, yd = np.array(y, float), np.array(yd, float)
+        for i in range(int(n_steps)):
+            y, yd = rk4_step(rhs, t0 + i * h, y, yd, h)
+        return y, yd
+
+    rhs.rk4_steps = rk4_steps
+    rhs.mass_matrix = mass_matrix
+    rhs.fast_chain = fc
+    rhs.assembly = assembly
+    rhs.stats = stats
+    return rhs
+
+
+def dense_problem(problem, assembly="composite"):
+    """A copy of a ``multibody.Problem`` whose rhs (and so RK4 and DOP853) is the dense
+    baseline; its omega_max (stability bound), energy monitor and implicit-solver
+    hooks are the original's."""
+    import copy
+    out = copy.copy(problem)
+    out.rhs = make_dense_rhs(problem.chain, problem.case, problem._torque, assembly)
+    return out

@@ -1,0 +1,335 @@
+"""Time integrators for M(y) y'' = f(y, y', t).
+
+Three methods, one interface (``integrate``):
+
+* ``rk4``: the classical fixed-step fourth-order Runge-Kutta method, as the
+  thesis used.  Explicit, so its step is bounded by the highest frequency
+  of the chain: on the imaginary axis (undamped modes) RK4 is stable for
+  h Omega <= 2 sqrt 2 = 2.83 and on the real axis for h|lambda| <= 2.785; the
+  project uses the smaller, 2.785 / omega_max, as the limit (it also covers
+  lightly damped modes).  omega_max is ``problem.omega_max``: the highest
+  frequency of the coupled chain linearised at the initial state
+  (``multibody.coupled_omega_max``).  It is NOT the largest kept modal
+  frequency: the free joint angles remove inertia from the modal blocks
+  (the modes carry momentum about the drive axes), which raises the coupled
+  frequencies above the kept ones -- by 1.5-3x on the real bodies, which made
+  RK4 at half the old "limit" diverge (docs/dynamics.md Section 6).
+  Default step: ``RK4_DEFAULT_FRACTION``
+  of the limit; a step beyond the limit is refused.
+* ``dop853``: scipy's embedded Dormand-Prince 8(5,3) with error control.  A
+  home-made Dormand-Prince 5(4) would add code without adding anything:
+  DOP853 is the same family, higher order (fewer steps at tight tolerance,
+  which is what a reference solution needs), with dense output, and it is
+  maintained and tested upstream.  For a stiff (high-frequency) model it is
+  still bounded by stability, like any explicit method; it is the accuracy
+  reference on low-frequency models.
+* ``generalized-alpha``: the implicit generalised-alpha method (Chung &
+  Hulbert 1993, in the Arnold & Bruls 2007 form for multibody systems),
+  second order, unconditionally stable for the linear elastic part, with
+  numerical damping set by rho_inf (1: none, trapezoidal-like; 0: strongest).
+  Its step is NOT bounded by omega_max: modes far above 1/h are filtered.
+  Each step solves R(a) = M(y) a + c(y, y', t) - tau = 0 by Newton's method
+  with the iteration matrix M(y) + gamma' C + beta' K (the exact Jacobian
+  without the slow derivatives of the inertia and velocity terms), applied by
+  the same articulated-body recursion as the right-hand side with the modal
+  mass diagonal replaced by 1 + gamma' c_i + beta' Omega_i^2.
+
+Divergence (a non-finite state, or the energy growing beyond
+``growth_factor`` times the larger of the initial energy and the work fed in)
+stops a run with DivergenceError naming the time, the model and the step.
+"""
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from solver.dynamics import multibody
+
+RK4_STABILITY = 2.785          # h * omega_max at RK4's stability limit (real-axis bound)
+RK4_DEFAULT_FRACTION = 0.5
+METHODS = ("rk4", "dop853", "generalized-alpha")
+
+
+class DivergenceError(RuntimeError):
+    """The integration blew up (NaN or energy growth)."""
+
+
+class StepTooLargeError(ValueError):
+    """A fixed RK4 step beyond the stability limit."""
+
+
+def rk4_stability_limit(omega_max):
+    """Largest stable RK4 step [s] for a model whose highest kept frequency is omega_max [rad/s]."""
+    return np.inf if omega_max <= 0 else RK4_STABILITY / float(omega_max)
+
+
+def make_rhs(chain, case=None, torque=None, fast=True):
+    """y'' = rhs(t, y, y'): the chain's accelerations (fast compiled path when available)."""
+    if fast:
+        try:
+            from solver.dynamics import fast_rhs
+            return fast_rhs.make_rhs(chain, case, torque)
+        except ImportError:
+            pass
+    tau = _torque_function(torque)
+
+    def rhs(t, y, yd):
+        return multibody.accelerations(chain, y, yd, t, case, tau(t))
+    return rhs
+
+
+def _torque_function(torque):
+    if torque is None:
+        return lambda t: np.zeros(4)
+    if callable(torque):
+        return torque
+    arr = np.asarray(torque, float).reshape(4)
+    return lambda t: arr
+
+
+def rk4_step(rhs, t, y, yd, h):
+    """One classical RK4 step of the first-order system (y, y')' = (y', rhs)."""
+    k1v = rhs(t, y, yd)
+    y2, v2 = y + 0.5 * h * yd, yd + 0.5 * h * k1v
+    k2v = rhs(t + 0.5 * h, y2, v2)
+    y3, v3 = y + 0.5 * h * v2, yd + 0.5 * h * k2v
+    k3v = rhs(t + 0.5 * h, y3, v3)
+    y4, v4 = y + h * v3, yd + h * k3v
+    k4v = rhs(t + h, y4, v4)
+    y_new = y + (h / 6.0) * (yd + 2 * v2 + 2 * v3 + v4)
+    yd_new = yd + (h / 6.0) * (k1v + 2 * k2v + 2 * k3v + k4v)
+    return y_new, yd_new
+
+
+def rk4_steps(rhs, y, yd, t, h, n):
+    """n RK4 steps from (t, y, y'); returns (y, y') (compiled loop when rhs has one)."""
+    compiled = getattr(rhs, "rk4_steps", None)
+    if compiled is not None:
+        return compiled(y, yd, t, h, n)
+    y, yd = np.array(y, float), np.array(yd, float)
+    for i in range(n):
+        y, yd = rk4_step(rhs, t + i * h, y, yd, h)
+    return y, yd
+
+
+def generalized_alpha_parameters(rho_inf):
+    """(alpha_m, alpha_f, gamma, beta) of Chung & Hulbert for spectral radius rho_inf in [0, 1]."""
+    if not 0.0 <= rho_inf <= 1.0:
+        raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf}")
+    am = (2 * rho_inf - 1) / (rho_inf + 1)
+    af = rho_inf / (rho_inf + 1)
+    g = 0.5 + af - am
+    b = 0.25 * (g + 0.5) ** 2
+    return am, af, g, b
+
+
+@dataclass
+class Run:
+    """What a run produced: outputs and bookkeeping."""
+    t: np.ndarray
+    y: np.ndarray
+    yd: np.ndarray
+    method: str
+    step: float
+    steps: int
+    wall_time: float
+    stats: dict = field(default_factory=dict)
+    energy: dict = field(default_factory=dict)   # kinetic, potential, power, input_work at t
+
+
+class Monitor:
+    """Divergence watch: finite state and bounded energy growth."""
+
+    def __init__(self, problem, growth_factor=1e3, model=""):
+        self.problem = problem
+        self.growth = growth_factor
+        self.model = model
+        self.E0 = None
+        self.scale = 0.0
+        self.work = 0.0
+        self.last = None
+        self.history = []          # (t, T, U, P, work) at every call (the output samples)
+
+    def record(self, t, energy, info, h, method):
+        """Take over the watch of a compiled run (fast_rhs._rk4_integrate): energy (T, 4)
+        = (T, U, P, work) at the output times t, info = (status, k, E, scale); raises
+        the DivergenceError this monitor would have raised at sample k."""
+        status, k = int(info[0]), int(info[1])
+        self.history = [(float(ti), *map(float, row)) for ti, row in zip(t[:k], energy[:k])]
+        if k:
+            self.E0 = energy[0, 0] + energy[0, 1]
+            self.work = float(energy[k - 1, 3])
+            self.last = (float(t[k - 1]), float(energy[k - 1, 2]))
+        if status == 1:
+            raise DivergenceError(
+                f"{method} diverged at t = {t[k]:.6g} s (non-finite state), model {self.model!r}, "
+                f"step {h:.3e} s")
+        if status == 2:
+            raise DivergenceError(
+                f"{method} diverged at t = {t[k]:.6g} s (energy {info[2]:.3e} in lbf against a scale "
+                f"{info[3]:.3e}), model {self.model!r}, step {h:.3e} s")
+
+    def __call__(self, t, y, yd, h, method):
+        # one reduction: a non-finite entry (or an overflowing one: divergence too) makes it so
+        if not math.isfinite(float(np.dot(y, y)) + float(np.dot(yd, yd))):
+            raise DivergenceError(
+                f"{method} diverged at t = {t:.6g} s (non-finite state), model {self.model!r}, "
+                f"step {h:.3e} s")
+        if hasattr(self.problem, "kinetic_energy"):
+            T = self.problem.kinetic_energy(t, y, yd)
+            U = self.problem.potential_energy(y) if hasattr(self.problem, "potential_energy") \
+                else multibody.potential_energy(self.problem.chain, y)
+            E = T + U
+        else:
+            E, T, U = self.problem.energy(t, y, yd), np.nan, np.nan
+        P = self.problem.input_power(t, y, yd)
+        if self.E0 is None:
+            self.E0 = E
+            self.scale = abs(E)
+        else:
+            t0, P0 = self.last
+            self.work += 0.5 * (P + P0) * (t - t0)
+        self.last = (t, P)
+        self.scale = max(self.scale, abs(self.E0), abs(self.work))
+        self.history.append((t, T, U, P, self.work))
+        if not np.isfinite(E) or (self.scale > 0 and abs(E) > self.growth * self.scale) or \
+                (self.scale == 0 and abs(E) > 0):
+            raise DivergenceError(
+                f"{method} diverged at t = {t:.6g} s (energy {E:.3e} in lbf against a scale "
+                f"{self.scale:.3e}), model {self.model!r}, step {h:.3e} s")
+        return E
+
+
+def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None, rtol=1e-10,
+              atol=1e-14, rho_inf=0.9, newton_tol=1e-10, max_newton=12, growth_factor=1e3,
+              y0=None, yd0=None, model="", max_step=np.inf):
+    """Integrate ``problem`` (``solver.dynamics.simulate.Problem``-like: rhs, residual, solve,
+    energy, input_power, y0, yd0, omega_max) from t = 0 to t_end, returning outputs
+    every output_dt.  See the module docstring for the methods."""
+    if method not in METHODS:
+        raise ValueError(f"unknown integrator {method!r}; known: {', '.join(METHODS)}")
+    if not (np.isfinite(t_end) and t_end >= 0):
+        raise ValueError(f"duration must be finite and >= 0, got {t_end}")
+    if not (np.isfinite(output_dt) and output_dt > 0):
+        raise ValueError(f"output interval must be finite and > 0, got {output_dt}")
+    n_out = max(int(round(t_end / output_dt)), 1) if t_end > 0 else 0
+    dt_out = t_end / n_out if n_out else output_dt
+    t_out = np.linspace(0.0, t_end, n_out + 1)
+    y = np.array(problem.y0 if y0 is None else y0, float)
+    yd = np.array(problem.yd0 if yd0 is None else yd0, float)
+    monitor = Monitor(problem, growth_factor, model)
+    Y = np.empty((t_out.size, y.size))
+    V = np.empty_like(Y)
+    Y[0], V[0] = y, yd
+    # the whole RK4 run compiled, energy watch included (fast_rhs, constant torques)
+    whole_run = getattr(problem.rhs, "rk4_integrate", None) if method == "rk4" else None
+    if whole_run is None:
+        monitor(0.0, y, yd, 0.0, method)
+    start = time.perf_counter()
+    stats = {}
+    if method == "rk4":
+        limit = rk4_stability_limit(problem.omega_max)
+        if step is None:
+            frac = RK4_DEFAULT_FRACTION if fraction is None else fraction
+            h_req = frac * limit if np.isfinite(limit) else dt_out
+        else:
+            h_req = float(step)
+        if not (h_req > 0):
+            raise StepTooLargeError(f"rk4 step must be > 0, got {h_req}")
+        if h_req > limit * (1 + 1e-12):
+            raise StepTooLargeError(
+                f"rk4 step {h_req:.3e} s exceeds the stability limit 2.785/omega_max = "
+                f"{limit:.3e} s (omega_max = {problem.omega_max:.4g} rad/s) of model {model!r}")
+        n_sub = max(int(np.ceil(dt_out / h_req - 1e-9)), 1)
+        h = dt_out / n_sub
+        rhs = problem.rhs
+        compiled = getattr(rhs, "rk4_steps", None)     # whole substep loop compiled (fast_rhs)
+        steps = 0
+        if whole_run is not None:
+            Y, V, energy, info = whole_run(y, yd, t_out, h, n_sub, growth_factor)
+            steps = n_sub * max(int(info[1]) - 1, 0)
+            monitor.record(t_out, energy, info, h, method)
+        else:
+            for k in range(1, t_out.size):
+                t0 = t_out[k - 1]
+                if compiled is not None:
+                    y, yd = compiled(y, yd, t0, h, n_sub)
+                else:
+                    for i in range(n_sub):
+                        y, yd = rk4_step(rhs, t0 + i * h, y, yd, h)
+                steps += n_sub
+                monitor(t_out[k], y, yd, h, method)
+                Y[k], V[k] = y, yd
+        stats.update(stability_limit=limit, fraction=h / limit if np.isfinite(limit) else 0.0)
+    elif method == "dop853":
+        from scipy.integrate import solve_ivp
+        n = y.size
+
+        def f(t, z):
+            a = problem.rhs(t, z[:n], z[n:])
+            return np.concatenate([z[n:], a])
+        h = np.nan
+        steps = 0
+        z = np.concatenate([y, yd])
+        atol_vec = np.full(2 * n, atol)
+        for k in range(1, t_out.size):
+            sol = solve_ivp(f, (t_out[k - 1], t_out[k]), z, method="DOP853", rtol=rtol,
+                            atol=atol_vec, first_step=None if step is None else step,
+                            max_step=max_step)
+            if not sol.success:
+                raise DivergenceError(f"dop853 failed at t = {sol.t[-1]:.6g} s: {sol.message}, "
+                                      f"model {model!r}")
+            steps += sol.t.size - 1
+            z = sol.y[:, -1]
+            h = float(np.diff(sol.t).min()) if sol.t.size > 1 else h
+            monitor(t_out[k], z[:n], z[n:], h, method)
+            Y[k], V[k] = z[:n], z[n:]
+        stats.update(rtol=rtol, atol=atol, smallest_step=h, mean_step=t_end / max(steps, 1))
+    else:
+        h = float(step) if step is not None else dt_out
+        n_sub = max(int(np.ceil(dt_out / h - 1e-9)), 1)
+        h = dt_out / n_sub
+        am, af, g, b = generalized_alpha_parameters(rho_inf)
+        beta_p = h * h * b * (1 - af) / (1 - am)
+        gamma_p = h * g * (1 - af) / (1 - am)
+        d_modal = 1.0 + gamma_p * problem.damping_diagonal[4:] + beta_p * problem.stiffness_diagonal[4:]
+        acc = problem.rhs(0.0, y, yd)
+        a_pseudo = acc.copy()
+        steps = 0
+        iterations = 0
+        worst_newton = 0
+        for k in range(1, t_out.size):
+            t0 = t_out[k - 1]
+            for i in range(n_sub):
+                t1 = t0 + (i + 1) * h
+                A = acc.copy()
+                for it in range(max_newton):
+                    a_new = (af * acc + (1 - af) * A - am * a_pseudo) / (1 - am)
+                    y1 = y + h * yd + h * h * ((0.5 - b) * a_pseudo + b * a_new)
+                    v1 = yd + h * ((1 - g) * a_pseudo + g * a_new)
+                    R = problem.residual(t1, y1, v1, A)
+                    dA = problem.solve(y1, -R, d_modal)
+                    A = A + dA
+                    iterations += 1
+                    if np.abs(dA).max() <= newton_tol * max(np.abs(A).max(), 1e-300):
+                        break
+                else:
+                    worst_newton += 1
+                a_new = (af * acc + (1 - af) * A - am * a_pseudo) / (1 - am)
+                y = y + h * yd + h * h * ((0.5 - b) * a_pseudo + b * a_new)
+                yd = yd + h * ((1 - g) * a_pseudo + g * a_new)
+                acc, a_pseudo = A, a_new
+            steps += n_sub
+            monitor(t_out[k], y, yd, h, method)
+            Y[k], V[k] = y, yd
+        stats.update(rho_inf=rho_inf, newton_iterations=iterations,
+                     newton_per_step=iterations / max(steps, 1), newton_not_converged=worst_newton)
+    wall = time.perf_counter() - start
+    stats["energy_input"] = monitor.work
+    hist = np.array(monitor.history)
+    energy = {} if hist.shape[0] != t_out.size else {
+        "kinetic": hist[:, 1], "potential": hist[:, 2], "power": hist[:, 3], "input_work": hist[:, 4]}
+    return Run(t=t_out, y=Y, yd=V, method=method, step=float(h), steps=int(steps), wall_time=wall,
+               stats=stats, energy=energy)

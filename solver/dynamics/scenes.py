@@ -1,0 +1,204 @@
+"""Scenes: initial state, case motion, motor torques, duration (config/scenes/*.yaml).
+
+A scene file holds, for every number, ``{value, unit, source}`` (see
+config/scenes/thesis.yaml).  ``load_scene`` validates it completely before any
+integration: unknown or missing keys, wrong lengths, non-finite values, a
+negative duration or a non-positive output interval raise SceneError with a
+one-line message.
+
+A scene also states what it needs (optional ``needs`` block, so that the
+workflow computes nothing else):
+
+* ``needs.bodies``: the elastic bodies (default all of 2..5); the others are
+  rigid in every model simulated on this scene, so neither their reduction nor
+  their modal integrals are computed (their mass properties still come from
+  their body file);
+* ``needs.models``: the reduced models whose simulations make up the scene's
+  results (``snakemake results/sim/{scene}/needs.json`` builds exactly those).
+"""
+
+import hashlib
+import json
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+import yaml
+
+from solver.dynamics.multibody import CaseMotion
+
+SCENES_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "config", "scenes")
+
+# key -> (length or None for a scalar, unit)
+_TOP = {
+    "duration": (None, "s"), "output_interval": (None, "s"),
+    "initial_angles": (4, "rad"), "initial_rates": (4, "rad/s"),
+    "motor_torques": (4, "in*lbf"), "damping_ratio": (None, None),
+}
+_CASE = {
+    "angular_acceleration_amplitude": (3, "rad/s^2"), "angular_acceleration_frequency": (3, "Hz"),
+    "angular_acceleration_phase": (3, "rad"), "initial_angular_velocity": (3, "rad/s"),
+}
+
+
+ALL_BODIES = (2, 3, 4, 5)
+_NEEDS = {"bodies": "body number", "models": "model name"}
+
+
+class SceneError(ValueError):
+    """A scene file that cannot be used."""
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    description: str
+    duration: float
+    output_interval: float
+    initial_angles: tuple
+    initial_rates: tuple
+    motor_torques: tuple
+    case: CaseMotion
+    damping_ratio: float
+    raw: dict
+    elastic_bodies: tuple = ALL_BODIES
+    models: tuple = ()
+
+    @property
+    def physics(self):
+        """The raw scene without ``needs`` and ``description``: what a simulation depends on."""
+        return {k: v for k, v in self.raw.items() if k not in ("needs", "description")}
+
+    def config_hash(self):
+        """Hash of ``physics``: editing what the scene needs does not invalidate its simulations."""
+        return hashlib.sha256(json.dumps(self.physics, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def _number(where, entry, length, unit):
+    if not isinstance(entry, dict) or "value" not in entry:
+        raise SceneError(f"{where}: expected {{value, unit, source}}, got {entry!r}")
+    extra = set(entry) - {"value", "unit", "source"}
+    if extra:
+        raise SceneError(f"{where}: unknown field(s) {', '.join(sorted(extra))}")
+    if unit is not None and entry.get("unit") != unit:
+        raise SceneError(f"{where}: unit must be {unit!r}, got {entry.get('unit')!r}")
+    value = entry["value"]
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise SceneError(f"{where}: not a number: {value!r}") from None
+    if length is None:
+        if arr.shape != ():
+            raise SceneError(f"{where}: expected a scalar, got {value!r}")
+    elif arr.shape != (length,):
+        raise SceneError(f"{where}: expected {length} values, got {value!r}")
+    if not np.all(np.isfinite(arr)):
+        raise SceneError(f"{where}: non-finite value {value!r}")
+    return float(arr) if length is None else tuple(float(v) for v in arr)
+
+
+def _needs(where, block):
+    """(elastic bodies, model names) of a scene's optional ``needs`` block."""
+    if block is None:
+        return ALL_BODIES, ()
+    if not isinstance(block, dict):
+        raise SceneError(f"{where}: needs must be a mapping with keys {', '.join(_NEEDS)}")
+    unknown = set(block) - set(_NEEDS)
+    if unknown:
+        raise SceneError(f"{where}: unknown needs key(s) {', '.join(sorted(unknown))} "
+                         f"(known: {', '.join(_NEEDS)})")
+    out = {}
+    for key, unit in _NEEDS.items():
+        entry = block.get(key)
+        if entry is None:
+            continue
+        if not isinstance(entry, dict) or "value" not in entry or set(entry) - {"value", "unit", "source"}:
+            raise SceneError(f"{where}: needs.{key} must be {{value, unit, source}}, got {entry!r}")
+        if entry.get("unit") != unit:
+            raise SceneError(f"{where}: needs.{key} unit must be {unit!r}, got {entry.get('unit')!r}")
+        value = entry["value"]
+        if not isinstance(value, list):
+            raise SceneError(f"{where}: needs.{key} must be a list, got {value!r}")
+        out[key] = value
+    bodies = out.get("bodies", list(ALL_BODIES))
+    if any(isinstance(b, bool) or b not in ALL_BODIES for b in bodies) or len(set(bodies)) != len(bodies):
+        raise SceneError(f"{where}: needs.bodies must be distinct body numbers out of 2, 3, 4, 5, "
+                         f"got {bodies!r}")
+    models = out.get("models", [])
+    if any(not isinstance(m, str) or not m or "/" in m for m in models):
+        raise SceneError(f"{where}: needs.models must be model names, got {models!r}")
+    return tuple(sorted(bodies)), tuple(models)
+
+
+def parse_scene(raw, origin="scene"):
+    """Scene from a parsed YAML mapping; SceneError on anything invalid."""
+    if not isinstance(raw, dict):
+        raise SceneError(f"{origin}: a scene is a mapping, got {type(raw).__name__}")
+    allowed = set(_TOP) | {"name", "description", "case_motion", "needs"}
+    unknown = set(raw) - allowed
+    if unknown:
+        raise SceneError(f"{origin}: unknown key(s) {', '.join(sorted(unknown))} "
+                         f"(known: {', '.join(sorted(allowed))})")
+    missing = (set(_TOP) | {"name", "case_motion"}) - set(raw)
+    if missing:
+        raise SceneError(f"{origin}: missing key(s) {', '.join(sorted(missing))}")
+    vals = {k: _number(f"{origin}: {k}", raw[k], *spec) for k, spec in _TOP.items()}
+    cm = raw["case_motion"]
+    if not isinstance(cm, dict):
+        raise SceneError(f"{origin}: case_motion must be a mapping")
+    unknown = set(cm) - set(_CASE)
+    if unknown:
+        raise SceneError(f"{origin}: unknown case_motion key(s) {', '.join(sorted(unknown))}")
+    missing = set(_CASE) - set(cm)
+    if missing:
+        raise SceneError(f"{origin}: missing case_motion key(s) {', '.join(sorted(missing))}")
+    case = {k: _number(f"{origin}: case_motion.{k}", cm[k], *spec) for k, spec in _CASE.items()}
+    if vals["duration"] < 0:
+        raise SceneError(f"{origin}: duration must be >= 0 s, got {vals['duration']}")
+    if vals["output_interval"] <= 0:
+        raise SceneError(f"{origin}: output_interval must be > 0 s, got {vals['output_interval']}")
+    if vals["damping_ratio"] < 0:
+        raise SceneError(f"{origin}: damping_ratio must be >= 0, got {vals['damping_ratio']}")
+    if any(f < 0 for f in case["angular_acceleration_frequency"]):
+        raise SceneError(f"{origin}: case frequencies must be >= 0 Hz")
+    elastic_bodies, models = _needs(origin, raw.get("needs"))
+    return Scene(
+        elastic_bodies=elastic_bodies, models=models,
+        name=str(raw["name"]), description=str(raw.get("description", "")),
+        duration=vals["duration"], output_interval=vals["output_interval"],
+        initial_angles=vals["initial_angles"], initial_rates=vals["initial_rates"],
+        motor_torques=vals["motor_torques"],
+        case=CaseMotion(amplitude=case["angular_acceleration_amplitude"],
+                        frequency=case["angular_acceleration_frequency"],
+                        phase=case["angular_acceleration_phase"],
+                        omega0=case["initial_angular_velocity"]),
+        damping_ratio=vals["damping_ratio"], raw=raw)
+
+
+def load_scene(name_or_path, scenes_dir=SCENES_DIR):
+    """Scene by name (config/scenes/{name}.yaml) or path."""
+    path = name_or_path if os.path.sep in str(name_or_path) or str(name_or_path).endswith(".yaml") \
+        else os.path.join(scenes_dir, f"{name_or_path}.yaml")
+    if not os.path.exists(path):
+        known = sorted(f[:-5] for f in os.listdir(scenes_dir) if f.endswith(".yaml")) \
+            if os.path.isdir(scenes_dir) else []
+        raise SceneError(f"unknown scene {name_or_path!r} (known: {', '.join(known)})")
+    with open(path) as fh:
+        try:
+            raw = yaml.safe_load(fh)
+        except yaml.YAMLError as exc:
+            raise SceneError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    return parse_scene(raw, origin=os.path.basename(path))
+
+
+def initial_state(scene, n_coordinates):
+    """(y0, y'0): scene angles and rates, elastic coordinates at rest."""
+    y0 = np.zeros(n_coordinates)
+    yd0 = np.zeros(n_coordinates)
+    y0[:4] = scene.initial_angles
+    yd0[:4] = scene.initial_rates
+    return y0, yd0
+
+
+__all__ = ["Scene", "SceneError", "parse_scene", "load_scene", "initial_state", "math"]

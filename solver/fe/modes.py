@@ -1,0 +1,359 @@
+"""The modal stage: assemble one body, attach bearings and eccentric mass, solve its modes.
+
+``/usr/bin/python3 -m solver.fe.modes --body 2 --mesh results/mesh/body2.msh --out results/modes/body2.h5``
+
+Steps (each one function):
+
+1. assemble K and the structural M on the body's mesh (shell or solid, ``solver.fe.forms``);
+2. build the rigid-fit operator of every bearing region and of the mass region
+   (``solver.fe.bearings``), from integration weights gathered over all ranks;
+3. add the eccentric point mass ``m R_t^T R_t`` (10 % of the structural mass);
+4. eliminate the six support constraints with a basis T (masters chosen by
+   pivoted QR) and solve ``(T^T K T) x = lambda (T^T M T) x`` with SLEPc;
+5. gather to rank 0, polish by Rayleigh-Ritz, check residuals and
+   M-orthonormality, and write ``body{n}.h5`` (layout: docs/body-data.md).
+
+All heavy algebra (assembly, T^T K T, the factorisation and the eigensolve)
+runs on distributed PETSc objects, so the stage runs unchanged under
+``mpirun -n 2``; only the final write gathers the data on rank 0.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from geometry.gimbal import bearing_angles, bearing_points, eccentric_mass_point
+from solver.fe import bearings, eigen, forms as fe
+from solver.bodydata import BODY_KEYS, CSR_KEYS, rigid_modes, write_csr
+from workflow import config as cfgmod
+from workflow.provenance import atomic_h5, versions
+
+BEARING_NAMES = ("input_motor", "input_resolver", "output_motor", "output_resolver")
+
+
+@dataclass
+class BodyModel:
+    """A body's assembled FE model (PETSc, distributed) and its connection operators (scipy, global)."""
+
+    params: dict
+    K: PETSc.Mat
+    M: PETSc.Mat
+    block_size: int
+    ndof: int
+    operators: dict          # region name -> (6, ndof) rigid-fit operator (scipy CSR)
+    points: np.ndarray       # (4, 3) bearing points
+    structural_mass: float   # lbf s^2/in
+    point_mass: float        # lbf s^2/in
+    point_mass_position: np.ndarray
+    mesh_size: float
+    dof_coords: np.ndarray | None = None   # (ndof, 3), rank 0 only
+    n_cells: int = 0
+    space: object = None                   # the DOLFINx function space (for studies of the connection)
+    regions: dict | None = None            # region name -> (nodes, coords, weights) of the rigid fits
+
+
+def _gather_region(V, facet_tags, tag: int, comm, taper=None):
+    """Global node indices, coordinates and weights of a region, identical on every rank."""
+    weights = fe.region_weights(V, facet_tags, tag, taper)
+    nodes, coords = fe.owned_nodes(V)
+    keep = weights > 1e-14 * max(weights.max(initial=0.0), 1e-300)
+    parts = comm.allgather((nodes[keep], coords[keep], weights[keep]))
+    nodes = np.concatenate([p[0] for p in parts])
+    order = np.argsort(nodes)
+    return (nodes[order], np.concatenate([p[1] for p in parts])[order],
+            np.concatenate([p[2] for p in parts])[order])
+
+
+def _rigid_translation_vector(K: PETSc.Mat, block_size: int, component: int) -> PETSc.Vec:
+    vec = K.createVecRight()
+    r0, r1 = vec.getOwnershipRange()
+    vec.array[:] = (np.arange(r0, r1) % block_size == component).astype(float)
+    return vec
+
+
+def assemble_body(params: dict, config: dict, mesh_path: str | Path, comm=MPI.COMM_WORLD) -> BodyModel:
+    """Assemble K, M (with the eccentric mass) and the bearing operators of one body."""
+    mesh, _, facet_tags, regions = fe.load_mesh(mesh_path, comm)
+    if params["model"] == "shell":
+        V, a_k, a_m = fe.shell_forms(mesh, params, {k: v["value"] for k, v in config["shell"].items()})
+    else:
+        V, a_k, a_m = fe.solid_forms(mesh, params, int(cfgmod.value(config, "solid.degree")))
+    K, M = fe.assemble_matrix(a_k), fe.assemble_matrix(a_m)
+    bs = V.dofmap.index_map_bs
+    ndof = V.dofmap.index_map.size_global * bs
+    points = bearing_points(params)
+    mass_angle = cfgmod.value(config, "eccentric_mass.angle")
+    mass_position = eccentric_mass_point(params, mass_angle)
+    length = cfgmod.value(config, "bearing_connection.rotation_weight_length")
+    operators, region_data = {}, {}
+    angles = bearing_angles(params["motor_side"], params.get("output_motor_side"))
+    angles["eccentric_mass"] = mass_angle
+    half_angles = {name: cfgmod.value(config, "bearing_connection.platform_patch_half_angle") for name in angles}
+    half_angles["eccentric_mass"] = cfgmod.value(config, "eccentric_mass.platform_patch_half_angle")
+    for name, point in [*zip(BEARING_NAMES, points), ("eccentric_mass", mass_position)]:
+        if name not in regions:
+            continue
+        if np.any(np.isnan(point)):
+            continue
+        # a solid's rim patch carries a smooth cos^2 taper; a shell's line is uniform
+        taper = None
+        nodes, coords, weights = region_data[name] = _gather_region(V, facet_tags, regions[name], comm, taper)
+        operators[name] = bearings.rigid_fit_operator(nodes, coords, weights, point, bs, ndof, length,
+                                                      shell_normals(coords) if bs == 6 else None)
+    missing = [n for n in ("input_motor", "input_resolver", "eccentric_mass") if n not in operators]
+    if missing:
+        raise ValueError(f"mesh '{mesh_path}' lacks the region(s) {', '.join(missing)}")
+    # structural mass = X_x^T M X_x (unit translation along x)
+    ex = _rigid_translation_vector(K, bs, 0)
+    structural_mass = M.createVecLeft()
+    M.mult(ex, structural_mass)
+    structural_mass = structural_mass.dot(ex)
+    point_mass = cfgmod.value(config, "eccentric_mass.mass_fraction") * structural_mass
+    _add_point_mass(M, operators["eccentric_mass"][:3], point_mass, comm)
+    nodes, coords = fe.owned_nodes(V)
+    parts = comm.gather((nodes, coords), root=0)
+    dof_coords = None
+    if comm.rank == 0:
+        node_coords = np.zeros((ndof // bs, 3))
+        for n_, c_ in parts:
+            node_coords[n_] = c_
+        dof_coords = np.repeat(node_coords, bs, axis=0)
+    mesh_size = cfgmod.value(config, "mesh.ring_size" if params["shape"] == "ring" else "mesh.platform_size")
+    n_cells = comm.allreduce(mesh.topology.index_map(mesh.topology.dim).size_local)
+    return BodyModel(params, K, M, bs, ndof, operators, points, structural_mass, point_mass,
+                     mass_position, mesh_size, dof_coords, n_cells, V, region_data)
+
+
+def shell_normals(coords: np.ndarray) -> np.ndarray:
+    """(k, 3) unit normals of the ring mid-surface (radial in the x-z plane) at the given points."""
+    radial = np.asarray(coords, dtype=float) * [1.0, 0.0, 1.0]
+    return radial / np.linalg.norm(radial, axis=1, keepdims=True)
+
+
+def _add_point_mass(M: PETSc.Mat, translation_rows: sp.csr_matrix, mass: float, comm) -> None:
+    """M += mass R_t^T R_t (dense over the region's DOFs).
+
+    The block is assembled as its own preallocated matrix (each rank its own
+    rows) and added with AXPY: inserting it entry by entry into M, whose
+    pattern lacks it, made PETSc reallocate and took minutes on fine meshes.
+    """
+    R = sp.csr_matrix(translation_rows)
+    block = (mass * (R.T @ R)).tocsr()
+    r0, r1 = M.getOwnershipRange()
+    local = block[r0:r1]
+    local.sort_indices()
+    point_mass = PETSc.Mat().createAIJ(size=M.getSizes(), comm=M.getComm(),
+                                       csr=(local.indptr.astype(PETSc.IntType),
+                                            local.indices.astype(PETSc.IntType), local.data))
+    point_mass.assemble()
+    M.axpy(1.0, point_mass, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    point_mass.destroy()
+
+
+def admissible_basis_petsc(K: PETSc.Mat, constraints: sp.csr_matrix) -> tuple[PETSc.Mat, sp.csr_matrix]:
+    """The basis T of admissible displacements as a distributed PETSc matrix (and scipy on all ranks).
+
+    T has identity columns for every non-master DOF and, in the master rows,
+    the elimination coefficients S (``solver.fe.bearings.admissible_basis``).
+    """
+    ndof = K.getSize()[0]
+    masters, slaves, S = bearings.admissible_basis(constraints)
+    T = bearings.admissible_basis_matrix(masters, slaves, S, ndof)
+    r0, r1 = K.getOwnershipRange()
+    is_master = np.zeros(ndof, dtype=bool)
+    is_master[masters] = True
+    c0 = r0 - int(is_master[:r0].sum())
+    c1 = r1 - int(is_master[:r1].sum())
+    local = T[r0:r1].tocsr()
+    local.sort_indices()
+    T_petsc = PETSc.Mat().createAIJ(size=((r1 - r0, ndof), (c1 - c0, T.shape[1])), comm=K.getComm(),
+                                    csr=(local.indptr.astype(PETSc.IntType),
+                                         local.indices.astype(PETSc.IntType), local.data))
+    T_petsc.assemble()
+    return T_petsc, T
+
+
+def gather_matrix(A: PETSc.Mat, comm) -> sp.csr_matrix | None:
+    """The whole matrix as scipy CSR on rank 0 (None elsewhere)."""
+    r0, r1 = A.getOwnershipRange()
+    indptr, indices, data = A.getValuesCSR()
+    parts = comm.gather((r0, indptr.copy(), indices.copy(), data.copy()), root=0)
+    if comm.rank != 0:
+        return None
+    shape = A.getSize()
+    blocks = []
+    for r0_, ip, ix, d in sorted(parts, key=lambda p: p[0]):
+        blocks.append(sp.csr_matrix((d, ix, ip), shape=(len(ip) - 1, shape[1])))
+    return sp.vstack(blocks).tocsr()
+
+
+def gather_vectors(vectors: list[PETSc.Vec], comm) -> np.ndarray | None:
+    """(n, len(vectors)) array on rank 0."""
+    columns = []
+    for vec in vectors:
+        scatter, full = PETSc.Scatter.toZero(vec)
+        scatter.scatter(vec, full, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        if comm.rank == 0:
+            columns.append(full.getArray().copy())
+        scatter.destroy()
+        full.destroy()
+    return np.column_stack(columns) if comm.rank == 0 else None
+
+
+def supported_modes(body: BodyModel, count: int, tolerance: float, max_iterations: int, comm):
+    """Lowest ``count`` supported modes: returns (eigenvalues, T scipy, vectors gathered on rank 0)."""
+    constraints = bearings.support_constraints(body.operators)
+    T_petsc, T = admissible_basis_petsc(body.K, constraints)
+    k_reduced = body.K.PtAP(T_petsc)
+    m_reduced = body.M.PtAP(T_petsc)
+    values, vecs = eigen.lowest_eigenpairs(k_reduced, m_reduced, count, 0.0, tolerance, max_iterations,
+                                           label=body.params["name"])
+    full = []
+    for x in vecs:
+        phi = body.K.createVecRight()
+        T_petsc.mult(x, phi)
+        full.append(phi)
+    return values, T, gather_vectors(full, comm)
+
+
+def free_modes(body: BodyModel, count: int, shift: float, tolerance: float, max_iterations: int, comm):
+    """Lowest ``count`` free-free modes (six rigid ones first); shift < 0 scaled to the stiffness."""
+    values, vecs = eigen.lowest_eigenpairs(body.K, body.M, count, shift, tolerance, max_iterations,
+                                           label=f"{body.params['name']} (free-free)")
+    return values, gather_vectors(vecs, comm)
+
+
+def bearing_operator_matrix(body: BodyModel) -> sp.csr_matrix:
+    """(24, ndof) stacked operators of the four bearings (zero rows where absent)."""
+    blocks = [body.operators.get(name, sp.csr_matrix((6, body.ndof))) for name in BEARING_NAMES]
+    return sp.vstack(blocks).tocsr()
+
+
+def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: int | None = None,
+                 comm=MPI.COMM_WORLD, log=print, all_modes: bool = False) -> dict | None:
+    """Assemble and solve one body; return the body-file payload on rank 0 (None elsewhere).
+
+    ``all_modes``: every finite supported mode by a dense solve (coarse meshes,
+    serial only), for the discrete Hughes identities.
+    """
+    started = time.perf_counter()
+    params = cfgmod.body_parameters(config, body_number)
+    count = int(count or cfgmod.value(config, "modes.count"))
+    tolerance = cfgmod.value(config, "modes.tolerance")
+    max_iterations = int(cfgmod.value(config, "modes.max_iterations"))
+    body = assemble_body(params, config, mesh_path, comm)
+    t_assembled = time.perf_counter()
+    if all_modes:
+        if comm.size > 1 or body.ndof > 20000:
+            raise ValueError(f"{params['name']}: --all-modes is a dense solve for coarse serial meshes "
+                             f"({body.ndof} DOFs on {comm.size} ranks)")
+        K, M = gather_matrix(body.K, comm), gather_matrix(body.M, comm)
+        T = admissible_basis_petsc(body.K, bearings.support_constraints(body.operators))[1]
+        values, vectors = eigen.all_supported_modes(K, M, T)
+        count = len(values)
+        log(f"[{params['name']}] {body.ndof} DOFs: all {count} finite supported modes (dense)")
+        return _payload(body_number, params, body, values, vectors, K, M, T, comm.size,
+                        {"assembly_s": t_assembled - started, "eigensolve_s": time.perf_counter() - t_assembled}, log)
+    if count > body.ndof - 6:
+        raise ValueError(f"{params['name']}: modes.count = {count} exceeds the {body.ndof - 6} "
+                         "admissible DOFs of the mesh")
+    log(f"[{params['name']}] {body.ndof} DOFs ({params['model']}), assembled in {t_assembled - started:.2f} s; "
+        f"solving {count} modes")
+    values, T, vectors = supported_modes(body, count, tolerance, max_iterations, comm)
+    t_solved = time.perf_counter()
+    K, M = gather_matrix(body.K, comm), gather_matrix(body.M, comm)
+    if comm.rank != 0:
+        return None
+    values, vectors = eigen.rayleigh_ritz(K, M, vectors)
+    return _payload(body_number, params, body, values, vectors, K, M, T, comm.size,
+                    {"assembly_s": t_assembled - started, "eigensolve_s": t_solved - t_assembled}, log)
+
+
+def _payload(body_number, params, body, values, vectors, K, M, T, ranks, timings, log) -> dict:
+    """Checks and the body-file payload of solved modes."""
+    count = len(values)
+    residuals = eigen.relative_residuals(K, M, values, vectors, T)
+    orthonormality = eigen.orthonormality_error(M, vectors)
+    if np.any(values <= 0):
+        raise eigen.EigenSolveError(f"{params['name']}: non-positive supported eigenvalue {values.min():.3e} "
+                                    "(supports do not remove all rigid motions)")
+    operator = bearing_operator_matrix(body)
+    bearing_modes = (operator @ vectors).T.reshape(count, 4, 6)
+    bearing_modes[:, [name not in body.operators for name in BEARING_NAMES], :] = np.nan
+    log(f"[{params['name']}] f1..f4 = {np.sqrt(values[:4]) / (2 * math.pi)} Hz, f{count} = "
+        f"{np.sqrt(values[-1]) / (2 * math.pi):.1f} Hz; max residual {residuals.max():.1e}, "
+        f"orthonormality {orthonormality:.1e}; solved in {timings['eigensolve_s']:.2f} s")
+    return {
+        "frequencies_hz": np.sqrt(values) / (2 * math.pi), "eigenvalues": values, "modes": vectors,
+        "M": M, "K": K, "T": T, "bearing_operator": operator,
+        "rigid_modes": rigid_modes(body.dof_coords, np.arange(body.ndof) % body.block_size),
+        "dof_coords": body.dof_coords,
+        "dof_component": (np.arange(body.ndof) % body.block_size).astype(np.int8),
+        "bearing_points": body.points, "bearing_modes": bearing_modes,
+        "residuals": residuals,
+        "attrs": {"body": body_number, "name": params["name"], "model": params["model"],
+                  "structural_mass": body.structural_mass, "point_mass": body.point_mass,
+                  "point_mass_position": body.point_mass_position, "mesh_size": body.mesh_size,
+                  "cells": body.n_cells, "units": "in, lbf, s (mass lbf s^2/in, eigenvalues (rad/s)^2)",
+                  "max_relative_residual": float(residuals.max()), "orthonormality_error": orthonormality,
+                  "mpi_ranks": ranks},
+        "timings": timings,
+    }
+
+
+def write_body_file(path: str | Path, payload: dict, config_hash: str, wall_time: float) -> None:
+    """Write the body file atomically (layout: docs/body-data.md)."""
+    with atomic_h5(path) as h5:
+        for key in BODY_KEYS + ("residuals",):
+            if key in CSR_KEYS:
+                write_csr(h5, key, payload[key])
+            else:
+                h5.create_dataset(key, data=payload[key])
+        for key, val in payload["attrs"].items():
+            h5.attrs[key] = val
+        h5.attrs["config_hash"] = config_hash
+        h5.attrs["versions"] = json.dumps(versions())
+        h5.attrs["wall_time_s"] = wall_time
+        h5.attrs["timings"] = json.dumps(payload["timings"])
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--body", required=True, help="body number 2..5")
+    parser.add_argument("--mesh", required=True, help="gmsh .msh file of the body")
+    parser.add_argument("--out", required=True, help="output body file (.h5)")
+    parser.add_argument("--config", default=str(cfgmod.DEFAULT_CONFIG))
+    parser.add_argument("--count", type=int, default=None, help="number of modes (default: config)")
+    parser.add_argument("--all-modes", action="store_true",
+                        help="every finite supported mode by a dense solve (coarse meshes only)")
+    args = parser.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    started = time.perf_counter()
+    try:
+        config = cfgmod.load_config(args.config)
+        body_number = cfgmod.BODY_NUMBERS[cfgmod.body_name(args.body)]
+        payload = compute_body(body_number, config, args.mesh, args.count, comm,
+                               log=print if comm.rank == 0 else (lambda *a, **k: None), all_modes=args.all_modes)
+    except (ValueError, FileNotFoundError, eigen.EigenSolveError) as exc:
+        if comm.rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
+        return 1
+    if comm.rank == 0:
+        keys = cfgmod.body_config_keys(body_number)
+        write_body_file(args.out, payload, cfgmod.section_hash(config, *keys), time.perf_counter() - started)
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

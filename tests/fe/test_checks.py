@@ -1,0 +1,96 @@
+"""The FE verification checks of verify_fe, run as tests (same functions, same tolerances).
+
+Independent references: the thin-ring formula with its Timoshenko correction,
+NAFEMS FV12 (free thin square plate, NAFEMS Selected Benchmarks for Natural
+Frequency Analysis, 1987, Test 12), a 3D solid model, mesh refinement, the
+discrete Hughes identity, and a second (MPI) run.
+"""
+import numpy as np
+import pytest
+
+from solver.fe import checks as v
+
+
+def assert_passed(result):
+    assert result["passed"], f"{result['name']}: {result['value']:.3g} (tolerance {result['tolerance']:.3g})"
+
+
+def test_thin_ring_formula_and_timoshenko_estimate(config):
+    result = v.check_ring_formula(config)
+    assert_passed(result)
+    deviations = [m["deviation"] for m in result["modes"]]
+    assert deviations[0] < 0 and deviations[0] > deviations[1] > deviations[2]  # grows with n, as predicted
+
+
+def test_timoshenko_correction_formula():
+    # -(1/2) n^2 (t/R)^2 / 12 (1 + 2 (1 + nu) / kappa), by hand for n = 2, t/R = 0.1, nu = 0.3, kappa = 5/6
+    assert v.timoshenko_ring_correction(2, 0.1, 0.3, 5 / 6) == pytest.approx(-2 * 0.01 / 12 * (1 + 3.12))
+
+
+def test_thin_ring_formula_value():
+    # omega^2 = E I n^2 (n^2-1)^2 / (rho A R^4 (n^2+1)); n = 2, unit section data: 36 / 5
+    f = v.thin_ring_frequency(2, 1.0, 1.0, 12.0, 1.0, 12.0)  # I = 12/12 = 1, rho A = 12 * 12
+    assert f == pytest.approx(np.sqrt(36 / 5 / 144) / (2 * np.pi))
+
+
+def test_nafems_fv12(config):
+    assert_passed(v.check_plate_fv12(config, size=0.25))
+
+
+def test_platform_shell_versus_solid(config):
+    assert_passed(v.check_platform_model(config))
+
+
+@pytest.mark.slow
+def test_outer_gimbal_shell_versus_solid(config):
+    assert_passed(v.check_solid_ring(config))
+
+
+def test_shell_versus_solid_coarse(config):
+    """The same comparison on a coarser solid (P2 elements through the wall): still within 2 %."""
+    import copy
+
+    cfg = copy.deepcopy(config)
+    cfg["solid"]["degree"]["value"] = 2
+    assert_passed(v.check_solid_ring(cfg, solid_size=0.125, count=6))
+
+
+def test_mesh_convergence_inner_gimbal(config):
+    assert_passed(v.check_convergence(config, 4))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("body", [2, 3, 5])
+def test_mesh_convergence(config, body):
+    assert_passed(v.check_convergence(config, body))
+
+
+def test_body_file_residuals(inner_gimbal_file):
+    assert_passed(v.check_body_file(inner_gimbal_file[0]))
+
+
+def test_hughes_identity(config):
+    assert_passed(v.check_hughes_identity(config))
+
+
+@pytest.mark.mpi
+def test_modal_stage_under_mpi(inner_gimbal_file, tmp_path):
+    from workflow.config import DEFAULT_CONFIG
+
+    result = v.check_mpi(inner_gimbal_file[0], inner_gimbal_file[1], DEFAULT_CONFIG)
+    assert_passed(result)
+    assert result["ranks"] == 2
+
+
+def test_free_free_spectrum_has_six_rigid_modes(inner_gimbal_file):
+    spectra = v.body_spectra(inner_gimbal_file[0], 12, 6)
+    assert spectra["rigid_modes_found"] == 6
+    assert spectra["free_free_hz"][6] > 1e3 * abs(spectra["free_free_hz"][5])
+
+
+@pytest.mark.slow
+def test_connection_study(config):
+    result = v.connection_study(config)
+    assert_passed(result)
+    single = result["drift_between_meshes"]["single mid-width node"]
+    assert np.max(np.abs(single)) > np.max(np.abs(result["drift_between_meshes"]["line rigid-fit (default)"]))

@@ -1,0 +1,336 @@
+"""Load-aware mode selection (reduction.load_aware), the load-N / global-N grammar, the
+simulate --load-ranking path and the selection table (results.bench.selection).
+
+Synthetic chains only (results/bench/oracle.py), except the last test, which checks
+the stored a-priori estimate against a measured error on the real data when present."""
+
+import json
+import os
+
+import h5py
+import numpy as np
+import pytest
+
+from reduction import load_aware as la
+from results.bench import selection
+from reduction import models
+from solver.dynamics import scenes, simulate
+from results.bench.oracle import synthetic_body
+from tests.reduction.test_models import write_body
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+# ------------------------------------------------------------ linear response
+def test_velocity_response_closed_forms():
+    """Exact for piecewise-linear loads at any omega h (here up to 30): step and ramp."""
+    t = np.linspace(0.0, 0.01, 101)
+    w = np.array([0.0, 50.0, 3e5])
+    step = la.velocity_response(w, np.ones((t.size, 3)), t)
+    assert np.allclose(step[:, 0], t, rtol=0, atol=1e-15)
+    assert np.allclose(step[:, 1:], np.sin(np.outer(t, w[1:])) / w[1:], rtol=0, atol=1e-13)
+    ramp = la.velocity_response(w, np.tile(t[:, None], 3), t)
+    assert np.allclose(ramp[:, 0], t ** 2 / 2, rtol=0, atol=1e-15)
+    assert np.allclose(ramp[:, 1:], (1 - np.cos(np.outer(t, w[1:]))) / w[1:] ** 2, rtol=0,
+                       atol=1e-15)
+
+
+def test_velocity_response_smooth_load_and_nonuniform_grid():
+    """cos(nu t) load on a fine, non-uniform grid: the closed form within O(h^2)."""
+    rng = np.random.default_rng(1)
+    t = np.sort(np.concatenate([[0.0, 0.02], rng.uniform(0, 0.02, 3000)]))
+    w, nu = np.array([2e3, 4e4]), 4 * np.pi
+    g = np.cos(nu * t)[:, None] * np.ones(2)
+    exact = (-nu * np.sin(nu * t)[:, None] + w * np.sin(np.outer(t, w))) / (w ** 2 - nu ** 2)
+    got = la.velocity_response(w, g, t)
+    assert np.max(np.abs(got - exact)) < 1e-6 * np.max(np.abs(exact))
+
+
+def test_phi_series_and_direct_formula_agree():
+    a = 1j * np.array([0.5, 0.99, 1.01, 2.0]) * la.SERIES_LIMIT
+    for order in (1, 2):
+        series = la._phi(a, order)                    # the first two by the series
+        direct = (1 - np.exp(-a)) / a if order == 1 else (1 - np.exp(-a) * (1 + a)) / a ** 2
+        assert np.allclose(series, direct, rtol=1e-12, atol=0)
+
+
+def hand_model(decoupled=2, T=400):
+    """A small frozen chain: 4 joints + 4 modes, mode ``decoupled`` neither loaded nor
+    coupled to anything (an identity row of M, a zero load)."""
+    rng = np.random.default_rng(5)
+    n = 8
+    A = rng.normal(size=(n, n))
+    M = A @ A.T / n + np.eye(n)
+    q = 4 + decoupled
+    M[q, :] = M[:, q] = 0.0
+    M[q, q] = 1.0
+    K = np.array([0, 0, 0, 0, 4e6, 9e6, 2.5e7, 6.4e7], float)
+    t = np.linspace(0, 0.01, T)
+    loads = np.outer(np.cos(4 * np.pi * t), rng.normal(size=4))
+    loads[:, decoupled] = 0.0
+    rigid = np.outer(np.sin(4 * np.pi * t), [1.0, 0.5, -0.3, 0.2]) * 1e-2
+    model = {"M": M, "K": K, "t": t, "rigid_rates": rigid, "loads": loads,
+             "offsets": np.array([0, 1, 2, 3, 4])}
+    la.check_model(model)
+    model["full"] = la.rate_response(model, np.arange(4))
+    return model
+
+
+def test_mode_orthogonal_to_every_load_scores_zero_and_is_dropped():
+    model = hand_model(decoupled=2)
+    part = la.participation_scores(model)
+    s = part["score"]
+    assert np.all(s[:, 2] == 0.0) and np.all(s[:, [0, 1, 3]].max(axis=0) > 0)
+    assert list(la.excited_modes(s)) == [True, True, False, True]
+    order, info = la.pooled_ranking(model, s, pool_size=4, stride=1, drop_fraction=0.0)
+    assert order[-1] == 2 and sorted(order) == [0, 1, 2, 3] and info["pool"] == 3
+    # dropping it changes nothing: the a-priori error of the other three is zero
+    assert np.max(la.estimate_error(model, [0, 1, 3])) < 1e-24
+    assert np.all(la.estimate_error(model, [0, 1]) > 0)
+    # the participation scores add up to about the rigid model's error
+    assert np.allclose(s.sum(axis=1), la.estimate_error(model, []), rtol=0.3)
+
+
+def test_backward_elimination_recovers_an_additive_order():
+    w = {0: 5.0, 1: 1.0, 2: 3.0, 3: 0.5, 4: 4.0}
+
+    def cost(keep):
+        return sum(v for k, v in w.items() if k not in keep)
+    order, c = la.backward_elimination(cost, list(w))
+    assert list(order) == [0, 4, 2, 1, 3]
+    assert c[len(w)] == 0 and c[0] == sum(w.values()) and c[2] == 4.5
+    order, _ = la.backward_elimination(cost, list(w), protected=[3])
+    assert order[0] == 3 and list(order[1:]) == [0, 4, 2, 1]
+    order, c = la.backward_elimination(cost, list(w), drop_fraction=0.5)
+    assert list(order) == [0, 4, 2, 1, 3] and np.isnan(c[4]) and c[3] == 1.5
+    with pytest.raises(la.LoadAwareError, match="distinct"):
+        la.backward_elimination(cost, [0, 0, 1])
+    with pytest.raises(la.LoadAwareError, match="drop_fraction"):
+        la.backward_elimination(cost, [0, 1], drop_fraction=1.0)
+
+
+def test_lockstep_elimination_keeps_equal_counts():
+    w = {0: 5.0, 1: 1.0, 2: 3.0, 10: 0.5, 11: 4.0, 12: 2.0}
+
+    def cost(keep):
+        return sum(v for k, v in w.items() if k not in keep)
+    orders, c = la.lockstep_elimination(cost, [[0, 1, 2], [10, 11, 12]])
+    assert [list(o) for o in orders] == [[0, 2, 1], [11, 12, 10]]
+    assert c[3] == 0 and c[1] == 1.0 + 3.0 + 0.5 + 2.0 and c[0] == sum(w.values())
+    with pytest.raises(la.LoadAwareError, match="equal size"):
+        la.lockstep_elimination(cost, [[0, 1], [10]])
+
+
+def test_forward_selection_keeps_the_best_prefix_even_after_a_bad_first_step():
+    # mode 1 alone hurts (ringing), 1 and 2 together help: a cost a plain greedy stop misses
+    def cost(keep):
+        k = set(keep)
+        return 1.0 + 0.5 * (1 in k) - 0.9 * ({1, 2} <= k) + 0.01 * (0 in k)
+    prefix, c = la.forward_selection(cost, [0, 1, 2], max_size=3)
+    assert c[0] == 1.0 and set(prefix) == {1, 2} and np.isclose(c[len(prefix)], 0.6)
+
+
+def test_split_by_body_and_counts():
+    off = np.array([0, 3, 5, 6, 8])
+    order = np.array([5, 0, 7, 3, 1, 2, 4, 6])
+    parts = la.split_by_body(order, off)
+    assert [list(p) for p in parts] == [[0, 1, 2], [0, 1], [0], [1, 0]]
+    assert list(la.kept_from_counts(off, parts, [2, 1, 0, 1])) == [0, 1, 3, 7]
+
+
+def test_bad_linear_model_is_one_line_error():
+    model = hand_model()
+    model["loads"] = model["loads"][:, :3]
+    with pytest.raises(la.LoadAwareError, match="do not fit"):
+        la.check_model(model)
+    with pytest.raises(la.LoadAwareError, match="distinct indices"):
+        la.rate_response(hand_model(), [0, 0])
+
+
+# ------------------------------------------------------------------ grammar
+def rankings(D=6):
+    r = {b: {"rank_frequency": np.arange(D), "rank_xmx": np.arange(D)[::-1],
+             "rank_xmgmx": np.arange(D), "rank_load": np.roll(np.arange(D), 2)}
+         for b in models.BODIES}
+    r["pooled"] = {"body": np.repeat([3, 2, 5, 4], D), "mode": np.tile(np.arange(D)[::-1], 4)}
+    return r
+
+
+def test_grammar_load_and_global():
+    r = rankings()
+    s = models.parse_model("load-2", r)
+    assert all(list(s.kept[b]) == [4, 5] for b in models.BODIES) and s.ranking == "load"
+    s = models.parse_model("load-1,2,0,3", r)
+    assert [len(s.kept[b]) for b in models.BODIES] == [1, 2, 0, 3]
+    s = models.parse_model("global-8", r)
+    assert [list(s.kept[b]) for b in models.BODIES] == [[4, 5], list(range(6)), [], []]
+    s = models.parse_model("static-global-8", r)
+    assert s.static[2] == ("output_motor_fz",) and s.n_modes(3) == 7
+    s = models.parse_model("load-3@2:output_motor_my", r)
+    assert s.static[2] == ("output_motor_my",) and s.static[3] == ()
+    assert models.needs_load_ranking("global-4") and models.needs_load_ranking("static-load-2")
+    assert not models.needs_load_ranking("xmx-4") and not models.needs_load_ranking("truth")
+
+
+@pytest.mark.parametrize("name, change, message", [
+    ("global-1,2,3,4", None, "global-N takes one total count"),
+    ("global-25", None, "only 24 computed"),
+    ("load-7", None, "only 6 computed"),
+    ("load-2", "no_load", "no load-aware ranking loaded"),
+    ("global-2", "no_pooled", "no pooled load-aware ranking"),
+    ("global-2", "bad_pooled", "not a permutation"),
+    ("loads-2", None, "unknown model"),
+])
+def test_grammar_errors(name, change, message):
+    r = rankings()
+    if change == "no_load":
+        for b in models.BODIES:
+            del r[b]["rank_load"]
+    elif change == "no_pooled":
+        del r["pooled"]
+    elif change == "bad_pooled":
+        r["pooled"]["mode"][1] = r["pooled"]["mode"][0]
+    with pytest.raises(models.ModelError, match=message):
+        models.parse_model(name, r)
+
+
+# ------------------------------------------------- the stage on synthetic files
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    """Synthetic body and reduction files, and the load-aware ranking made by the CLI."""
+    root = tmp_path_factory.mktemp("load_aware")
+    rng = np.random.default_rng(11)
+    (root / "modes").mkdir()
+    (root / "reduction").mkdir()
+    for b in models.BODIES:
+        d = synthetic_body(rng, b, n_nodes=8, rotations=(b % 2 == 0), n_modes=6, omega_max=3e3)
+        write_body(root / "modes" / f"body{b}.h5", d)
+        with h5py.File(root / "reduction" / f"body{b}.h5", "w") as f:
+            f["rank_frequency"] = np.arange(6)
+            f["rank_xmx"] = np.array([3, 1, 0, 2, 5, 4])
+            f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
+            f["rho_xmx"] = np.array([0.3, 0.5, 0.2, 0.9, 0.01, 0.05])
+    out = root / "load" / "thesis.h5"
+    rc = la.main(["--scene", "thesis", "--modes-dir", str(root / "modes"), "--reduction-dir",
+                  str(root / "reduction"), "--out", str(out), "--pool", "24", "--curve", "6",
+                  "--drop-fraction", "0", "--quiet"])
+    assert rc == 0
+    return root, out
+
+
+def test_ranking_file_contents(synthetic):
+    root, out = synthetic
+    with h5py.File(out, "r") as f:
+        for b in models.BODIES:
+            assert sorted(f[f"body{b}/rank_load"][()]) == list(range(6))
+            assert f[f"body{b}/score"].shape == (4, 6)
+        body, mode = f["pooled/body"][()], f["pooled/mode"][()]
+        assert len(set(zip(body, mode))) == 24
+        for b in models.BODIES:      # equal-count ranking: the pooled order's first 6 per body
+            assert sorted(mode[body == b][:6]) == sorted(f[f"body{b}/rank_load"][:6])
+        assert f["estimate/load"].shape == (6, 4) and f["estimate/global"].shape == (24, 4)
+        assert np.allclose(f["estimate/global"][-1], 0.0, atol=1e-20)    # all modes: no error
+        assert np.allclose(f["estimate/load"][-1], 0.0, atol=1e-20)
+        assert f["estimate/global_xmx"].shape == (24, 4)
+        assert f.attrs["scene"] == "thesis" and len(f.attrs["config_hash"]) == 16
+        assert "numpy" in json.loads(f.attrs["versions"]) and f.attrs["wall_time_s"] > 0
+    assert not [p for p in os.listdir(out.parent) if ".part" in p]
+
+
+def test_estimate_predicts_simulated_error_on_synthetic_chain(synthetic, tmp_path):
+    """Simulate load-2, global-5 and freq-2 (RK4, nonlinear); the a-priori eq. 3.53 errors
+    of the frozen linear chain agree with the measured ones to within 2 % (rates > 1e-3
+    rad/s: within 0.2 % measured) and the truth (all modes) too."""
+    root, out = synthetic
+    common = ["--scene", "thesis", "--modes-dir", str(root / "modes"), "--reduction-dir",
+              str(root / "reduction"), "--out-dir", str(tmp_path), "--load-ranking", str(out),
+              "--fraction", "0.25"]
+    for name in ("freq-6", "load-2", "global-5", "freq-2"):
+        assert simulate.main(common + ["--model", name]) == 0
+    with h5py.File(tmp_path / "thesis" / "load-2.h5", "r") as f:
+        assert f.attrs["load_ranking"] == str(out) and list(f.attrs["n_modes"]) == [2, 2, 2, 2]
+    rc = selection.main(["--truth", str(tmp_path / "thesis" / "freq-6.h5"), "--cases"] +
+                        [str(tmp_path / "thesis" / f"{m}.h5") for m in ("load-2", "global-5", "freq-2")] +
+                        ["--ranking", str(out), "--reduction-dir", str(root / "reduction"),
+                         "--table", str(tmp_path / "sel.csv"), "--figure",
+                         str(tmp_path / "fig" / "global_ranking.png")])
+    assert rc == 0 and (tmp_path / "fig" / "global_ranking.png").stat().st_size > 1000
+    import csv
+    rows = list(csv.DictReader(open(tmp_path / "sel.csv")))
+    assert [r["model"] for r in rows] == ["freq-2", "load-2", "global-5"]
+    for r in rows:
+        ratio = float(r["apriori_over_measured"])
+        assert 0.98 < ratio < 1.02, (r["model"], ratio)
+        assert float(r["E_max"]) > 1e-8
+
+
+def test_simulate_missing_ranking_is_one_line_error(synthetic, tmp_path, capsys):
+    root, out = synthetic
+    common = ["--scene", "thesis", "--modes-dir", str(root / "modes"), "--reduction-dir",
+              str(root / "reduction"), "--out-dir", str(tmp_path)]
+    missing = tmp_path / "nope" / "thesis.h5"
+    assert simulate.main(common + ["--model", "load-2", "--load-ranking", str(missing)]) == 2
+    assert simulate.main(common + ["--model", "global-99", "--load-ranking", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and str(missing) in err[0] and "missing" in err[0]
+    assert "only 24 computed" in err[1]
+
+
+def test_simulate_refuses_ranking_of_other_bodies(synthetic, tmp_path, capsys):
+    root, out = synthetic
+    stale = tmp_path / "stale.h5"
+    stale.write_bytes(out.read_bytes())
+    with h5py.File(stale, "a") as f:
+        f.attrs["body_config_hashes"] = json.dumps(["a", "b", "c", "d"])
+    rc = simulate.main(["--scene", "thesis", "--model", "load-1", "--modes-dir", str(root / "modes"),
+                        "--reduction-dir", str(root / "reduction"), "--out-dir", str(tmp_path),
+                        "--load-ranking", str(stale)])
+    assert rc == 2 and "other body files" in capsys.readouterr().err
+
+
+def test_cli_bad_input_is_one_line(tmp_path, capsys):
+    rc = la.main(["--scene", "nope", "--out", str(tmp_path / "x.h5"), "--quiet"])
+    assert rc == 2 and not (tmp_path / "x.h5").exists()
+    rc = la.main(["--scene", "thesis", "--modes-dir", str(tmp_path), "--out",
+                  str(tmp_path / "x.h5"), "--quiet"])
+    assert rc == 2
+    rc = la.main(["--scene", "thesis", "--pool", "0", "--out", str(tmp_path / "x.h5"), "--quiet"])
+    assert rc == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and "unknown scene" in err[0] and "body file" in err[1]
+    assert "--pool" in err[2]
+
+
+# -------------------------------------------------------------------- real data
+REAL_RANKING = os.path.join(ROOT, "results", "reduction", "load", "thesis.h5")
+REAL_SIM = os.path.join(ROOT, "results", "sim", "thesis")
+
+
+@pytest.mark.skipif(not (os.path.exists(REAL_RANKING) and
+                         os.path.exists(os.path.join(REAL_SIM, "freq-10.h5")) and
+                         os.path.exists(os.path.join(REAL_SIM, "truth.h5"))),
+                    reason="real ranking file or simulations absent")
+def test_real_apriori_estimate_matches_measured_freq_10():
+    from solver.dynamics.error_measure import error_measure
+    from results.study.tables import read_sim
+    lin = la.read_linear_model(REAL_RANKING)
+    rk = models.load_rankings(os.path.join(ROOT, "results", "reduction"))
+    spec = models.parse_model("freq-10", rk)
+    keep = selection.kept_indices(spec, lin["offsets"])
+    est = la.estimate_error(lin, keep)
+    truth, case = read_sim(os.path.join(REAL_SIM, "truth.h5")), read_sim(os.path.join(REAL_SIM, "freq-10.h5"))
+    meas = error_measure(truth["t"], truth["gamma_dot"], case["gamma_dot"])
+    assert np.allclose(est, meas, rtol=0.01)
+    scene = scenes.load_scene("thesis")
+    assert lin["t"].size == round(scene.duration / scene.output_interval) + 1
+
+
+def test_ties_are_broken_by_priority():
+    def cost(keep):                         # modes 1, 2, 3 do not matter at all
+        return 0.0 if 0 in keep else 1.0
+    order, _ = la.backward_elimination(cost, [0, 1, 2, 3], priority={0: 0, 1: 5, 2: 1, 3: 9},
+                                       tie_rtol=1e-6)
+    assert list(order) == [0, 3, 1, 2]
+    orders, _ = la.lockstep_elimination(cost, [[0, 1], [2, 3]], priority={0: 0, 1: 5, 2: 1, 3: 9},
+                                        tie_rtol=1e-6)
+    assert [list(o) for o in orders] == [[0, 1], [3, 2]]

@@ -1,0 +1,186 @@
+"""Scenes, model names, body-file loading and the simulate CLI (synthetic body files)."""
+
+import os
+
+import h5py
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from reduction import models
+from solver.dynamics import multibody, scenes, simulate
+from results.bench.oracle import synthetic_body
+
+
+def rankings(D=12):
+    rng = np.random.default_rng(0)
+    return {b: {"rank_frequency": np.arange(D), "rank_xmx": rng.permutation(D),
+                "rank_xmgmx": rng.permutation(D)} for b in models.BODIES}
+
+
+# ---------------------------------------------------------------- model names
+def test_parse_model_families_and_counts():
+    r = rankings()
+    s = models.parse_model("freq-10", r)
+    assert all(list(s.kept[b]) == list(range(10)) for b in models.BODIES)
+    assert all(s.static[b] == () for b in models.BODIES)
+    s = models.parse_model("xmx-3", r)
+    assert list(s.kept[2]) == sorted(r[2]["rank_xmx"][:3])
+    s = models.parse_model("freq-10,10,5,5", r)
+    assert [len(s.kept[b]) for b in models.BODIES] == [10, 10, 5, 5]
+    s = models.parse_model("static-8", r)
+    assert s.static == {2: ("output_motor_fz",), 3: ("output_motor_fz",),
+                        4: ("output_motor_fz",), 5: ("input_motor_fx",)}
+    s = models.parse_model("static-xmx-8", r)
+    assert s.ranking == "xmx" and s.n_modes(2) == 9
+    s = models.parse_model("static-10@2:output_motor_my", r)
+    assert s.static[2] == ("output_motor_my",) and s.static[3] == ()
+    s = models.parse_model("freq-4@2:output_motor_fz+output_motor_my@4:input_motor_mz", r)
+    assert s.static[2] == ("output_motor_fz", "output_motor_my") and s.static[4] == ("input_motor_mz",)
+    assert all(len(models.parse_model("rigid", r).kept[b]) == 0 for b in models.BODIES)
+
+
+@pytest.mark.parametrize("name, message", [
+    ("bogus-3", "unknown model"),
+    ("freq-13", "only 12 computed"),
+    ("truth", "only 12 computed"),
+    ("freq-1,2,3", "counts must be"),
+    ("static-8@2:output_motor_qq", "unknown load case"),
+    ("static-8@5:output_motor_fz", "no output bearings"),
+    ("static-8@7:output_motor_fz", "body 2..5"),
+    ("freq-", "unknown model"),
+    ("", "non-empty"),
+])
+def test_parse_model_errors(name, message):
+    with pytest.raises(models.ModelError, match=message):
+        models.parse_model(name, rankings())
+
+
+# --------------------------------------------------------------------- scenes
+def test_scenes_load():
+    for name in ("thesis", "free", "long"):
+        s = scenes.load_scene(name)
+        assert s.name == name
+    s = scenes.load_scene("thesis")
+    assert s.duration == 0.015 and s.initial_angles[1] == pytest.approx(-np.pi / 2)
+    assert s.case.amplitude == (1.0, 0.0, 0.0) and s.case.frequency == (2.0, 0.0, 0.0)
+    assert scenes.load_scene("free").case.at_rest
+    assert scenes.load_scene("long").duration == 1.0
+
+
+def _raw(**change):
+    import yaml
+    with open(os.path.join(scenes.SCENES_DIR, "thesis.yaml")) as fh:
+        raw = yaml.safe_load(fh)
+    raw.update(change)
+    return raw
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"duration": {"value": -1.0, "unit": "s"}}, "duration must be >= 0"),
+    ({"initial_rates": {"value": [0.0, float("nan"), 0, 0], "unit": "rad/s"}}, "non-finite"),
+    ({"initial_angles": {"value": [0.0, 0.0], "unit": "rad"}}, "expected 4 values"),
+    ({"wind": {"value": 1.0}}, "unknown key"),
+    ({"output_interval": {"value": 0.0, "unit": "s"}}, "output_interval must be > 0"),
+    ({"duration": {"value": 1.0, "unit": "ms"}}, "unit must be 's'"),
+])
+def test_scene_errors(change, message):
+    with pytest.raises(scenes.SceneError, match=message):
+        scenes.parse_scene(_raw(**change))
+
+
+def test_unknown_scene_name():
+    with pytest.raises(scenes.SceneError, match="unknown scene 'nope'"):
+        scenes.load_scene("nope")
+
+
+# ------------------------------------------------------------ files and CLI
+def write_csr(group, A):
+    A = sp.csr_matrix(A)
+    group["data"], group["indices"], group["indptr"] = A.data, A.indices, A.indptr
+    group.attrs["shape"] = A.shape
+
+
+def write_body(path, d):
+    with h5py.File(path, "w") as f:
+        lam = d["eigenvalues"]
+        f["frequencies_hz"] = np.sqrt(lam) / (2 * np.pi)
+        f["eigenvalues"] = lam
+        for k in ("modes", "rigid_modes", "dof_coords", "dof_component", "bearing_points",
+                  "bearing_modes"):
+            f[k] = d[k]
+        for k in ("M", "K", "T", "bearing_operator"):
+            write_csr(f.create_group(k), d[k])
+        f.attrs["body"] = d["number"]
+        f.attrs["config_hash"] = "synthetic"
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    root = tmp_path_factory.mktemp("sim")
+    rng = np.random.default_rng(3)
+    modes_dir, red_dir = root / "modes", root / "reduction"
+    modes_dir.mkdir()
+    red_dir.mkdir()
+    datas = {}
+    for b in models.BODIES:
+        d = synthetic_body(rng, b, n_nodes=8, rotations=(b % 2 == 0), n_modes=6, omega_max=3e3)
+        write_body(modes_dir / f"body{b}.h5", d)
+        datas[b] = d
+        with h5py.File(red_dir / f"body{b}.h5", "w") as f:
+            f["rank_frequency"] = np.arange(6)
+            f["rank_xmx"] = np.array([3, 1, 0, 2, 5, 4])
+            f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
+    return root, datas
+
+
+def test_body_file_roundtrip_gives_same_chain(files):
+    root, datas = files
+    data = models.load_body_file(str(root / "modes" / "body2.h5"))
+    assert data["number"] == 2
+    body = models.build_body(2, data, np.arange(6))
+    from results.bench.oracle import chain_body
+    ref = chain_body(datas[2])
+    assert np.allclose(body.rigid_mass, ref.rigid_mass, rtol=1e-13, atol=1e-16)
+    assert np.allclose(body.coriolis, ref.coriolis, rtol=1e-12, atol=1e-16)
+
+
+def test_static_mode_model_builds_and_orthonormal(files):
+    root, _ = files
+    data = {b: models.load_body_file(str(root / "modes" / f"body{b}.h5")) for b in models.BODIES}
+    spec = models.parse_model("static-3", models.load_rankings(str(root / "reduction")))
+    chain = models.build_chain(spec, data)
+    assert chain.n_modes == (4, 4, 4, 4)
+    b2 = chain.bodies[0]
+    assert b2.labels[-1] == "static output_motor_fz"
+    # static mode's Rayleigh frequency lies above the kept modes and counts in omega_max
+    assert b2.omega2[-1] > b2.omega2[:-1].max()
+    assert chain.omega_max == pytest.approx(max(np.sqrt(b.omega2.max()) for b in chain.bodies))
+
+
+def test_simulate_cli_writes_result(files, tmp_path):
+    root, _ = files
+    out = tmp_path / "sim"
+    rc = simulate.main(["--scene", "thesis", "--model", "static-xmx-2", "--modes-dir",
+                        str(root / "modes"), "--reduction-dir", str(root / "reduction"),
+                        "--out-dir", str(out)])
+    assert rc == 0
+    path = out / "thesis" / "static-xmx-2.h5"
+    with h5py.File(path, "r") as f:
+        assert f["gamma"].shape == (1501, 4) and f["gamma_dot"].shape == (1501, 4)
+        assert f.attrs["integrator"] == "rk4" and f.attrs["steps"] > 0
+        assert len(f.attrs["config_hash"]) == 16
+        T, W = f["energy/total"][()], f["energy/input_work"][()]
+        assert abs(T[-1] - T[0] - W[-1]) < 1e-3 * abs(W[-1])
+    assert not [p for p in os.listdir(out / "thesis") if p.endswith(".tmp")]
+
+
+def test_simulate_cli_errors_are_one_line(files, tmp_path, capsys):
+    root, _ = files
+    common = ["--modes-dir", str(root / "modes"), "--reduction-dir", str(root / "reduction"),
+              "--out-dir", str(tmp_path)]
+    assert simulate.main(["--scene", "thesis", "--model", "freq-99"] + common) == 2
+    assert simulate.main(["--scene", "thesis", "--model", "freq-6", "--step", "1.0"] + common) == 2
+    assert simulate.main(["--scene", "nope", "--model", "freq-6"] + common) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and "only 6 computed" in err[0] and "stability limit" in err[1]

@@ -1,0 +1,137 @@
+"""results.study.figures and results.study.report: files written, manifest, the Typst PDF rendered and inspected.
+
+The PDF checks use Debian's poppler-utils (pdftotext, pdfinfo, pdftoppm)."""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from results.study import tables as errors, figures, findings, report, cases as study
+from tests.results.synthetic_study import write_study
+
+pytest.importorskip("typst")
+POPPLER = all(shutil.which(t) for t in ("pdftotext", "pdfinfo", "pdftoppm"))
+needs_poppler = pytest.mark.skipif(not POPPLER, reason="poppler-utils (pdftotext, pdftoppm) missing")
+RATE_CASES = ("freq-5", "xmx-10", "static-4", "static-10@2:input_motor_my")
+
+
+@pytest.fixture(scope="module")
+def study_outputs(tmp_path_factory):
+    """Synthetic study -> tables, findings, figures (rate figures for RATE_CASES only)."""
+    tmp = tmp_path_factory.mktemp("results")
+    truth, cases = write_study(tmp / "sim")
+    rt, st = tmp / "tables" / "errors_ranking.csv", tmp / "tables" / "errors_static.csv"
+    assert errors.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
+                        "--static-table", str(st)]) == 0
+    fj = tmp / "tables" / "findings.json"
+    assert findings.main(["--ranking-table", str(rt), "--static-table", str(st),
+                          "--csv", str(tmp / "tables" / "findings.csv"), "--json", str(fj)]) == 0
+    rate_files = [p for p in cases if any(p.endswith(f"/{m}.h5") for m in RATE_CASES)]
+    fig_dir = tmp / "figures"
+    assert figures.main(["--truth", truth, "--cases", *rate_files, "--ranking-table", str(rt),
+                         "--static-table", str(st), "--out-dir", str(fig_dir)]) == 0
+    return {"tmp": tmp, "truth": truth, "ranking": rt, "static": st, "findings": fj, "figures": fig_dir}
+
+
+def test_figures_written_with_manifest(study_outputs):
+    d = study_outputs["figures"]
+    manifest = json.loads((d / "figures.json").read_text())["figures"]
+    ids = [f["id"] for f in manifest]
+    assert {"error_ranking", "error_static", "error_load_cases", "runtime_error"} <= set(ids)
+    assert sum(f["kind"] == "rates" for f in manifest) == len(RATE_CASES)
+    assert "rates_static-10_at2_input_motor_my" in ids
+    for f in manifest:
+        pdf, png = d / f["pdf"], d / f["png"]
+        assert pdf.read_bytes()[:5] == b"%PDF-" and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert f["caption"]
+    assert [f["thesis_figure"] for f in manifest if f["id"] == "error_ranking"] == ["4-28"]
+
+
+@needs_poppler
+def test_figure_pdfs_are_vector_with_labels(study_outputs):
+    d = study_outputs["figures"]
+    text = subprocess.run(["pdftotext", str(d / "error_ranking.pdf"), "-"], capture_output=True,
+                          text=True, check=True).stdout
+    assert "vibration modes per body" in text and "XMGMX-ranked" in text
+    text = subprocess.run(["pdftotext", str(d / "rates_freq-5.pdf"), "-"], capture_output=True,
+                          text=True, check=True).stdout
+    assert "time t [ms]" in text and "rad/s" in text and "E = " in text
+
+
+def test_pareto_front():
+    cost = np.array([1.0, 2.0, 3.0, 0.5, 4.0])
+    err = np.array([1.0, 0.5, 0.7, 2.0, 0.1])
+    assert figures.pareto_front(cost, err) == [3, 0, 1, 4]
+    assert figures.safe_name("static-10@2:output_motor_fz+output_motor_my") == \
+        "static-10_at2_output_motor_fz_plus_output_motor_my"
+
+
+def test_typst_escaping():
+    assert report.s('a "b" \\ #c $d$') == '#"a \\"b\\" \\\\ #c $d$"'
+    assert report.sci(1.234e-5) == "$1.23 times 10^(-5)$"
+    assert report.sci(0.5) == "$0.5$" and report.sci(float("nan")) == "--"
+
+
+def _pdf_text(pdf):
+    return subprocess.run(["pdftotext", "-layout", str(pdf), "-"], capture_output=True, text=True,
+                          check=True).stdout
+
+
+def _pages(pdf):
+    info = subprocess.run(["pdfinfo", str(pdf)], capture_output=True, text=True).stdout
+    return int(next(l.split()[-1] for l in info.splitlines() if l.startswith("Pages:")))
+
+
+@needs_poppler
+def test_report_pdf_has_sections_tables_and_figures(study_outputs, tmp_path):
+    out = tmp_path / "report" / "report.pdf"
+    so = study_outputs
+    code = report.main(["--ranking-table", str(so["ranking"]), "--static-table", str(so["static"]),
+                        "--findings", str(so["findings"]), "--figures-dir", str(so["figures"]),
+                        "--truth", so["truth"], "--out", str(out)])
+    assert code == 0 and out.read_bytes()[:5] == b"%PDF-"
+    assert (tmp_path / "report" / "report.typ").exists()
+    text = _pdf_text(out)
+    for heading in ("Summary", "The model", "Geometry and material", "Natural frequencies",
+                    "Methods", "Mode ranking criteria", "Static correction modes",
+                    "Equations of motion", "Integrator", "Error measure", "Results", "Error tables",
+                    "Thesis findings", "Run time against error", "Provenance"):
+        assert heading in text, heading
+    # tables typeset as text, with numbered captions
+    assert "Table 1:" in text and "analogue of thesis Table 4.2" in text
+    assert "analogue of thesis Table 4.3" in text and "The six thesis findings" in text
+    assert "output_motor_my" in text and "reproduced" in text
+    # figures: numbered captions, and the vector figures' own labels are text in the PDF
+    n_captions = text.count("Figure ")
+    assert n_captions >= 4 + len(RATE_CASES)
+    assert "vibration modes per body" in text and "wall time of the simulation [s]" in text
+    pages = _pages(out)
+    assert pages >= 6
+    # render every page to PNG; the figure pages carry ink (not blank)
+    subprocess.run(["pdftoppm", "-r", "40", "-png", str(out), str(tmp_path / "page")], check=True)
+    pngs = sorted(tmp_path.glob("page-*.png"))
+    assert len(pngs) == pages
+    import matplotlib.image as mpimg
+    ink = [float(np.mean(mpimg.imread(p)[..., :3] < 0.5)) for p in pngs]
+    # a sparse 7-pt table page at 40 dpi inks ~7e-4; a blank page ~0
+    assert max(ink) > 0.02 and all(i > 3e-4 for i in ink), [(k, i) for k, i in enumerate(ink) if i <= 3e-4]
+
+
+@needs_poppler
+def test_report_builds_without_inputs(tmp_path):
+    out = tmp_path / "report.pdf"
+    missing = {k: str(tmp_path / f"missing_{k}") for k in report.DEFAULTS if k != "out"}
+    args = [a for k, v in missing.items() for a in ("--" + k.replace("_", "-"), v)]
+    assert report.main([*args, "--out", str(out)]) == 0
+    text = _pdf_text(out)
+    assert "Incomplete report" in text and "Not available" in text
+    assert "missing" in text and "not evaluated" in text
+    assert "Provenance" in text and _pages(out) >= 2
+
+
+def test_study_groups_have_labels():
+    assert set(study.GROUPS) <= set(study.GROUP_LABELS) and set(study.GROUPS) <= set(figures.GROUP_STYLE)

@@ -1,0 +1,80 @@
+"""The Snakemake workflow: it parses, plans every stage, and refuses a bad config in one line."""
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def snakemake(*args, cwd=ROOT):
+    return subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_dry_run_plans_all_stages(tmp_path):
+    run = snakemake("--dry-run", "all", "--forceall")
+    assert run.returncode == 0, run.stderr[-2000:]
+    for rule in ("mesh_body", "modes_body", "verify_fe", "mode_shapes_body"):
+        assert rule in run.stdout
+
+
+def test_bad_config_stops_with_one_line(tmp_path):
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    config["bodies"]["inner_gimbal"]["thickness"]["value"] = -0.25
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(config))
+    run = snakemake("--dry-run", "all", "--configfile", str(bad))
+    assert run.returncode != 0
+    # Snakemake may first note that --configfile extends the default; nothing else may be printed
+    lines = [line for line in (run.stdout + run.stderr).splitlines()
+             if line.strip() and not line.startswith("Config file config/config.yaml is extended")]
+    assert lines == ["config error at 'bodies.inner_gimbal.thickness.value': -0.25 is less than or equal to the "
+                     "minimum of 0"], run.stderr[-2000:]
+
+
+def test_stage_shares_from_benchmark_records(tmp_path):
+    from results.bench.summary import stage_of, workflow_benchmark
+
+    header = "s\th:m:s\tmax_rss\n"
+    for name, seconds in (("mesh_body2.tsv", 1.0), ("modes_body2.tsv", 3.0), ("sim/thesis/truth.tsv", 6.0)):
+        path = tmp_path / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(header + f"{seconds}\t0:00:01\t1\n")
+    data = workflow_benchmark(str(tmp_path))
+    assert data["stage_seconds"] == {"geometry": 1.0, "modes": 3.0, "simulation": 6.0}
+    assert abs(sum(data["stage_share"].values()) - 1) < 1e-12
+    assert stage_of("verify_convergence_body5.tsv") == "fe verification"
+
+
+def _planned_jobs(stdout):
+    """{rule: count} from the 'Job stats' table of a dry run."""
+    lines = stdout.split("Job stats:")[1].splitlines()
+    jobs = {}
+    for line in lines[3:]:
+        parts = line.split()
+        if len(parts) != 2 or parts[0] == "total":
+            break
+        jobs[parts[0]] = int(parts[1])
+    return jobs
+
+
+def test_one_simulation_plans_only_what_it_needs():
+    """Issue 6: the DAG of results/sim/thesis/freq-10.h5 holds no other case, and no
+    reduction (a frequency cutoff reads the body files only)."""
+    run = snakemake("--dry-run", "--forceall", "results/sim/thesis/freq-10.h5")
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert _planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "simulate": 1}
+    run = snakemake("--dry-run", "--forceall", "results/sim/thesis/global-40.h5")
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert _planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "reduction_body": 4,
+                                         "load_ranking": 1, "simulate": 1}
+
+
+def test_a_scene_target_plans_exactly_its_declared_simulations():
+    from solver.dynamics import scenes
+    declared = scenes.load_scene("thesis").models
+    run = snakemake("--dry-run", "--forceall", "results/sim/thesis/needs.done")
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert _planned_jobs(run.stdout)["simulate"] == len(declared)
