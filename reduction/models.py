@@ -67,23 +67,6 @@ DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_moto
 _LOAD_RE = re.compile(r"^(input_motor|input_resolver|output_motor|output_resolver)_[fm][xyz]$")
 
 
-# The truth model's default integration (simulate --model truth without --integrator/--step/
-# --fraction): chosen so that halving the step changes every gimbal rate on scene thesis by
-# E < 1e-10 (results.bench.verify_dynamics; docs/dynamics.md Section 8).  A fraction of the RK4
-# stability limit 2.785 / omega_max, omega_max the coupled chain's highest frequency.
-# Measured on the real bodies (thesis, 15 ms): RK4 needs 1/8 of its stability limit (264k steps,
-# ~100 s; E(h, h/2) ~ 1e-11, E(h/4, h/2) = 2e-7 at half the limit: the top coupled modes,
-# excited by the case's sudden acceleration, are stable but their phase is not resolved), while
-# DOP853 at rtol 1e-10 runs near its larger stability limit (21k steps, 12 evaluations each) and
-# agrees with that RK4 run to E = 4e-12: the cheaper converged choice.
-TRUTH_DEFAULT = {"integrator": "dop853", "rtol": 1e-10, "atol": 1e-14}
-
-
-def truth_default():
-    """The truth model's default integrator settings (a copy of TRUTH_DEFAULT)."""
-    return dict(TRUTH_DEFAULT)
-
-
 class ModelError(ValueError):
     """A model name that cannot be built."""
 
@@ -296,13 +279,13 @@ def load_rankings(reduction_dir, bodies=BODIES):
 
 def static_modes_for(data, load_cases, kept_modes, kept_eigenvalues):
     """Static correction modes of one body (reduction.static_modes, eq. 3.48) for a kept set:
-    (modes (ndof, s), modal stiffness (s,))."""
+    the dict of ``static_correction_modes`` (modes (ndof, s), modal_stiffness (s,), and their
+    frequencies, Gram condition and couplings to the kept modes)."""
     apply_G = modal_integrals.supported_flexibility(data["K"], data["T"], data["rigid_modes"])
     F = np.column_stack([load_case_vector(data["bearing_operator"], c, data["bearing_points"])
                          for c in load_cases])
-    res = static_correction_modes(data["M"], data["K"], apply_G, F, kept_modes, kept_eigenvalues,
-                                  names=list(load_cases))
-    return res["modes"], res["modal_stiffness"]
+    return static_correction_modes(data["M"], data["K"], apply_G, F, kept_modes, kept_eigenvalues,
+                                   names=list(load_cases))
 
 
 def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rotation_blocks=True):
@@ -313,7 +296,8 @@ def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rota
     labels = [f"mode {i}" for i in kept]
     bearing_modes = np.asarray(data["bearing_modes"])[kept]
     if load_cases:
-        S, k_s = static_modes_for(data, load_cases, Phi, lam)
+        static = static_modes_for(data, load_cases, Phi, lam)
+        S, k_s = static["modes"], static["modal_stiffness"]
         Phi = np.hstack([Phi, S])
         lam = np.concatenate([lam, k_s])
         labels += [f"static {c}" for c in load_cases]
@@ -362,6 +346,8 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     the reduction stage's files (needed by xmx-, xmgmx-, load- and global- models);
     load_ranking: the scene's load-aware ranking file (load- and global- models)."""
     body_data = {b: load_body_file(body_files[b]) for b in BODIES}
+    if not needs_load_ranking(name):
+        load_ranking = None         # given but not read by this model
     if needs_reduction_rankings(name):
         if not reduction_files:
             raise ModelError(f"model {name!r} ranks modes by the reduction stage: pass its files "

@@ -203,7 +203,7 @@ def load_models(names, scene, modes_dir, reduction_dir, load_ranking=None):
     specs = [models.parse_model(n, rankings) for n in names]
     body_data = {b: models.load_body_file(os.path.join(modes_dir, f"body{b}.h5")) for b in models.BODIES}
     if load_aware:
-        simulate._check_load_ranking(load_ranking, rankings, body_data)   # same body files?
+        models.check_load_ranking(load_ranking, rankings, body_data)   # same body files?
     out = {}
     for spec in specs:
         t0 = time.perf_counter()

@@ -183,8 +183,22 @@ def rigid_checks(body_data, rankings):
     return out
 
 
+def _reduce_and_simulate(args, modes_dir, reduction_dir, out_dir):
+    """The workflow's two jobs of one simulation (reduce, then simulate), in process:
+    args = ["--scene", S, "--model", M, *simulate options]; the first non-zero status."""
+    scene, model, options = args[1], args[3], args[4:]
+    model_file = os.path.join(out_dir, "models", f"{model}.h5")
+    rc = models.main(["--model", model, "--scene", scene,
+                      "--bodies", *[os.path.join(modes_dir, f"body{b}.h5") for b in models.BODIES],
+                      "--reductions", *[os.path.join(reduction_dir, f"body{b}.h5") for b in models.BODIES],
+                      "--out", model_file])
+    if rc:
+        return rc
+    return simulate.main(["--scene", scene, "--model-file", model_file,
+                          "--out", os.path.join(out_dir, f"{model}.h5"), *options])
+
+
 def bad_input_checks(modes_dir, reduction_dir, out_dir):
-    common = ["--modes-dir", modes_dir, "--reduction-dir", reduction_dir, "--out-dir", out_dir]
     cases = {
         "unknown model": ["--scene", "thesis", "--model", "fraq-10"],
         "mode count above computed": ["--scene", "thesis", "--model", "freq-101"],
@@ -213,7 +227,7 @@ def bad_input_checks(modes_dir, reduction_dir, out_dir):
         err = io.StringIO()
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
             try:
-                rc = simulate.main(args + common)
+                rc = _reduce_and_simulate(args, modes_dir, reduction_dir, out_dir)
             except SystemExit as exc:          # argparse errors
                 rc = exc.code
         lines = err.getvalue().strip().splitlines()
@@ -234,7 +248,7 @@ def truth_runs(body_data, rankings, repeats):
     prob = simulate.scene_problem(chain, scene)
     t_omega = time.perf_counter() - t0
     limit = integrators.rk4_stability_limit(prob.omega_max)
-    cfg = models.truth_default()
+    cfg = dict(simulate.TRUTH_DEFAULT)
     go = lambda **kw: integrators.integrate(prob, scene.duration, scene.output_interval, **kw)
     # convergence of the default: its run, and the same integrator with every step at most
     # half the default's mean step (DOP853 is stability-limited here, its steps nearly uniform)

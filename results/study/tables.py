@@ -39,48 +39,12 @@ import numpy as np
 
 from results.study import cases as study
 from solver.dynamics.error_measure import GRID_RTOL, ErrorsInputError, check_same_grid, error_measure  # noqa: F401
+from solver.dynamics.simfile import read_sim  # noqa: F401  (the simulation file's owner)
 
 RATE_COLUMNS = tuple(f"E_{study.BODY_NAMES[b]}" for b in study.BODIES)
 TABLE_COLUMNS = ("group", "model", "ranking", "count", "static", "load_case", "thesis_figure",
                  "n_elastic", *RATE_COLUMNS, "wall_time_s", "integration_time_s", "integrator",
                  "step_s", "steps", "samples", "scene", "config_hash", "file")
-def read_sim(path) -> dict:
-    """A simulation file as {t (T,), gamma (T,4), gamma_dot (T,4), attrs, path}."""
-    import h5py
-    if not os.path.exists(path):
-        raise ErrorsInputError(f"{path}: simulation file missing (run solver.dynamics.simulate first)")
-    try:
-        with h5py.File(path, "r") as f:
-            for key in ("t", "gamma_dot"):
-                if key not in f:
-                    raise ErrorsInputError(f"{path}: dataset '{key}' missing (not a simulation file)")
-            out = {"t": f["t"][()], "gamma_dot": f["gamma_dot"][()],
-                   "gamma": f["gamma"][()] if "gamma" in f else None,
-                   "attrs": {k: _plain(v) for k, v in f.attrs.items()}}
-            if "energy" in f:
-                out["energy"] = {k: f["energy"][k][()] for k in f["energy"]}
-    except OSError as exc:
-        raise ErrorsInputError(f"{path}: unreadable HDF5 file ({exc.__class__.__name__})") from None
-    t, gd = np.asarray(out["t"], float), np.asarray(out["gamma_dot"], float)
-    if t.ndim != 1 or gd.shape != (t.size, 4):
-        raise ErrorsInputError(f"{path}: gamma_dot has shape {gd.shape}, expected ({t.size}, 4)")
-    if not (np.all(np.isfinite(gd)) and np.all(np.isfinite(t))):
-        raise ErrorsInputError(f"{path}: non-finite gamma_dot or t (diverged run)")
-    out["t"], out["gamma_dot"], out["path"] = t, gd, str(path)
-    out["model"] = str(out["attrs"].get("model") or os.path.splitext(os.path.basename(path))[0])
-    return out
-
-
-def _plain(v):
-    if isinstance(v, bytes):
-        return v.decode()
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    if isinstance(v, np.generic):
-        return v.item()
-    return v
-
-
 def case_row(truth: dict, case: dict) -> dict:
     """One table row: the case's description, E per gimbal rate and its cost attributes."""
     label = case.get("path", case.get("model", "case"))

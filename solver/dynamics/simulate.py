@@ -1,23 +1,22 @@
-"""Simulate one scene with one reduced model: results/sim/{scene}/{model}.h5.
+"""Simulate one scene with one reduced-model file: results/sim/{scene}/{model}.h5.
 
-    /usr/bin/python3 -m solver.dynamics.simulate --scene thesis --model truth
-    /usr/bin/python3 -m solver.dynamics.simulate --scene thesis --model static-8 --integrator generalized-alpha --step 1e-5
+    python -m solver.dynamics.simulate --scene config/scenes/thesis.yaml \
+        --model-file results/models/thesis/truth.h5 --out results/sim/thesis/truth.h5
+    python -m solver.dynamics.simulate --scene thesis --model static-8 --integrator generalized-alpha --step 1e-5
 
-Everything is validated (scene file, model name, step) before integration.
-Output datasets: t (T,) [s], gamma (T, 4) [rad], gamma_dot (T, 4) [rad/s],
-q (T, sum D) modal coordinates (optional, --store-modal), energy/kinetic,
-energy/potential, energy/total [in lbf], energy/input_work [in lbf] (work of
-case motion and motors minus damping, trapezoid at output samples);
-attributes: scene, model, integrator, step, steps, wall_time_s, config_hash,
-omega_max (the coupled chain's highest frequency at the initial state, which
-sets the RK4 limit), modal_omega_max (largest kept modal frequency),
-stability_limit, n_modes (4,), created; for ``load-*`` / ``global-*`` models also
-load_ranking (the ranking file used) and load_ranking_scene.  Written to a
-temporary file and moved into place with os.replace (atomic).
+The reduced-model file (``solver.dynamics.chainfile``, made by ``python -m
+reduction.models`` or ``snakemake results/models/{scene}/{model}.h5``) holds the
+chain; the scene adds the case motion, torques, initial state and modal damping.
+``--model NAME`` alone finds the file at results/models/{scene}/{NAME}.h5 and
+writes results/sim/{scene}/{NAME}.h5, {scene} being the scene file's name (never
+a field inside it); the workflow passes every path explicitly.
 
-``load-*`` and ``global-*`` models (reduction/models.py) read the scene's load-aware
-ranking, ``--load-ranking PATH`` (default results/reduction/load/{scene}.h5, made by
-``python -m reduction.load_aware``); a missing file is a one-line error naming it.
+Everything is validated (scene file, model file, step, output folder) before the
+integration.  The output is the simulation file of ``solver.dynamics.simfile``
+(datasets t, gamma, gamma_dot, energies; attributes scene, model, integrator,
+step, steps, wall_time_s, config_hash, omega_max (the coupled chain's highest
+frequency at the initial state, which sets the RK4 limit), modal_omega_max,
+stability_limit, n_modes, provenance), written atomically.
 """
 
 import argparse
@@ -25,22 +24,31 @@ import hashlib
 import json
 import os
 import sys
-import tempfile
 import time
 
 import numpy as np
 
-from solver.dynamics import integrators, multibody, scenes
-from reduction import models
+from solver.dynamics import chainfile, integrators, multibody, scenes, simfile
+from workflow.provenance import versions
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-def config_hash(scene, spec, options, body_hashes=()):
-    payload = {"scene": scene.physics, "model": spec.name,
-               "kept": {str(b): np.asarray(v).tolist() for b, v in spec.kept.items()},
-               "static": {str(b): list(v) for b, v in spec.static.items()},
-               "options": options, "bodies": list(body_hashes)}
+# The truth model's default integration (simulate --model truth without --integrator/--step/
+# --fraction): chosen so that halving the step changes every gimbal rate on scene thesis by
+# E < 1e-10 (results.bench.verify_dynamics; docs/dynamics.md Section 8).
+# Measured on the real bodies (thesis, 15 ms): RK4 needs 1/8 of its stability limit (264k steps,
+# ~100 s; E(h, h/2) ~ 1e-11, E(h/4, h/2) = 2e-7 at half the limit: the top coupled modes,
+# excited by the case's sudden acceleration, are stable but their phase is not resolved), while
+# DOP853 at rtol 1e-10 runs near its larger stability limit (21k steps, 12 evaluations each) and
+# agrees with that RK4 run to E = 4e-12: the cheaper converged choice.
+TRUTH_DEFAULT = {"integrator": "dop853", "rtol": 1e-10, "atol": 1e-14}
+
+
+def config_hash(scene, model_hash, options):
+    """Hash of what a simulation depends on: the scene's physics, the reduced-model file's
+    own hash (bodies, kept modes, rankings) and the integrator options (16 hex digits)."""
+    payload = {"scene": scene.physics, "model": model_hash, "options": options}
     return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
@@ -75,43 +83,17 @@ def energy_history(prob, run):
     return T, U, W
 
 
-def write_result(path, run, prob, attrs, store_modal=False):
-    """Write the run atomically (temporary file in the same folder, then os.replace)."""
-    import h5py
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    T, U, W = energy_history(prob, run)
-    fd, tmp = tempfile.mkstemp(suffix=".h5.tmp", dir=os.path.dirname(os.path.abspath(path)))
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as f:
-            f["t"] = run.t
-            f["gamma"] = run.y[:, :4]
-            f["gamma_dot"] = run.yd[:, :4]
-            if store_modal:
-                f["q"] = run.y[:, 4:]
-                f["q_dot"] = run.yd[:, 4:]
-            g = f.create_group("energy")
-            g["kinetic"], g["potential"], g["total"], g["input_work"] = T, U, T + U, W
-            for k, v in attrs.items():
-                f.attrs[k] = v
-            for k, v in run.stats.items():
-                f.attrs[f"stat_{k}"] = v
-        os.chmod(tmp, 0o644)            # mkstemp creates 0600
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-    return path
-
-
-def _check_load_ranking(path, rankings, body_data):
-    """ValueError (one line) if a load-aware ranking was made from other body files."""
-    import json
-    stored = rankings[models.POOLED_KEY].get("body_config_hashes") or ""
-    current = [str(body_data[b]["attrs"].get("config_hash", "")) for b in models.BODIES]
-    if stored and json.loads(stored) != current:
-        raise ValueError(f"load-aware ranking {path} was made from other body files (config "
-                         f"hashes differ): rerun python -m reduction.load_aware")
+def _positive(name):
+    """argparse type: a positive finite float; a negative value is read as a value, then refused."""
+    def parse(text):
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not (np.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"{name} must be a positive number, got {text!r}")
+        return value
+    return parse
 
 
 class _Parser(argparse.ArgumentParser):
@@ -121,95 +103,96 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"simulate: {message} (see --help)\n")
 
 
+def _scene_stem(arg):
+    return os.path.splitext(os.path.basename(str(arg)))[0]
+
+
 def main(argv=None):
     ap = _Parser(
         prog="python -m solver.dynamics.simulate",
-        description="Simulate the elastic gimbal chain: one scene, one reduced model "
-                    "(docs/dynamics.md; model grammar in reduction/models.py).")
+        description="Simulate the elastic gimbal chain: one scene, one reduced-model file "
+                    "(docs/dynamics.md; the file is made by python -m reduction.models or by "
+                    "snakemake results/models/SCENE/MODEL.h5).")
     ap.add_argument("--scene", required=True, help="scene name (config/scenes/NAME.yaml) or path")
-    ap.add_argument("--model", required=True,
-                    help="truth | rigid | freq-N | xmx-N | xmgmx-N | load-N | global-N | static-N | "
-                         "static-xmx-N | ... with N or N,N,N,N and optional @body:loadcase")
+    ap.add_argument("--model-file", help="reduced-model file (default results/models/SCENE/MODEL.h5)")
+    ap.add_argument("--model", help="model name, to find the default model file and output")
+    ap.add_argument("--out", help="simulation file to write (default results/sim/SCENE/MODEL.h5)")
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
-                    help="default rk4 (truth: models.TRUTH_DEFAULT, the converged setting)")
-    ap.add_argument("--step", type=float, default=None, help="fixed step [s] (rk4, generalized-alpha)")
-    ap.add_argument("--fraction", type=float, default=None,
+                    help="default rk4 (truth: TRUTH_DEFAULT, the converged setting)")
+    ap.add_argument("--step", type=_positive("--step"), default=None,
+                    help="fixed step [s] (rk4, generalized-alpha)")
+    ap.add_argument("--fraction", type=_positive("--fraction"), default=None,
                     help=f"rk4 step as a fraction of 2.785/omega_max (default "
                          f"{integrators.RK4_DEFAULT_FRACTION})")
     ap.add_argument("--rho-inf", type=float, default=0.9, help="generalized-alpha spectral radius")
     ap.add_argument("--rtol", type=float, default=1e-10, help="dop853 relative tolerance")
     ap.add_argument("--atol", type=float, default=1e-14, help="dop853 absolute tolerance")
-    ap.add_argument("--modes-dir", default=os.path.join(ROOT, "results", "modes"))
-    ap.add_argument("--reduction-dir", default=os.path.join(ROOT, "results", "reduction"))
-    ap.add_argument("--out-dir", default=os.path.join(ROOT, "results", "sim"))
-    ap.add_argument("--load-ranking", default=None,
-                    help="load-aware ranking file for load-N / global-N models (default "
-                         "results/reduction/load/{scene}.h5, python -m reduction.load_aware)")
     ap.add_argument("--store-modal", action="store_true", help="also store q(t), q'(t)")
     args = ap.parse_args(argv)
+    if args.model_file is None and args.model is None:
+        ap.error("give --model-file FILE or --model NAME")
+    stem = _scene_stem(args.scene)
+    model_file = args.model_file or os.path.join(ROOT, "results", "models", stem, f"{args.model}.h5")
     try:
         scene = scenes.load_scene(args.scene)
-        body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))
-                     for b in models.BODIES}
-        if models.needs_reduction_rankings(args.model):
-            rankings = models.load_rankings(args.reduction_dir)
-        else:       # truth, rigid, freq-*, static-*: no reduction stage needed
-            rankings = models.frequency_rankings(body_data)
-        load_ranking = None
-        if models.needs_load_ranking(args.model):
-            load_ranking = args.load_ranking or os.path.join(
-                ROOT, "results", "reduction", "load", f"{scene.name}.h5")
-            models.load_load_ranking(load_ranking, rankings)
-        spec = models.restrict_to_bodies(models.parse_model(args.model, rankings), scene.elastic_bodies)
+        chain, info = chainfile.read_chain(model_file, scene.damping_ratio)
+        model = str(info.get("model", ""))
+        if args.model is not None and args.model != model:
+            raise ValueError(f"{model_file} holds model {model!r}, not {args.model!r}")
         if args.integrator is None:
             args.integrator = "rk4"
-            if spec.name == "truth" and args.step is None and args.fraction is None:
-                cfg = models.truth_default()
+            if model == "truth" and args.step is None and args.fraction is None:
+                cfg = dict(TRUTH_DEFAULT)
                 args.integrator, args.fraction = cfg["integrator"], cfg.get("fraction")
                 args.rtol, args.atol = cfg.get("rtol", args.rtol), cfg.get("atol", args.atol)
-        if args.fraction is not None and not (np.isfinite(args.fraction) and args.fraction > 0):
-            raise ValueError(f"--fraction must be a positive number, got {args.fraction}")
-        if args.step is not None and not (np.isfinite(args.step) and args.step > 0):
-            raise ValueError(f"--step must be a positive number, got {args.step}")
-        if load_ranking is not None:
-            _check_load_ranking(load_ranking, rankings, body_data)
-        chain = models.build_chain(spec, body_data, scene.damping_ratio)
         prob = scene_problem(chain, scene)
         if args.integrator == "rk4" and args.step is not None:
             limit = integrators.rk4_stability_limit(prob.omega_max)
             if args.step > limit:
                 raise integrators.StepTooLargeError(
                     f"rk4 step {args.step:.3e} s exceeds the stability limit {limit:.3e} s "
-                    f"(coupled omega_max = {prob.omega_max:.4g} rad/s) of model {spec.name!r}")
+                    f"(coupled omega_max = {prob.omega_max:.4g} rad/s) of model {model!r}")
         options = {"integrator": args.integrator, "step": args.step, "fraction": args.fraction,
                    "rho_inf": args.rho_inf, "rtol": args.rtol, "atol": args.atol}
-        chash = config_hash(scene, spec, options,
-                            [body_data[b]["attrs"].get("config_hash", "") for b in models.BODIES])
+        chash = config_hash(scene, str(info.get("config_hash", "")), options)
+        out = args.out or os.path.join(ROOT, "results", "sim", stem, f"{model}.h5")
+        _check_writable(out)
         t0 = time.perf_counter()
         run, prob = run_scene(chain, scene, args.integrator, args.step, args.fraction, args.rho_inf,
-                              args.rtol, args.atol, spec.name, problem=prob)
+                              args.rtol, args.atol, model, problem=prob)
         wall = time.perf_counter() - t0
     except (ValueError, FileNotFoundError, integrators.DivergenceError) as exc:
         print(f"simulate: {exc}", file=sys.stderr)
         return 2
-    path = os.path.join(args.out_dir, scene.name, f"{spec.name}.h5")
-    attrs = {"scene": scene.name, "model": spec.name, "integrator": run.method, "step": run.step,
+    attrs = {"scene": scene.name, "model": model, "integrator": run.method, "step": run.step,
              "steps": run.steps, "wall_time_s": wall, "integration_time_s": run.wall_time,
-             "config_hash": chash, "omega_max": prob.omega_max,
-             "modal_omega_max": chain.omega_max,
+             "config_hash": chash, "model_config_hash": str(info.get("config_hash", "")),
+             "omega_max": prob.omega_max, "modal_omega_max": chain.omega_max,
              "stability_limit": integrators.rk4_stability_limit(prob.omega_max),
              "n_modes": np.array(chain.n_modes), "units": "in, lbf, s, rad",
              "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    if load_ranking is not None:
-        attrs["load_ranking"] = os.path.abspath(load_ranking)
-        attrs["load_ranking_scene"] = rankings[models.POOLED_KEY]["scene"]
-    write_result(path, run, prob, attrs, args.store_modal)
+    for key in ("load_ranking", "load_ranking_scene"):
+        if key in info:
+            attrs[key] = info[key]
+    attrs.update({f"version_{k}": str(v) for k, v in versions().items()})
+    simfile.write_sim(out, run, energy_history(prob, run), attrs, args.store_modal)
     what = (f"(mean step {scene.duration / max(run.steps, 1):.3e} s)" if run.method == "dop853"
             else f"of {run.step:.3e} s")
-    print(f"simulate: {path}: {run.steps} {run.method} steps {what} in {wall:.2f} s "
+    print(f"simulate: {out}: {run.steps} {run.method} steps {what} in {wall:.2f} s "
           f"(coupled omega_max {prob.omega_max:.4g} rad/s, RK4 limit "
           f"{integrators.rk4_stability_limit(prob.omega_max):.3e} s)")
     return 0
+
+
+def _check_writable(path):
+    """ValueError (one line) before the integration if ``path``'s folder cannot be written."""
+    folder = os.path.dirname(os.path.abspath(path))
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"cannot create the output folder {folder} ({exc.strerror})") from None
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"output folder {folder} is not writable")
 
 
 if __name__ == "__main__":

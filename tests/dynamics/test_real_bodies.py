@@ -10,7 +10,7 @@ import pytest
 from solver.dynamics import integrators, multibody, scenes, simulate
 from reduction import models
 from tests.dynamics_fixtures import REAL_MODES as MODES, REAL_REDUCTION as REDUCTION
-from tests.dynamics_fixtures import load_real_bodies, real_bodies_only
+from tests.dynamics_fixtures import load_real_bodies, real_bodies_only, run_model
 
 pytestmark = real_bodies_only
 
@@ -34,8 +34,7 @@ def test_coupled_frequency_above_kept_frequencies_on_real_bodies(real):
 
 
 def test_freq10_thesis_runs_through_cli(real, tmp_path):
-    rc = simulate.main(["--scene", "thesis", "--model", "freq-10", "--modes-dir", MODES,
-                        "--reduction-dir", REDUCTION, "--out-dir", str(tmp_path)])
+    rc = run_model("thesis", "freq-10", MODES, REDUCTION, str(tmp_path))
     assert rc == 0
     with h5py.File(tmp_path / "thesis" / "freq-10.h5", "r") as f:
         assert np.all(np.isfinite(f["gamma_dot"][()]))
@@ -54,8 +53,8 @@ def test_freq10_thesis_runs_through_cli(real, tmp_path):
     (["--scene", "thesis", "--model", "truth", "--fraction", "1.5"], "stability limit"),
 ])
 def test_bad_input_one_line_on_real_data(real, tmp_path, capsys, args, message):
-    rc = simulate.main(args + ["--modes-dir", MODES, "--reduction-dir", REDUCTION,
-                               "--out-dir", str(tmp_path)])
+    scene, model, options = args[1], args[3], args[4:]
+    rc = run_model(scene, model, MODES, REDUCTION, str(tmp_path), options)
     assert rc == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0]

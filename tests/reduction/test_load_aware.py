@@ -16,6 +16,7 @@ from results.bench import selection
 from reduction import models
 from solver.dynamics import scenes, simulate
 from results.bench.oracle import synthetic_body
+from tests.dynamics_fixtures import run_model
 from tests.reduction.test_models import write_body
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -242,11 +243,9 @@ def test_estimate_predicts_simulated_error_on_synthetic_chain(synthetic, tmp_pat
     of the frozen linear chain agree with the measured ones to within 2 % (rates > 1e-3
     rad/s: within 0.2 % measured) and the truth (all modes) too."""
     root, out = synthetic
-    common = ["--scene", "thesis", "--modes-dir", str(root / "modes"), "--reduction-dir",
-              str(root / "reduction"), "--out-dir", str(tmp_path), "--load-ranking", str(out),
-              "--fraction", "0.25"]
     for name in ("freq-6", "load-2", "global-5", "freq-2"):
-        assert simulate.main(common + ["--model", name]) == 0
+        assert run_model("thesis", name, str(root / "modes"), str(root / "reduction"), str(tmp_path),
+                         ["--fraction", "0.25"], load_ranking=out) == 0
     with h5py.File(tmp_path / "thesis" / "load-2.h5", "r") as f:
         assert f.attrs["load_ranking"] == str(out) and list(f.attrs["n_modes"]) == [2, 2, 2, 2]
     rc = selection.main(["--truth", str(tmp_path / "thesis" / "freq-6.h5"), "--cases"] +
@@ -266,11 +265,10 @@ def test_estimate_predicts_simulated_error_on_synthetic_chain(synthetic, tmp_pat
 
 def test_simulate_missing_ranking_is_one_line_error(synthetic, tmp_path, capsys):
     root, out = synthetic
-    common = ["--scene", "thesis", "--modes-dir", str(root / "modes"), "--reduction-dir",
-              str(root / "reduction"), "--out-dir", str(tmp_path)]
+    common = (str(root / "modes"), str(root / "reduction"), str(tmp_path))
     missing = tmp_path / "nope" / "thesis.h5"
-    assert simulate.main(common + ["--model", "load-2", "--load-ranking", str(missing)]) == 2
-    assert simulate.main(common + ["--model", "global-99", "--load-ranking", str(out)]) == 2
+    assert run_model("thesis", "load-2", *common, load_ranking=missing) == 2
+    assert run_model("thesis", "global-99", *common, load_ranking=out) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and str(missing) in err[0] and "missing" in err[0]
     assert "only 24 computed" in err[1]
@@ -282,9 +280,8 @@ def test_simulate_refuses_ranking_of_other_bodies(synthetic, tmp_path, capsys):
     stale.write_bytes(out.read_bytes())
     with h5py.File(stale, "a") as f:
         f.attrs["body_config_hashes"] = json.dumps(["a", "b", "c", "d"])
-    rc = simulate.main(["--scene", "thesis", "--model", "load-1", "--modes-dir", str(root / "modes"),
-                        "--reduction-dir", str(root / "reduction"), "--out-dir", str(tmp_path),
-                        "--load-ranking", str(stale)])
+    rc = run_model("thesis", "load-1", str(root / "modes"), str(root / "reduction"), str(tmp_path),
+                   load_ranking=stale)
     assert rc == 2 and "other body files" in capsys.readouterr().err
 
 

@@ -10,6 +10,7 @@ import scipy.sparse as sp
 from reduction import models
 from solver.dynamics import multibody, scenes, simulate
 from results.bench.oracle import synthetic_body
+from tests.dynamics_fixtures import run_model
 
 
 def rankings(D=12):
@@ -161,9 +162,7 @@ def test_static_mode_model_builds_and_orthonormal(files):
 def test_simulate_cli_writes_result(files, tmp_path):
     root, _ = files
     out = tmp_path / "sim"
-    rc = simulate.main(["--scene", "thesis", "--model", "static-xmx-2", "--modes-dir",
-                        str(root / "modes"), "--reduction-dir", str(root / "reduction"),
-                        "--out-dir", str(out)])
+    rc = run_model("thesis", "static-xmx-2", str(root / "modes"), str(root / "reduction"), str(out))
     assert rc == 0
     path = out / "thesis" / "static-xmx-2.h5"
     with h5py.File(path, "r") as f:
@@ -177,10 +176,9 @@ def test_simulate_cli_writes_result(files, tmp_path):
 
 def test_simulate_cli_errors_are_one_line(files, tmp_path, capsys):
     root, _ = files
-    common = ["--modes-dir", str(root / "modes"), "--reduction-dir", str(root / "reduction"),
-              "--out-dir", str(tmp_path)]
-    assert simulate.main(["--scene", "thesis", "--model", "freq-99"] + common) == 2
-    assert simulate.main(["--scene", "thesis", "--model", "freq-6", "--step", "1.0"] + common) == 2
-    assert simulate.main(["--scene", "nope", "--model", "freq-6"] + common) == 2
+    common = (str(root / "modes"), str(root / "reduction"), str(tmp_path))
+    assert run_model("thesis", "freq-99", *common) == 2
+    assert run_model("thesis", "freq-6", *common, options=["--step", "1.0"]) == 2
+    assert run_model("nope", "freq-6", *common) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 3 and "only 6 computed" in err[0] and "stability limit" in err[1]

@@ -3,31 +3,8 @@ DYNAMICS_CODE = REDUCTION_CODE + ["solver/bodydata.py", "reduction/models.py"] +
     "multibody", "fast_rhs", "integrators", "scenes", "simulate", "chainfile", "error_measure")]
 DYNAMICS_CHECK_CODE = DYNAMICS_CODE + ["solver/dynamics/checks.py", "results/bench/verify_dynamics.py", "results/study/tables.py"]
 
-wildcard_constraints:
-    scene="[A-Za-z0-9_-]+",
-
-
-models_mod = importlib.import_module("reduction.models")
-scenes_mod = importlib.import_module("solver.dynamics.scenes")
-
-
-def simulation_inputs(wildcards):
-    """What one simulation needs, and nothing else: every body file (mass properties),
-    the reduction of the scene's elastic bodies only if the model's selection reads a
-    ranking (xmx, xmgmx, load, global), and the scene's load-aware ranking for load-* and
-    global-*.  So the DAG of results/sim/thesis/freq-10.h5 is four meshes, four modal
-    solutions and one simulation."""
-    scene = scenes_mod.load_scene(os.path.join("config", "scenes", f"{wildcards.scene}.yaml"))
-    needed = [f"results/modes/body{n}.h5" for n in BODIES]
-    if models_mod.needs_reduction_rankings(wildcards.model):
-        needed += [f"results/reduction/body{n}.h5" for n in BODIES]
-    if models_mod.needs_load_ranking(wildcards.model):
-        needed.append(f"results/reduction/load/{wildcards.scene}.h5")
-    return needed
-
-
 def scene_physics_hash(wildcards):
-    return scenes_mod.load_scene(os.path.join("config", "scenes", f"{wildcards.scene}.yaml")).config_hash()
+    return scenes_mod.load_scene(scene_file(wildcards)).config_hash()
 
 
 rule load_ranking:
@@ -51,7 +28,7 @@ rule load_ranking:
 rule simulate:
     input:
         DYNAMICS_CODE,
-        simulation_inputs,
+        model="results/models/{scene}/{model}.h5",
     output:
         "results/sim/{scene}/{model}.h5",
     log:
@@ -59,12 +36,13 @@ rule simulate:
     benchmark:
         "results/benchmarks/rules/sim/{scene}/{model}.tsv"
     params:
-        # the scene's physics (not what it needs) triggers a rerun; a missing scene file is
-        # reported by simulate in one line
-        scene=scene_physics_hash,
+        # the scene's physics (not what it needs, nor its comments) triggers a rerun; a
+        # missing scene file is reported in one line when the DAG is built
+        physics=scene_physics_hash,
+        scene=scene_file,
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {wildcards.scene} --model '{wildcards.model}' "
-        "--modes-dir results/modes --reduction-dir results/reduction --out-dir results/sim > {log} 2>&1"
+        "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
+        "--out {output} > {log} 2>&1"
 
 
 rule dynamics_verification:
