@@ -65,7 +65,8 @@ def write_chain(path, chain, kept, static_cases, attrs):
             group = h5.create_group(f"body{body.number}")
             for key in BODY_DATASETS[:-1]:
                 group[key] = getattr(body, key)
-            group["labels"] = np.array(body.labels, dtype=h5py.string_dtype())
+            labels = body.labels or tuple(f"coordinate {i}" for i in range(body.n_modes))
+            group["labels"] = np.array(labels, dtype=h5py.string_dtype())
             for key in INSIDE_DATASETS:
                 value = getattr(body, key)
                 if value is not None:

@@ -189,7 +189,14 @@ def load_scene(name_or_path, scenes_dir=SCENES_DIR):
             raw = yaml.safe_load(fh)
         except yaml.YAMLError as exc:
             raise SceneError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    return parse_scene(raw, origin=os.path.basename(path))
+    scene = parse_scene(raw, origin=os.path.basename(path))
+    stem = os.path.splitext(os.path.basename(path))[0]
+    if scene.name != stem:
+        # outputs are named after the file (results/sim/{file stem}/...); a name: copied from
+        # another scene would make two scenes claim one name
+        raise SceneError(f"{os.path.basename(path)}: name: {scene.name!r} differs from the file's name "
+                         f"{stem!r} (a scene is named by its file: set name: {stem})")
+    return scene
 
 
 def initial_state(scene, n_coordinates):
