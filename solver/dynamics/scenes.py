@@ -14,7 +14,7 @@ workflow computes nothing else):
   their modal integrals are computed (their mass properties still come from
   their body file);
 * ``needs.models``: the reduced models whose simulations make up the scene's
-  results (``snakemake results/sim/{scene}/needs.json`` builds exactly those).
+  results (``snakemake results/sim/{scene}/needs.done`` builds exactly those).
 """
 
 import hashlib
