@@ -1,5 +1,7 @@
-# The gimbal study as a Snakemake (7.21) workflow: stages are wired here, the
-# work is done by the importable packages geometry/, solver/, reduction/, results/.
+# The gimbal study as a Snakemake workflow (8.20.5, pinned in the venv; README): stages are wired
+# here, the work is done by the importable packages geometry/, solver/, reduction/, results/.
+# Every job reruns when the code its stage runs or the config values it reads change
+# (params.code and params.cfg, workflow/rules/common.smk).
 #   snakemake --cores 2 all        everything that exists so far
 #   snakemake --cores 2 mesh       gmsh meshes of the four bodies
 #   snakemake --cores 2 modes      100 supported modes per body

@@ -78,7 +78,7 @@ def _check_size(size: float, smallest_dimension: float, name: str) -> None:
             "the mesh would be degenerate")
 
 
-def _physical_group(dim: int, tags: list[int], name: str) -> None:
+def physical_group(dim: int, tags: list[int], name: str) -> None:
     """A named physical group (gmsh 4.8 API: group first, then its name)."""
     tag = gmsh.model.addPhysicalGroup(dim, list(tags))
     gmsh.model.setPhysicalName(dim, tag, name)
@@ -122,11 +122,11 @@ def build_ring(params: dict, mass_angle_deg: float, size: float) -> dict[str, fl
             loop = geo.addCurveLoop([arcs[a0, y0], lines[a1][half], -arcs[a0, y1], -lines[a0][half]])
             surfaces.append(geo.addSurfaceFilling([loop]))
     geo.synchronize()
-    _physical_group(2, surfaces, "shell")
+    physical_group(2, surfaces, "shell")
     for name, a in regions.items():
-        _physical_group(1, lines[round(a % 360.0, 9)], name)
+        physical_group(1, lines[round(a % 360.0, 9)], name)
     mass_a = round(regions["eccentric_mass"] % 360.0, 9)
-    _physical_group(0, [rim[mass_a, 0.0]], "eccentric_mass_point")
+    physical_group(0, [rim[mass_a, 0.0]], "eccentric_mass_point")
     return regions
 
 
@@ -164,7 +164,7 @@ def build_platform(params: dict, mass_angle_deg: float, size: float,
     extruded = geo.extrude([(2, face)], 0, thickness, 0)
     geo.synchronize()
     volume = [tag for dim, tag in extruded if dim == 3]
-    _physical_group(3, volume, "solid")
+    physical_group(3, volume, "solid")
     # extrude returns [top, volume, lateral faces in the order of the face's boundary curves]
     laterals = [tag for dim, tag in extruded if dim == 2][1:]
     rim_faces = laterals[: len(outer_arcs)]
@@ -172,7 +172,7 @@ def build_platform(params: dict, mass_angle_deg: float, size: float,
     for name, a in regions.items():
         patch = [f for f, m in zip(rim_faces, mids)
                  if abs((m - a + 180.0) % 360.0 - 180.0) < half[name]]
-        _physical_group(2, patch, name)
+        physical_group(2, patch, name)
     return regions
 
 

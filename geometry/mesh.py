@@ -1,6 +1,10 @@
 """Command line: mesh one body from the config.
 
-``/usr/bin/python3 -m geometry.mesh --body 2 --out results/mesh/body2.msh [--size 0.125]``
+``/usr/bin/python3 -m geometry.mesh --body 2 --out results/mesh/body2.msh [--size 0.125] [--meta body2.json]``
+
+The stage reads the config only through ``workflow.config.body_inputs(...)["mesh"]``,
+whose hash is the rule's rerun trigger. ``--meta`` writes the mesh's metadata (the
+size used, node and cell counts, region angles) for the modal stage.
 """
 from __future__ import annotations
 
@@ -10,6 +14,7 @@ import sys
 
 from geometry.gimbal import GeometryError, mesh_body
 from workflow import config as cfgmod
+from workflow.provenance import write_json
 
 
 def mesh_size(config: dict, params: dict, level: int = 0) -> float:
@@ -20,11 +25,14 @@ def mesh_size(config: dict, params: dict, level: int = 0) -> float:
 
 def mesh_from_config(config: dict, body, path, size: float | None = None) -> dict:
     """Mesh a body with the config's geometry; ``size`` overrides the default mesh size."""
-    params = cfgmod.body_parameters(config, body)
-    return mesh_body(params, cfgmod.value(config, "eccentric_mass.angle"),
-                     size if size is not None else mesh_size(config, params), path,
-                     bearing_half_angle_deg=cfgmod.value(config, "bearing_connection.platform_patch_half_angle"),
-                     mass_half_angle_deg=cfgmod.value(config, "eccentric_mass.platform_patch_half_angle"))
+    return mesh_from_inputs(cfgmod.body_inputs(config, body, size)["mesh"], path)
+
+
+def mesh_from_inputs(inputs: dict, path) -> dict:
+    """Mesh a body from its resolved mesh inputs (``workflow.config.body_inputs(...)["mesh"]``)."""
+    patches = {"bearing_half_angle_deg": inputs["bearing_half_angle"],
+               "mass_half_angle_deg": inputs["mass_half_angle"]} if "bearing_half_angle" in inputs else {}
+    return mesh_body(inputs["body"], inputs["mass_angle"], inputs["size"], path, **patches)
 
 
 def main(argv=None) -> int:
@@ -32,6 +40,7 @@ def main(argv=None) -> int:
     parser.add_argument("--body", required=True, help="body number 2..5 or name")
     parser.add_argument("--out", required=True, help="output .msh file")
     parser.add_argument("--size", type=float, default=None, help="mesh size in inches (default: config)")
+    parser.add_argument("--meta", default=None, help="write the mesh metadata (size used, nodes, cells) here")
     parser.add_argument("--config", default=str(cfgmod.DEFAULT_CONFIG))
     args = parser.parse_args(argv)
     try:
@@ -40,6 +49,8 @@ def main(argv=None) -> int:
     except (GeometryError, cfgmod.ConfigError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
+    if args.meta:
+        write_json(args.meta, meta)
     print(json.dumps(meta))
     return 0
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import gmsh
 
-from geometry.gimbal import _physical_group
+from geometry.gimbal import physical_group
 
 
 def _mesh_and_write(dim: int, size: float, path: str | Path, algorithm: int = 6) -> None:
@@ -46,7 +46,7 @@ def square_plate(side: float, size: float, path: str | Path) -> None:
     with _gmsh_model("plate") as occ:
         occ.addRectangle(0, 0, 0, side, side)
         occ.synchronize()
-        _physical_group(2, [s for _, s in gmsh.model.getEntities(2)], "shell")
+        physical_group(2, [s for _, s in gmsh.model.getEntities(2)], "shell")
         _mesh_and_write(2, size, path)
 
 
@@ -58,7 +58,7 @@ def band_surface(radius: float, width: float, size: float, path: str | Path) -> 
         # keep only the lateral surface of the cylinder
         lateral = [s for _, s in gmsh.model.getEntities(2)
                    if abs(gmsh.model.getBoundingBox(2, s)[4] - gmsh.model.getBoundingBox(2, s)[1] - width) < 1e-4 * width]
-        _physical_group(2, lateral, "shell")
+        physical_group(2, lateral, "shell")
         _mesh_and_write(2, size, path)
 
 
@@ -69,7 +69,7 @@ def band_solid(radius: float, thickness: float, width: float, size: float, path:
         inner = occ.addCylinder(0, -width / 2, 0, 0, width, 0, radius - thickness / 2)
         occ.cut([(3, outer)], [(3, inner)])
         occ.synchronize()
-        _physical_group(3, [v for _, v in gmsh.model.getEntities(3)], "solid")
+        physical_group(3, [v for _, v in gmsh.model.getEntities(3)], "solid")
         _mesh_and_write(3, size, path, algorithm=6)
 
 
@@ -81,5 +81,5 @@ def annulus_surface(outer_radius: float, inner_radius: float, size: float, path:
         occ.cut([(2, outer)], [(2, inner)])
         occ.rotate(occ.getEntities(2), 0, 0, 0, 1, 0, 0, -1.5707963267948966)  # x-y plane -> x-z plane
         occ.synchronize()
-        _physical_group(2, [s for _, s in gmsh.model.getEntities(2)], "shell")
+        physical_group(2, [s for _, s in gmsh.model.getEntities(2)], "shell")
         _mesh_and_write(2, size, path)

@@ -7,9 +7,11 @@ the gimbal model (bearings outside the ring wall, nested bodies that fit), and
 raises :class:`ConfigError` with a one-line message naming the culprit key.
 
 The helpers :func:`value` and :func:`body_parameters` strip units so that the
-numerical code receives plain floats; :func:`section_hash` gives a stable hash
-of the part of the config a stage reads, so Snakemake reruns a stage only when
-its own inputs change.
+numerical code receives plain floats. :func:`body_inputs` resolves everything a
+body's mesh and modal stages read (the stages read it through this function),
+:func:`check_inputs` what each finite-element check reads; :func:`inputs_hash`
+of either is the Snakemake rerun trigger of the rule, so a rule reruns when, and
+only when, a value its stage reads changes.
 """
 from __future__ import annotations
 
@@ -148,6 +150,12 @@ def body_parameters(config: dict, body: int | str) -> dict:
     return params
 
 
+def inputs_hash(inputs) -> str:
+    """Stable 12-hex-digit hash of a JSON-able object (resolved stage inputs, config sections)."""
+    text = json.dumps(inputs, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
 def section_hash(config: dict, *dotted_keys: str) -> str:
     """Stable 12-hex-digit hash of the named config sections (all of it if none)."""
     if dotted_keys:
@@ -159,11 +167,102 @@ def section_hash(config: dict, *dotted_keys: str) -> str:
             parts[key] = node
     else:
         parts = config
-    text = json.dumps(parts, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
+    return inputs_hash(parts)
 
 
-def body_config_keys(body: int | str) -> tuple[str, ...]:
-    """The config sections that a body's mesh and modes depend on."""
-    return (f"bodies.{body_name(body)}", "material", "eccentric_mass", "bearing_connection",
-            "shell", "solid", "mesh", "modes")
+# the body parameters that shape a body's mesh: the regions sit at the motor and mass angles
+MESH_KEYS = {"ring": ("name", "shape", "diameter", "width", "motor_side", "output_motor_side"),
+             "plate": ("name", "shape", "diameter", "hole_diameter", "thickness", "motor_side")}
+
+
+def _pick(params: dict, keys) -> dict:
+    return {k: params[k] for k in keys if k in params}
+
+
+def body_inputs(config: dict, body: int | str, mesh_size: float | None = None) -> dict:
+    """Everything a body's mesh and modes read, resolved to plain values.
+
+    ``mesh``: what ``geometry.mesh`` reads: the body's shape parameters and motor
+    sides (its own and, for a ring, the next body's, which places the output
+    bearings), the mesh size (``mesh_size`` overrides the config's), the mass angle
+    and, for the platform, the rim-patch half-angles. The rest is what
+    ``solver.fe.modes`` reads: the body parameters with material
+    (:func:`body_parameters`, without ``number``, which the stage takes from its
+    caller), the eccentric mass, the connection's rotation weight, the shell
+    settings or the solid's degree (by the body's model), and the eigen-solve settings.
+    """
+    params = body_parameters(config, body)
+    params.pop("number", None)
+    ring = params["shape"] == "ring"
+    size = mesh_size if mesh_size is not None else value(config, "mesh.ring_size" if ring else "mesh.platform_size")
+    mesh = {"body": _pick(params, MESH_KEYS["ring" if ring else "plate"]), "size": size,
+            "mass_angle": value(config, "eccentric_mass.angle")}
+    if not ring:
+        mesh["bearing_half_angle"] = value(config, "bearing_connection.platform_patch_half_angle")
+        mesh["mass_half_angle"] = value(config, "eccentric_mass.platform_patch_half_angle")
+    inputs = {"mesh": mesh, "body": params,
+              "mass_angle": value(config, "eccentric_mass.angle"),
+              "mass_fraction": value(config, "eccentric_mass.mass_fraction"),
+              "rotation_weight_length": value(config, "bearing_connection.rotation_weight_length"),
+              "modes": {k: value(config, f"modes.{k}") for k in ("count", "tolerance", "max_iterations")}}
+    if params["model"] == "shell":
+        inputs["shell"] = shell_settings(config)
+    else:
+        inputs["solid_degree"] = int(value(config, "solid.degree"))
+    return inputs
+
+
+def shell_settings(config: dict) -> dict:
+    """The shell model's settings (``shell`` section), unit-stripped."""
+    return {k: v["value"] for k, v in config["shell"].items()}
+
+
+def _without(inputs: dict, *keys: str) -> dict:
+    """``inputs`` less the dotted ``keys`` (a copy)."""
+    out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in inputs.items()}
+    for key in keys:
+        head, _, tail = key.partition(".")
+        if tail:
+            out[head].pop(tail, None)
+        else:
+            out.pop(head, None)
+    return out
+
+
+# what each FE verification check of ``solver.fe.checks`` reads (``solver.fe.verify CHECK``)
+CHECKS = ("ring", "plate", "solid-ring", "platform", "convergence", "body-file", "hughes", "mpi", "connection",
+          "spectra")
+
+
+def check_inputs(config: dict, check: str, body: int | str | None = None) -> dict:
+    """The resolved config values that an FE verification check reads (its rule's rerun trigger)."""
+    material = {k: v["value"] for k, v in config["material"].items()}
+    if check in ("ring", "solid-ring"):         # bare free ring of body 2, shell (and solid)
+        ring = body_parameters(config, 2)
+        out = {"ring": _pick(ring, ("name", "model", "diameter", "thickness", "width")), "material": material,
+               "shell": shell_settings(config), "size": value(config, "mesh.ring_size")}
+        if check == "solid-ring":
+            out["solid_degree"] = int(value(config, "solid.degree"))
+        return out
+    if check == "plate":                         # NAFEMS FV12: its own plate and material
+        return {"shell": shell_settings(config)}
+    if check == "platform":                      # the platform free-free, as a solid and as a shell
+        return {"mesh": body_inputs(config, 5)["mesh"], "model": body_parameters(config, 5)["model"],
+                "material": material, "shell": shell_settings(config),
+                "solid_degree": int(value(config, "solid.degree"))}
+    if check == "hughes":                        # body 4 at 0.5 in, assembled (no eigen-solve settings)
+        return _without(body_inputs(config, 4, 0.5), "modes")
+    if check == "connection":                    # body 2 at two mesh levels, assembled
+        return {"body": _without(body_inputs(config, 2), "modes"),
+                "refinement_ratio": value(config, "mesh.refinement_ratio")}
+    if check == "convergence":                   # three mesh levels of one body
+        return {"body": _without(body_inputs(config, body), "modes.count"),
+                "refinement_ratio": value(config, "mesh.refinement_ratio"),
+                "count": value(config, "verification.convergence_modes")}
+    if check == "mpi":                           # the modal stage of body 2 (mode count from its body file)
+        return _without(body_inputs(config, 2), "modes.count")
+    if check == "body-file":                     # residuals and orthonormality from the body file alone
+        return {}
+    if check == "spectra":
+        return {k: value(config, f"verification.{k}") for k in ("free_modes", "supported_modes")}
+    raise ConfigError(f"unknown check '{check}': choose from {', '.join(CHECKS)}")

@@ -103,15 +103,31 @@ def _project_target(name: str, modules) -> str | None:
     return None
 
 
+@functools.lru_cache(maxsize=None)
+def _parse(path: str, mtime_ns: int, size: int) -> ast.Module:
+    """A file's syntax tree, parsed once per file version (callers must not change it)."""
+    return ast.parse(Path(path).read_text(), filename=path)
+
+
+def parse_tree(path: Path) -> ast.Module:
+    stat = Path(path).stat()
+    return _parse(str(path), stat.st_mtime_ns, stat.st_size)
+
+
+# nodes that can hold statements (an import is a statement: no expression holds one)
+_BLOCKS = (ast.stmt, ast.excepthandler, ast.match_case)
+
+
 def parse_imports(module: str, path: Path, modules) -> list[Import]:
     """The project imports of one file, each marked local when it sits inside a function."""
-    tree = ast.parse(path.read_text(), filename=str(path))
+    tree = parse_tree(path)
     is_package = path.name == "__init__.py"
     found = []
 
     def visit(node, local):
         for child in ast.iter_child_nodes(node):
-            inner = local or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+            if not isinstance(child, _BLOCKS):
+                continue
             if isinstance(child, ast.Import):
                 names = [alias.name for alias in child.names]
             elif isinstance(child, ast.ImportFrom):
@@ -120,7 +136,7 @@ def parse_imports(module: str, path: Path, modules) -> list[Import]:
                 names = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base
                          for alias in child.names]
             else:
-                visit(child, inner)
+                visit(child, local or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)))
                 continue
             for name in dict.fromkeys(names):
                 target = _project_target(name, modules)
@@ -178,24 +194,38 @@ def files(*entries: str, root: Path = ROOT) -> list[str]:
 
 
 def normalised_source(path: Path) -> str:
-    """The ``ast`` dump of a file with every docstring removed: blind to comments, docstrings and layout."""
-    tree = ast.parse(Path(path).read_text(), filename=str(path))
-    for node in ast.walk(tree):
+    """The ``ast`` dump of a file with every docstring left out: blind to comments, docstrings and layout."""
+    tree = parse_tree(path)
+    docstrings, todo = [], [tree]
+    while todo:   # docstrings open module, class and function bodies: statements only are searched
+        node = todo.pop()
+        todo.extend(child for child in ast.iter_child_nodes(node) if isinstance(child, _BLOCKS))
         if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
             body = node.body
             if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
                     and isinstance(body[0].value.value, str):
+                docstrings.append((node, body))
                 node.body = body[1:]
-    return ast.dump(tree, annotate_fields=True, include_attributes=False)
+    try:
+        return ast.dump(tree, annotate_fields=True, include_attributes=False)
+    finally:
+        for node, body in docstrings:   # the cached tree stays as parsed
+            node.body = body
+
+
+@functools.lru_cache(maxsize=None)
+def _file_digest(path: str, mtime_ns: int, size: int) -> str:
+    """sha256 of a code file's normalised source (of a data file's text); cached per file version."""
+    text = normalised_source(Path(path)) if path.endswith(".py") else Path(path).read_text()
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def code_hash(*entries: str, root: Path = ROOT) -> str:
     """Stable 12-hex-digit hash of the code that running ``entries`` executes (:func:`files`)."""
     digest = hashlib.sha256()
     for rel in files(*entries, root=root):
-        path = root / rel
-        text = normalised_source(path) if path.suffix == ".py" else path.read_text()
-        digest.update(json.dumps([rel, text]).encode())
+        stat = (root / rel).stat()
+        digest.update(json.dumps([rel, _file_digest(str(root / rel), stat.st_mtime_ns, stat.st_size)]).encode())
     return digest.hexdigest()[:12]
 
 

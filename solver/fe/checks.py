@@ -2,12 +2,12 @@
 
 Every check is a function returning a dict ``{name, value, tolerance, passed,
 ...details}`` so that the workflow (``results/verification/fe.json``) and the
-tests (``tests/test_fe_verification.py``) run the very same code:
+tests (``tests/fe/test_checks.py``) run the very same code:
 
 * :func:`check_ring_formula` - free ring, in-plane flexural modes n = 2, 3, 4
   against the thin-ring formula;
 * :func:`check_plate_fv12` - NAFEMS FV12 free thin square plate;
-* :func:`check_solid_ring` - shell against a P2-tetrahedra solid, free-free;
+* :func:`check_solid_ring` - shell against a 3D solid (tetrahedra of degree ``solid.degree``), free-free;
 * :func:`check_platform_model` - the platform as a shell against the solid;
 * :func:`check_convergence` - three-level mesh study of the supported modes;
 * :func:`check_body_file` - residuals and M-orthonormality of all modes;
@@ -18,15 +18,23 @@ tests (``tests/test_fe_verification.py``) run the very same code:
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 
 from geometry import verification as shapes
+from geometry.mesh import mesh_from_config, mesh_from_inputs, mesh_size
 from solver.bodydata import read_body_file, rigid_modes
 from solver.fe import bearings, eigen, forms as fe, modes
 from workflow import config as cfgmod
@@ -46,10 +54,6 @@ def _result(name: str, value: float, tolerance: float, passed: bool, **details) 
     return {"name": name, "value": float(value), "tolerance": float(tolerance), "passed": bool(passed), **details}
 
 
-def _shell_settings(config: dict) -> dict:
-    return {k: v["value"] for k, v in config["shell"].items()}
-
-
 def free_free(mesh_path, params: dict, config: dict, count: int, reference_hz: float):
     """Lowest ``count`` free-free eigenpairs of a bare shell or solid model.
 
@@ -59,7 +63,7 @@ def free_free(mesh_path, params: dict, config: dict, count: int, reference_hz: f
     """
     mesh, _, _, _ = fe.load_mesh(mesh_path, COMM)
     if params["model"] == "shell":
-        V, a_k, a_m = fe.shell_forms(mesh, params, _shell_settings(config))
+        V, a_k, a_m = fe.shell_forms(mesh, params, cfgmod.shell_settings(config))
     else:
         V, a_k, a_m = fe.solid_forms(mesh, params, int(cfgmod.value(config, "solid.degree")))
     K, M = fe.assemble_matrix(a_k), fe.assemble_matrix(a_m)
@@ -179,11 +183,12 @@ def check_plate_fv12(config: dict, size: float = 0.5) -> dict:
 
 def check_solid_ring(config: dict, body: int = 2, shell_size: float | None = None,
                      solid_size: float | None = None, count: int = 10, workdir=None) -> dict:
-    """Bare ring of ``body`` free-free: shell vs 3D solid (P2 tetrahedra), first ``count`` elastic modes.
+    """Bare ring of ``body`` free-free: shell vs 3D solid, first ``count`` elastic modes.
 
     Both models have the same mid-radius, wall and width and no eccentric mass;
-    the solid resolves the 0.25 x 0.5 in cross-section with about three P2
-    tetrahedra through the wall. Frequencies are compared in ascending order.
+    the solid (Lagrange tetrahedra of degree ``solid.degree``) resolves the
+    0.25 x 0.5 in cross-section with about three tetrahedra through the wall.
+    Frequencies are compared in ascending order.
     """
     params = cfgmod.body_parameters(config, body)
     radius, t, b = params["diameter"] / 2, params["thickness"], params["width"]
@@ -216,8 +221,7 @@ def check_platform_model(config: dict, shell_size: float | None = None, solid_si
     solid_size = solid_size or cfgmod.value(config, "mesh.platform_size")
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         shapes.annulus_surface(r_out, r_in, shell_size, Path(tmp) / "shell.msh")
-        from geometry.gimbal import mesh_body
-        mesh_body(params, cfgmod.value(config, "eccentric_mass.angle"), solid_size, Path(tmp) / "solid.msh")
+        mesh_from_inputs(cfgmod.body_inputs(config, 5, solid_size)["mesh"], Path(tmp) / "solid.msh")
         solid_hz = free_free(Path(tmp) / "solid.msh", params, config, 6 + count, 2e4)[0][6:]
         shell_hz = free_free(Path(tmp) / "shell.msh", {**params, "model": "shell"}, config, 6 + count, 2e4)[0][6:]
     deviation = shell_hz / solid_hz - 1
@@ -230,12 +234,10 @@ def check_platform_model(config: dict, shell_size: float | None = None, solid_si
 
 def supported_frequencies(config: dict, body: int, size: float, count: int, workdir=None) -> np.ndarray:
     """First ``count`` supported frequencies (Hz) of a body meshed at ``size``."""
-    from geometry.mesh import mesh_from_config
-
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         path = Path(tmp) / "body.msh"
         mesh_from_config(config, body, path, size)
-        payload = modes.compute_body(body, config, path, count, COMM, log=lambda *a, **k: None)
+        payload = modes.compute_body(body, config, path, count, COMM, log=lambda *a, **k: None, mesh_size=size)
     return payload["frequencies_hz"]
 
 
@@ -249,8 +251,6 @@ def check_convergence(config: dict, body: int, count: int | None = None, levels=
     Passes when the two finest agree within 0.5 % and the default is the
     coarsest level within 1 % of the finest.
     """
-    from geometry.mesh import mesh_size
-
     params = cfgmod.body_parameters(config, body)
     if levels is None:
         levels = (-1, 0, 1) if params["shape"] == "ring" else (0, 1, 2)
@@ -296,13 +296,12 @@ def check_hughes_identity(config: dict, body: int = 4, size: float = 0.5, workdi
     supports are plain DOF constraints (computed here by a pseudo-inverse, an
     independent route from the eigenvectors).
     """
-    from geometry.mesh import mesh_from_config
-
-    params = cfgmod.body_parameters(config, body)
+    inputs = cfgmod.body_inputs(config, body, size)
+    params = inputs["body"]
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         path = Path(tmp) / "body.msh"
-        mesh_from_config(config, body, path, size)
-        model = modes.assemble_body(params, config, path, COMM)
+        mesh_from_inputs(inputs["mesh"], path)
+        model = modes.assemble_body(inputs, path, COMM)
     K, M = modes.gather_matrix(model.K, COMM), modes.gather_matrix(model.M, COMM)
     T = modes.admissible_basis_petsc(model.K, bearings.support_constraints(model.operators))[1]
     values, phi = eigen.all_supported_modes(K, M, T)
@@ -324,10 +323,6 @@ def mpirun_command(ranks: int) -> list[str]:
 
 def check_mpi(body_file, mesh_path, config_path, ranks: int = 2, workdir=None) -> dict:
     """The modal stage under ``mpirun -n 2`` gives the serial frequencies to 1e-8 relative."""
-    import os
-    import subprocess
-    import sys
-
     serial = _body_and_attrs(body_file)
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         out = Path(tmp) / "body_mpi.h5"
@@ -350,10 +345,6 @@ def check_mpi(body_file, mesh_path, config_path, ranks: int = 2, workdir=None) -
 
 def patch_weights(V, centre_deg: float, half_angle_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Nodes, coordinates and weights of a ring surface patch |angle - centre| < half_angle (serial)."""
-    import ufl
-    from dolfinx import fem
-    from dolfinx.fem import petsc as fem_petsc
-
     x = ufl.SpatialCoordinate(V.mesh)
     c, s = math.cos(math.radians(centre_deg)), math.sin(math.radians(centre_deg))
     # angle from the patch centre, measured in the x-z plane
@@ -376,10 +367,6 @@ def connection_study(config: dict, body: int = 2, count: int = 6, levels=(0, 1),
     Returns the frequencies per variant and mesh, and the shift of each
     variant's f1..f_count relative to the default on the finest mesh.
     """
-    from dataclasses import replace
-
-    from geometry.mesh import mesh_from_config, mesh_size
-
     params = cfgmod.body_parameters(config, body)
     length = cfgmod.value(config, "bearing_connection.rotation_weight_length")
     results = {}
@@ -387,8 +374,9 @@ def connection_study(config: dict, body: int = 2, count: int = 6, levels=(0, 1),
     for size in sizes:
         with tempfile.TemporaryDirectory(dir=workdir) as tmp:
             path = Path(tmp) / "body.msh"
-            mesh_from_config(config, body, path, size)
-            model = modes.assemble_body(params, config, path, COMM)
+            inputs = cfgmod.body_inputs(config, body, size)
+            mesh_from_inputs(inputs["mesh"], path)
+            model = modes.assemble_body(inputs, path, COMM)
         V, bs, ndof = model.space, model.block_size, model.ndof
         line = {name: model.regions[name] for name in ("input_motor", "input_resolver")}
         variants = {"line rigid-fit (default)": dict(model.operators)}

@@ -33,7 +33,9 @@ the director; no drilling inertia).
 
 Solid (platform, and the outer gimbal for verification)
 -------------------------------------------------------
-Isotropic linear elasticity with P2 tetrahedra, 3 DOFs per node.
+Isotropic linear elasticity on tetrahedra, 3 DOFs per node, of the polynomial
+degree the caller gives (config ``solid.degree``: 3, on the platform's curved
+second-order tetrahedra).
 """
 from __future__ import annotations
 
@@ -206,35 +208,19 @@ def assemble_matrix(form) -> PETSc.Mat:
     return A
 
 
-def angular_taper(mesh, centre_deg: float, half_angle_deg: float):
-    """cos^2 bump in the x-z angle: 1 at ``centre_deg``, 0 at +-``half_angle_deg`` (UFL expression).
-
-    Used as the weight of a solid's rim patch, so the bearing traction fades
-    smoothly to zero at the patch edges (as a contact pressure does) instead of
-    jumping there, which would make the stresses singular and slow the mesh
-    convergence of the lowest modes.
-    """
-    x = ufl.SpatialCoordinate(mesh)
-    c, s = np.cos(np.radians(centre_deg)), np.sin(np.radians(centre_deg))
-    offset = ufl.atan_2(-s * x[0] + c * x[2], c * x[0] + s * x[2])
-    return ufl.cos(np.pi / 2 * offset / np.radians(half_angle_deg)) ** 2
-
-
-def region_weights(V, facet_tags, tag: int, taper=None) -> np.ndarray:
+def region_weights(V, facet_tags, tag: int) -> np.ndarray:
     """Integration weight of every owned node on a tagged region, shape (n_owned_nodes,).
 
-    The weight of node k is the integral of its (scalar) basis function, times
-    an optional ``taper`` (UFL expression), over the region: a line inside a
-    shell (interior facets, ``dS``) or a face patch of a solid (exterior
-    facets, ``ds``). Without taper the weights sum to the region's measure.
+    The weight of node k is the integral of its (scalar) basis function over the
+    region: a line inside a shell (interior facets, ``dS``) or a face patch of a
+    solid (exterior facets, ``ds``). The weights sum to the region's measure.
     """
     mesh = V.mesh
     v = ufl.TestFunction(V)
-    g = 1.0 if taper is None else taper
     if mesh.topology.dim == 2:
-        form = v("+")[0] * g * ufl.dS(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag)
+        form = v("+")[0] * ufl.dS(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag)
     else:
-        form = v[0] * g * ufl.ds(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag, degree=6)
+        form = v[0] * ufl.ds(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag, degree=6)
     b = fem_petsc.assemble_vector(fem.form(form, jit_params=JIT))
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     bs = V.dofmap.index_map_bs

@@ -1,6 +1,10 @@
 """The modal stage: assemble one body, attach bearings and eccentric mass, solve its modes.
 
-``/usr/bin/python3 -m solver.fe.modes --body 2 --mesh results/mesh/body2.msh --out results/modes/body2.h5``
+``/usr/bin/python3 -m solver.fe.modes --body 2 --mesh results/mesh/body2.msh --mesh-meta results/mesh/body2.json --out results/modes/body2.h5``
+
+The stage reads the config only through ``workflow.config.body_inputs`` (whose hash
+is the rule's rerun trigger and the body file's ``config_hash``), and the mesh size
+from the mesh's metadata (``geometry.mesh --meta``).
 
 Steps (each one function):
 
@@ -32,13 +36,11 @@ import scipy.sparse as sp
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from geometry.gimbal import bearing_angles, bearing_points, eccentric_mass_point
+from geometry.gimbal import bearing_points, eccentric_mass_point
 from solver.fe import bearings, eigen, forms as fe
-from solver.bodydata import BODY_KEYS, CSR_KEYS, rigid_modes, write_csr
+from solver.bodydata import BEARING_NAMES, BODY_KEYS, CSR_KEYS, rigid_modes, write_csr
 from workflow import config as cfgmod
 from workflow.provenance import atomic_h5, versions
-
-BEARING_NAMES = ("input_motor", "input_resolver", "output_motor", "output_resolver")
 
 
 @dataclass
@@ -62,9 +64,9 @@ class BodyModel:
     regions: dict | None = None            # region name -> (nodes, coords, weights) of the rigid fits
 
 
-def _gather_region(V, facet_tags, tag: int, comm, taper=None):
+def _gather_region(V, facet_tags, tag: int, comm):
     """Global node indices, coordinates and weights of a region, identical on every rank."""
-    weights = fe.region_weights(V, facet_tags, tag, taper)
+    weights = fe.region_weights(V, facet_tags, tag)
     nodes, coords = fe.owned_nodes(V)
     keep = weights > 1e-14 * max(weights.max(initial=0.0), 1e-300)
     parts = comm.allgather((nodes[keep], coords[keep], weights[keep]))
@@ -81,33 +83,30 @@ def _rigid_translation_vector(K: PETSc.Mat, block_size: int, component: int) -> 
     return vec
 
 
-def assemble_body(params: dict, config: dict, mesh_path: str | Path, comm=MPI.COMM_WORLD) -> BodyModel:
-    """Assemble K, M (with the eccentric mass) and the bearing operators of one body."""
+def assemble_body(inputs: dict, mesh_path: str | Path, comm=MPI.COMM_WORLD) -> BodyModel:
+    """Assemble K, M (with the eccentric mass) and the bearing operators of one body.
+
+    ``inputs``: the body's resolved inputs, ``workflow.config.body_inputs(config, n, mesh_size)``.
+    """
+    params = inputs["body"]
     mesh, _, facet_tags, regions = fe.load_mesh(mesh_path, comm)
     if params["model"] == "shell":
-        V, a_k, a_m = fe.shell_forms(mesh, params, {k: v["value"] for k, v in config["shell"].items()})
+        V, a_k, a_m = fe.shell_forms(mesh, params, inputs["shell"])
     else:
-        V, a_k, a_m = fe.solid_forms(mesh, params, int(cfgmod.value(config, "solid.degree")))
+        V, a_k, a_m = fe.solid_forms(mesh, params, inputs["solid_degree"])
     K, M = fe.assemble_matrix(a_k), fe.assemble_matrix(a_m)
     bs = V.dofmap.index_map_bs
     ndof = V.dofmap.index_map.size_global * bs
     points = bearing_points(params)
-    mass_angle = cfgmod.value(config, "eccentric_mass.angle")
-    mass_position = eccentric_mass_point(params, mass_angle)
-    length = cfgmod.value(config, "bearing_connection.rotation_weight_length")
+    mass_position = eccentric_mass_point(params, inputs["mass_angle"])
+    length = inputs["rotation_weight_length"]
     operators, region_data = {}, {}
-    angles = bearing_angles(params["motor_side"], params.get("output_motor_side"))
-    angles["eccentric_mass"] = mass_angle
-    half_angles = {name: cfgmod.value(config, "bearing_connection.platform_patch_half_angle") for name in angles}
-    half_angles["eccentric_mass"] = cfgmod.value(config, "eccentric_mass.platform_patch_half_angle")
     for name, point in [*zip(BEARING_NAMES, points), ("eccentric_mass", mass_position)]:
         if name not in regions:
             continue
         if np.any(np.isnan(point)):
             continue
-        # a solid's rim patch carries a smooth cos^2 taper; a shell's line is uniform
-        taper = None
-        nodes, coords, weights = region_data[name] = _gather_region(V, facet_tags, regions[name], comm, taper)
+        nodes, coords, weights = region_data[name] = _gather_region(V, facet_tags, regions[name], comm)
         operators[name] = bearings.rigid_fit_operator(nodes, coords, weights, point, bs, ndof, length,
                                                       shell_normals(coords) if bs == 6 else None)
     missing = [n for n in ("input_motor", "input_resolver", "eccentric_mass") if n not in operators]
@@ -118,7 +117,7 @@ def assemble_body(params: dict, config: dict, mesh_path: str | Path, comm=MPI.CO
     structural_mass = M.createVecLeft()
     M.mult(ex, structural_mass)
     structural_mass = structural_mass.dot(ex)
-    point_mass = cfgmod.value(config, "eccentric_mass.mass_fraction") * structural_mass
+    point_mass = inputs["mass_fraction"] * structural_mass
     _add_point_mass(M, operators["eccentric_mass"][:3], point_mass, comm)
     nodes, coords = fe.owned_nodes(V)
     parts = comm.gather((nodes, coords), root=0)
@@ -128,7 +127,7 @@ def assemble_body(params: dict, config: dict, mesh_path: str | Path, comm=MPI.CO
         for n_, c_ in parts:
             node_coords[n_] = c_
         dof_coords = np.repeat(node_coords, bs, axis=0)
-    mesh_size = cfgmod.value(config, "mesh.ring_size" if params["shape"] == "ring" else "mesh.platform_size")
+    mesh_size = inputs["mesh"]["size"]
     n_cells = comm.allreduce(mesh.topology.index_map(mesh.topology.dim).size_local)
     return BodyModel(params, K, M, bs, ndof, operators, points, structural_mass, point_mass,
                      mass_position, mesh_size, dof_coords, n_cells, V, region_data)
@@ -240,18 +239,20 @@ def bearing_operator_matrix(body: BodyModel) -> sp.csr_matrix:
 
 
 def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: int | None = None,
-                 comm=MPI.COMM_WORLD, log=print, all_modes: bool = False) -> dict | None:
+                 comm=MPI.COMM_WORLD, log=print, all_modes: bool = False, mesh_size: float | None = None) -> dict | None:
     """Assemble and solve one body; return the body-file payload on rank 0 (None elsewhere).
 
     ``all_modes``: every finite supported mode by a dense solve (coarse meshes,
-    serial only), for the discrete Hughes identities.
+    serial only), for the discrete Hughes identities. ``mesh_size``: the size the
+    mesh was made with (default: the config's), recorded in the body file.
     """
     started = time.perf_counter()
-    params = cfgmod.body_parameters(config, body_number)
-    count = int(count or cfgmod.value(config, "modes.count"))
-    tolerance = cfgmod.value(config, "modes.tolerance")
-    max_iterations = int(cfgmod.value(config, "modes.max_iterations"))
-    body = assemble_body(params, config, mesh_path, comm)
+    inputs = cfgmod.body_inputs(config, body_number, mesh_size)
+    params = inputs["body"]
+    count = int(count or inputs["modes"]["count"])
+    tolerance = inputs["modes"]["tolerance"]
+    max_iterations = int(inputs["modes"]["max_iterations"])
+    body = assemble_body(inputs, mesh_path, comm)
     t_assembled = time.perf_counter()
     if all_modes:
         if comm.size > 1 or body.ndof > 20000:
@@ -327,10 +328,22 @@ def write_body_file(path: str | Path, payload: dict, config_hash: str, wall_time
         h5.attrs["timings"] = json.dumps(payload["timings"])
 
 
+def read_mesh_size(path: str | Path) -> float:
+    """The mesh size recorded in a mesh's metadata file, with a one-line error if it is unusable."""
+    try:
+        return float(json.loads(Path(path).read_text())["mesh_size"])
+    except FileNotFoundError:
+        raise FileNotFoundError(f"mesh metadata '{path}' not found (run geometry.mesh --meta)") from None
+    except (ValueError, KeyError, TypeError):
+        raise ValueError(f"mesh metadata '{path}' holds no mesh_size: delete it and rerun geometry.mesh") from None
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--body", required=True, help="body number 2..5")
     parser.add_argument("--mesh", required=True, help="gmsh .msh file of the body")
+    parser.add_argument("--mesh-meta", default=None,
+                        help="the mesh's metadata (geometry.mesh --meta): the mesh size recorded (default: config)")
     parser.add_argument("--out", required=True, help="output body file (.h5)")
     parser.add_argument("--config", default=str(cfgmod.DEFAULT_CONFIG))
     parser.add_argument("--count", type=int, default=None, help="number of modes (default: config)")
@@ -342,15 +355,17 @@ def main(argv=None) -> int:
     try:
         config = cfgmod.load_config(args.config)
         body_number = cfgmod.BODY_NUMBERS[cfgmod.body_name(args.body)]
+        mesh_size = read_mesh_size(args.mesh_meta) if args.mesh_meta else None
         payload = compute_body(body_number, config, args.mesh, args.count, comm,
-                               log=print if comm.rank == 0 else (lambda *a, **k: None), all_modes=args.all_modes)
+                               log=print if comm.rank == 0 else (lambda *a, **k: None), all_modes=args.all_modes,
+                               mesh_size=mesh_size)
     except (ValueError, FileNotFoundError, eigen.EigenSolveError) as exc:
         if comm.rank == 0:
             print(f"error: {exc}", file=sys.stderr)
         return 1
     if comm.rank == 0:
-        keys = cfgmod.body_config_keys(body_number)
-        write_body_file(args.out, payload, cfgmod.section_hash(config, *keys), time.perf_counter() - started)
+        inputs = cfgmod.body_inputs(config, body_number, mesh_size)
+        write_body_file(args.out, payload, cfgmod.inputs_hash(inputs), time.perf_counter() - started)
         print(f"wrote {args.out}")
     return 0
 

@@ -17,10 +17,9 @@ import numpy as np
 
 from solver.fe import checks as v
 from workflow import config as cfgmod
-from workflow.provenance import versions, write_json
+from workflow.provenance import atomic_path, versions, write_json
 
-CHECKS = ("ring", "plate", "solid-ring", "platform", "convergence", "body-file", "hughes", "mpi", "connection",
-          "spectra")
+CHECKS = cfgmod.CHECKS
 
 
 def run_check(name: str, config: dict, args) -> dict:
@@ -90,8 +89,6 @@ def main(argv=None) -> int:
             report = combine([json.load(open(p)) for p in args.parts], config)
             write_json(args.out, report)
             if args.summary:
-                from workflow.provenance import atomic_path
-
                 with atomic_path(args.summary) as tmp:
                     tmp.write_text(summary_markdown(report))
             print(summary_markdown(report))

@@ -5,8 +5,10 @@ import h5py
 import numpy as np
 import pytest
 
-from solver.fe import eigen, modes
+from geometry import mesh as meshcli
 from solver.bodydata import BodyFileError, read_body_file
+from solver.fe import eigen, modes
+from workflow import config as cfgmod
 
 
 def test_body_file_contract(inner_gimbal_file):
@@ -72,3 +74,20 @@ def test_missing_and_corrupt_inputs(tmp_path, config):
         h5["modes"] = np.zeros((3, 1))
     with pytest.raises(BodyFileError, match="stale or incomplete"):
         read_body_file(partial)
+
+
+def test_body_file_records_the_size_its_mesh_was_made_with(tmp_path, config):
+    """The coarse body (meshed at 0.5 in, not the config's 0.25 in): geometry.mesh --meta records
+    the size, solver.fe.modes --mesh-meta reads it into the body file; the body file's config_hash
+    is the hash of the inputs the stage read."""
+    mesh, meta, out = tmp_path / "b4.msh", tmp_path / "b4.json", tmp_path / "b4.h5"
+    assert meshcli.main(["--body", "4", "--size", "0.5", "--out", str(mesh), "--meta", str(meta)]) == 0
+    assert modes.main(["--body", "4", "--mesh", str(mesh), "--mesh-meta", str(meta), "--out", str(out),
+                       "--count", "4"]) == 0
+    attrs = read_body_file(out)["attrs"]
+    assert attrs["mesh_size"] == 0.5 != cfgmod.value(config, "mesh.ring_size")
+    assert attrs["config_hash"] == cfgmod.inputs_hash(cfgmod.body_inputs(config, 4, 0.5))
+    meta.write_text("{}")
+    assert modes.main(["--body", "4", "--mesh", str(mesh), "--mesh-meta", str(meta), "--out",
+                       str(tmp_path / "x.h5"), "--count", "4"]) == 1
+    assert not (tmp_path / "x.h5").exists()

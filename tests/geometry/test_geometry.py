@@ -1,10 +1,12 @@
 """Gmsh geometry: physical groups readable by meshio, bearing data, bad sizes."""
+import json
+
 import meshio
 import numpy as np
 import pytest
 
 from geometry.gimbal import GeometryError, bearing_points
-from geometry.mesh import mesh_from_config
+from geometry.mesh import main as mesh_cli, mesh_from_config
 from workflow import config as cfgmod
 
 
@@ -41,3 +43,12 @@ def test_bad_mesh_size(tmp_path, config, size):
     with pytest.raises(GeometryError):
         mesh_from_config(config, 2, tmp_path / "b.msh", size)
     assert not (tmp_path / "b.msh").exists()
+
+
+def test_mesh_cli_writes_its_metadata(tmp_path):
+    """geometry.mesh --meta: the size used (here the --size override), node and cell counts."""
+    out, meta = tmp_path / "b.msh", tmp_path / "b.json"
+    assert mesh_cli(["--body", "4", "--size", "0.5", "--out", str(out), "--meta", str(meta)]) == 0
+    data = json.loads(meta.read_text())
+    assert data["mesh_size"] == 0.5 and data["cells"] > 0 and data["nodes"] > 0
+    assert set(data["regions_deg"]) >= {"input_motor", "output_motor", "eccentric_mass"}

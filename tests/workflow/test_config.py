@@ -82,10 +82,30 @@ def test_body_parameters_and_output_motor_side(config):
         cfgmod.body_parameters(config, 7)
 
 
-def test_section_hash_tracks_only_its_sections(config_copy, config):
-    keys = cfgmod.body_config_keys(2)
-    before = cfgmod.section_hash(config, *keys)
+def test_body_inputs_track_only_what_the_body_reads(config_copy, config):
+    before = cfgmod.inputs_hash(cfgmod.body_inputs(config, 2))
     config_copy["bodies"]["middle_gimbal"]["width"]["value"] = 0.6
-    assert cfgmod.section_hash(config_copy, *keys) == before
+    assert cfgmod.inputs_hash(cfgmod.body_inputs(config_copy, 2)) == before
     config_copy["bodies"]["outer_gimbal"]["width"]["value"] = 0.6
-    assert cfgmod.section_hash(config_copy, *keys) != before
+    assert cfgmod.inputs_hash(cfgmod.body_inputs(config_copy, 2)) != before
+
+
+def test_body_inputs_hold_the_next_bodys_motor_side(config_copy, config):
+    """Body 3's motor side places body 2's output bearings (its mesh regions and bearing points)."""
+    mesh = cfgmod.body_inputs(config, 2)["mesh"]
+    config_copy["bodies"]["middle_gimbal"]["motor_side"]["value"] = -1
+    changed = cfgmod.body_inputs(config_copy, 2)["mesh"]
+    assert (mesh["body"]["output_motor_side"], changed["body"]["output_motor_side"]) == (1, -1)
+    assert cfgmod.inputs_hash(changed) != cfgmod.inputs_hash(mesh)
+
+
+def test_body_inputs_mesh_size_override(config):
+    assert cfgmod.body_inputs(config, 4)["mesh"]["size"] == cfgmod.value(config, "mesh.ring_size")
+    assert cfgmod.body_inputs(config, 4, 0.5)["mesh"]["size"] == 0.5
+    assert cfgmod.body_inputs(config, 5)["mesh"]["size"] == cfgmod.value(config, "mesh.platform_size")
+    # only the platform's mesh reads the rim-patch half-angles; only a shell the shell settings
+    assert "bearing_half_angle" in cfgmod.body_inputs(config, 5)["mesh"]
+    assert "bearing_half_angle" not in cfgmod.body_inputs(config, 2)["mesh"]
+    assert "shell" in cfgmod.body_inputs(config, 2) and "solid_degree" in cfgmod.body_inputs(config, 5)
+    with pytest.raises(cfgmod.ConfigError, match="unknown check"):
+        cfgmod.check_inputs(config, "nope")

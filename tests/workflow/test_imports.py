@@ -22,7 +22,7 @@ def loaded_project_modules(entry):
     return set(json.loads(run.stdout.strip().splitlines()[-1]))
 
 
-@pytest.mark.parametrize("entry", ["geometry.mesh", "solver.fe.modes", "reduction.stage"])
+@pytest.mark.parametrize("entry", ["geometry.mesh", "solver.fe.modes", "solver.fe.verify", "reduction.stage"])
 def test_closure_is_what_python_loads(entry):
     """The ast closure of a stage equals the project modules Python loads when it imports the
     stage (so nothing is imported in a way the graph cannot see)."""

@@ -2,7 +2,6 @@
 # against model size (with the dense-mass-matrix baseline timed in the same run), and the
 # stability stress tests. Every benchmark writes files; nothing here is a timed assertion.
 #   snakemake --cores 2 bench
-BENCH_CODE = DYNAMICS_CODE + ["solver/dynamics/dense_baseline.py", "results/study/tables.py"]
 # Pareto: one model per family at ~40-100 elastic coordinates (each costs ~2 min of repeated
 # runs; the truth, always added, ~5 min).
 PARETO_MODELS = ["freq-10", "xmx-10", "load-10", "global-100"]
@@ -14,13 +13,13 @@ SELECTION_MODELS = (["rigid"] + [f"{f}-{n}" for f in ("freq", "xmx", "xmgmx") fo
 
 rule stability:
     input:
-        BENCH_CODE,
-        "results/bench/stability.py",
         "config/scenes/free_10s.yaml",
         expand("results/modes/body{n}.h5", n=BODIES),
         expand("results/reduction/body{n}.h5", n=BODIES),
     output:
         json="results/stability/stability.json",
+    params:
+        code=code_hash("results.bench.stability"),
     log:
         "logs/bench/stability.log",
     benchmark:
@@ -32,13 +31,12 @@ rule stability:
 
 
 rule scaling:
-    input:
-        BENCH_CODE,
-        "results/bench/scaling.py",
     output:
         csv="results/benchmarks/scaling.csv",
         json="results/benchmarks/scaling.json",
         figure="results/figures/bench/scaling.png",
+    params:
+        code=code_hash("results.bench.scaling"),
     log:
         "logs/bench/scaling.log",
     benchmark:
@@ -53,8 +51,6 @@ rule scaling:
 
 rule pareto:
     input:
-        BENCH_CODE,
-        "results/bench/pareto.py",
         expand("results/modes/body{n}.h5", n=BODIES),
         expand("results/reduction/body{n}.h5", n=BODIES),
         "results/reduction/load/thesis.h5",
@@ -65,6 +61,7 @@ rule pareto:
         figure="results/figures/bench/pareto.png",
     params:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
+        code=code_hash("results.bench.pareto"),
     log:
         "logs/bench/pareto.log",
     benchmark:
@@ -80,9 +77,6 @@ rule pareto:
 
 rule selection:
     input:
-        BENCH_CODE,
-        "reduction/load_aware.py",
-        "results/bench/selection.py",
         expand("results/reduction/body{n}.h5", n=BODIES),
         truth="results/sim/thesis/truth.h5",
         ranking="results/reduction/load/thesis.h5",
@@ -90,6 +84,8 @@ rule selection:
     output:
         table="results/tables/selection.csv",
         figure="results/figures/bench/global_ranking.png",
+    params:
+        code=code_hash("results.bench.selection"),
     log:
         "logs/bench/selection.log",
     benchmark:

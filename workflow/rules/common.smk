@@ -1,5 +1,6 @@
 # Shared set-up: validate the config (one-line error naming the key), the
-# interpreter that runs every stage, and the code each stage depends on.
+# interpreter that runs every stage, and the rerun triggers: the hash of the code
+# each stage runs and of the config values it reads.
 import importlib
 import os
 import sys
@@ -26,15 +27,28 @@ wildcard_constraints:
 
 
 def config_hash(*keys):
-    """A Snakemake params function: the hash of the config sections a rule reads."""
+    """A Snakemake params function: the hash of the config sections a rule reads (all of it if none)."""
     return lambda wildcards: cfgmod.section_hash(config, *keys)
 
 
-def body_hash(wildcards):
-    return cfgmod.section_hash(config, *cfgmod.body_config_keys(wildcards.n))
+def body_hash(part=None, body=None, mesh_size=None):
+    """A params function: the hash of a body's resolved inputs (workflow.config.body_inputs, which the
+    mesh and modal stages read), or of one part of them ("mesh"); the body is the wildcard n unless given."""
+    def inputs_hash(wildcards):
+        inputs = cfgmod.body_inputs(config, body or wildcards.n, mesh_size)
+        return cfgmod.inputs_hash(inputs[part] if part else inputs)
+    return inputs_hash
 
 
-COMMON_CODE = ["workflow/config.py", "workflow/provenance.py", "workflow/schemas/config.schema.yaml"]
-GEOMETRY_CODE = COMMON_CODE + ["geometry/gimbal.py", "geometry/mesh.py"]
-MODES_CODE = COMMON_CODE + ["solver/fe/forms.py", "solver/fe/bearings.py", "solver/fe/eigen.py", "solver/fe/modes.py", "solver/bodydata.py",
-                            "reduction/modal_integrals.py", "reduction/errors.py"]
+def check_hash(check=None, body=None):
+    """A params function: the hash of what an FE check reads (workflow.config.check_inputs); the check
+    and the body are the wildcards check and n unless given."""
+    return lambda wildcards: cfgmod.inputs_hash(cfgmod.check_inputs(
+        config, check or wildcards.check, body or getattr(wildcards, "n", None)))
+
+
+# The code a rule runs: the hash of its stage's module (python -m X), of the project modules it
+# imports, transitively, and of the data files they read (workflow/imports.py); comments and
+# docstrings left out. A rule carries it as params.code, so editing a module reruns exactly the
+# rules whose stages import it, and editing a comment reruns nothing.
+code_hash = importlib.import_module("workflow.imports").code_hash

@@ -1,7 +1,4 @@
 # Stage 4: the flexible multibody simulation of the gimbal chain, any scene and reduced model.
-DYNAMICS_CODE = REDUCTION_CODE + ["solver/bodydata.py", "reduction/models.py"] + [f"solver/dynamics/{name}.py" for name in (
-    "multibody", "fast_rhs", "integrators", "scenes", "simulate", "chainfile", "error_measure")]
-DYNAMICS_CHECK_CODE = DYNAMICS_CODE + ["solver/dynamics/checks.py", "results/bench/verify_dynamics.py", "results/study/tables.py"]
 
 def scene_physics_hash(wildcards):
     return scenes_mod.load_scene(scene_file(wildcards)).config_hash()
@@ -9,13 +6,13 @@ def scene_physics_hash(wildcards):
 
 rule load_ranking:
     input:
-        REDUCTION_CODE,
-        "reduction/load_aware.py",
         "config/scenes/{scene}.yaml",
         expand("results/modes/body{n}.h5", n=BODIES),
         expand("results/reduction/body{n}.h5", n=BODIES),
     output:
         "results/reduction/load/{scene}.h5",
+    params:
+        code=code_hash("reduction.load_aware"),
     log:
         "logs/reduction/load_{scene}.log",
     benchmark:
@@ -27,7 +24,6 @@ rule load_ranking:
 
 rule simulate:
     input:
-        DYNAMICS_CODE,
         model="results/models/{scene}/{model}.h5",
     output:
         "results/sim/{scene}/{model}.h5",
@@ -40,6 +36,7 @@ rule simulate:
         # missing scene file is reported in one line when the DAG is built
         physics=scene_physics_hash,
         scene=scene_file,
+        code=code_hash("solver.dynamics.simulate"),
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
         "--out {output} > {log} 2>&1"
@@ -47,12 +44,13 @@ rule simulate:
 
 rule dynamics_verification:
     input:
-        DYNAMICS_CHECK_CODE,
         expand("results/modes/body{n}.h5", n=BODIES),
         expand("results/reduction/body{n}.h5", n=BODIES),
     output:
         verification="results/verification/dynamics.json",
         benchmark="results/benchmarks/dynamics.json",
+    params:
+        code=code_hash("results.bench.verify_dynamics"),
     log:
         "logs/sim/verification.log",
     benchmark:

@@ -2,19 +2,20 @@
 
 
 rule mesh_body:
-    input:
-        GEOMETRY_CODE,
     output:
-        "results/mesh/body{n}.msh",
+        mesh="results/mesh/body{n}.msh",
+        meta="results/mesh/body{n}.json",
     params:
-        cfg=lambda w: cfgmod.section_hash(config, f"bodies.{cfgmod.body_name(w.n)}", "eccentric_mass",
-                                          "bearing_connection", "mesh"),
+        code=code_hash("geometry.mesh"),
+        # what the mesh reads: the body's shape, its and (a ring) the next body's motor side, size, angles
+        cfg=body_hash("mesh"),
     log:
         "logs/mesh/body{n}.log",
     benchmark:
         "results/benchmarks/rules/mesh_body{n}.tsv"
     shell:
-        "{PY} -m geometry.mesh --body {wildcards.n} --out {output} --config {CONFIG} > {log} 2>&1"
+        "{PY} -m geometry.mesh --body {wildcards.n} --out {output.mesh} --meta {output.meta} --config {CONFIG} "
+        "> {log} 2>&1"
 
 
 rule mesh:

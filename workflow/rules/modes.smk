@@ -3,19 +3,21 @@
 
 rule modes_body:
     input:
-        MODES_CODE,
         mesh="results/mesh/body{n}.msh",
+        meta="results/mesh/body{n}.json",
     output:
         "results/modes/body{n}.h5",
     params:
-        cfg=body_hash,
+        code=code_hash("solver.fe.modes"),
+        # workflow.config.body_inputs: what the stage reads (and the body file's config_hash)
+        cfg=body_hash(),
     log:
         "logs/modes/body{n}.log",
     benchmark:
         "results/benchmarks/rules/modes_body{n}.tsv"
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.fe.modes --body {wildcards.n} --mesh {input.mesh} "
-        "--out {output} --config {CONFIG} > {log} 2>&1"
+        "--mesh-meta {input.meta} --out {output} --config {CONFIG} > {log} 2>&1"
 
 
 rule modes:
@@ -28,6 +30,8 @@ rule modes_benchmark:
         rules.modes.input,
     output:
         "results/benchmarks/modes.json",
+    params:
+        code=code_hash("results.bench.summary"),
     log:
         "logs/modes/benchmark.log",
     shell:
@@ -37,11 +41,12 @@ rule modes_benchmark:
 rule mode_shapes_body:
     input:
         "results/modes/body{n}.h5",
-        "results/study/mode_shapes.py",
         mesh="results/mesh/body{n}.msh",
     output:
         png="results/figures/mode_shapes_body{n}.png",
         vtu="results/modes/shapes/body{n}.vtu",
+    params:
+        code=code_hash("results.study.mode_shapes"),
     log:
         "logs/modes/shapes_body{n}.log",
     benchmark:

@@ -1,14 +1,16 @@
 # Stage 3: momentum coefficients, Hughes-identity rankings and static correction modes.
-# the reduction stage proper; reduction/load_aware.py is the scene-dependent ranking (dynamics.smk)
-REDUCTION_CODE = COMMON_CODE + [str(p) for p in sorted(Path("reduction").glob("*.py")) if p.name != "load_aware.py"]
+# (reduction/load_aware.py is the scene-dependent ranking, dynamics.smk)
+# the coarse mesh of the discrete Hughes identities (every supported mode, dense solve)
+COARSE_SIZE = 0.5
 
 
 rule reduction_body:
     input:
-        REDUCTION_CODE,
         body="results/modes/body{n}.h5",
     output:
         "results/reduction/body{n}.h5",
+    params:
+        code=code_hash("reduction.stage"),
     log:
         "logs/reduction/body{n}.log",
     benchmark:
@@ -25,35 +27,40 @@ rule reduction:
 # A coarse body with EVERY supported mode (dense solve), for the discrete Hughes identities.
 rule coarse_body_all_modes:
     input:
-        MODES_CODE,
         mesh="results/verification/coarse/body4.msh",
+        meta="results/verification/coarse/body4.json",
     output:
         "results/verification/coarse/body4.h5",
+    params:
+        code=code_hash("solver.fe.modes"),
+        cfg=body_hash(body=4, mesh_size=COARSE_SIZE),
     log:
         "logs/reduction/coarse_body4.log",
     benchmark:
         "results/benchmarks/rules/coarse_body_all_modes.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.fe.modes --body 4 --mesh {input.mesh} --out {output} --all-modes "
-        "--config {CONFIG} > {log} 2>&1"
+        "OMP_NUM_THREADS=1 {PY} -m solver.fe.modes --body 4 --mesh {input.mesh} --mesh-meta {input.meta} "
+        "--out {output} --all-modes --config {CONFIG} > {log} 2>&1"
 
 
 rule coarse_mesh:
-    input:
-        GEOMETRY_CODE,
     output:
-        "results/verification/coarse/body4.msh",
+        mesh="results/verification/coarse/body4.msh",
+        meta="results/verification/coarse/body4.json",
+    params:
+        code=code_hash("geometry.mesh"),
+        cfg=body_hash("mesh", body=4, mesh_size=COARSE_SIZE),
     log:
         "logs/reduction/coarse_mesh4.log",
     benchmark:
         "results/benchmarks/rules/coarse_mesh.tsv"
     shell:
-        "{PY} -m geometry.mesh --body 4 --size 0.5 --out {output} --config {CONFIG} > {log} 2>&1"
+        "{PY} -m geometry.mesh --body 4 --size {COARSE_SIZE} --out {output.mesh} --meta {output.meta} "
+        "--config {CONFIG} > {log} 2>&1"
 
 
 rule reduction_report:
     input:
-        REDUCTION_CODE,
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         coarse="results/verification/coarse/body4.h5",
@@ -61,6 +68,8 @@ rule reduction_report:
         table="results/tables/ranking.csv",
         verification="results/verification/reduction.json",
         benchmark="results/benchmarks/reduction.json",
+    params:
+        code=code_hash("reduction.report"),
     log:
         "logs/reduction/report.log",
     benchmark:

@@ -1,7 +1,5 @@
 # Stage 5: the thesis study on the `thesis` scene, error tables, findings, figures and the PDF report.
 STUDY_MODELS = importlib.import_module("results.study.cases").study_models()
-RESULTS_CODE = COMMON_CODE + ["results/study/cases.py", "results/study/tables.py", "results/study/findings.py",
-                              "results/study/figures.py", "results/study/report.py"]
 STUDY_SIMS = expand("results/sim/thesis/{model}.h5", model=STUDY_MODELS)
 TRUTH = "results/sim/thesis/truth.h5"
 
@@ -14,12 +12,13 @@ rule study:
 
 rule error_tables:
     input:
-        RESULTS_CODE,
         truth=TRUTH,
         cases=STUDY_SIMS,
     output:
         ranking="results/tables/errors_ranking.csv",
         static="results/tables/errors_static.csv",
+    params:
+        code=code_hash("results.study.tables"),
     log:
         "logs/results/error_tables.log",
     benchmark:
@@ -31,13 +30,14 @@ rule error_tables:
 
 rule findings:
     input:
-        RESULTS_CODE,
         ranking="results/tables/errors_ranking.csv",
         static="results/tables/errors_static.csv",
         reduction="results/verification/reduction.json",
     output:
         csv="results/tables/findings.csv",
         json="results/tables/findings.json",
+    params:
+        code=code_hash("results.study.findings"),
     log:
         "logs/results/findings.log",
     benchmark:
@@ -49,13 +49,14 @@ rule findings:
 
 rule study_figures:
     input:
-        RESULTS_CODE,
         truth=TRUTH,
         cases=STUDY_SIMS,
         ranking="results/tables/errors_ranking.csv",
         static="results/tables/errors_static.csv",
     output:
         "results/figures/study/figures.json",
+    params:
+        code=code_hash("results.study.figures"),
     log:
         "logs/results/figures.log",
     benchmark:
@@ -68,8 +69,6 @@ rule study_figures:
 
 rule report:
     input:
-        RESULTS_CODE,
-        "config/config.yaml",
         "config/scenes/thesis.yaml",
         rules.mode_shapes.input,
         truth=TRUTH,
@@ -88,6 +87,9 @@ rule report:
                        "results/figures/bench/global_ranking.png"],
     output:
         "results/report/report.pdf",
+    params:
+        code=code_hash("results.study.report"),
+        cfg=config_hash(),   # the report prints the config's values (the file given by --configfile)
     log:
         "logs/results/report.log",
     benchmark:

@@ -1,19 +1,19 @@
 # Verification of the finite-element stage: each check is its own job
 # (results/verification/parts/*.json), combined into results/verification/fe.json.
-VERIFY_CODE = MODES_CODE + ["solver/fe/checks.py", "solver/fe/verify.py", "solver/bodydata.py",
-                            "geometry/gimbal.py", "geometry/mesh.py", "geometry/verification.py"]
+# Each rule reruns when the code of solver.fe.verify changes or a config value its check reads
+# (workflow.config.check_inputs).
+VERIFY_CODE = code_hash("solver.fe.verify")
 GLOBAL_CHECKS = ["ring", "plate", "solid-ring", "platform", "hughes", "connection"]
 
 
 rule verify_check:
-    input:
-        VERIFY_CODE,
     output:
         "results/verification/parts/{check}.json",
     wildcard_constraints:
         check="|".join(GLOBAL_CHECKS),
     params:
-        cfg=config_hash("material", "bodies", "shell", "mesh", "eccentric_mass", "bearing_connection"),
+        code=VERIFY_CODE,
+        cfg=check_hash(),
     log:
         "logs/verification/{check}.log",
     benchmark:
@@ -23,12 +23,11 @@ rule verify_check:
 
 
 rule verify_convergence:
-    input:
-        VERIFY_CODE,
     output:
         "results/verification/parts/convergence_body{n}.json",
     params:
-        cfg=body_hash,
+        code=VERIFY_CODE,
+        cfg=check_hash("convergence"),
     log:
         "logs/verification/convergence_body{n}.log",
     benchmark:
@@ -40,11 +39,13 @@ rule verify_convergence:
 
 rule verify_body:
     input:
-        VERIFY_CODE,
         body="results/modes/body{n}.h5",
     output:
         modes="results/verification/parts/body_file_body{n}.json",
         spectra="results/verification/parts/spectra_body{n}.json",
+    params:
+        code=VERIFY_CODE,
+        cfg=check_hash("spectra"),   # the body-file check reads no config
     log:
         "logs/verification/body{n}.log",
     benchmark:
@@ -57,11 +58,14 @@ rule verify_body:
 
 rule verify_mpi:
     input:
-        VERIFY_CODE,
         body="results/modes/body2.h5",
         mesh="results/mesh/body2.msh",
     output:
         "results/verification/parts/mpi.json",
+    params:
+        # it runs the modal stage (python -m solver.fe.modes) under mpirun
+        code=code_hash("solver.fe.verify", "solver.fe.modes"),
+        cfg=check_hash("mpi"),
     threads: 2
     log:
         "logs/verification/mpi.log",
@@ -82,6 +86,9 @@ rule verify_fe:
     output:
         json="results/verification/fe.json",
         summary="results/verification/fe.md",
+    params:
+        code=VERIFY_CODE,
+        cfg=config_hash(),   # fe.json records the hash of the whole config
     log:
         "logs/verification/fe.log",
     benchmark:

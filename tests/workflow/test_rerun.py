@@ -1,0 +1,279 @@
+"""Rerun precision: each rule's rerun triggers are derived, not hand-kept.
+
+The workflow is loaded in-process (Snakemake's API) and its rules' params are evaluated:
+
+* ``params.code`` is the hash of the code the rule's stage runs (``python -m X`` and what X
+  imports, workflow/imports.py), so editing reduction/report.py reruns no simulation;
+* ``params.cfg`` is the hash of the config values the stage reads. Every leaf of
+  config/config.yaml is changed in turn, and exactly the rules whose stages read it must see
+  their hash change (the body rules through workflow.config.body_inputs, which the mesh and
+  modal stages read their parameters through).
+"""
+import copy
+import re
+from pathlib import Path
+
+import pytest
+from snakemake.api import SnakemakeApi
+from snakemake.io import Wildcards
+from snakemake.settings.types import ConfigSettings, OutputSettings, ResourceSettings
+
+from workflow import config as cfgmod
+from workflow import imports
+
+ROOT = Path(__file__).resolve().parents[2]
+BODIES = (2, 3, 4, 5)
+NAMES = dict(zip(BODIES, cfgmod.BODY_NAMES))
+# rules whose params.cfg hashes the whole config (they record or print all of it)
+WHOLE_CONFIG = {"verify_fe", "report"}
+# a stage the rule runs besides its shell's python -m modules
+EXTRA_CODE = {"verify_mpi": ("solver.fe.modes",)}   # solver.fe.verify mpi runs solver.fe.modes under mpirun
+# rules with a python -m stage but no code trigger yet, left to their owner (reported)
+NO_CODE_YET = {"reduced_model"}                      # workflow/rules/models.smk
+
+
+@pytest.fixture(scope="module")
+def workflow():
+    with SnakemakeApi(OutputSettings(quiet=True)) as api:
+        api_workflow = api.workflow(resource_settings=ResourceSettings(cores=1), config_settings=ConfigSettings(),
+                                    snakefile=ROOT / "Snakefile", workdir=ROOT)
+        yield api_workflow._workflow
+
+
+def stage_modules(rule):
+    return sorted(set(re.findall(r"\{PY\} -m ([\w.]+)", rule.shellcmd or "")))
+
+
+def test_every_stage_rule_carries_the_hash_of_its_code(workflow):
+    checked = set()
+    for rule in workflow.rules:
+        modules = stage_modules(rule)
+        if not modules or rule.name in NO_CODE_YET:
+            continue
+        assert "code" in rule.params.keys(), f"rule {rule.name} runs {modules} but has no params.code"
+        assert rule.params.code == imports.code_hash(*modules, *EXTRA_CODE.get(rule.name, ())), rule.name
+        # no code file is an input any more (an mtime trigger would rerun on a comment)
+        code_inputs = [f for f in rule.input if str(f).endswith(".py")]
+        assert not code_inputs, (rule.name, code_inputs)
+        checked.add(rule.name)
+    assert {"mesh_body", "modes_body", "simulate", "reduction_body", "report", "verify_mpi"} <= checked
+
+
+def test_simulation_code_is_what_the_dynamics_imports(workflow):
+    """Editing reduction/report.py or the FE stage must not rerun simulations."""
+    simulate = workflow.get_rule("simulate")
+    modules = stage_modules(simulate)
+    assert modules == ["solver.dynamics.simulate"]
+    files = imports.files(*modules)
+    assert "reduction/report.py" not in files
+    assert not [f for f in files if f.startswith(("solver/fe/", "geometry/"))], files
+    # the FE verification's code is not the modal stage's: editing a check reruns no modal solution
+    assert "solver/fe/checks.py" in imports.files("solver.fe.verify")
+    assert "solver/fe/checks.py" not in imports.files("solver.fe.modes")
+
+
+def test_every_rule_reading_the_config_carries_its_hash(workflow):
+    for rule in workflow.rules:
+        if "{CONFIG}" in (rule.shellcmd or ""):
+            assert "cfg" in rule.params.keys(), f"rule {rule.name} reads the config but has no params.cfg"
+
+
+def rule_instances(workflow):
+    """(label, rule, wildcards) of every job whose params.cfg hashes config values."""
+    checks = workflow.globals["GLOBAL_CHECKS"]
+    out = []
+    for rule in workflow.rules:
+        if "cfg" not in rule.params.keys():
+            continue
+        if "n" in rule.wildcard_names:
+            out += [(f"{rule.name}[{n}]", rule, {"n": str(n)}) for n in BODIES]
+        elif "check" in rule.wildcard_names:
+            out += [(f"{rule.name}[{c}]", rule, {"check": c}) for c in checks]
+        else:
+            out.append((rule.name, rule, {}))
+    return out
+
+
+def hashes(instances):
+    return {label: rule.params.cfg(Wildcards(fromdict=wildcards)) for label, rule, wildcards in instances}
+
+
+def leaves(node, path=()):
+    if isinstance(node, dict):
+        for key, child in node.items():
+            yield from leaves(child, path + (key,))
+    else:
+        yield path
+
+
+def changed_value(path, value):
+    if path[-2:] == ("motor_side", "value"):
+        return -value
+    if isinstance(value, bool):
+        return not value
+    if isinstance(value, int):
+        return value + 1
+    if isinstance(value, float):
+        return value * 1.5 + 0.25
+    return value + "_changed"
+
+
+# ----------------------------------------------------------------------------------- the spec
+# Who reads what, from the stages' code (geometry/mesh.py, solver/fe/modes.py, solver/fe/checks.py).
+
+def full(n):
+    """Readers of a body's resolved inputs beyond its mesh (workflow.config.body_inputs(n))."""
+    out = {f"modes_body[{n}]", f"verify_convergence[{n}]"}
+    if n == 4:   # the coarse body of the Hughes identities: body 4 at 0.5 in
+        out |= {"coarse_body_all_modes", "verify_check[hughes]"}
+    if n == 2:   # the connection study and the MPI check use body 2
+        out |= {"verify_check[connection]", "verify_mpi"}
+    return out
+
+
+def mesh_part(n):
+    """Readers of the part of body_inputs(n) that shapes the mesh (all but the size)."""
+    out = full(n) | {f"mesh_body[{n}]"}
+    if n == 4:
+        out.add("coarse_mesh")
+    if n == 5:   # the platform check meshes the platform as the stage does
+        out.add("verify_check[platform]")
+    return out
+
+
+def mesh_size(n):
+    """Readers of the body's configured mesh size (the coarse rules and the Hughes check use 0.5 in)."""
+    return mesh_part(n) - {"coarse_mesh", "coarse_body_all_modes", "verify_check[hughes]"}
+
+
+RINGS = (2, 3, 4)
+RING_CHECKS = {"verify_check[ring]", "verify_check[solid-ring]"}   # bare ring of body 2 (shell and solid)
+ALL = BODIES
+
+
+def union(function, bodies):
+    return set().union(*(function(n) for n in bodies))
+
+
+# Leaves no stage reads (only the whole-config records see them), with the reason.
+UNREAD = {
+    "unit": "units are documentation: the stages compute in inch, lbf, s and read values only",
+    "source": "sources are provenance, printed by the report, read by no stage",
+    "number": "validation pins each body's number; the stages take the number from the rule's wildcard",
+}
+
+
+def expected_readers(path):
+    """The rule instances whose params.cfg must change when the leaf at ``path`` changes."""
+    if path[-1] in UNREAD:
+        return set()
+    section, rest = path[0], path[1:]
+    key = rest[-2] if rest[-1] == "value" else rest[-1]
+    if section == "bodies":
+        n = cfgmod.BODY_NUMBERS[rest[0]]
+        ring = n in RINGS
+        if key in ("diameter", "width"):
+            return mesh_part(n) | (RING_CHECKS if n == 2 else set())
+        if key == "thickness":
+            return (full(n) | (RING_CHECKS if n == 2 else set())) if ring else mesh_part(n)
+        if key == "hole_diameter":
+            return mesh_part(n)
+        if key in ("outer_bearing_distance", "inner_bearing_distance"):
+            return full(n)
+        if key == "motor_side":
+            # the previous body's output bearings sit at this body's motor side (body_inputs(n - 1))
+            return mesh_part(n) | (mesh_part(n - 1) if n > 2 else set())
+        if key == "shape":   # a ring's shape also decides its model (shell)
+            return mesh_part(n) | (RING_CHECKS if n == 2 else set())
+        if key == "model":
+            return full(n) | {"verify_check[platform]"}
+    if section == "material":
+        return union(full, ALL) | RING_CHECKS | {"verify_check[platform]"}
+    if section == "eccentric_mass":
+        if key == "mass_fraction":
+            return union(full, ALL)
+        if key == "angle":
+            return union(mesh_part, ALL)
+        if key == "platform_patch_half_angle":
+            return mesh_part(5)
+    if section == "bearing_connection":
+        if key == "platform_patch_half_angle":
+            return mesh_part(5)
+        if key == "rotation_weight_length":
+            return union(full, ALL)
+    if section == "shell":
+        return union(full, RINGS) | RING_CHECKS | {"verify_check[plate]", "verify_check[platform]"}
+    if section == "solid":
+        return full(5) | {"verify_check[solid-ring]", "verify_check[platform]"}
+    if section == "mesh":
+        if key == "ring_size":
+            return union(mesh_size, RINGS) | RING_CHECKS
+        if key == "platform_size":
+            return mesh_size(5)
+        if key == "refinement_ratio":
+            return {f"verify_convergence[{n}]" for n in ALL} | {"verify_check[connection]"}
+    if section == "modes":
+        count = {f"modes_body[{n}]" for n in ALL} | {"coarse_body_all_modes"}
+        if key == "count":
+            return count
+        return count | {f"verify_convergence[{n}]" for n in ALL} | {"verify_mpi"}
+    if section == "verification":
+        if key == "convergence_modes":
+            return {f"verify_convergence[{n}]" for n in ALL}
+        return {f"verify_body[{n}]" for n in ALL}
+    raise AssertionError(f"config leaf {'.'.join(path)} is not in the test's spec: add it")
+
+
+def test_each_config_leaf_reruns_exactly_its_readers(workflow):
+    config = workflow.globals["config"]
+    instances = rule_instances(workflow)
+    per_body = {f"{rule}[{n}]" for rule in ("mesh_body", "modes_body", "verify_convergence", "verify_body")
+                for n in BODIES}
+    per_check = {f"verify_check[{c}]" for c in workflow.globals["GLOBAL_CHECKS"]}
+    assert {label for label, _, _ in instances} == (per_body | per_check | WHOLE_CONFIG
+                                                     | {"verify_mpi", "coarse_mesh", "coarse_body_all_modes"})
+    before = hashes(instances)
+    pristine = copy.deepcopy(config)
+    seen = 0
+    try:
+        for path in leaves(pristine):
+            node = config
+            for key in path[:-1]:
+                node = node[key]
+            original = node[path[-1]]
+            node[path[-1]] = changed_value(path, original)
+            after = hashes(instances)
+            node[path[-1]] = original
+            changed = {label for label in before if after[label] != before[label]}
+            expected = expected_readers(path) | WHOLE_CONFIG
+            assert changed == expected, (".".join(path), sorted(changed - expected), sorted(expected - changed))
+            seen += 1
+    finally:
+        config.clear()
+        config.update(pristine)
+    assert hashes(instances) == before
+    assert seen > 100
+
+
+def test_next_bodys_motor_side_changes_the_body_hashes(workflow):
+    """Body 3's motor side places body 2's output bearings: body 2's mesh and modes must rerun."""
+    config = workflow.globals["config"]
+    mesh, modes = workflow.get_rule("mesh_body"), workflow.get_rule("modes_body")
+    body2 = Wildcards(fromdict={"n": "2"})
+    before = mesh.params.cfg(body2), modes.params.cfg(body2)
+    regions = cfgmod.body_inputs(config, 2)["mesh"]["body"]["output_motor_side"]
+    side = config["bodies"]["middle_gimbal"]["motor_side"]
+    side["value"] = -side["value"]
+    try:
+        assert cfgmod.body_inputs(config, 2)["mesh"]["body"]["output_motor_side"] == -regions
+        assert mesh.params.cfg(body2) != before[0] and modes.params.cfg(body2) != before[1]
+    finally:
+        side["value"] = -side["value"]
+
+
+def test_modes_rule_hash_is_the_body_files_config_hash(workflow, config):
+    """The modal stage writes cfgmod.inputs_hash(body_inputs) into the body file: the same value
+    as its rule's trigger, so a body file names the inputs it was made from."""
+    modes = workflow.get_rule("modes_body")
+    for n in BODIES:
+        assert modes.params.cfg(Wildcards(fromdict={"n": str(n)})) == cfgmod.inputs_hash(cfgmod.body_inputs(config, n))
