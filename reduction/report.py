@@ -20,8 +20,8 @@ Outputs (all written atomically):
   with their frequencies and radii, whether both rankings put the same mode
   at that rank, and the size of the intersection of the two top-k sets.
 * ``--verification`` (JSON): ``checks``, a list of ``{name, value,
-  tolerance, passed, details}`` (tolerance None: a measured report that
-  passes when finite), and per body the top-10 ranked modes, the shares of
+  tolerance, passed, details}`` (``workflow.provenance.check_record``;
+  tolerance None: a measured report that passes when finite), and per body the top-10 ranked modes, the shares of
   M_inf and MGM_inf captured by the first 5/10/25 ranked modes, the
   agreement of the two rankings, and the static modes' conditioning.
 * ``--benchmark`` (JSON): per body the median of three runs of the stage's
@@ -38,15 +38,14 @@ listed on stderr.
 """
 
 import argparse
-import csv
-import io
-import json
 import os
 import sys
 import time
 
 import h5py
 import numpy as np
+import scipy.sparse as sp
+from scipy.stats import kendalltau, spearmanr
 
 from reduction import modal_integrals as mi
 from reduction import ranking as rk
@@ -55,6 +54,7 @@ from reduction import static_modes as st
 from reduction import verification as vf
 from solver.bodydata import read_body_file
 from reduction.errors import BodyFileError, ReductionError
+from workflow.provenance import check_record, versions, write_csv, write_json
 
 TABLE_ROWS = 40
 SHARE_COUNTS = (5, 10, 25)
@@ -72,15 +72,6 @@ REDUCTION_ATTRS = ("format_version", "body", "n_modes")
 
 class ReportInputError(ReductionError):
     """A missing, corrupt or stale input of the report."""
-
-
-def record(name, value, tolerance, details=None, passed=None):
-    """A check record {name, value, tolerance, passed, details} (``verification.check_result``)."""
-    out = vf.check_result(name, value, tolerance)
-    if passed is not None:
-        out["passed"] = bool(out["passed"] and passed)
-    out["details"] = details or {}
-    return out
 
 
 # ----------------------------------------------------------------------------- inputs
@@ -220,9 +211,9 @@ def static_checks(label, body, result, apply_G):
                                     np.r_[lam, entry["modal_stiffness"]])
     without = vf.static_response_error(apply_G, F, Phi, lam)
     energy = vf.static_energy_shortfall(apply_G, F, Phi, lam)
-    checks = [record(
+    checks = [check_record(
         f"static_completeness/{label}/{case}", full, STATIC_TOL,
-        {"measure": "||[Phi, phi_s] K_r^-1 [Phi, phi_s]^T F - G F|| / ||G F||",
+        details={"measure": "||[Phi, phi_s] K_r^-1 [Phi, phi_s]^T F - G F|| / ||G F||",
          "kept_modes_0based": [int(k) for k in kept], "load_case": case,
          "limit": ("K-coupling left by the FE modes' eigen-residual: after the M-orthogonal "
                    "Gram-Schmidt pass the static mode is K-coupled to mode i by about "
@@ -231,17 +222,17 @@ def static_checks(label, body, result, apply_G):
          "mode_eigen_residual": residual,
          "shortfall_without_static_mode": without,
          "energy_shortfall_without_static_mode": energy}),
-        record(f"static_shortfall_without_static_mode/{label}/{case}", without, None,
-               {"measure": "||Phi Lambda^-1 Phi^T F - G F|| / ||G F|| (10 kept modes only)",
-                "energy_norm_share": energy})]
+        check_record(f"static_shortfall_without_static_mode/{label}/{case}", without, None,
+                     details={"measure": "||Phi Lambda^-1 Phi^T F - G F|| / ||G F|| (10 kept modes only)",
+                              "energy_norm_share": energy})]
     mass = {c: float(e["mass_coupling"]) for c, e in result["statics"].items()}
     stiff = {c: float(e["stiffness_coupling"]) for c, e in result["statics"].items()}
-    checks.append(record(f"static_mass_orthogonality/{label}", max(mass.values()), STATIC_TOL,
-                         {"measure": "max_i |phi_i^T M phi_s| / sqrt(m_s) over kept modes i",
-                          "per_case": mass, "mode_eigen_residual": residual}))
-    checks.append(record(f"static_stiffness_orthogonality/{label}", max(stiff.values()), STATIC_TOL,
-                         {"measure": "max_i |phi_i^T K phi_s| / sqrt(Omega_i^2 k_s)",
-                          "per_case": stiff, "mode_eigen_residual": residual}))
+    checks.append(check_record(f"static_mass_orthogonality/{label}", max(mass.values()), STATIC_TOL,
+                               details={"measure": "max_i |phi_i^T M phi_s| / sqrt(m_s) over kept modes i",
+                                        "per_case": mass, "mode_eigen_residual": residual}))
+    checks.append(check_record(f"static_stiffness_orthogonality/{label}", max(stiff.values()), STATIC_TOL,
+                               details={"measure": "max_i |phi_i^T K phi_s| / sqrt(Omega_i^2 k_s)",
+                                        "per_case": stiff, "mode_eigen_residual": residual}))
     completeness_all = {c: vf.static_response_error(
         apply_G, e["load"], np.column_stack([Phi, e["mode"]]), np.r_[lam, e["modal_stiffness"]])
         for c, e in result["statics"].items()}
@@ -262,8 +253,8 @@ def static_checks(label, body, result, apply_G):
         "residual_fraction": {c: float(e["residual_fraction"]) for c, e in result["statics"].items()},
         "completeness_per_case": completeness_all,
     }
-    checks.append(record(f"static_modal_mass_conditioning/{label}",
-                         conditioning["static_set_mass_gram_condition"], None, conditioning))
+    checks.append(check_record(f"static_modal_mass_conditioning/{label}",
+                               conditioning["static_set_mass_gram_condition"], None, details=conditioning))
     return checks, {"default_load_case": case, "completeness": full,
                     "shortfall_without_static_mode": without,
                     "energy_shortfall_without_static_mode": energy, **conditioning}
@@ -304,13 +295,15 @@ def invariance_checks(label, body, result, seed=3):
     for kind, (new, what) in variants.items():
         rx = vf.check_ranking_invariance(ref[0], new[0], ref[2], new[2], tol=INVARIANCE_TOL)
         rg = vf.check_ranking_invariance(ref[1], new[1], ref[3], new[3], tol=INVARIANCE_TOL)
-        checks.append(record(
+        # both checks pass only within INVARIANCE_TOL, so their verdict implies the record's bound
+        checks.append(check_record(
             f"ranking_invariance/{label}/{kind}", max(rx["value"], rg["value"]), INVARIANCE_TOL,
-            {"what": what, "measure": "max |rho - rho'| / max rho (XMX and XMGMX); orders must be equal",
-             "xmx_relative_change": rx["value"], "xmgmx_relative_change": rg["value"],
-             "xmx_order_equal": bool(np.array_equal(ref[2], new[2])),
-             "xmgmx_order_equal": bool(np.array_equal(ref[3], new[3]))},
-            passed=rx["passed"] and rg["passed"]))
+            passed=rx["passed"] and rg["passed"],
+            details={"what": what,
+                     "measure": "max |rho - rho'| / max rho (XMX and XMGMX); orders must be equal",
+                     "xmx_relative_change": rx["value"], "xmgmx_relative_change": rg["value"],
+                     "xmx_order_equal": bool(np.array_equal(ref[2], new[2])),
+                     "xmgmx_order_equal": bool(np.array_equal(ref[3], new[3]))}))
     return checks
 
 
@@ -322,7 +315,6 @@ def hand_check():
     MGM_inf = (m/k) M_inf, XMX radii 1/3, 5/6, 1, 11/24, 11/24, 1, 11/24,
     11/24, 1 (by hand), equal XMGMX radii, both summing to 6.
     """
-    import scipy.sparse as sp
     m, k = 0.5, 100.0
     pos = np.array([[2.0, 0, 0], [-1.0, 1.0, 0], [-1.0, -1.0, 0]])
     M = sp.identity(9, format="csr") * m
@@ -343,17 +335,18 @@ def hand_check():
               "MGM_inf": float(np.max(np.abs(MGM_inf - expected_M * m / k)) / (4.0 * m / k)),
               "xmx_sum_minus_6": float(abs(rx.sum() - 6.0))}
     order = [int(i) for i in rk.rank_by_radius(rx)]
-    return record("hand_checkable_three_masses", max(errors.values()), 1e-12,
-                  {"errors": errors, "rank_xmx_0based": order,
-                   "expected_rank_0based": [2, 5, 8, 1, 3, 4, 6, 7, 0]},
-                  passed=order == [2, 5, 8, 1, 3, 4, 6, 7, 0])
+    worst = max(errors.values())
+    return check_record("hand_checkable_three_masses", worst, 1e-12,
+                        passed=bool(np.isfinite(worst) and worst <= 1e-12
+                                    and order == [2, 5, 8, 1, 3, 4, 6, 7, 0]),
+                        details={"errors": errors, "rank_xmx_0based": order,
+                                 "expected_rank_0based": [2, 5, 8, 1, 3, 4, 6, 7, 0]})
 
 
 # ----------------------------------------------------------------------------- summaries
 
 def ranking_agreement(rho_xmx, rho_xmgmx, rank_xmx, rank_xmgmx, frequencies_hz, n_rows=TABLE_ROWS):
     """How far the XMX and XMGMX rankings agree (dict of plain numbers)."""
-    from scipy.stats import kendalltau, spearmanr
     a, b = np.asarray(rank_xmx, int), np.asarray(rank_xmgmx, int)
     table = rk.ranking_table(a, b, n_rows=n_rows)
     D = a.size
@@ -476,18 +469,9 @@ def table_rows(label, name, reduction):
     return rows
 
 
-def write_text_atomic(path, text):
-    from workflow.provenance import atomic_path
-    with atomic_path(path) as tmp:
-        tmp.write_text(text)
-
-
 def write_table(path, rows):
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=list(rows[0].keys()), lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(rows)
-    write_text_atomic(path, buffer.getvalue())
+    """The ranking CSV (``table_rows``: numbers already formatted as text or ints)."""
+    write_csv(path, rows, list(rows[0].keys()))
 
 
 # ----------------------------------------------------------------------------- main
@@ -580,7 +564,6 @@ def main(argv=None):
     except (ReductionError, BodyFileError) as exc:
         print(f"reduction.report: error: {exc}", file=sys.stderr)
         return 2
-    from workflow.provenance import versions, write_json
     failed = [c["name"] for c in checks if not c["passed"]]
     provenance = {
         "command": "python -m reduction.report " + " ".join(argv if argv is not None else sys.argv[1:]),

@@ -21,6 +21,7 @@ were not named explicitly; naming one explicitly is an error.
 
 import argparse
 import json
+import os
 import sys
 import time
 
@@ -30,8 +31,9 @@ from reduction import modal_integrals as mi
 from reduction import ranking as rk
 from reduction import static_modes as st
 from reduction import verification as vf
-from solver.bodydata import read_body_file, write_h5_atomic
+from solver.bodydata import read_body_file
 from reduction.errors import BodyFileError, MissingBearingError, ReductionError
+from workflow.provenance import atomic_h5, check_record
 
 FORMAT_VERSION = 1
 
@@ -110,10 +112,10 @@ def reduce_body(body, n_modes=None, static_kept=10, static_ranking="frequency",
     static_tol = max(1e-10, 10.0 * mode_residual)
     statics = {}
     checks = [
-        vf.check_result("mass_identity_share_of_computed_modes",
-                        rk.captured_share(P, H, np.arange(D), M_inf)["trace_share"], None),
-        vf.check_result("flexibility_identity_share_of_computed_modes",
-                        rk.captured_share(P, H, np.arange(D), MGM_inf, lam)["trace_share"], None),
+        check_record("mass_identity_share_of_computed_modes",
+                     rk.captured_share(P, H, np.arange(D), M_inf)["trace_share"], None),
+        check_record("flexibility_identity_share_of_computed_modes",
+                     rk.captured_share(P, H, np.arange(D), MGM_inf, lam)["trace_share"], None),
     ]
     loads = {}
     for name in cases:
@@ -230,7 +232,9 @@ def write_reduction_file(path, result, body):
                 if key in entry:
                     c.attrs[key] = float(entry[key])
 
-    return write_h5_atomic(path, write)
+    with atomic_h5(path) as f:
+        write(f)
+    return os.fspath(path)
 
 
 def main(argv=None):

@@ -1,8 +1,9 @@
 """Verification checks of the reduction stage, as pure functions.
 
-Every check returns a dict ``{"name", "value", "tolerance", "passed"}`` with
-plain Python types (JSON-ready).  ``tolerance`` None marks a measured report
-(e.g. how far the kept modes alone fall short), which passes when finite.
+Every check returns the project's check record ``{"name", "value", "tolerance",
+"passed"}`` (``workflow.provenance.check_record``) with plain Python types
+(JSON-ready): passed = value <= tolerance.  ``tolerance`` None marks a measured
+report (e.g. how far the kept modes alone fall short), which passes when finite.
 """
 
 import numpy as np
@@ -10,17 +11,7 @@ import numpy as np
 from reduction.modal_integrals import inside_frame_motion, mode_contributions
 from reduction.ranking import symmetric_inverse_sqrt
 from reduction.static_modes import reduced_static_response
-
-
-def check_result(name, value, tolerance):
-    """The common record: passed = value <= tolerance (or finite, for a report)."""
-    value = float(value)
-    if tolerance is None:
-        passed = bool(np.isfinite(value))
-    else:
-        passed = bool(np.isfinite(value) and value <= tolerance)
-    return {"name": name, "value": value,
-            "tolerance": None if tolerance is None else float(tolerance), "passed": passed}
+from workflow.provenance import check_record
 
 
 def identity_defect(partial_sum, reference):
@@ -31,14 +22,14 @@ def identity_defect(partial_sum, reference):
 
 def check_hughes_mass_identity(P, H, M_inf, tol=1e-8, name="hughes_mass_identity"):
     """sum_i Mbar_i = M_inf over all finite supported modes (eq 3.32)."""
-    return check_result(name, identity_defect(mode_contributions(P, H).sum(axis=0), M_inf), tol)
+    return check_record(name, identity_defect(mode_contributions(P, H).sum(axis=0), M_inf), tol)
 
 
 def check_hughes_flexibility_identity(P, H, eigenvalues, MGM_inf, tol=1e-8,
                                       name="hughes_flexibility_identity"):
     """sum_i Mbar_i / Omega_i^2 = MGM_inf over all finite supported modes (eq 3.46)."""
     C = mode_contributions(P, H) / np.asarray(eigenvalues, float)[:, None, None]
-    return check_result(name, identity_defect(C.sum(axis=0), MGM_inf), tol)
+    return check_record(name, identity_defect(C.sum(axis=0), MGM_inf), tol)
 
 
 def static_response_error(apply_G, load, modes, modal_stiffness):
@@ -53,7 +44,7 @@ def check_static_completeness(apply_G, load, kept_modes, kept_eigenvalues, stati
     """Kept modes plus the static mode(s) of ``load`` reproduce G F exactly."""
     modes = np.column_stack([kept_modes, static_modes])
     stiffness = np.r_[np.asarray(kept_eigenvalues, float), np.atleast_1d(static_stiffness)]
-    return check_result(name, static_response_error(apply_G, load, modes, stiffness), tol)
+    return check_record(name, static_response_error(apply_G, load, modes, stiffness), tol)
 
 
 def static_energy_shortfall(apply_G, load, kept_modes, kept_eigenvalues):
@@ -72,14 +63,14 @@ def static_energy_shortfall(apply_G, load, kept_modes, kept_eigenvalues):
 def check_truncation_shortfall(apply_G, load, kept_modes, kept_eigenvalues,
                                name="kept_modes_static_shortfall"):
     """Report: energy-norm share of the static response the kept vibration modes alone miss."""
-    return check_result(name, static_energy_shortfall(apply_G, load, kept_modes, kept_eigenvalues),
+    return check_record(name, static_energy_shortfall(apply_G, load, kept_modes, kept_eigenvalues),
                         None)
 
 
 def check_static_orthogonality(static_result, tol=1e-10, name="static_mode_orthogonality"):
     """Largest relative M- and K-coupling between static and kept modes (``static_correction_modes``)."""
     value = max(static_result["mass_coupling"], static_result["stiffness_coupling"])
-    return check_result(name, value, tol)
+    return check_record(name, value, tol)
 
 
 def check_ranking_invariance(rho_a, rho_b, rank_a, rank_b, tol=1e-10, name="ranking_invariance"):
@@ -89,9 +80,8 @@ def check_ranking_invariance(rho_a, rho_b, rank_a, rank_b, tol=1e-10, name="rank
     """
     rho_a, rho_b = np.asarray(rho_a, float), np.asarray(rho_b, float)
     value = float(np.max(np.abs(rho_a - rho_b)) / np.max(np.abs(rho_a)))
-    result = check_result(name, value, tol)
-    result["passed"] = bool(result["passed"] and np.array_equal(rank_a, rank_b))
-    return result
+    return check_record(name, value, tol,
+                        passed=bool(np.isfinite(value) and value <= tol and np.array_equal(rank_a, rank_b)))
 
 
 def check_inside_frame_rigid(bearing_points, translation, rotation, tol=1e-12,
@@ -109,4 +99,4 @@ def check_inside_frame_rigid(bearing_points, translation, rotation, tol=1e-12,
     scale = max(np.linalg.norm(expected_psi), np.linalg.norm(w), 1e-300)
     value = max(np.max(np.abs(out["theta"] - w)), np.max(np.abs(out["psi"] - expected_psi)),
                 np.max(np.abs(out["psi_midpoint"] - expected_psi)), abs(out["stretch"])) / scale
-    return check_result(name, value, tol)
+    return check_record(name, value, tol)

@@ -12,12 +12,11 @@ modes matching the DOF layout, optional config hash) and raises
 ``BodyFileError`` with a one-line message naming the file otherwise -- a
 stale, truncated or foreign file is caught before any expensive work.
 
-``write_h5_atomic`` writes to a temporary file in the target's folder and
-renames it with ``os.replace``: a killed run never leaves a truncated file.
+Body files are written atomically by ``workflow.provenance.atomic_h5`` (a
+temporary file in the target's folder, renamed into place when complete).
 """
 
 import os
-import tempfile
 
 import h5py
 import numpy as np
@@ -169,24 +168,6 @@ def check_body(body, expect_config_hash=None, mass_normalisation_tol=1e-6):
         if str(found) != str(expect_config_hash):
             raise BodyFileError(f"{where}: stale body file (config_hash {found!r}, "
                                 f"expected {expect_config_hash!r})")
-
-
-def write_h5_atomic(path, write):
-    """Call ``write(h5py.File)`` on a temporary file beside ``path``, then rename it onto path."""
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=os.path.basename(path) + ".", suffix=".tmp", dir=folder)
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as f:
-            write(f)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-    return path
 
 
 # ---------------------------------------------------------------- the writer's layout

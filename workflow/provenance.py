@@ -3,12 +3,20 @@
 Every result file is written to a temporary name in its destination folder
 and renamed into place only when complete (``os.replace`` is atomic on one
 file system), so an interrupted job never leaves a truncated file that a
-later run could take for a finished one.
+later run could take for a finished one: ``atomic_path`` (any writer),
+``atomic_h5``, ``write_json``, ``write_text`` and ``write_csv`` (the CSV
+tables, formatted by ``csv_text``) are the project's only atomic writers.
+
+``check_record`` makes the one shape of a verification check,
+``{name, value, tolerance, passed, **details}``.
 """
 from __future__ import annotations
 
 import contextlib
+import csv
+import io
 import json
+import math
 import os
 import platform
 import subprocess
@@ -16,6 +24,7 @@ from importlib import metadata
 from pathlib import Path
 
 import h5py
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -75,8 +84,6 @@ def write_json(path: str | Path, data: dict) -> None:
 
 
 def _jsonable(obj):
-    import numpy as np
-
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, (np.floating, np.integer, np.bool_)):
@@ -98,3 +105,44 @@ def read_h5_checked(path: str | Path, required: tuple[str, ...] = ()) -> h5py.Fi
         h5.close()
         raise ValueError(f"'{path}' lacks {', '.join(missing)}: it is stale or incomplete; delete it and rerun")
     return h5
+
+
+def write_text(path: str | Path, text: str) -> None:
+    """Write text atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+
+
+def csv_text(rows: list[dict], columns, digits: int = 8) -> str:
+    """CSV text of dict rows in the given columns: floats with ``digits`` significant
+    digits, None or a missing key as an empty cell, other keys ignored (every CSV table
+    of the project is written by this)."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n", extrasaction="ignore")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: (f"{r[k]:.{digits}g}" if isinstance(r.get(k), float) else
+                        ("" if r.get(k) is None else r.get(k))) for k in columns})
+    return buf.getvalue()
+
+
+def write_csv(path: str | Path, rows: list[dict], columns, digits: int = 8) -> None:
+    """Write dict rows as a CSV table atomically (format: ``csv_text``)."""
+    write_text(path, csv_text(rows, columns, digits))
+
+
+def check_record(name: str, value: float, tolerance: float | None, passed: bool | None = None,
+                 **details) -> dict:
+    """One verification check, JSON-ready: ``{name, value, tolerance, passed, **details}``.
+
+    value: the measured number (made a float); tolerance: its bound (a float), or None
+    for a measured report without a bound.  passed: by default value is finite and at
+    most the tolerance (finite is enough without one); a check judged otherwise (a
+    two-sided bound, an extra condition) passes its own verdict.  details: further
+    JSON-ready keys stored beside the four (e.g. ``details={...}`` nests them).
+    """
+    value = float(value)
+    tolerance = None if tolerance is None else float(tolerance)
+    if passed is None:
+        passed = math.isfinite(value) and (tolerance is None or value <= tolerance)
+    return {"name": name, "value": value, "tolerance": tolerance, "passed": bool(passed), **details}

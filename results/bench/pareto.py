@@ -54,7 +54,11 @@ from dataclasses import dataclass  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from results.study import tables as errors, cases as study  # noqa: E402
+from results.study.cases import describe_model  # noqa: E402
+from results.study.tables import RATE_COLUMNS  # noqa: E402
+from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
+from solver.dynamics.simfile import read_sim  # noqa: E402
+from workflow.provenance import csv_text  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 E_FLOOR = 1e-12                  # below the truth file's own convergence (E ~ 7e-12)
@@ -65,7 +69,7 @@ COLUMNS_DURATION = 1e-5          # s for the column-assembly variant (one output
 QUICK_DENSE_DURATION = 1e-4
 CSV_COLUMNS = ("model", "family", "n_elastic", "solver", "integrator", "method", "fraction", "rtol",
                "step_s", "steps", "wall_time_s", "wall_time_min_s", "runs", "time_basis", "E",
-               *errors.RATE_COLUMNS, "pareto", "status", "omega_max_rad_s", "setup_s", "deviation",
+               *RATE_COLUMNS, "pareto", "status", "omega_max_rad_s", "setup_s", "deviation",
                "speedup")
 
 
@@ -102,7 +106,7 @@ def default_settings(rk4_fractions=(1.0, 0.5), rtols=(1e-6, 1e-8, 1e-10),
 def model_family(name):
     """Colour group of a model: the study group (freq, xmx, static-freq, load-case, truth ...)
     or, for names outside the study (load-10, global-8, per-body counts), the name's prefix."""
-    group = study.describe_model(name)["group"]
+    group = describe_model(name)["group"]
     if group != "other":
         return group
     m = re.match(r"^([a-z][a-z-]*?)-[0-9]", name)
@@ -122,7 +126,7 @@ def pareto_mask(cost, err):
 def max_rate_error(t, reference, rates):
     """(E, E per rate (4,)): eq 3.53 per gimbal rate (columns of (T, 4) arrays [rad/s]) and
     its maximum, the accuracy of one run."""
-    per = np.atleast_1d(errors.error_measure(t, reference, rates))
+    per = np.atleast_1d(error_measure(t, reference, rates))
     return float(np.nanmax(per)), per
 
 
@@ -159,12 +163,12 @@ def time_setting(prob, setting, duration, dt, t_ref, g_ref, repeats, budget_s, m
     times = [first.wall_time]
     for _ in range(run_budget(first.wall_time, repeats, budget_s) - 1):
         times.append(integrate(prob, setting, duration, dt, model).wall_time)
-    errors.check_same_grid(t_ref, first.t, f"{model} {setting.name}")
+    check_same_grid(t_ref, first.t, f"{model} {setting.name}")
     E, per = max_rate_error(t_ref, g_ref, first.yd[:, :4])
     step = duration / max(first.steps, 1) if setting.method == "dop853" else first.step
     return {**row, "step_s": step, "steps": first.steps, "wall_time_s": float(np.median(times)),
             "wall_time_min_s": float(np.min(times)), "runs": len(times), "time_basis": "measured",
-            "E": E, **dict(zip(errors.RATE_COLUMNS, map(float, per))), "status": "ok",
+            "E": E, **dict(zip(RATE_COLUMNS, map(float, per))), "status": "ok",
             "_run": first}
 
 
@@ -238,12 +242,12 @@ def dense_row(truth_rows, comp, duration, t_ref, g_ref):
     if ref is None:
         return None
     row = {**{k: ref[k] for k in ("model", "n_elastic", "integrator", "method", "fraction", "step_s",
-                                  "steps", "E", *errors.RATE_COLUMNS, "omega_max_rad_s", "setup_s")},
+                                  "steps", "E", *RATE_COLUMNS, "omega_max_rad_s", "setup_s")},
            "family": f"dense-{comp['assembly']}", "solver": f"dense-{comp['assembly']}", "runs": 1,
            "status": "ok", "deviation": comp["deviation"], "speedup": comp["speedup"]}
     if comp["duration_s"] >= duration * (1 - 1e-9):
         E, per = max_rate_error(t_ref, g_ref, comp["_run"].yd[:, :4])
-        row.update(E=E, **dict(zip(errors.RATE_COLUMNS, map(float, per))), time_basis="measured")
+        row.update(E=E, **dict(zip(RATE_COLUMNS, map(float, per))), time_basis="measured")
         wall = comp["dense_wall_time_s"]
     else:
         wall = comp["dense_wall_time_s"] * duration / comp["duration_s"]
@@ -254,7 +258,7 @@ def dense_row(truth_rows, comp, duration, t_ref, g_ref):
 # ------------------------------------------------------------------ output
 def format_csv(rows):
     """CSV text (CSV_COLUMNS; floats with 6 significant digits, missing = empty)."""
-    return errors.csv_text(rows, CSV_COLUMNS, 6)
+    return csv_text(rows, CSV_COLUMNS, 6)
 
 
 MARKERS = {"rk4": ("o", "s", "h"), "dop853": ("^", "v", "<", ">"),
@@ -384,7 +388,7 @@ def main(argv=None) -> int:
         if args.repeats < 1:
             raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
         scene = scenes.load_scene(args.scene)
-        truth = errors.read_sim(args.truth)
+        truth = read_sim(args.truth)
         dt = scene.output_interval
         duration = args.duration if args.duration is not None else (
             QUICK_DURATION if args.quick else scene.duration)
@@ -402,7 +406,7 @@ def main(argv=None) -> int:
         names = list(dict.fromkeys(list(args.models) + ["truth"]))
         settings = default_settings(args.rk4_fractions, args.rtols, args.galpha_steps)
         problems = load_models(names, scene, args.modes_dir, args.reduction_dir, args.load_ranking)
-    except (ValueError, FileNotFoundError, errors.ErrorsInputError, models.ModelError) as exc:
+    except (ValueError, FileNotFoundError, ErrorsInputError, models.ModelError) as exc:
         print(f"results.bench.pareto: error: {exc}", file=sys.stderr)
         return 2
     rows = evaluate(problems, settings, duration, dt, truth, repeats, args.budget)

@@ -32,10 +32,14 @@ import sys
 
 import numpy as np
 
-from results.study import tables as errors, cases as study
+from results.study.cases import BODY_NAMES
+from solver.bodydata import BODIES
+from solver.dynamics.error_measure import check_same_grid, error_measure
+from solver.dynamics.simfile import read_sim
+from workflow.provenance import csv_text, write_text
 
 FAMILIES = ("freq", "xmx", "xmgmx", "load", "global")
-RATES = tuple(study.BODY_NAMES[b] for b in study.BODIES)
+RATES = tuple(BODY_NAMES[b] for b in BODIES)
 TABLE_COLUMNS = ("model", "family", "count", "n_elastic",
                  *(f"E_{r}" for r in RATES), "E_max",
                  *(f"apriori_{r}" for r in RATES), "apriori_max", "apriori_over_measured",
@@ -60,10 +64,10 @@ def classify(name: str) -> tuple[str, int | None]:
 
 def kept_indices(spec, offsets) -> np.ndarray | None:
     """Pooled indices of a ModelSpec's kept vibration modes (None if it has static modes)."""
-    if any(spec.static[b] for b in study.BODIES):
+    if any(spec.static[b] for b in BODIES):
         return None
     return np.concatenate([offsets[k] + np.asarray(spec.kept[b], int)
-                           for k, b in enumerate(study.BODIES)]).astype(int)
+                           for k, b in enumerate(BODIES)]).astype(int)
 
 
 def case_rows(truth: dict, cases: list[dict], linear: dict | None, rankings: dict | None,
@@ -74,8 +78,8 @@ def case_rows(truth: dict, cases: list[dict], linear: dict | None, rankings: dic
     rows = []
     for case in cases:
         label = case.get("path", case["model"])
-        errors.check_same_grid(truth["t"], case["t"], label)
-        E = errors.error_measure(truth["t"], truth["gamma_dot"], case["gamma_dot"])
+        check_same_grid(truth["t"], case["t"], label)
+        E = error_measure(truth["t"], truth["gamma_dot"], case["gamma_dot"])
         family, count = classify(case["model"])
         n_modes = case["attrs"].get("n_modes")
         row = {"model": case["model"], "family": family, "count": count,
@@ -105,7 +109,7 @@ def case_rows(truth: dict, cases: list[dict], linear: dict | None, rankings: dic
 
 def format_csv(rows: list[dict]) -> str:
     """CSV text (TABLE_COLUMNS; floats with 6 significant digits, missing = empty)."""
-    return errors.csv_text(rows, TABLE_COLUMNS, 6)
+    return csv_text(rows, TABLE_COLUMNS, 6)
 
 
 def read_ranking(path) -> dict:
@@ -117,7 +121,7 @@ def read_ranking(path) -> dict:
         with h5py.File(path, "r") as f:
             out = {"curves": {k: f["estimate"][k][()] for k in f["estimate"]},
                    "linear": {k: f["linear"][k][()] for k in f["linear"]},
-                   "scores": np.hstack([f[f"body{b}/score"][()] for b in study.BODIES]),
+                   "scores": np.hstack([f[f"body{b}/score"][()] for b in BODIES]),
                    "scene": str(f.attrs.get("scene", ""))}
     except (OSError, KeyError) as exc:
         raise SelectionInputError(f"{path}: not a complete ranking file ({exc.__class__.__name__})") from None
@@ -208,17 +212,17 @@ def main(argv=None) -> int:
         ranking = read_ranking(args.ranking)
         rankings = models.load_rankings(args.reduction_dir)
         models.load_load_ranking(args.ranking, rankings)
-        truth = errors.read_sim(args.truth)
+        truth = read_sim(args.truth)
         if ranking["scene"] and truth["attrs"].get("scene") not in (None, ranking["scene"]):
             raise SelectionInputError(f"{args.truth}: scene {truth['attrs'].get('scene')!r}, the "
                                       f"ranking's is {ranking['scene']!r}")
-        cases = [errors.read_sim(p) for p in args.cases
+        cases = [read_sim(p) for p in args.cases
                  if os.path.abspath(p) != os.path.abspath(args.truth)]
         rows = case_rows(truth, cases, ranking["linear"], rankings, ranking["scores"])
     except (ValueError, FileNotFoundError) as exc:
         print(f"results.bench.selection: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
-    errors.write_text_atomic(args.table, format_csv(rows))
+    write_text(args.table, format_csv(rows))
     made = plot(rows, ranking["curves"], args.figure)
     est = [r for r in rows if r["apriori_max"] is not None]
     if est:

@@ -26,10 +26,17 @@ reduction folder.
 """
 from __future__ import annotations
 
+import argparse
 import re
 
-BODIES = (2, 3, 4, 5)
-BODY_NAMES = {2: "outer_gimbal", 3: "middle_gimbal", 4: "inner_gimbal", 5: "stable_platform"}
+import numpy as np
+
+from reduction import models
+from reduction.static_modes import DEFAULT_LOAD_CASE
+from solver.bodydata import BODIES
+from workflow import config
+
+BODY_NAMES = dict(zip(BODIES, config.BODY_NAMES))   # {2: "outer_gimbal", ..., 5: "stable_platform"}
 BODY_LABELS = {2: "outer gimbal", 3: "middle gimbal", 4: "inner gimbal", 5: "stable platform"}
 RATE_LABELS = {2: r"$\dot\gamma_1$ (outer gimbal)", 3: r"$\dot\gamma_2$ (middle gimbal)",
                4: r"$\dot\gamma_3$ (inner gimbal)", 5: r"$\dot\gamma_4$ (stable platform)"}
@@ -38,7 +45,6 @@ MODE_COUNTS = (5, 10, 15, 20, 25)             # Figs 4-2..4-11, Table 4.2
 STATIC_COUNTS = (2, 4, 6, 8)                  # Figs 4-13..4-20, Table 4.3
 LOAD_CASE_COUNT = 10                          # Figs 4-21..4-27
 RANKINGS = ("xmx", "xmgmx")
-DEFAULT_LOAD_CASE = "output_motor_fz"
 # (load case, thesis figure) in the thesis's figure order; Fig 4-24 is the default case
 LOAD_CASES = (("output_motor_my", "4-21"), ("output_motor_mz", "4-22"),
               ("output_motor_fx", "4-23"), ("output_motor_fz", "4-24"),
@@ -148,9 +154,6 @@ def check_models(names, reduction_dir=None, n_modes=100) -> list[str]:
     Without ``reduction_dir`` the rankings are identity permutations of
     ``n_modes`` modes (the grammar check only); raises ``reduction.models.ModelError``.
     """
-    import numpy as np
-
-    from reduction import models
     if reduction_dir is None:
         order = np.arange(n_modes)
         rankings = {b: {k: order for k in models.RANKING_KEYS.values()} for b in models.BODIES}
@@ -163,7 +166,6 @@ def check_models(names, reduction_dir=None, n_modes=100) -> list[str]:
 
 def main(argv=None) -> int:
     """Print the study's model names, one per line (``--truth`` adds the truth model)."""
-    import argparse
     parser = argparse.ArgumentParser(prog="python -m results.study.cases", description=main.__doc__)
     parser.add_argument("--truth", action="store_true", help="list the truth model first")
     args = parser.parse_args(argv)

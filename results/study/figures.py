@@ -36,7 +36,20 @@ import textwrap
 
 import numpy as np
 
-from results.study import tables as errors, cases as study
+from results.study import findings
+from results.study.cases import (
+    GROUP_LABELS,
+    LOAD_CASES,
+    RANKING_TABLE_GROUPS,
+    RATE_LABELS,
+    describe_model,
+    study_cases,
+)
+from results.study.tables import RATE_COLUMNS, read_table
+from solver.bodydata import BODIES
+from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
+from solver.dynamics.simfile import read_sim
+from workflow.provenance import write_json
 
 STYLE = {"pdf.fonttype": 42, "ps.fonttype": 42, "font.size": 9, "axes.grid": True,
          "grid.alpha": 0.3, "legend.fontsize": 8, "figure.dpi": 100}
@@ -49,7 +62,7 @@ PNG_DPI = 150
 
 
 def _plt():
-    import matplotlib
+    import matplotlib  # optional heavy dependency: imported only when a figure is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
@@ -75,18 +88,18 @@ def save(fig, stem) -> dict:
 def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None) -> dict:
     """Truth vs reduced gimbal rates: 2x2 panels, t [ms] vs gamma_dot_n [rad/s], E per panel.
 
-    truth, case: dicts of ``errors.read_sim`` (t (T,) s, gamma_dot (T, 4) rad/s) on one grid."""
-    errors.check_same_grid(truth["t"], case["t"], case.get("path", case.get("model", "case")))
-    E = errors.error_measure(truth["t"], truth["gamma_dot"], case["gamma_dot"])
+    truth, case: dicts of ``read_sim`` (t (T,) s, gamma_dot (T, 4) rad/s) on one grid."""
+    check_same_grid(truth["t"], case["t"], case.get("path", case.get("model", "case")))
+    E = error_measure(truth["t"], truth["gamma_dot"], case["gamma_dot"])
     plt = _plt()
     with plt.rc_context(STYLE):
         fig, axes = plt.subplots(2, 2, figsize=(7.0, 4.8), sharex=True, constrained_layout=True)
         t_ms = 1e3 * truth["t"]
-        for k, (ax, b) in enumerate(zip(axes.flat, study.BODIES)):
+        for k, (ax, b) in enumerate(zip(axes.flat, BODIES)):
             ax.plot(t_ms, truth["gamma_dot"][:, k], color="black", lw=1.0, label="truth (100 modes/body)")
             ax.plot(1e3 * case["t"], case["gamma_dot"][:, k], color="tab:red", lw=1.0, ls="--",
                     label=f"reduced: {case['model']}")
-            ax.set_ylabel(f"{study.RATE_LABELS[b]} [rad/s]")
+            ax.set_ylabel(f"{RATE_LABELS[b]} [rad/s]")
             ax.text(0.02, 0.95, f"E = {E[k]:.3g}", transform=ax.transAxes, va="top", fontsize=8,
                     bbox={"boxstyle": "round", "fc": "white", "ec": "0.7", "alpha": 0.9})
             if k >= 2:
@@ -104,24 +117,24 @@ def _series(rows, group, col):
 def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=None) -> dict:
     """E (log) against vibration modes per body, one panel per gimbal rate, one line per group.
 
-    rows: table rows (``errors.read_table``); thesis: optional {label: {count: (4,) E}} in grey."""
+    rows: table rows (``read_table``); thesis: optional {label: {count: (4,) E}} in grey."""
     plt = _plt()
     with plt.rc_context(STYLE):
         fig, axes = plt.subplots(2, 2, figsize=(7.0, 5.0), sharex=True, constrained_layout=True)
-        for k, (ax, b) in enumerate(zip(axes.flat, study.BODIES)):
-            col = errors.RATE_COLUMNS[k]
+        for k, (ax, b) in enumerate(zip(axes.flat, BODIES)):
+            col = RATE_COLUMNS[k]
             for g in groups:
                 x, y = _series(rows, g, col)
                 if x.size:
                     c, m, ls = GROUP_STYLE.get(g, GROUP_STYLE["other"])
                     ax.plot(x, np.where(y > 0, y, np.nan), color=c, marker=m, ls=ls or "-",
-                            label=f"ours: {study.GROUP_LABELS.get(g, g)}")
+                            label=f"ours: {GROUP_LABELS.get(g, g)}")
             for j, (label, data) in enumerate((thesis or {}).items()):
                 xs = sorted(data)
                 ax.plot(xs, [data[n][k] for n in xs], color="0.55", marker="os"[j % 2], ms=3,
                         ls=":", lw=0.8, label=f"thesis: {label}")
             ax.set_yscale("log")
-            ax.set_ylabel(f"E of {study.RATE_LABELS[b]} [-]")
+            ax.set_ylabel(f"E of {RATE_LABELS[b]} [-]")
             if k >= 2:
                 ax.set_xlabel("vibration modes per body")
         if axes.flat[0].get_legend_handles_labels()[0]:
@@ -134,15 +147,15 @@ def plot_load_cases(rows: list[dict], stem: str) -> dict:
     """Grouped bars: E (log) of each gimbal rate for the seven static-mode load cases."""
     plt = _plt()
     lc = [r for r in rows if r["group"] == "load-case"]
-    order = [c for c, _ in study.LOAD_CASES]
+    order = [c for c, _ in LOAD_CASES]
     lc.sort(key=lambda r: order.index(r["load_case"]) if r["load_case"] in order else len(order))
     with plt.rc_context(STYLE):
         fig, ax = plt.subplots(figsize=(7.0, 3.6), constrained_layout=True)
         x = np.arange(len(lc))
         w = 0.2
-        for k, b in enumerate(study.BODIES):
-            ax.bar(x + (k - 1.5) * w, [r[errors.RATE_COLUMNS[k]] for r in lc], w,
-                   label=study.RATE_LABELS[b])
+        for k, b in enumerate(BODIES):
+            ax.bar(x + (k - 1.5) * w, [r[RATE_COLUMNS[k]] for r in lc], w,
+                   label=RATE_LABELS[b])
         ax.set_xticks(x, [f"{r['load_case']}\n(Fig {r['thesis_figure']})" for r in lc], fontsize=7)
         ax.set_yscale("log")
         ax.set_ylabel("E [-]")
@@ -178,7 +191,7 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal")
             sel = [r for r in cases if r["group"] == g]
             c, m, _ = GROUP_STYLE.get(g, GROUP_STYLE["other"])
             ax.scatter([r["wall_time_s"] for r in sel], [r[col] for r in sel], color=c, marker=m,
-                       label=study.GROUP_LABELS.get(g, g), zorder=3)
+                       label=GROUP_LABELS.get(g, g), zorder=3)
         cost = np.array([r["wall_time_s"] for r in cases])
         err = np.array([r[col] for r in cases])
         front = pareto_front(cost, err)
@@ -194,7 +207,7 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("wall time of the simulation [s]")
-        ax.set_ylabel(f"E of {study.RATE_LABELS[2]} [-]")
+        ax.set_ylabel(f"E of {RATE_LABELS[2]} [-]")
         ax.legend(fontsize=6, loc="best", framealpha=0.8)
         ax.set_title("Run time against error (eq 3.53)")
         return save(fig, stem)
@@ -203,7 +216,6 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal")
 def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases=(),
                  thesis=None) -> list[dict]:
     """Every figure whose inputs are given; returns the manifest entries (paths relative to out_dir)."""
-    from results.study import findings
     thesis = findings.THESIS if thesis is None else thesis
     entries = []
 
@@ -212,9 +224,9 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
 
     ranking_rows, static_rows = ranking_rows or [], static_rows or []
     if truth is not None:
-        order = {c["model"]: i for i, c in enumerate(study.study_cases())}
+        order = {c["model"]: i for i, c in enumerate(study_cases())}
         for case in sorted(cases, key=lambda c: order.get(c["model"], len(order))):
-            d = study.describe_model(case["model"])
+            d = describe_model(case["model"])
             fig = f" (thesis Fig {d['thesis_figure']})" if d["thesis_figure"] else ""
             paths = plot_rates(truth, case, os.path.join(out_dir, f"rates_{safe_name(case['model'])}"),
                                f"Truth vs {d['title']}")
@@ -222,9 +234,9 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
                 group=d["group"], thesis_figure=d["thesis_figure"],
                 caption=f"Gimbal rates of the truth model (solid) and of model {case['model']}, "
                         f"{d['title']} (dashed){fig}; E per rate from eq 3.53.")
-    if any(r["group"] in study.RANKING_TABLE_GROUPS for r in ranking_rows):
+    if any(r["group"] in RANKING_TABLE_GROUPS for r in ranking_rows):
         th = {"freq (Table 4.2)": thesis["freq"], "XMX/XMGMX (Table 4.2)": thesis["ranked"]}
-        add(plot_error_vs_modes(ranking_rows, study.RANKING_TABLE_GROUPS,
+        add(plot_error_vs_modes(ranking_rows, RANKING_TABLE_GROUPS,
                                 os.path.join(out_dir, "error_ranking"),
                                 "Error against mode count: lowest-frequency vs ranked modes", th),
             id="error_ranking", kind="error", model="", group="", thesis_figure="4-28",
@@ -258,7 +270,6 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
 
 
 def write_manifest(out_dir, entries):
-    from workflow.provenance import write_json
     path = os.path.join(out_dir, "figures.json")
     write_json(path, {"description": "Figures of the results stage (results/study/figures.py); paths "
                                      "relative to this file.", "figures": entries})
@@ -275,14 +286,14 @@ def main(argv=None) -> int:
     parser.add_argument("--out-dir", required=True, help="folder of the figures and figures.json")
     args = parser.parse_args(argv)
     try:
-        truth = errors.read_sim(args.truth) if args.truth else None
-        cases = [errors.read_sim(p) for p in args.cases
+        truth = read_sim(args.truth) if args.truth else None
+        cases = [read_sim(p) for p in args.cases
                  if not args.truth or os.path.abspath(p) != os.path.abspath(args.truth)]
         if cases and truth is None:
-            raise errors.ErrorsInputError("--cases needs --truth")
-        rank = errors.read_table(args.ranking_table) if args.ranking_table else []
-        stat = errors.read_table(args.static_table) if args.static_table else []
-    except (errors.ErrorsInputError, OSError) as exc:
+            raise ErrorsInputError("--cases needs --truth")
+        rank = read_table(args.ranking_table) if args.ranking_table else []
+        stat = read_table(args.static_table) if args.static_table else []
+    except (ErrorsInputError, OSError) as exc:
         print(f"results.study.figures: error: {exc}", file=sys.stderr)
         return 2
     entries = make_figures(args.out_dir, rank, stat, truth, cases)

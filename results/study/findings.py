@@ -43,7 +43,9 @@ import sys
 
 import numpy as np
 
-from results.study import tables as errors, cases as study
+from results.study.cases import LOAD_CASES
+from results.study.tables import RATE_COLUMNS, read_table
+from workflow.provenance import write_json, write_text
 
 FACTOR_SIMILAR = 3.0
 FACTOR_LOAD = 2.0
@@ -93,12 +95,12 @@ FIELDS = ("finding", "statement", "rule", "ours", "thesis", "verdict", "reason")
 
 
 def table_from_rows(rows: list[dict]) -> dict:
-    """{group: {count: (4,) E}} from error-table rows (``errors.read_table``); the load-case
+    """{group: {count: (4,) E}} from error-table rows (``read_table``); the load-case
     group is keyed by load case instead of count."""
     out = {}
     for r in rows:
         key = r["load_case"] if r["group"] == "load-case" else r["count"]
-        out.setdefault(r["group"], {})[key] = tuple(float(r[c]) for c in errors.RATE_COLUMNS)
+        out.setdefault(r["group"], {})[key] = tuple(float(r[c]) for c in RATE_COLUMNS)
     return out
 
 
@@ -233,8 +235,8 @@ def finding6(tab: dict) -> dict:
             f"max/min {_fmt(ratio)}")
     reason = (f"all load cases within a factor {FACTOR_LOAD:g}" if ok else
               f"the load case changes E_outer by a factor {_fmt(ratio)} (> {FACTOR_LOAD:g})")
-    if len(lc) < len(study.LOAD_CASES):
-        reason += f" (only {len(lc)} of {len(study.LOAD_CASES)} load cases available)"
+    if len(lc) < len(LOAD_CASES):
+        reason += f" (only {len(lc)} of {len(LOAD_CASES)} load cases available)"
     return {"ours": ours, "verdict": "reproduced" if ok else "not reproduced", "reason": reason,
             "values": ratio}
 
@@ -289,15 +291,14 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     missing = [p for p in (args.ranking_table, args.static_table, args.reduction)
                if p and not os.path.exists(p)]
-    rank = errors.read_table(args.ranking_table) if args.ranking_table and os.path.exists(args.ranking_table) else []
-    stat = errors.read_table(args.static_table) if args.static_table and os.path.exists(args.static_table) else []
+    rank = read_table(args.ranking_table) if args.ranking_table and os.path.exists(args.ranking_table) else []
+    stat = read_table(args.static_table) if args.static_table and os.path.exists(args.static_table) else []
     reduction = None
     if args.reduction and os.path.exists(args.reduction):
         with open(args.reduction) as f:
             reduction = json.load(f)
     items = evaluate(rank, stat, reduction)
-    from workflow.provenance import write_json
-    errors.write_text_atomic(args.csv, format_csv(items))
+    write_text(args.csv, format_csv(items))
     write_json(args.json, {"description": "Thesis findings (spec gimbal-model.md) against our results; "
                                           "rules in results/study/findings.py.",
                            "missing_inputs": missing,

@@ -24,14 +24,32 @@ missing), ``typst_source`` (dict -> Typst markup), ``compile_pdf``.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import os
 import sys
 import time
+from importlib import metadata
 
 import numpy as np
+import yaml
 
-from results.study import tables as errors, findings, cases as study
+from results.study import findings
+from results.study.figures import pareto_front
+from results.study.cases import (
+    BODY_LABELS,
+    GROUP_LABELS,
+    LOAD_CASES,
+    MODE_COUNTS,
+    RANKING_TABLE_GROUPS,
+    STATIC_COUNTS,
+    study_cases,
+)
+from results.study.tables import RATE_COLUMNS, read_table
+from solver.bodydata import BODIES
+from solver.dynamics.simfile import read_sim
+from workflow.config import BODY_NAMES
+from workflow.provenance import atomic_path, versions
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DEFAULTS = {
@@ -78,7 +96,6 @@ BENCH_FIGURES = (
     ("drift", "stability/energy_drift.png", "Energy drift over 10 s of scene free_10s, per "
      "integrator (results.bench.stability)."),
 )
-BODY_KEYS = ("outer_gimbal", "middle_gimbal", "inner_gimbal", "stable_platform")
 N_FREQ_ROWS = 10
 
 
@@ -93,14 +110,12 @@ def _json(path):
 
 
 def _yaml(path):
-    import yaml
     with open(path) as f:
         return yaml.safe_load(f)
 
 
 def _csv_rows(path):
     """Rows of a CSV file as dicts of strings."""
-    import csv
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
 
@@ -134,14 +149,14 @@ def gather(paths: dict) -> dict:
         ctx["status"][key] = time.strftime("%Y-%m-%d %H:%M", time.localtime(os.path.getmtime(path)))
         return out
 
-    ctx["ranking_rows"] = load("ranking_table", errors.read_table) or []
-    ctx["static_rows"] = load("static_table", errors.read_table) or []
+    ctx["ranking_rows"] = load("ranking_table", read_table) or []
+    ctx["static_rows"] = load("static_table", read_table) or []
     ctx["fe"] = load("fe", _json)
     ctx["modes_benchmark"] = load("modes_benchmark", _json)
     ctx["reduction"] = load("reduction", _json)
     ctx["config"] = load("config", _yaml)
     ctx["scene"] = load("scene", _yaml)
-    ctx["truth"] = load("truth", lambda q: errors.read_sim(q)["attrs"])
+    ctx["truth"] = load("truth", lambda q: read_sim(q)["attrs"])
     fj = load("findings", _json)
     if fj and "findings" in fj:
         ctx["findings"], ctx["findings_source"] = fj["findings"], "file"
@@ -156,7 +171,7 @@ def gather(paths: dict) -> dict:
             figs.append({**e, "pdf": pdf})
     ctx["figures"] = figs
     ctx["mode_shapes"] = [f for f in (os.path.join(p["mode_shapes_dir"], f"mode_shapes_body{b}.png")
-                                      for b in study.BODIES) if os.path.exists(f)]
+                                      for b in BODIES) if os.path.exists(f)]
     ctx["stability"] = load("stability", _json)
     ctx["pareto_rows"] = load("pareto", _csv_rows) or []
     ctx["scaling"] = load("scaling", _json)
@@ -170,9 +185,6 @@ def gather(paths: dict) -> dict:
 
 
 def _versions():
-    from importlib import metadata
-
-    from workflow.provenance import versions
     out = versions()
     for mod in ("typst", "matplotlib", "numba", "jax"):
         try:
@@ -236,7 +248,7 @@ def _cv(cfg, *keys, default=None):
 # ---------------------------------------------------------------- sections
 def _summary(ctx):
     rows = [r for r in ctx["ranking_rows"] + ctx["static_rows"] if r["group"] != "truth"]
-    planned = len(study.study_cases())
+    planned = len(study_cases())
     verdicts = {}
     for f in ctx["findings"]:
         verdicts[f["verdict"]] = verdicts.get(f["verdict"], 0) + 1
@@ -281,7 +293,7 @@ def _model_section(ctx, root):
            "== Geometry and material\n\n"]
     if cfg:
         rows = []
-        for key in BODY_KEYS:
+        for key in BODY_NAMES:
             b = cfg.get("bodies", {}).get(key, {})
             rows.append([s(key.replace("_", " ")), s(_cv(b, "number")), s(_cv(b, "shape")),
                          s(_cv(b, "diameter")), s(_cv(b, "hole_diameter", default="--")),
@@ -311,7 +323,7 @@ def _model_section(ctx, root):
                "eccentric mass.\n\n== Mesh\n\n")
     if mb:
         rows = []
-        for key in BODY_KEYS:
+        for key in BODY_NAMES:
             b = mb.get("bodies", {}).get(key)
             if b:
                 rows.append([s(key.replace("_", " ")), s(b.get("model")), s(b.get("mesh_size_in")),
@@ -328,16 +340,16 @@ def _model_section(ctx, root):
     out.append("== Natural frequencies\n\n")
     if fe:
         bodies = fe.get("bodies", {})
-        n = min([N_FREQ_ROWS] + [len(bodies[k]["supported_hz"]) for k in BODY_KEYS if k in bodies])
+        n = min([N_FREQ_ROWS] + [len(bodies[k]["supported_hz"]) for k in BODY_NAMES if k in bodies])
         rows = [[s(i + 1)] + [s(f"{bodies[k]['supported_hz'][i]:.1f}") if k in bodies else "--"
-                              for k in BODY_KEYS] for i in range(n)]
+                              for k in BODY_NAMES] for i in range(n)]
         out.append(table(["mode", "outer gimbal [Hz]", "middle gimbal [Hz]", "inner gimbal [Hz]",
                           "stable platform [Hz]"], rows,
                          f"The {n} lowest natural frequencies of every body with the outer bearings "
                          f"supported (results/verification/fe.json; 100 modes are kept per body).",
                          "tab-frequencies"))
         masses = ", ".join(f"{k.replace('_', ' ')} {bodies[k]['structural_mass']:.4g}"
-                           for k in BODY_KEYS if k in bodies)
+                           for k in BODY_NAMES if k in bodies)
         out.append(f"Structural masses [lbf s#super[2]/in]: {s(masses)}. FE verification: "
                    f"{s(sum(c.get('passed', False) for c in fe.get('checks', [])))} of "
                    f"{s(len(fe.get('checks', [])))} checks passed.\n\n")
@@ -393,7 +405,7 @@ def _methods_section(ctx):
                "quasi-static response of the truncated modes. The default "
                "load case is a z-force at the output motor bearing (thesis Figure 4-12); the seven "
                "load cases of Figs 4-21 to 4-27 are " +
-               ", ".join(s(c) for c, _ in study.LOAD_CASES) + ".\n\n")
+               ", ".join(s(c) for c, _ in LOAD_CASES) + ".\n\n")
     out.append("== Equations of motion\n\n"
                "The chain case - outer gimbal - middle gimbal - inner gimbal - platform is a tree of "
                "floating-frame bodies: each body's motion is the rigid rotation of its joint angle "
@@ -437,9 +449,9 @@ def _integrators(ctx):
 def _pivot(rows, group, counts):
     sel = {r["count"]: r for r in rows if r["group"] == group}
     out = []
-    for k, b in enumerate(study.BODIES):
-        col = errors.RATE_COLUMNS[k]
-        out.append([s(study.BODY_LABELS[b])] + [sci(sel[n][col]) if n in sel else "--" for n in counts])
+    for k, b in enumerate(BODIES):
+        col = RATE_COLUMNS[k]
+        out.append([s(BODY_LABELS[b])] + [sci(sel[n][col]) if n in sel else "--" for n in counts])
     return out, bool(sel)
 
 
@@ -447,25 +459,25 @@ def _results_section(ctx, root):
     out = ["= Results\n\n== Error tables\n\n"]
     rr, sr = ctx["ranking_rows"], ctx["static_rows"]
     if rr:
-        for g in study.RANKING_TABLE_GROUPS:
-            rows, ok = _pivot(rr, g, study.MODE_COUNTS)
+        for g in RANKING_TABLE_GROUPS:
+            rows, ok = _pivot(rr, g, MODE_COUNTS)
             if ok:
-                out.append(table(["rate"] + [f"{n} modes" for n in study.MODE_COUNTS], rows,
-                                 f"Error E (eq 3.53) using {s(study.GROUP_LABELS[g])} "
+                out.append(table(["rate"] + [f"{n} modes" for n in MODE_COUNTS], rows,
+                                 f"Error E (eq 3.53) using {s(GROUP_LABELS[g])} "
                                  f"(analogue of thesis Table 4.2).", f"tab-err-{g}"))
     else:
         out.append(note(ctx["missing"].get("ranking_table", "ranking table")))
     if sr:
         for g in ("static-freq", "static-xmx", "static-xmgmx"):
-            rows, ok = _pivot(sr, g, study.STATIC_COUNTS)
+            rows, ok = _pivot(sr, g, STATIC_COUNTS)
             if ok:
-                out.append(table(["rate"] + [f"{n} modes" for n in study.STATIC_COUNTS], rows,
-                                 f"Error E using {s(study.GROUP_LABELS[g])} per body "
+                out.append(table(["rate"] + [f"{n} modes" for n in STATIC_COUNTS], rows,
+                                 f"Error E using {s(GROUP_LABELS[g])} per body "
                                  f"(analogue of thesis Table 4.3).", f"tab-err-{g}"))
         lc = [r for r in sr if r["group"] == "load-case"]
         if lc:
             rows = [[s(r["load_case"]), s(r["thesis_figure"])] +
-                    [sci(r[c]) for c in errors.RATE_COLUMNS] for r in lc]
+                    [sci(r[c]) for c in RATE_COLUMNS] for r in lc]
             out.append(table(["load case", "thesis fig.", "outer", "middle", "inner", "platform"],
                              rows, "Error E with the 10 lowest modes per body and one static mode on "
                                    "the outer gimbal, per load case (Figs 4-21 to 4-27).",
@@ -613,7 +625,6 @@ def _performance_section(ctx, root):
 
 
 def _front_idx(rows):
-    from results.study.figures import pareto_front
     return np.array(pareto_front([r["wall_time_s"] for r in rows], [r["E_outer_gimbal"] for r in rows]),
                     dtype=int)
 
@@ -659,9 +670,7 @@ def typst_source(ctx: dict, root: str) -> str:
 
 def compile_pdf(source: str, out_pdf: str, root: str) -> str:
     """Write ``source`` beside ``out_pdf`` (report.typ) and compile it atomically."""
-    import typst
-
-    from workflow.provenance import atomic_path
+    import typst  # optional heavy dependency (the Typst compiler): imported only to compile the PDF
     os.makedirs(os.path.dirname(os.path.abspath(out_pdf)), exist_ok=True)
     typ = os.path.splitext(os.path.abspath(out_pdf))[0] + ".typ"
     with open(typ, "w") as f:

@@ -31,20 +31,23 @@ from __future__ import annotations
 
 import argparse
 import csv
-import io
 import os
 import sys
 
 import numpy as np
 
-from results.study import cases as study
-from solver.dynamics.error_measure import GRID_RTOL, ErrorsInputError, check_same_grid, error_measure  # noqa: F401
-from solver.dynamics.simfile import read_sim  # noqa: F401  (the simulation file's owner)
+from results.study.cases import BODY_NAMES, STATIC_TABLE_GROUPS, describe_model, study_cases
+from solver.bodydata import BODIES
+from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
+from solver.dynamics.simfile import read_sim
+from workflow.provenance import csv_text, write_text
 
-RATE_COLUMNS = tuple(f"E_{study.BODY_NAMES[b]}" for b in study.BODIES)
+RATE_COLUMNS = tuple(f"E_{BODY_NAMES[b]}" for b in BODIES)
 TABLE_COLUMNS = ("group", "model", "ranking", "count", "static", "load_case", "thesis_figure",
                  "n_elastic", *RATE_COLUMNS, "wall_time_s", "integration_time_s", "integrator",
                  "step_s", "steps", "samples", "scene", "config_hash", "file")
+
+
 def case_row(truth: dict, case: dict) -> dict:
     """One table row: the case's description, E per gimbal rate and its cost attributes."""
     label = case.get("path", case.get("model", "case"))
@@ -53,7 +56,7 @@ def case_row(truth: dict, case: dict) -> dict:
     if ts and cs and ts != cs:
         raise ErrorsInputError(f"{label}: scene {cs!r}, the truth's is {ts!r}")
     E = error_measure(truth["t"], truth["gamma_dot"], case["gamma_dot"])
-    desc = study.describe_model(case["model"])
+    desc = describe_model(case["model"])
     a = case["attrs"]
     n_modes = a.get("n_modes")
     n_elastic = int(np.sum(n_modes)) if n_modes is not None else desc["n_elastic"]
@@ -81,28 +84,16 @@ def build_tables(truth: dict, cases: list[dict]) -> tuple[list[dict], list[dict]
         if r["model"] in seen:
             raise ErrorsInputError(f"model {r['model']!r} given twice")
         seen.add(r["model"])
-    order = {c["model"]: i for i, c in enumerate(study.study_cases())}
+    order = {c["model"]: i for i, c in enumerate(study_cases())}
     rows.sort(key=lambda r: (r["group"] != "truth", order.get(r["model"], len(order)), r["model"]))
-    static = [r for r in rows if r["group"] in study.STATIC_TABLE_GROUPS]
-    ranking = [r for r in rows if r["group"] not in study.STATIC_TABLE_GROUPS]
+    static = [r for r in rows if r["group"] in STATIC_TABLE_GROUPS]
+    ranking = [r for r in rows if r["group"] not in STATIC_TABLE_GROUPS]
     return ranking, static
 
 
-def csv_text(rows: list[dict], columns, digits: int = 8) -> str:
-    """CSV text of dict rows in the given columns: floats with ``digits`` significant
-    digits, None or a missing key as an empty cell, other keys ignored (every table of
-    the results stage is written by this)."""
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n", extrasaction="ignore")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: (f"{r[k]:.{digits}g}" if isinstance(r.get(k), float) else
-                        ("" if r.get(k) is None else r.get(k))) for k in columns})
-    return buf.getvalue()
-
-
 def format_csv(rows: list[dict]) -> str:
-    """CSV text of table rows (columns TABLE_COLUMNS; floats with 8 significant digits)."""
+    """CSV text of table rows (columns TABLE_COLUMNS; floats with 8 significant digits,
+    ``workflow.provenance.csv_text``)."""
     return csv_text(rows, TABLE_COLUMNS, 8)
 
 
@@ -118,13 +109,6 @@ def read_table(path) -> list[dict]:
             r[k] = int(float(r[k])) if r.get(k) not in (None, "") else None
         r["load_case"] = r.get("load_case") or None
     return rows
-
-
-def write_text_atomic(path, text):
-    from workflow.provenance import atomic_path
-    with atomic_path(path) as tmp:
-        with open(tmp, "w") as f:
-            f.write(text)
 
 
 def main(argv=None) -> int:
@@ -143,8 +127,8 @@ def main(argv=None) -> int:
     except ErrorsInputError as exc:
         print(f"results.study.tables: error: {exc}", file=sys.stderr)
         return 2
-    write_text_atomic(args.ranking_table, format_csv(ranking))
-    write_text_atomic(args.static_table, format_csv(static))
+    write_text(args.ranking_table, format_csv(ranking))
+    write_text(args.static_table, format_csv(static))
     print(f"results.study.tables: {len(ranking)} rows -> {args.ranking_table}, {len(static)} rows -> "
           f"{args.static_table}")
     return 0

@@ -15,6 +15,7 @@ from reduction import modal_integrals as mi  # noqa: E402
 from reduction import ranking as rk  # noqa: E402
 from reduction import stage  # noqa: E402
 from reduction import static_modes as st  # noqa: E402
+from workflow.provenance import atomic_h5
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -127,20 +128,18 @@ def test_failed_write_leaves_old_file_and_no_temp(files, monkeypatch):
     out = files["folder"] / "atomic.h5"
     assert run("--body-file", files["ring_file"], "--out", out) == 0
     before = out.read_bytes()
+    listing = sorted(p.name for p in out.parent.iterdir())
 
     def interrupted(path, result, body):
-        from solver.bodydata import write_h5_atomic
-
-        def write(f):
+        with atomic_h5(path) as f:
             f.create_dataset("P", data=result["P"])
             raise KeyboardInterrupt  # killed half way through the write
-        return write_h5_atomic(path, write)
 
     monkeypatch.setattr(stage, "write_reduction_file", interrupted)
     with pytest.raises(KeyboardInterrupt):
         run("--body-file", files["ring_file"], "--out", out)
     assert out.read_bytes() == before
-    assert [p.name for p in out.parent.iterdir() if p.name.endswith(".tmp")] == []
+    assert sorted(p.name for p in out.parent.iterdir()) == listing      # no temporary file left
 
 
 def test_command_line_module(files):

@@ -12,7 +12,7 @@ import os
 import h5py
 import numpy as np
 
-from results.study import cases as study
+from results.study.cases import LOAD_CASES, describe_model, study_cases
 
 T_END, DT = 0.015, 1.0e-5
 
@@ -36,7 +36,7 @@ def write_sim(path, model, t, gamma_dot, wall_time_s=1.0, scene="thesis", n_mode
         f["t"], f["gamma"], f["gamma_dot"] = t, gamma, gd
         g = f.create_group("energy")
         g["kinetic"] = g["potential"] = g["total"] = g["input_work"] = np.zeros_like(t)
-        n = study.describe_model(model)["n_elastic"] or 0
+        n = describe_model(model)["n_elastic"] or 0
         attrs = {"scene": scene, "model": model, "integrator": integrator, "step": step,
                  "steps": int(round(t[-1] / step)), "wall_time_s": float(wall_time_s),
                  "integration_time_s": 0.9 * float(wall_time_s), "config_hash": "0123456789abcdef",
@@ -60,7 +60,7 @@ def amplitudes(case, good=True):
     elif g in ("static-xmx", "static-xmgmx"):
         base = 1.1 if good else 0.3
     elif g == "load-case":
-        k = [c for c, _ in study.LOAD_CASES].index(case["load_case"])
+        k = [c for c, _ in LOAD_CASES].index(case["load_case"])
         base = 0.5 + (0.05 if good else 2.0) * (k % 3)
     else:
         base = 0.0
@@ -75,9 +75,9 @@ def write_study(folder, good=True, cases=None, scene="thesis"):
     truth = write_sim(os.path.join(root, "truth.h5"), "truth", t, r, wall_time_s=3600.0,
                       n_modes=[100] * 4, scene=scene)
     paths = []
-    for c in (study.study_cases() if cases is None else cases):
+    for c in (study_cases() if cases is None else cases):
         a = amplitudes(c, good)
-        n = study.describe_model(c["model"])["n_elastic"]
+        n = describe_model(c["model"])["n_elastic"]
         paths.append(write_sim(os.path.join(root, c["model"] + ".h5"), c["model"], t, r * (1 + a),
                                wall_time_s=2.0 + 0.5 * n, scene=scene))
     return truth, paths

@@ -5,20 +5,24 @@ import json
 
 import pytest
 
-from results.study import tables as errors, findings, cases as study
+from results.study import findings, tables
+from results.study.cases import BODY_NAMES
+from results.study.tables import build_tables
+from solver.bodydata import BODIES
+from solver.dynamics.simfile import read_sim
 from tests.results.synthetic_study import write_study
 
 
 def _rows(tmp_path, good):
     truth, cases = write_study(tmp_path / "sim", good=good)
-    t = errors.read_sim(truth)
-    return errors.build_tables(t, [errors.read_sim(p) for p in cases])
+    t = read_sim(truth)
+    return build_tables(t, [read_sim(p) for p in cases])
 
 
 def _reduction(prefix):
-    return {"bodies": {f"body{b}": {"name": study.BODY_NAMES[b], "ranking_agreement": {
+    return {"bodies": {f"body{b}": {"name": BODY_NAMES[b], "ranking_agreement": {
         "common_prefix": prefix, "top_k": [5, 10, 40], "top_k_overlap": [5, 10, min(prefix, 40)],
-        "spearman_rho_all_modes": 0.95}} for b in study.BODIES}}
+        "spearman_rho_all_modes": 0.95}} for b in BODIES}}
 
 
 def test_rules_pass_on_the_thesis_tables():
@@ -77,7 +81,7 @@ def test_missing_inputs_are_not_evaluated(tmp_path):
 def test_cli_writes_csv_and_json(tmp_path):
     truth, cases = write_study(tmp_path / "sim")
     rt, st = tmp_path / "r.csv", tmp_path / "s.csv"
-    assert errors.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
+    assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
                         "--static-table", str(st)]) == 0
     red = tmp_path / "reduction.json"
     red.write_text(json.dumps(_reduction(0)))

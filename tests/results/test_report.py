@@ -10,7 +10,8 @@ import subprocess
 import numpy as np
 import pytest
 
-from results.study import tables as errors, figures, findings, report, cases as study
+from results.study import figures, findings, report, tables
+from results.study.cases import GROUPS, GROUP_LABELS
 from tests.results.synthetic_study import write_study
 
 pytest.importorskip("typst")
@@ -25,7 +26,7 @@ def study_outputs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("results")
     truth, cases = write_study(tmp / "sim")
     rt, st = tmp / "tables" / "errors_ranking.csv", tmp / "tables" / "errors_static.csv"
-    assert errors.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
+    assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
                         "--static-table", str(st)]) == 0
     fj = tmp / "tables" / "findings.json"
     assert findings.main(["--ranking-table", str(rt), "--static-table", str(st),
@@ -134,4 +135,4 @@ def test_report_builds_without_inputs(tmp_path):
 
 
 def test_study_groups_have_labels():
-    assert set(study.GROUPS) <= set(study.GROUP_LABELS) and set(study.GROUPS) <= set(figures.GROUP_STYLE)
+    assert set(GROUPS) <= set(GROUP_LABELS) and set(GROUPS) <= set(figures.GROUP_STYLE)

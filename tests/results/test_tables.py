@@ -4,73 +4,77 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from results.study import tables as errors, cases as study
+from results.study import tables
+from results.study.cases import LOAD_CASES, check_models, describe_model, study_cases, study_models
+from results.study.tables import TABLE_COLUMNS, build_tables, read_table
+from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
+from solver.dynamics.simfile import read_sim
 from tests.results.synthetic_study import T_END, truth_rates, write_sim, write_study
 
 
 def test_study_cases_cover_the_thesis_figures_and_parse():
-    cases = study.study_cases()
+    cases = study_cases()
     models = [c["model"] for c in cases]
     assert len(models) == len(set(models)) == 5 + 10 + 4 + 8 + 7
     assert models[:5] == ["freq-5", "freq-10", "freq-15", "freq-20", "freq-25"]
     assert {"xmx-5", "xmgmx-25", "static-2", "static-8", "static-xmx-4", "static-xmgmx-6"} <= set(models)
     lc = [c for c in cases if c["group"] == "load-case"]
     assert [c["thesis_figure"] for c in lc] == [f"4-{k}" for k in range(21, 28)]
-    assert {c["load_case"] for c in lc} == {c for c, _ in study.LOAD_CASES}
+    assert {c["load_case"] for c in lc} == {c for c, _ in LOAD_CASES}
     assert all(c["model"] == f"static-10@2:{c['load_case']}" for c in lc)
-    study.check_models(study.study_models(include_truth=True))   # reduction.models grammar
-    assert study.describe_model("static-10@2:output_motor_my")["n_elastic"] == 41
-    assert study.describe_model("static-xmx-8")["n_elastic"] == 36
-    assert study.describe_model("freq-10,10,5,5")["group"] == "other"
+    check_models(study_models(include_truth=True))   # reduction.models grammar
+    assert describe_model("static-10@2:output_motor_my")["n_elastic"] == 41
+    assert describe_model("static-xmx-8")["n_elastic"] == 36
+    assert describe_model("freq-10,10,5,5")["group"] == "other"
 
 
 def test_check_models_refuses_bad_names():
     from reduction.models import ModelError
     with pytest.raises(ModelError):
-        study.check_models(["static-10@2:output_motor_qq"])
+        check_models(["static-10@2:output_motor_qq"])
 
 
 @pytest.mark.parametrize("a", [0.0, 0.1, -0.5, 2.0])
 def test_scaled_signal_gives_a_squared(a):
     t = np.linspace(0.0, 1.0, 2001)
     r = np.sin(2 * np.pi * 3 * t)
-    assert errors.error_measure(t, r, (1 + a) * r) == pytest.approx(a ** 2, rel=1e-12, abs=1e-15)
+    assert error_measure(t, r, (1 + a) * r) == pytest.approx(a ** 2, rel=1e-12, abs=1e-15)
 
 
 def test_closed_form_of_orthogonal_error():
     # r = sin(2 pi t), e = b cos(2 pi t) over one period: E = b^2 (both integrals 1/2)
     t = np.linspace(0.0, 1.0, 4001)
     r = np.sin(2 * np.pi * t)
-    E = errors.error_measure(t, r, r + 0.3 * np.cos(2 * np.pi * t))
+    E = error_measure(t, r, r + 0.3 * np.cos(2 * np.pi * t))
     assert E == pytest.approx(0.09, rel=1e-6)
     # a constant offset c on r = t over [0, 1]: int c^2 / int t^2 = 3 c^2
     t = np.linspace(0.0, 1.0, 20001)
-    assert errors.error_measure(t, t, t + 0.2) == pytest.approx(3 * 0.04, rel=1e-6)
+    assert error_measure(t, t, t + 0.2) == pytest.approx(3 * 0.04, rel=1e-6)
 
 
 def test_columns_are_independent_and_zero_reference_is_nan():
     t = np.linspace(0.0, 0.015, 1501)
     r = truth_rates(t)
     a = np.array([0.5, 0.1, 0.01, 0.0])
-    E = errors.error_measure(t, r, r * (1 + a))
+    E = error_measure(t, r, r * (1 + a))
     assert E.shape == (4,)
     np.testing.assert_allclose(E, a ** 2, rtol=1e-12, atol=1e-30)
     r0 = r.copy()
     r0[:, 3] = 0.0
-    assert np.isnan(errors.error_measure(t, r0, r0 + 1.0)[3])
+    assert np.isnan(error_measure(t, r0, r0 + 1.0)[3])
 
 
 def test_mismatched_grids_are_refused_with_one_line(tmp_path):
     t = np.linspace(0.0, T_END, 1501)
-    with pytest.raises(errors.ErrorsInputError) as exc:
-        errors.check_same_grid(t, t[:-1], "x.h5")
+    with pytest.raises(ErrorsInputError) as exc:
+        check_same_grid(t, t[:-1], "x.h5")
     assert "\n" not in str(exc.value) and "1500" in str(exc.value)
-    with pytest.raises(errors.ErrorsInputError, match="differ"):
-        errors.check_same_grid(t, t * 1.001, "x.h5")
+    with pytest.raises(ErrorsInputError, match="differ"):
+        check_same_grid(t, t * 1.001, "x.h5")
     truth = write_sim(tmp_path / "truth.h5", "truth", t, truth_rates(t))
     t2 = np.linspace(0.0, T_END, 751)
     case = write_sim(tmp_path / "freq-5.h5", "freq-5", t2, truth_rates(t2))
-    code = errors.main(["--truth", truth, "--cases", case, "--ranking-table", str(tmp_path / "r.csv"),
+    code = tables.main(["--truth", truth, "--cases", case, "--ranking-table", str(tmp_path / "r.csv"),
                         "--static-table", str(tmp_path / "s.csv")])
     assert code == 2 and not (tmp_path / "r.csv").exists()
 
@@ -82,7 +86,7 @@ def test_cli_missing_and_nonfinite_inputs(tmp_path, capsys):
     bad[50, 0] = np.nan
     nan_case = write_sim(tmp_path / "xmx-5.h5", "xmx-5", t, bad)
     for cases in ([str(tmp_path / "nope.h5")], [nan_case]):
-        code = errors.main(["--truth", truth, "--cases", *cases, "--ranking-table",
+        code = tables.main(["--truth", truth, "--cases", *cases, "--ranking-table",
                             str(tmp_path / "r.csv"), "--static-table", str(tmp_path / "s.csv")])
         err = capsys.readouterr().err.strip()
         assert code == 2 and len(err.splitlines()) == 1 and err.startswith("results.study.tables: error:")
@@ -91,9 +95,9 @@ def test_cli_missing_and_nonfinite_inputs(tmp_path, capsys):
 def test_tables_of_the_synthetic_study(tmp_path):
     truth, cases = write_study(tmp_path / "sim")
     rt, st = tmp_path / "tables" / "errors_ranking.csv", tmp_path / "tables" / "errors_static.csv"
-    assert errors.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
+    assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
                         "--static-table", str(st)]) == 0
-    rank, stat = errors.read_table(rt), errors.read_table(st)
+    rank, stat = read_table(rt), read_table(st)
     assert [r["group"] for r in rank][:1] == ["truth"]
     assert {r["group"] for r in rank} == {"truth", "freq", "xmx", "xmgmx"}
     assert {r["group"] for r in stat} == {"static-freq", "static-xmx", "static-xmgmx", "load-case"}
@@ -108,12 +112,12 @@ def test_tables_of_the_synthetic_study(tmp_path):
     assert by["xmx-10"]["wall_time_s"] == pytest.approx(2.0 + 0.5 * 40)
     assert by["xmx-10"]["integrator"] == "rk4" and by["xmx-10"]["samples"] == 1501
     header = rt.read_text().splitlines()[0].split(",")
-    assert tuple(header) == errors.TABLE_COLUMNS
+    assert tuple(header) == TABLE_COLUMNS
 
 
 def test_duplicate_case_is_refused(tmp_path):
     t = np.linspace(0.0, T_END, 51)
-    truth = errors.read_sim(write_sim(tmp_path / "truth.h5", "truth", t, truth_rates(t)))
-    c = errors.read_sim(write_sim(tmp_path / "a.h5", "freq-5", t, truth_rates(t)))
-    with pytest.raises(errors.ErrorsInputError, match="twice"):
-        errors.build_tables(truth, [c, c])
+    truth = read_sim(write_sim(tmp_path / "truth.h5", "truth", t, truth_rates(t)))
+    c = read_sim(write_sim(tmp_path / "a.h5", "freq-5", t, truth_rates(t)))
+    with pytest.raises(ErrorsInputError, match="twice"):
+        build_tables(truth, [c, c])
