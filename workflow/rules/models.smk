@@ -47,6 +47,7 @@ rule reduced_model:
     output:
         "results/models/{scene}/{model}.h5",
     params:
+        code=code_hash("reduction.models"),
         scene=scene_file,
         elastic_bodies=scene_elastic_bodies,
         rankings=ranking_options,
