@@ -2,7 +2,7 @@
 
 * **Coupled modes.**  The chain linearised at a configuration has natural modes in
   all coordinates (the free joint angles eliminated by a Schur complement,
-  ``coupled_modes``); their top frequency omega_top, not the largest kept modal
+  ``solver.dynamics.linearized.coupled_modes``); their top frequency omega_top, not the largest kept modal
   frequency, limits RK4.
 * **Measured limit.**  Every coupled mode gets the same small kinetic energy
   (``excited_state``); a step is stable when E = T + U grows by less than a factor
@@ -22,11 +22,11 @@ import sys
 import time
 
 import numpy as np
-import scipy.linalg
 
 from reduction import models
 from results.bench.rk4_theory import StabilityInputError, bisect_stability_limit
-from solver.dynamics import integrators, multibody, simulate
+from solver.dynamics import integrators, linearized, multibody, simulate
+from solver.dynamics.problem import Problem
 
 THESIS_ANGLES = (0.0, -np.pi / 2, 0.0, 0.0)
 # The 10 s drift model: the first mode of the outer and of the middle gimbal only.  The cost
@@ -48,36 +48,10 @@ def build(name, rankings, data, damping_ratio=0.0):
 
 
 # ============================================================== coupled modes of the chain
-def coupled_modes(M, stiffness):
-    """Natural modes of the chain linearised at one configuration, in all coordinates.
-
-    M (n, n): the mass matrix M(y) (``multibody.mass_matrix_fast``); stiffness
-    (n - 4,) modal stiffness Omega^2 [(rad/s)^2] (the four joint angles have none).
-    The joints are free, so they are eliminated: S = M_qq - M_qg M_gg^-1 M_gq and
-    Omega^2 x = lambda S x (``multibody.coupled_frequencies``).  Each mode moves the
-    joints by g = -M_gg^-1 M_gq x, which makes its joint momenta M_gg g + M_gq x
-    vanish, so phi = [g; x] satisfies K phi = lambda M phi and phi_i^T M phi_j =
-    x_i^T S x_j = delta_ij: M-orthonormal in the full coordinates.
-
-    Returns (omega (m,) [rad/s] ascending, shapes (n, m)), m = n - 4.
-    """
-    M = np.asarray(M, dtype=float)
-    k = np.asarray(stiffness, dtype=float)
-    n = M.shape[0]
-    if M.shape != (n, n) or k.shape != (n - 4,) or n < 5:
-        raise StabilityInputError(f"coupled_modes: M {M.shape} and stiffness {k.shape} do not match "
-                                  f"(need (n, n) and (n - 4,), n > 4)")
-    Mgg, Mgq, Mqq = M[:4, :4], M[:4, 4:], M[4:, 4:]
-    joint_of_mode = -np.linalg.solve(Mgg, Mgq)           # (4, m): g = joint_of_mode @ x
-    S = Mqq + Mgq.T @ joint_of_mode                       # Schur complement
-    lam, X = scipy.linalg.eigh(np.diag(k), 0.5 * (S + S.T))   # X^T S X = I
-    return np.sqrt(np.maximum(lam, 0.0)), np.vstack([joint_of_mode @ X, X])
-
-
 def equal_energy_velocity(shapes, energy, signs=None):
     """Initial velocity (n,) that gives every coupled mode the kinetic energy energy/m [in lbf].
 
-    shapes (n, m): M-orthonormal modes (``coupled_modes``); energy [in lbf] total.
+    shapes (n, m): M-orthonormal modes (``linearized.coupled_modes``); energy [in lbf] total.
     y' = sum_k s_k phi_k with |s_k| = sqrt(2 energy / m): the modes are M-orthogonal,
     so T = sum s_k^2 / 2 = energy.  signs (m,) of +-1 (default all +1).
     """
@@ -102,8 +76,8 @@ def excited_state(chain, angles=THESIS_ANGLES, energy=1e-6):
         raise StabilityInputError("a rigid chain has no elastic modes to excite")
     y0 = np.zeros(n)
     y0[:4] = angles
-    M = multibody.mass_matrix_fast(chain, y0)
-    omega, shapes = coupled_modes(M, chain.stiffness_diagonal()[4:])
+    M = linearized.mass_matrix_fast(chain, y0)
+    omega, shapes = linearized.free_joint_modes(M, chain.stiffness_diagonal()[4:])
     return y0, equal_energy_velocity(shapes, energy), omega, M
 
 
@@ -111,8 +85,8 @@ def excited_state(chain, angles=THESIS_ANGLES, energy=1e-6):
 def energy_growth(problem, y0, yd0, h, n_steps, growth=10.0, chunks=20):
     """Largest E(t) / E(0) of an RK4 run [1], E = T + U (``problem.energy``, case at rest).
 
-    problem: ``multibody.Problem``; y0, yd0 (n,); h [s]; n_steps RK4 steps, checked every
-    n_steps / chunks steps (compiled loop ``integrators.rk4_steps``).  Stops as soon as
+    problem: ``problem.Problem``; y0, yd0 (n,); h [s]; n_steps RK4 steps, checked every
+    n_steps / chunks steps (compiled loop ``integrators.rk4_advance``).  Stops as soon as
     the ratio exceeds ``growth`` (returns it); inf for a non-finite state.
     """
     E0 = problem.energy(0.0, y0, yd0)
@@ -124,7 +98,7 @@ def energy_growth(problem, y0, yd0, h, n_steps, growth=10.0, chunks=20):
     with np.errstate(over="ignore", invalid="ignore"):
         while done < n_steps:
             k = min(per, n_steps - done)
-            y, yd = integrators.rk4_steps(problem.rhs, y, yd, t, h, k)
+            y, yd = integrators.rk4_advance(problem, y, yd, t, h, k)
             t += k * h
             done += k
             if not (np.all(np.isfinite(y)) and np.all(np.isfinite(yd))):
@@ -157,7 +131,7 @@ def measure_chain_rk4_limit(chain, angles=THESIS_ANGLES, energy=1e-6, n_steps=40
     """
     start = time.perf_counter()
     y0, yd0, omega, _ = excited_state(chain, angles, energy)
-    problem = multibody.Problem(chain, y0=y0, yd0=yd0)
+    problem = Problem(chain, y0=y0, yd0=yd0)
     omega_top = float(omega[-1])
     h_imag = 2.0 * np.sqrt(2.0) / omega_top
     res = bisect_stability_limit(
@@ -188,7 +162,7 @@ def omega_top_over_angles(chain, n_grid=12, gamma4=(0.0, 0.75)):
         for b in g:
             for c in gamma4:
                 y[1:4] = a, b, c
-                w = float(multibody.coupled_frequencies(chain, y)[-1])
+                w = float(linearized.coupled_frequencies(chain, y)[-1])
                 if w > best:
                     best, where = w, y[:4].copy()
     return best, where

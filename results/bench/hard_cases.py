@@ -20,14 +20,14 @@ from results.bench.chain_stability import (
     THESIS_ANGLES,
     axis_alignment,
     build,
-    coupled_modes,
     drive_axes,
     lock_distance,
     log,
     mass_conditioning,
     omega_top_over_angles,
 )
-from solver.dynamics import integrators, multibody, scenes, simulate
+from solver.dynamics import integrators, linearized, multibody, scenes, simulate
+from solver.dynamics.problem import Problem
 from solver.dynamics.error_measure import error_measure
 
 HARD_CASE_TOLERANCE = 1e-6                 # E (eq. 3.53) of a run against its tighter run
@@ -180,7 +180,7 @@ def case_axis_loading(chain, y, shape):
     about case X, Y, Z puts on one mode: -shape . c_a, c_a = inverse dynamics at rest with
     only the case accelerating (the inertia load of the case motion).
 
-    chain, y (n,) configuration, shape (n,) a coupled mode (``coupled_modes``).  The case
+    chain, y (n,) configuration, shape (n,) a coupled mode (``linearized.coupled_modes``).  The case
     axis with the largest |value| drives the mode hardest."""
     n = chain.n_coordinates
     out = np.zeros(3)
@@ -225,8 +225,8 @@ def lock_table(chain, base_angles=(0.0, 0.0, 0.0, 0.0), distances=(1e-1, 1e-2, 1
         axes = drive_axes(ang)
         row = {"configuration": label, "angles": [float(a) for a in ang],
                "lock_distance": lock_distance(axes), "axis_alignment": axis_alignment(axes),
-               "omega_top": float(multibody.coupled_frequencies(chain, y)[-1])}
-        row.update(mass_conditioning(multibody.mass_matrix_fast(chain, y)))
+               "omega_top": float(linearized.coupled_frequencies(chain, y)[-1])}
+        row.update(mass_conditioning(linearized.mass_matrix_fast(chain, y)))
         rows.append(row)
     return rows
 
@@ -256,7 +256,7 @@ def run_hard_cases(rankings, data, quick=False, model=HARD_MODEL):
     # 3: case driven at the first coupled elastic resonance, about the case axis loading it most
     y0 = np.zeros(chain.n_coordinates)
     y0[:4] = thesis.initial_angles
-    omega, shapes = coupled_modes(multibody.mass_matrix_fast(chain, y0), chain.stiffness_diagonal()[4:])
+    omega, shapes = linearized.coupled_modes(chain, y0)
     load = case_axis_loading(chain, y0, shapes[:, 0])
     axis = int(np.argmax(np.abs(load)))
     amp = np.zeros(3)
@@ -296,8 +296,8 @@ def run_hard_cases(rankings, data, quick=False, model=HARD_MODEL):
     chain6 = build("freq-6", rankings, data)
     y6 = np.zeros(chain6.n_coordinates)
     y6[:4] = thesis.initial_angles
-    res.update(static=cond, chain=mass_conditioning(multibody.mass_matrix_fast(chain12, y12)),
-               chain_without_static=mass_conditioning(multibody.mass_matrix_fast(chain6, y6)))
+    res.update(static=cond, chain=mass_conditioning(linearized.mass_matrix_fast(chain12, y12)),
+               chain_without_static=mass_conditioning(linearized.mass_matrix_fast(chain6, y6)))
     record("static_modes", f"12 static modes on the outer gimbal ({len(OUTPUT_LOADS)} output-bearing "
                            f"load cases), thesis scene", res)
 
@@ -317,7 +317,7 @@ def run_hard_cases(rankings, data, quick=False, model=HARD_MODEL):
            checked_run(chain, thesis, model, fraction=1.3), expect="diagnosed")
 
     # 8: the old bound (largest kept modal frequency): the step is 3.5x too large
-    prob = multibody.Problem(chain, case=thesis.case, y0=y0, omega_max=chain.omega_max)
+    prob = Problem(chain, case=thesis.case, y0=y0, omega_max=chain.omega_max)
     record("modal_frequency_bound", "rk4 at 0.5 x 2.785/(largest kept modal frequency), the bound "
                                     "before the coupled-frequency fix, thesis scene",
            checked_run(chain, thesis, model, problem=prob), expect="diagnosed")

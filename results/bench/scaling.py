@@ -7,7 +7,7 @@
 What is timed, per size (D modes on each of the four bodies, S = 4 D elastic
 coordinates, n = 4 + S):
 
-* ``structured``: ``fast_rhs.make_rhs`` -- the articulated-body recursion with
+* ``structured``: ``compiled.make_rhs`` -- the articulated-body recursion with
   Woodbury-eliminated modal blocks (docs/dynamics.md Section 3), called as
   rhs(t, y, y') from Python; ``structured_loop``: the same inside its compiled
   RK4 loop (``rhs.rk4_steps``, no Python per evaluation), what a simulation runs;
@@ -15,7 +15,7 @@ coordinates, n = 4 + S):
   Jacobian (composite) assembly, LAPACK Cholesky, at every evaluation; its
   three parts are also timed alone;
 * ``columns``: the dense baseline with M from n + 1 inverse-dynamics calls
-  (Walker-Orin method 1, ``multibody.mass_matrix_fast``'s route), small sizes only.
+  (Walker-Orin method 1, ``linearized.mass_matrix_fast``'s route), small sizes only.
 
 Each cost is the median over ``repeats`` (default 9) of a timed batch of calls
 divided by the batch size; a batch lasts at least ``batch_seconds``, and the
@@ -55,7 +55,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from workflow.provenance import csv_text  # noqa: E402
-from solver.dynamics import integrators, multibody  # noqa: E402
+from solver.dynamics import compiled, dense_baseline, integrators, multibody  # noqa: E402
 
 # Modal spectrum of each real body, f_k = c k^beta [Hz] (least squares on log-log over modes
 # k = 10..100 of results/modes/body{n}.h5, bodies of 2026-11-21): the rings bend like plates
@@ -202,7 +202,6 @@ def relative_difference(a, b):
 def measure_size(n_modes, repeats=7, batch_seconds=0.05, dense=True, columns=False, seed=0):
     """One CSV row: costs [s] per evaluation at D = n_modes per body (module docstring),
     all methods timed interleaved (``time_interleaved``)."""
-    from solver.dynamics import dense_baseline, fast_rhs
     chain = synthetic_modal_chain(n_modes, seed)
     n = chain.n_coordinates
     y, yd = timing_state(chain)
@@ -211,11 +210,11 @@ def measure_size(n_modes, repeats=7, batch_seconds=0.05, dense=True, columns=Fal
     h = integrators.RK4_DEFAULT_FRACTION * integrators.rk4_stability_limit(om)
     row = {"modes_per_body": n_modes, "n_elastic": n - 4, "n_coordinates": n, "omega_max_rad_s": om,
            "rk4_step_s": h, "evals_per_sim_second": 4.0 / h, "repeats": repeats}
-    s_rhs = fast_rhs.make_rhs(chain, CASE, None)
+    s_rhs = compiled.make_rhs(chain, CASE, None)
     a_ref = s_rhs(t, y, yd).copy()             # also the JIT warm-up
     steps = 4                                   # compiled RK4 loop: 4 steps = 16 evaluations
     s_rhs.rk4_steps(y, yd, 0.0, 1e-9, steps)
-    fns = {"structured": (lambda: s_rhs(t, y, yd), 1),
+    fns = {"structured": (lambda: s_rhs.rhs(t, y, yd), 1),
            "structured_loop": (lambda: s_rhs.rk4_steps(y, yd, 0.0, 1e-9, steps), 4 * steps)}
     if dense:
         d_rhs = dense_baseline.make_dense_rhs(chain, CASE, None)
@@ -393,7 +392,7 @@ def main(argv=None) -> int:
     write_json(args.out_json, {
         "description": "Cost per right-hand-side evaluation [s] against the number of elastic "
                        "coordinates S (synthetic bodies, D = S/4 modes each): structured solver "
-                       "(solver.dynamics.fast_rhs) vs dense baseline (solver.dynamics.dense_baseline). Medians of "
+                       "(solver.dynamics.compiled) vs dense baseline (solver.dynamics.dense_baseline). Medians of "
                        f"{args.repeats} timed batches.",
         "rows": rows, "growth_laws": fits, "fit_min_elastic": FIT_MIN_ELASTIC,
         "local_exponents": {m: local_exponents(rows, m) for m in METHODS},

@@ -40,7 +40,8 @@ import numpy as np
 
 from solver.dynamics.error_measure import error_measure
 from solver.dynamics import checks as dc
-from solver.dynamics import integrators, multibody, scenes, simulate
+from solver.dynamics import integrators, linearized, multibody, scenes, simulate
+from solver.dynamics.problem import make_rhs
 from reduction import models
 
 CONSERVATION_MODEL = "freq-2"     # real bodies, 2 modes each: 1e5 RK4 steps in seconds
@@ -85,7 +86,7 @@ def oracle_checks(real_chain, real_chains=()):
             worst["M"] = max(worst["M"], dc.relative_difference(multibody.mass_matrix(chain, y), Mo))
             worst["f"] = max(worst["f"], dc.relative_difference(
                 multibody.generalized_force(chain, y, yd, t, case, torque), fo))
-            fast = integrators.make_rhs(chain, case, torque)
+            fast = make_rhs(chain, case, torque)
             worst["a"] = max(worst["a"], dc.relative_difference(fast(t, y, yd), np.linalg.solve(Mo, fo)))
         what = ("synthetic chain (shells with rotation DOFs, consistent and lumped mass, damping 2%, "
                 "case about a skew axis, torques), 3 random states; JAX oracle")
@@ -95,8 +96,8 @@ def oracle_checks(real_chain, real_chains=()):
                        data=what)]
     else:
         case = multibody.CaseMotion(amplitude=(1.0, 0.3, -0.2), frequency=(2.0, 1.0, 0.0))
-        fast = integrators.make_rhs(chain, case, torque, fast=True)
-        ref = integrators.make_rhs(chain, case, torque, fast=False)
+        fast = make_rhs(chain, case, torque, fast=True)
+        ref = make_rhs(chain, case, torque, fast=False)
         n = chain.n_coordinates
         y = np.concatenate([rng.uniform(-3, 3, 4), 0.02 * rng.normal(size=n - 4)])
         yd = rng.normal(size=n)
@@ -109,8 +110,8 @@ def oracle_checks(real_chain, real_chains=()):
     case = multibody.CaseMotion(amplitude=(1.0, 0.3, -0.2), frequency=(2.0, 1.0, 0.0), omega0=(0.1, 0, 0))
     y = np.concatenate([rng.uniform(-3, 3, 4), 1e-4 * rng.normal(size=n - 4)])
     yd = np.concatenate([rng.normal(size=4), 1e-1 * rng.normal(size=n - 4)])
-    fast = integrators.make_rhs(real_chain, case, torque, fast=True)
-    ref = integrators.make_rhs(real_chain, case, torque, fast=False)
+    fast = make_rhs(real_chain, case, torque, fast=True)
+    ref = make_rhs(real_chain, case, torque, fast=False)
     out.append(_check("real bodies: compiled vs NumPy reference accelerations",
                       dc.relative_difference(fast(0.2, y, yd), ref(0.2, y, yd)), 1e-10,
                       data=f"model {real_chain.name!r}, random state"))
@@ -129,9 +130,9 @@ def oracle_checks(real_chain, real_chains=()):
         yd[:4] = [1e-4, 1e-3, 1e-2, 1e-3]
         yd[4:] = 1e-4 * rng.normal(size=n - 4)
         f = multibody.generalized_force(chain, y, yd, 3e-3, sc.case)
-        M = multibody.mass_matrix_fast(chain, y)
+        M = linearized.mass_matrix_fast(chain, y)
         a_dense = np.linalg.solve(M, f)
-        a_fast = integrators.make_rhs(chain, sc.case)(3e-3, y, yd)
+        a_fast = make_rhs(chain, sc.case)(3e-3, y, yd)
         cond = float(np.linalg.cond(M))
         out.append(_check(f"real bodies ({chain.name}): articulated-body accelerations vs dense LU solve",
                           dc.relative_difference(a_fast, a_dense), 10 * cond * np.finfo(float).eps,
@@ -148,7 +149,7 @@ def conservation_checks(body_data, rankings):
     t0 = time.perf_counter()
     res = dc.conservation("free (real bodies)", chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9)
     wall = time.perf_counter() - t0
-    w = multibody.coupled_omega_max(chain, y0)
+    w = linearized.coupled_omega_max(chain, y0)
     det = dict(data=f"real bodies, model {CONSERVATION_MODEL!r} (modes per body {chain.n_modes}), "
                     f"scene 'free' initial state", coupled_omega_max=w,
                step=0.1 * integrators.rk4_stability_limit(w), wall_time_s=wall)

@@ -8,7 +8,8 @@ workflow stage calls the same functions on the real bodies.
 import numpy as np
 
 from solver.dynamics.error_measure import error_measure  # thesis eq. 3.53, one definition
-from solver.dynamics import integrators, multibody
+from solver.dynamics import integrators, linearized, multibody
+from solver.dynamics.problem import Problem
 
 
 def check(name, value, tolerance, passed=None):
@@ -44,21 +45,21 @@ def solve_consistency(name, chain, y, r, tol=1e-11):
 
 def _rk4_step(chain, y0, fraction):
     """fraction x the RK4 stability limit of the chain linearised at y0 (coupled frequencies)."""
-    w = multibody.coupled_omega_max(chain, y0)
+    w = linearized.coupled_omega_max(chain, y0)
     return fraction * integrators.rk4_stability_limit(w) if w > 0 else 1e-3
 
 
 def _rk4_drift(chain, y0, yd0, quantities, n_steps, fraction, chunks=20):
     """Largest relative change of each ``quantity(y, yd)`` over n_steps RK4 steps at
     ``fraction`` of the stability limit, sampled every n_steps / chunks steps."""
-    rhs = integrators.make_rhs(chain)
+    problem = Problem(chain, omega_max=0.0)       # case at rest, no torques (its step: below)
     h = _rk4_step(chain, y0, fraction)
     start = [q(y0, yd0) for q in quantities]
     worst = [0.0] * len(quantities)
     y, yd = np.array(y0, float), np.array(yd0, float)
     t = 0.0
     for _ in range(chunks):
-        y, yd = integrators.rk4_steps(rhs, y, yd, t, h, n_steps // chunks)
+        y, yd = integrators.rk4_advance(problem, y, yd, t, h, n_steps // chunks)
         t += h * (n_steps // chunks)
         worst = [max(w, abs(q(y, yd) - q0) / abs(q0)) for w, q, q0 in zip(worst, quantities, start)]
     return worst
@@ -109,7 +110,7 @@ def rk4_order(name, problem, t_end, steps=(0.004, 0.002, 0.001), lo=3.9, hi=4.1)
 
 def _final_state(problem, t_end, h):
     n = int(round(t_end / h))
-    y, yd = integrators.rk4_steps(problem.rhs, problem.y0, problem.yd0, 0.0, t_end / n, n)
+    y, yd = integrators.rk4_advance(problem, problem.y0, problem.yd0, 0.0, t_end / n, n)
     return np.concatenate([y, yd])
 
 
@@ -119,7 +120,7 @@ def rigid_spin_about_outer_axis(name, chain, amplitude=1.0, frequency=2.0, t_end
     at rest in inertial space, so gamma_1' = -omega_Z(t), the other rates and all modal
     coordinates stay zero (any inertia, elastic or rigid).  Max rate error / max rate."""
     case = multibody.CaseMotion(amplitude=(0.0, 0.0, amplitude), frequency=(0.0, 0.0, frequency))
-    prob = multibody.Problem(chain, case=case)
+    prob = Problem(chain, case=case)
     run = integrators.integrate(prob, t_end, t_end / 50, method="rk4",
                                 step=min(1e-3, 0.5 * integrators.rk4_stability_limit(prob.omega_max)))
     exact = -np.array([case.angular_velocity(t)[2] for t in run.t])
@@ -143,7 +144,7 @@ def rigid_motor_spin_up(name, inertias, torque=2.0, t_end=1.0, tol=1e-10):
                  "inertia_gradient": np.zeros((0, 6, 6)), "coriolis": np.zeros((0, 3, 0))}
         bodies.append(multibody.make_body(number, integ, np.zeros(0)))
     chain = multibody.Chain(tuple(bodies))
-    prob = multibody.Problem(chain, torque=(torque, 0.0, 0.0, 0.0))
+    prob = Problem(chain, torque=(torque, 0.0, 0.0, 0.0))
     run = integrators.integrate(prob, t_end, t_end / 20, method="rk4", step=1e-3)
     J = inertias[0][1] + inertias[1][3]
     rate = torque * run.t / J

@@ -1,12 +1,12 @@
 """Dense baseline right-hand side: assemble M(y), factorise it, solve -- at every evaluation.
 
 The textbook way to get the accelerations of ``M(y) y'' = tau - c(y, y', t)``
-(thesis eq 2.1) is the one the structured solver (``solver.dynamics.fast_rhs``: the
+(thesis eq 2.1) is the one the structured solver (``solver.dynamics.compiled``: the
 articulated-body recursion with every modal block eliminated by Woodbury,
 docs/dynamics.md Section 3) is benchmarked against:
 
 1. the bias ``c`` by the recursive Newton-Euler inverse dynamics at y'' = 0
-   (the project's compiled one, ``fast_rhs.FastChain.inverse_dynamics``);
+   (the project's compiled one, ``compiled.FastChain.inverse_dynamics``);
 2. the full dense mass matrix ``M(y)`` (n x n, n = 4 + sum D);
 3. a dense Cholesky factorisation of M and two triangular solves (LAPACK
    ``dpotrf`` / ``dpotrs``).  M(y), the kinetic energy's Hessian, is positive
@@ -28,10 +28,10 @@ J_k and P_k = M_X J_k + B E_k stacked -- the composite-rigid-body idea
 written for floating-frame bodies: O(48 n^2) flops, while the Cholesky
 factorisation costs n^3 / 3.  ``assembly="columns"`` instead builds M column
 by column from n + 1 inverse-dynamics calls with unit accelerations
-(Walker & Orin's method 1, what ``multibody.mass_matrix_fast`` does):
+(Walker & Orin's method 1, what ``linearized.mass_matrix_fast`` does):
 O(n sum D^2), the naive textbook route, kept for comparison.
 
-Public API (same call signature as ``fast_rhs.make_rhs``)::
+Public API (same call signature as ``compiled.make_rhs``)::
 
     rhs = make_dense_rhs(chain, case, torque)     # rhs(t, y, y') -> y''  (n,)
     rhs.rk4_steps(y, y', t0, h, n_steps)          # -> (y, y'), Python loop of rk4_step
@@ -41,13 +41,16 @@ Units: y [rad; modal], y' per second, y'' per second squared, t [s],
 torque [in lbf].
 """
 
+import copy
 
 import numba
 import numpy as np
 from scipy.linalg import lapack
 
-from solver.dynamics import fast_rhs, multibody
-from solver.dynamics.integrators import _torque_function, rk4_step
+from solver.dynamics import compiled, multibody
+from solver.dynamics.compiled import PackedChain
+from solver.dynamics.integrators import rk4_step
+from solver.dynamics.kernels import modal, recursion
 
 _JIT = dict(cache=True, fastmath=False)
 ASSEMBLIES = ("composite", "columns")
@@ -59,28 +62,27 @@ class DenseSolveError(ArithmeticError):
 
 def pack_dense(chain):
     """The chain's flat arrays for the mass-matrix kernel: the same as the structured
-    solver's (``fast_rhs.pack``: modal counts and offsets, rigid masses, modal rows
+    solver's (``compiled.pack``: modal counts and offsets, rigid masses, modal rows
     V = [P; H; Psi; Theta], inertia-gradient rows, Coriolis tensors, joint axes)."""
-    return fast_rhs.pack(chain)
+    return compiled.pack(chain)
 
 
 @numba.njit(**_JIT)
-def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+def _mass_factors(y, Jall, Pall, BtJ, data):
     """Fill Jall (24, n) (the four bodies' twist Jacobians J_k), Pall (24, n)
     (P_k = M_X J_k + B E_k) and BtJ (S, n) (rows of the modal coordinates, B_k^T J_k),
     so that M(y) = Jall^T Pall + [0; BtJ] + I_modal (module docstring).  The joint
     poses and maps are those of the structured solver's kinematics
-    (``fast_rhs._kinematics``: L = [R^T Psi; Lw Theta] on the parent's modes)."""
+    (``kernels.recursion.kinematics``: L = [R^T Psi; Lw Theta] on the parent's modes).
+    data: the packed chain as a plain tuple (``compiled.FastChain.arrays``)."""
+    ch = PackedChain(*data)
+    D, off, M6, V, M1, G = ch.D, ch.off, ch.M6, ch.V, ch.M1, ch.G
     S = V.shape[1]
     n = 4 + S
-    R_all = np.empty((4, 3, 3))
-    p_all = np.empty((4, 3))
-    Lw_all = np.empty((4, 3, 3))
-    W = np.empty((4, 6))
-    DW = np.empty((4, 6))
+    fr = recursion.new_frames(0)
+    R_all, p_all, Lw_all = fr.R, fr.p, fr.Lw
     zero_n, zero6 = np.zeros(n), np.zeros(6)
-    fast_rhs._kinematics(y, zero_n, zero_n, zero6, zero6, D, off, V, M1, C1, C, rho,
-                         R_all, p_all, Lw_all, W, DW)
+    recursion.kinematics(y, zero_n, zero_n, zero6, zero6, ch, fr)
     J = np.zeros((6, n))                        # twist Jacobian of the parent (case: zero)
     for k in range(4):
         R, p = R_all[k], p_all[k]
@@ -114,7 +116,7 @@ def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C
         Bk = V[0:6, o:o + Dk].copy()
         if Dk > 0:
             q = y[4 + o:4 + o + Dk].copy()
-            fast_rhs._add_inertia(Mx, M1, o, Dk, q)
+            modal.add_inertia(Mx, M1, o, Dk, q)
             hq = q @ G[k]
             for a in range(3):
                 Bk[3 + a] += hq[a * Dk:(a + 1) * Dk]
@@ -149,7 +151,7 @@ def mass_matrix_composite(data, y, work=None):
     without one, into a new array."""
     y = np.ascontiguousarray(y, dtype=float)
     work = Workspace(y.size) if work is None else work
-    _mass_factors(y, work.Jall, work.Pall, work.BtJ, *data)
+    _mass_factors(y, work.Jall, work.Pall, work.BtJ, tuple(data))
     M = np.dot(work.Jall.T, work.Pall, out=work.M)     # the one O(n^2) product: BLAS dgemm
     M[4:] += work.BtJ
     idx = np.arange(4, y.size)
@@ -159,7 +161,7 @@ def mass_matrix_composite(data, y, work=None):
 
 def mass_matrix_columns(fast_chain, y, out=None):
     """M(y) (n, n) column by column, n + 1 compiled inverse-dynamics calls with unit
-    accelerations (Walker-Orin method 1: ``fast_rhs.FastChain.mass_matrix``); copied into
+    accelerations (Walker-Orin method 1: ``compiled.FastChain.mass_matrix``); copied into
     ``out`` if given."""
     M = fast_chain.mass_matrix(y)
     if out is None:
@@ -209,9 +211,9 @@ def make_dense_rhs(chain, case=None, torque=None, assembly="composite"):
     if assembly not in ASSEMBLIES:
         raise ValueError(f"unknown assembly {assembly!r}; known: {', '.join(ASSEMBLIES)}")
     case = case or multibody.CaseMotion()
-    fc = fast_rhs.FastChain(chain)
+    fc = compiled.FastChain(chain)
     data = pack_dense(chain)
-    tau_f = _torque_function(torque)
+    tau_f = multibody.torque_function(torque)
     const_tau = None if callable(torque) else np.asarray(tau_f(0.0), float)
     twist = case_twist_function(case)
     n = chain.n_coordinates
@@ -255,10 +257,11 @@ def make_dense_rhs(chain, case=None, torque=None, assembly="composite"):
 
 
 def dense_problem(problem, assembly="composite"):
-    """A copy of a ``multibody.Problem`` whose rhs (and so RK4 and DOP853) is the dense
-    baseline; its omega_max (stability bound), energy monitor and implicit-solver
-    hooks are the original's."""
-    import copy
+    """A copy of a ``problem.Problem`` whose rhs (and so RK4 and DOP853) is the dense
+    baseline, without the compiled RK4 paths; its omega_max (stability bound), energy
+    monitor and implicit-solver hooks are the original's."""
     out = copy.copy(problem)
-    out.rhs = make_dense_rhs(problem.chain, problem.case, problem._torque, assembly)
+    out.rhs = make_dense_rhs(problem.chain, problem.case, problem.torque, assembly)
+    out.rk4_steps = None
+    out.rk4_run = None
     return out

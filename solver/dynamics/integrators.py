@@ -9,7 +9,7 @@ Three methods, one interface (``integrate``):
   project uses the smaller, 2.785 / omega_max, as the limit (it also covers
   lightly damped modes).  omega_max is ``problem.omega_max``: the highest
   frequency of the coupled chain linearised at the initial state
-  (``multibody.coupled_omega_max``).  It is NOT the largest kept modal
+  (``linearized.coupled_omega_max``).  It is NOT the largest kept modal
   frequency: the free joint angles remove inertia from the modal blocks
   (the modes carry momentum about the drive axes), which raises the coupled
   frequencies above the kept ones -- by 1.5-3x on the real bodies, which made
@@ -37,6 +37,11 @@ Three methods, one interface (``integrate``):
 Divergence (a non-finite state, or the energy growing beyond
 ``growth_factor`` times the larger of the initial energy and the work fed in)
 stops a run with DivergenceError naming the time, the model and the step.
+
+The integrators see a problem only through its interface (``solver.dynamics.problem``:
+rhs, residual, solve, energies, input_power, diagonals, y0, yd0, omega_max, and the
+optional compiled RK4 paths ``rk4_steps`` / ``rk4_run``, None when absent); they import
+no other module of the project.
 """
 
 import math
@@ -44,8 +49,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from solver.dynamics import multibody
+from scipy.integrate import solve_ivp
 
 RK4_STABILITY = 2.785          # h * omega_max at RK4's stability limit (real-axis bound)
 RK4_DEFAULT_FRACTION = 0.5
@@ -65,30 +69,6 @@ def rk4_stability_limit(omega_max):
     return np.inf if omega_max <= 0 else RK4_STABILITY / float(omega_max)
 
 
-def make_rhs(chain, case=None, torque=None, fast=True):
-    """y'' = rhs(t, y, y'): the chain's accelerations (fast compiled path when available)."""
-    if fast:
-        try:
-            from solver.dynamics import fast_rhs
-            return fast_rhs.make_rhs(chain, case, torque)
-        except ImportError:
-            pass
-    tau = _torque_function(torque)
-
-    def rhs(t, y, yd):
-        return multibody.accelerations(chain, y, yd, t, case, tau(t))
-    return rhs
-
-
-def _torque_function(torque):
-    if torque is None:
-        return lambda t: np.zeros(4)
-    if callable(torque):
-        return torque
-    arr = np.asarray(torque, float).reshape(4)
-    return lambda t: arr
-
-
 def rk4_step(rhs, t, y, yd, h):
     """One classical RK4 step of the first-order system (y, y')' = (y', rhs)."""
     k1v = rhs(t, y, yd)
@@ -104,14 +84,19 @@ def rk4_step(rhs, t, y, yd, h):
 
 
 def rk4_steps(rhs, y, yd, t, h, n):
-    """n RK4 steps from (t, y, y'); returns (y, y') (compiled loop when rhs has one)."""
-    compiled = getattr(rhs, "rk4_steps", None)
-    if compiled is not None:
-        return compiled(y, yd, t, h, n)
+    """n RK4 steps (``rk4_step``) of rhs from (t, y, y'); returns (y, y')."""
     y, yd = np.array(y, float), np.array(yd, float)
     for i in range(n):
         y, yd = rk4_step(rhs, t + i * h, y, yd, h)
     return y, yd
+
+
+def rk4_advance(problem, y, yd, t, h, n):
+    """n RK4 steps of a problem from (t, y, y'); returns (y, y'): its compiled loop
+    (``problem.rk4_steps``) when it has one, else ``rk4_steps`` over ``problem.rhs``."""
+    if problem.rk4_steps is not None:
+        return problem.rk4_steps(y, yd, t, h, n)
+    return rk4_steps(problem.rhs, y, yd, t, h, n)
 
 
 def generalized_alpha_parameters(rho_inf):
@@ -153,7 +138,7 @@ class Monitor:
         self.history = []          # (t, T, U, P, work) at every call (the output samples)
 
     def record(self, t, energy, info, h, method):
-        """Take over the watch of a compiled run (fast_rhs._rk4_integrate): energy (T, 4)
+        """Take over the watch of a compiled run (``problem.rk4_run``): energy (T, 4)
         = (T, U, P, work) at the output times t, info = (status, k, E, scale); raises
         the DivergenceError this monitor would have raised at sample k."""
         status, k = int(info[0]), int(info[1])
@@ -179,8 +164,7 @@ class Monitor:
                 f"step {h:.3e} s")
         if hasattr(self.problem, "kinetic_energy"):
             T = self.problem.kinetic_energy(t, y, yd)
-            U = self.problem.potential_energy(y) if hasattr(self.problem, "potential_energy") \
-                else multibody.potential_energy(self.problem.chain, y)
+            U = self.problem.potential_energy(y)
             E = T + U
         else:
             E, T, U = self.problem.energy(t, y, yd), np.nan, np.nan
@@ -205,9 +189,9 @@ class Monitor:
 def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None, rtol=1e-10,
               atol=1e-14, rho_inf=0.9, newton_tol=1e-10, max_newton=12, growth_factor=1e3,
               y0=None, yd0=None, model="", max_step=np.inf):
-    """Integrate ``problem`` (``solver.dynamics.simulate.Problem``-like: rhs, residual, solve,
-    energy, input_power, y0, yd0, omega_max) from t = 0 to t_end, returning outputs
-    every output_dt.  See the module docstring for the methods."""
+    """Integrate ``problem`` (``solver.dynamics.problem.Problem``-like: rhs, residual, solve,
+    energy, input_power, y0, yd0, omega_max, rk4_steps, rk4_run) from t = 0 to t_end,
+    returning outputs every output_dt.  See the module docstring for the methods."""
     if method not in METHODS:
         raise ValueError(f"unknown integrator {method!r}; known: {', '.join(METHODS)}")
     if not (np.isfinite(t_end) and t_end >= 0):
@@ -223,113 +207,146 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None,
     Y = np.empty((t_out.size, y.size))
     V = np.empty_like(Y)
     Y[0], V[0] = y, yd
-    # the whole RK4 run compiled, energy watch included (fast_rhs, constant torques)
-    whole_run = getattr(problem.rhs, "rk4_integrate", None) if method == "rk4" else None
-    if whole_run is None:
+    # the whole RK4 run compiled, energy watch included (compiled path, constant torques)
+    whole_run = method == "rk4" and problem.rk4_run is not None
+    if not whole_run:
         monitor(0.0, y, yd, 0.0, method)
     start = time.perf_counter()
-    stats = {}
+    out = _Outputs(t_out, dt_out, Y, V, monitor, method, model)
     if method == "rk4":
-        limit = rk4_stability_limit(problem.omega_max)
-        if step is None:
-            frac = RK4_DEFAULT_FRACTION if fraction is None else fraction
-            h_req = frac * limit if np.isfinite(limit) else dt_out
-        else:
-            h_req = float(step)
-        if not (h_req > 0):
-            raise StepTooLargeError(f"rk4 step must be > 0, got {h_req}")
-        if h_req > limit * (1 + 1e-12):
-            raise StepTooLargeError(
-                f"rk4 step {h_req:.3e} s exceeds the stability limit 2.785/omega_max = "
-                f"{limit:.3e} s (omega_max = {problem.omega_max:.4g} rad/s) of model {model!r}")
-        n_sub = max(int(np.ceil(dt_out / h_req - 1e-9)), 1)
-        h = dt_out / n_sub
-        rhs = problem.rhs
-        compiled = getattr(rhs, "rk4_steps", None)     # whole substep loop compiled (fast_rhs)
-        steps = 0
-        if whole_run is not None:
-            Y, V, energy, info = whole_run(y, yd, t_out, h, n_sub, growth_factor)
-            steps = n_sub * max(int(info[1]) - 1, 0)
-            monitor.record(t_out, energy, info, h, method)
-        else:
-            for k in range(1, t_out.size):
-                t0 = t_out[k - 1]
-                if compiled is not None:
-                    y, yd = compiled(y, yd, t0, h, n_sub)
-                else:
-                    for i in range(n_sub):
-                        y, yd = rk4_step(rhs, t0 + i * h, y, yd, h)
-                steps += n_sub
-                monitor(t_out[k], y, yd, h, method)
-                Y[k], V[k] = y, yd
-        stats.update(stability_limit=limit, fraction=h / limit if np.isfinite(limit) else 0.0)
+        h, steps, stats = _rk4(problem, out, step, fraction, growth_factor, whole_run)
     elif method == "dop853":
-        from scipy.integrate import solve_ivp
-        n = y.size
-
-        def f(t, z):
-            a = problem.rhs(t, z[:n], z[n:])
-            return np.concatenate([z[n:], a])
-        h = np.nan
-        steps = 0
-        z = np.concatenate([y, yd])
-        atol_vec = np.full(2 * n, atol)
-        for k in range(1, t_out.size):
-            sol = solve_ivp(f, (t_out[k - 1], t_out[k]), z, method="DOP853", rtol=rtol,
-                            atol=atol_vec, first_step=None if step is None else step,
-                            max_step=max_step)
-            if not sol.success:
-                raise DivergenceError(f"dop853 failed at t = {sol.t[-1]:.6g} s: {sol.message}, "
-                                      f"model {model!r}")
-            steps += sol.t.size - 1
-            z = sol.y[:, -1]
-            h = float(np.diff(sol.t).min()) if sol.t.size > 1 else h
-            monitor(t_out[k], z[:n], z[n:], h, method)
-            Y[k], V[k] = z[:n], z[n:]
-        stats.update(rtol=rtol, atol=atol, smallest_step=h, mean_step=t_end / max(steps, 1))
+        h, steps, stats = _dop853(problem, out, step, rtol, atol, max_step)
     else:
-        h = float(step) if step is not None else dt_out
-        n_sub = max(int(np.ceil(dt_out / h - 1e-9)), 1)
-        h = dt_out / n_sub
-        am, af, g, b = generalized_alpha_parameters(rho_inf)
-        beta_p = h * h * b * (1 - af) / (1 - am)
-        gamma_p = h * g * (1 - af) / (1 - am)
-        d_modal = 1.0 + gamma_p * problem.damping_diagonal[4:] + beta_p * problem.stiffness_diagonal[4:]
-        acc = problem.rhs(0.0, y, yd)
-        a_pseudo = acc.copy()
-        steps = 0
-        iterations = 0
-        worst_newton = 0
-        for k in range(1, t_out.size):
-            t0 = t_out[k - 1]
-            for i in range(n_sub):
-                t1 = t0 + (i + 1) * h
-                A = acc.copy()
-                for it in range(max_newton):
-                    a_new = (af * acc + (1 - af) * A - am * a_pseudo) / (1 - am)
-                    y1 = y + h * yd + h * h * ((0.5 - b) * a_pseudo + b * a_new)
-                    v1 = yd + h * ((1 - g) * a_pseudo + g * a_new)
-                    R = problem.residual(t1, y1, v1, A)
-                    dA = problem.solve(y1, -R, d_modal)
-                    A = A + dA
-                    iterations += 1
-                    if np.abs(dA).max() <= newton_tol * max(np.abs(A).max(), 1e-300):
-                        break
-                else:
-                    worst_newton += 1
-                a_new = (af * acc + (1 - af) * A - am * a_pseudo) / (1 - am)
-                y = y + h * yd + h * h * ((0.5 - b) * a_pseudo + b * a_new)
-                yd = yd + h * ((1 - g) * a_pseudo + g * a_new)
-                acc, a_pseudo = A, a_new
-            steps += n_sub
-            monitor(t_out[k], y, yd, h, method)
-            Y[k], V[k] = y, yd
-        stats.update(rho_inf=rho_inf, newton_iterations=iterations,
-                     newton_per_step=iterations / max(steps, 1), newton_not_converged=worst_newton)
+        h, steps, stats = _generalized_alpha(problem, out, step, rho_inf, newton_tol, max_newton)
     wall = time.perf_counter() - start
     stats["energy_input"] = monitor.work
     hist = np.array(monitor.history)
     energy = {} if hist.shape[0] != t_out.size else {
         "kinetic": hist[:, 1], "potential": hist[:, 2], "power": hist[:, 3], "input_work": hist[:, 4]}
-    return Run(t=t_out, y=Y, yd=V, method=method, step=float(h), steps=int(steps), wall_time=wall,
-               stats=stats, energy=energy)
+    return Run(t=t_out, y=out.Y, yd=out.V, method=method, step=float(h), steps=int(steps),
+               wall_time=wall, stats=stats, energy=energy)
+
+
+@dataclass
+class _Outputs:
+    """What the three methods share: output times t (T,), their spacing dt, the state
+    rows Y, V (T, n) to fill (row 0 holds the initial state), the monitor, and the names
+    for messages."""
+    t: np.ndarray
+    dt: float
+    Y: np.ndarray
+    V: np.ndarray
+    monitor: Monitor
+    method: str
+    model: str
+
+    def store(self, k, y, yd, h):
+        """Watch sample k (``Monitor``), then keep it."""
+        self.monitor(self.t[k], y, yd, h, self.method)
+        self.Y[k], self.V[k] = y, yd
+
+
+def _rk4(problem, out, step, fraction, growth_factor, whole_run):
+    """Classical RK4 at a fixed step (module docstring); (h, steps, stats)."""
+    t_out, dt_out, model = out.t, out.dt, out.model
+    y, yd = out.Y[0].copy(), out.V[0].copy()
+    limit = rk4_stability_limit(problem.omega_max)
+    if step is None:
+        frac = RK4_DEFAULT_FRACTION if fraction is None else fraction
+        h_req = frac * limit if np.isfinite(limit) else dt_out
+    else:
+        h_req = float(step)
+    if not (h_req > 0):
+        raise StepTooLargeError(f"rk4 step must be > 0, got {h_req}")
+    if h_req > limit * (1 + 1e-12):
+        raise StepTooLargeError(
+            f"rk4 step {h_req:.3e} s exceeds the stability limit 2.785/omega_max = "
+            f"{limit:.3e} s (omega_max = {problem.omega_max:.4g} rad/s) of model {model!r}")
+    n_sub = max(int(np.ceil(dt_out / h_req - 1e-9)), 1)
+    h = dt_out / n_sub
+    steps = 0
+    if whole_run:
+        out.Y, out.V, energy, info = problem.rk4_run(y, yd, t_out, h, n_sub, growth_factor)
+        steps = n_sub * max(int(info[1]) - 1, 0)
+        out.monitor.record(t_out, energy, info, h, out.method)
+    else:
+        for k in range(1, t_out.size):
+            y, yd = rk4_advance(problem, y, yd, t_out[k - 1], h, n_sub)
+            steps += n_sub
+            out.store(k, y, yd, h)
+    return h, steps, {"stability_limit": limit,
+                      "fraction": h / limit if np.isfinite(limit) else 0.0}
+
+
+def _dop853(problem, out, step, rtol, atol, max_step):
+    """scipy's DOP853, restarted at every output time (module docstring); (h, steps, stats),
+    h the smallest step taken."""
+    t_out, model = out.t, out.model
+    n = out.Y.shape[1]
+
+    def f(t, z):
+        a = problem.rhs(t, z[:n], z[n:])
+        return np.concatenate([z[n:], a])
+    h = np.nan
+    steps = 0
+    z = np.concatenate([out.Y[0], out.V[0]])
+    atol_vec = np.full(2 * n, atol)
+    for k in range(1, t_out.size):
+        sol = solve_ivp(f, (t_out[k - 1], t_out[k]), z, method="DOP853", rtol=rtol,
+                        atol=atol_vec, first_step=None if step is None else step,
+                        max_step=max_step)
+        if not sol.success:
+            raise DivergenceError(f"dop853 failed at t = {sol.t[-1]:.6g} s: {sol.message}, "
+                                  f"model {model!r}")
+        steps += sol.t.size - 1
+        z = sol.y[:, -1]
+        h = float(np.diff(sol.t).min()) if sol.t.size > 1 else h
+        out.store(k, z[:n], z[n:], h)
+    t_end = t_out[-1]
+    return h, steps, {"rtol": rtol, "atol": atol, "smallest_step": h,
+                      "mean_step": t_end / max(steps, 1)}
+
+
+def _generalized_alpha(problem, out, step, rho_inf, newton_tol, max_newton):
+    """Implicit generalised-alpha with Newton iterations (module docstring); (h, steps, stats)."""
+    t_out, dt_out = out.t, out.dt
+    y, yd = out.Y[0].copy(), out.V[0].copy()
+    h = float(step) if step is not None else dt_out
+    n_sub = max(int(np.ceil(dt_out / h - 1e-9)), 1)
+    h = dt_out / n_sub
+    am, af, g, b = generalized_alpha_parameters(rho_inf)
+    beta_p = h * h * b * (1 - af) / (1 - am)
+    gamma_p = h * g * (1 - af) / (1 - am)
+    d_modal = 1.0 + gamma_p * problem.damping_diagonal[4:] + beta_p * problem.stiffness_diagonal[4:]
+    acc = problem.rhs(0.0, y, yd)
+    a_pseudo = acc.copy()
+    steps = 0
+    iterations = 0
+    worst_newton = 0
+    for k in range(1, t_out.size):
+        t0 = t_out[k - 1]
+        for i in range(n_sub):
+            t1 = t0 + (i + 1) * h
+            A = acc.copy()
+            for it in range(max_newton):
+                a_new = (af * acc + (1 - af) * A - am * a_pseudo) / (1 - am)
+                y1 = y + h * yd + h * h * ((0.5 - b) * a_pseudo + b * a_new)
+                v1 = yd + h * ((1 - g) * a_pseudo + g * a_new)
+                R = problem.residual(t1, y1, v1, A)
+                dA = problem.solve(y1, -R, d_modal)
+                A = A + dA
+                iterations += 1
+                if np.abs(dA).max() <= newton_tol * max(np.abs(A).max(), 1e-300):
+                    break
+            else:
+                worst_newton += 1
+            a_new = (af * acc + (1 - af) * A - am * a_pseudo) / (1 - am)
+            y = y + h * yd + h * h * ((0.5 - b) * a_pseudo + b * a_new)
+            yd = yd + h * ((1 - g) * a_pseudo + g * a_new)
+            acc, a_pseudo = A, a_new
+        steps += n_sub
+        out.store(k, y, yd, h)
+    return h, steps, {"rho_inf": rho_inf, "newton_iterations": iterations,
+                      "newton_per_step": iterations / max(steps, 1),
+                      "newton_not_converged": worst_newton}

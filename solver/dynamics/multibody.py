@@ -150,7 +150,7 @@ class Chain:
         """Largest kept modal frequency [rad/s] (0 for a rigid chain).
 
         NOT the stability bound of an explicit integrator: the coupled chain's
-        highest frequency is higher (``coupled_omega_max``)."""
+        highest frequency is higher (``linearized.coupled_omega_max``)."""
         w2 = [b.omega2.max() for b in self.bodies if b.n_modes]
         return float(np.sqrt(max(w2))) if w2 else 0.0
 
@@ -583,142 +583,12 @@ def case_power(chain, y, yd, ydd, t=0.0, case=None):
     return float(adjoint_inverse(J.R, J.p, w_case) @ F)
 
 
-# ------------------------------------------------- coupled (linearised) frequencies
-def mass_matrix_fast(chain, y):
-    """M(y) (n_y, n_y) from n_y calls of the compiled inverse dynamics without the modal
-    stiffness (``fast_rhs.FastChain.mass_matrix``; NumPy path if Numba is missing)."""
-    y = np.asarray(y, float)
-    try:
-        from solver.dynamics import fast_rhs
-    except ImportError:
-        return mass_matrix(chain, y)
-    return fast_rhs.FastChain(chain).mass_matrix(y)
-
-
-def coupled_frequencies(chain, y):
-    """Natural frequencies [rad/s] (ascending, the elastic ones) of the chain linearised
-    at configuration y: sqrt of the generalised eigenvalues of the pencil (K, M(y)),
-    K = diag(0_4, Omega^2).
-
-    The joint angles have no stiffness, so the pencil is reduced to the modal
-    coordinates by the Schur complement S = M_qq - M_qg M_gg^-1 M_gq (the modal
-    inertia with the joints free): K_q x = lambda S x.  Because the modes carry
-    momentum about the drive axes (X^T M Phi != 0: the supports hold each body
-    at its bearing regions only), S is *smaller* than the modal mass and the
-    coupled frequencies lie above the kept ones -- on the real bodies by up to
-    3x (docs/dynamics.md, Section 6).  This, not the largest kept modal
-    frequency, bounds an explicit integrator's step."""
-    n_q = sum(chain.n_modes)
-    if n_q == 0:
-        return np.zeros(0)
-    import scipy.linalg
-    M = mass_matrix_fast(chain, y)
-    Mgg, Mgq, Mqq = M[:4, :4], M[:4, 4:], M[4:, 4:]
-    S = Mqq - Mgq.T @ np.linalg.solve(Mgg, Mgq)
-    S = 0.5 * (S + S.T)
-    lam = scipy.linalg.eigh(np.diag(chain.stiffness_diagonal()[4:]), S, eigvals_only=True)
-    return np.sqrt(np.maximum(lam, 0.0))
-
-
-# Gimbal-angle offsets at which coupled_omega_max samples the configuration (besides y0).
-# M(y) depends on the angles; the highest coupled frequency varies with them by up to ~1 %
-# on the real reduced models, and it peaks where two gimbal axes align (gamma_2 = 0: outer
-# and inner gimbal axes; gamma_3 = 0: middle gimbal and platform axes), measured by
-# results.bench.stability (docs/stability.md): +5.4 % over the offsets alone for freq-1,1,0,0.
-# So the lock configurations are sampled too (LOCK_ANGLES: gamma_2, gamma_3 set to 0).
-COUPLED_SAMPLE_OFFSETS = ((0.0, 0.0, 0.0, 0.0), (0.7, -0.4, 1.1, 0.3), (-1.3, 0.9, -0.6, 2.1),
-                          (2.4, 1.7, 0.5, -1.9))
-LOCK_ANGLES = ((1,), (2,), (1, 2))
-
-
-def coupled_omega_max(chain, y0=None, offsets=COUPLED_SAMPLE_OFFSETS, lock_angles=LOCK_ANGLES):
-    """Highest frequency [rad/s] of the chain linearised at y0, at the gimbal angles
-    y0 + offsets, and at y0 with the angles of lock_angles (0-based indices into gamma)
-    set to zero (elastic coordinates as in y0): the RK4 stability bound's omega_max."""
-    if sum(chain.n_modes) == 0:
-        return 0.0
-    y0 = np.zeros(chain.n_coordinates) if y0 is None else np.asarray(y0, float)
-    samples = []
-    for off in offsets:
-        y = y0.copy()
-        y[:4] += np.asarray(off, float)
-        samples.append(y)
-    for idx in lock_angles:
-        y = y0.copy()
-        y[list(idx)] = 0.0
-        samples.append(y)
-    return max(float(coupled_frequencies(chain, y)[-1]) for y in samples)
-
-
-# ------------------------------------------------------------- problem bundle
-class Problem:
-    """A chain with its case motion, motor torques and initial state: what an
-    integrator needs (``solver.dynamics.integrators.integrate``).
-
-    torque: (4,) constant motor torques [in lbf] or a callable t -> (4,).
-    omega_max: the stability bound's frequency [rad/s]; default
-    ``coupled_omega_max(chain, y0)`` (the coupled chain's highest frequency).
-    ``modal_omega_max`` is the largest kept modal frequency, for reference."""
-
-    def __init__(self, chain, case=None, torque=None, y0=None, yd0=None, fast=True, omega_max=None):
-        from solver.dynamics import integrators
-        self.chain = chain
-        self.case = case or CaseMotion()
-        self._torque = integrators._torque_function(torque)
-        n = chain.n_coordinates
-        self.y0 = np.zeros(n) if y0 is None else np.asarray(y0, float)
-        self.yd0 = np.zeros(n) if yd0 is None else np.asarray(yd0, float)
-        self.rhs = integrators.make_rhs(chain, self.case, torque, fast=fast)   # constant: compiled RK4 loop
-        self.modal_omega_max = chain.omega_max            # largest kept modal frequency
-        # the integrators' stability bound: the coupled chain's highest frequency
-        self.omega_max = coupled_omega_max(chain, self.y0) if omega_max is None else float(omega_max)
-        self.stiffness_diagonal = chain.stiffness_diagonal()
-        self.damping_diagonal = chain.damping_diagonal()
-        self._fast = getattr(self.rhs, "fast_chain", None)   # compiled kernels, if available
-        self._twist = getattr(self.rhs, "case_twist", self.case.twist)   # compiled if available
-
-    def tau(self, t):
-        out = np.zeros(self.chain.n_coordinates)
-        out[:4] = self._torque(t)
-        return out
-
-    def residual(self, t, y, yd, ydd):
-        """M(y) y'' + c(y, y', t) - tau(t)."""
-        if self._fast is not None:
-            w1, dw1 = self.case.twist(t)
-            return self._fast.inverse_dynamics(y, yd, ydd, w1, dw1) - self.tau(t)
-        return inverse_dynamics(self.chain, y, yd, ydd, t, self.case) - self.tau(t)
-
-    def solve(self, y, r, modal_diagonal=None):
-        """(M(y) + diag(0, d - 1))^-1 r by the articulated-body recursion."""
-        if self._fast is not None:
-            return self._fast.solve_mass(y, r, modal_diagonal)
-        return solve_mass(self.chain, y, r, modal_diagonal)
-
-    def kinetic_energy(self, t, y, yd):
-        """T [in lbf] (compiled path when available)."""
-        if self._fast is not None:
-            w1, _ = self._twist(t)
-            return float(self._fast.kinetic_energy(y, yd, w1))
-        return kinetic_energy(self.chain, y, yd, t, self.case)
-
-    def potential_energy(self, y):
-        """U = 1/2 sum Omega^2 q^2 [in lbf] (precomputed stiffness diagonal)."""
-        y = np.asarray(y, float)
-        return float(0.5 * np.dot(self.stiffness_diagonal * y, y))
-
-    def energy(self, t, y, yd):
-        """T + U [in lbf]."""
-        return self.kinetic_energy(t, y, yd) + self.potential_energy(y)
-
-    def input_power(self, t, y, yd):
-        """Power fed in by the case motion and the motors, minus modal damping [in lbf/s]."""
-        tau = self._torque(t)
-        P = float(np.dot(tau, yd[:4])) - float(np.sum(self.damping_diagonal * yd * yd))
-        if not self.case.at_rest:
-            if self._fast is not None:          # accelerations and wrench in one compiled call
-                w1, dw1 = self._twist(t)
-                P += self._fast.case_power_at(y, yd, w1, dw1, tau)
-            else:
-                P += case_power(self.chain, y, yd, self.rhs(t, y, yd), t, self.case)
-        return P
+def torque_function(torque):
+    """Motor torques as a function t -> (4,) [in lbf]: None (zero), a constant (4,) or a
+    callable t -> (4,) (returned as it is)."""
+    if torque is None:
+        return lambda t: np.zeros(4)
+    if callable(torque):
+        return torque
+    arr = np.asarray(torque, float).reshape(4)
+    return lambda t: arr

@@ -29,6 +29,7 @@ import time
 import numpy as np
 
 from solver.dynamics import chainfile, integrators, multibody, scenes, simfile
+from solver.dynamics.problem import Problem
 from workflow.provenance import versions
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -53,10 +54,10 @@ def config_hash(scene, model_hash, options):
 
 
 def scene_problem(chain, scene):
-    """multibody.Problem of a chain in a scene (its omega_max: the coupled chain's highest
+    """problem.Problem of a chain in a scene (its omega_max: the coupled chain's highest
     frequency at the scene's initial state)."""
     y0, yd0 = scenes.initial_state(scene, chain.n_coordinates)
-    return multibody.Problem(chain, case=scene.case, torque=scene.motor_torques, y0=y0, yd0=yd0)
+    return Problem(chain, case=scene.case, torque=scene.motor_torques, y0=y0, yd0=yd0)
 
 
 def run_scene(chain, scene, method="rk4", step=None, fraction=None, rho_inf=0.9, rtol=1e-10,

@@ -9,11 +9,12 @@ import pytest
 
 from solver.dynamics.error_measure import error_measure
 from solver.dynamics import checks as dc
-from solver.dynamics import integrators, multibody
+from solver.dynamics import integrators, linearized, multibody
+from solver.dynamics.problem import Problem, make_rhs
 from results.bench.oracle import synthetic_chain
 
 try:
-    from solver.dynamics import fast_rhs  # noqa: F401
+    from solver.dynamics import compiled  # noqa: F401
     HAS_NUMBA = True
 except ImportError:
     HAS_NUMBA = False
@@ -37,15 +38,15 @@ def free_state(chain, rates=(0.3, -0.2, 0.25, 0.15)):
     return y0, yd0
 
 
-def test_fast_rhs_matches_reference():
+def test_compiled_rhs_matches_reference():
     chain, _ = synthetic_chain(seed=4, damping_ratio=0.01)
     rng = np.random.default_rng(1)
     n = chain.n_coordinates
     case = multibody.CaseMotion(amplitude=(1.0, 0.3, -0.2), frequency=(2.0, 1.0, 0.0),
                                 omega0=(0.1, 0.0, 0.2))
     torque = np.array([0.1, 0.0, -0.2, 0.05])
-    fast = integrators.make_rhs(chain, case, torque, fast=True)
-    ref = integrators.make_rhs(chain, case, torque, fast=False)
+    fast = make_rhs(chain, case, torque, fast=True)
+    ref = make_rhs(chain, case, torque, fast=False)
     for _ in range(3):
         y = np.concatenate([rng.uniform(-3, 3, 4), 0.02 * rng.normal(size=n - 4)])
         yd = rng.normal(size=n)
@@ -89,7 +90,7 @@ def test_rk4_order():
     chain, _ = synthetic_chain(seed=2, omega_max=60.0)
     y0, yd0 = free_state(chain)
     case = multibody.CaseMotion(amplitude=(1.0, 0.0, 0.0), frequency=(2.0, 0.0, 0.0))
-    prob = multibody.Problem(chain, case=case, y0=y0, yd0=yd0)
+    prob = Problem(chain, case=case, y0=y0, yd0=yd0)
     assert_checks(dc.rk4_order("synthetic, thesis-like case motion", prob, 0.2,
                                steps=(0.004, 0.002, 0.001)))
 
@@ -113,7 +114,7 @@ def _thesis_like(chain):
     case = multibody.CaseMotion(amplitude=(1.0, 0.0, 0.0), frequency=(2.0, 0.0, 0.0))
     y0 = np.zeros(chain.n_coordinates)
     y0[1] = -np.pi / 2
-    return multibody.Problem(chain, case=case, y0=y0)
+    return Problem(chain, case=case, y0=y0)
 
 
 @needs_numba
@@ -152,7 +153,7 @@ def test_generalized_alpha_far_beyond_rk4_limit_accuracy_measured():
 def test_dop853_agrees_with_rk4():
     chain, _ = synthetic_chain(seed=8, omega_max=200.0)
     case = multibody.CaseMotion(amplitude=(1.0, 0.0, 0.0), frequency=(2.0, 0.0, 0.0))
-    prob = multibody.Problem(chain, case=case)
+    prob = Problem(chain, case=case)
     a = integrators.integrate(prob, 0.1, 0.01, method="rk4", fraction=0.01)
     b = integrators.integrate(prob, 0.1, 0.01, method="dop853", rtol=1e-12, atol=1e-16)
     assert np.all(error_measure(a.t, a.yd[:, :4], b.yd[:, :4]) < 1e-10)
@@ -160,7 +161,7 @@ def test_dop853_agrees_with_rk4():
 
 def test_rk4_step_beyond_limit_is_refused():
     chain, _ = synthetic_chain(seed=1, omega_max=1e3)
-    prob = multibody.Problem(chain)
+    prob = Problem(chain)
     limit = integrators.rk4_stability_limit(prob.omega_max)
     with pytest.raises(integrators.StepTooLargeError, match="exceeds the stability limit"):
         integrators.integrate(prob, 0.01, 0.001, method="rk4", step=1.01 * limit, model="m")
@@ -171,6 +172,7 @@ def test_divergence_is_detected_and_named():
         y0 = np.ones(5)
         yd0 = np.zeros(5)
         omega_max = 0.0
+        rk4_steps = rk4_run = None      # no compiled paths
 
         def rhs(self, t, y, yd):
             return 1e6 * y
@@ -190,7 +192,7 @@ def test_thesis_scene_energy_balance():
     case = multibody.CaseMotion(amplitude=(1.0, 0.0, 0.0), frequency=(2.0, 0.0, 0.0))
     y0 = np.zeros(chain.n_coordinates)
     y0[1] = -np.pi / 2
-    prob = multibody.Problem(chain, case=case, y0=y0)
+    prob = Problem(chain, case=case, y0=y0)
     run = integrators.integrate(prob, 0.1, 1e-4, method="rk4", fraction=0.2)
     E = prob.energy(run.t[-1], run.y[-1], run.yd[-1]) - prob.energy(0.0, run.y[0], run.yd[0])
     assert abs(E - run.stats["energy_input"]) < 1e-4 * abs(E)
@@ -216,7 +218,7 @@ def test_coupled_frequencies_match_dense_pencil():
     y = np.concatenate([rng.uniform(-3, 3, 4), 1e-3 * rng.normal(size=chain.n_coordinates - 4)])
     M = multibody.mass_matrix(chain, y)
     lam = scipy.linalg.eigh(np.diag(chain.stiffness_diagonal()), M, eigvals_only=True)
-    w = multibody.coupled_frequencies(chain, y)
+    w = linearized.coupled_frequencies(chain, y)
     assert np.allclose(np.sort(np.sqrt(np.maximum(lam, 0)))[4:], w, rtol=1e-9)
     # the joints' freedom raises the highest frequency above the largest kept modal one
     assert w[-1] > 1.5 * chain.omega_max
@@ -229,12 +231,12 @@ def test_rk4_limit_from_coupled_frequency_regression():
     coupled limit it is stable."""
     chain, _ = synthetic_chain(seed=4, omega_max=400.0)
     y0, yd0 = free_state(chain)
-    prob = multibody.Problem(chain, y0=y0, yd0=yd0)
+    prob = Problem(chain, y0=y0, yd0=yd0)
     assert prob.omega_max > 2 * prob.modal_omega_max
     old = 0.9 * integrators.rk4_stability_limit(prob.modal_omega_max)
     with pytest.raises(integrators.StepTooLargeError):
         integrators.integrate(prob, 0.5, 0.01, method="rk4", step=old)
-    prob_old = multibody.Problem(chain, y0=y0, yd0=yd0, omega_max=prob.modal_omega_max)
+    prob_old = Problem(chain, y0=y0, yd0=yd0, omega_max=prob.modal_omega_max)
     with pytest.raises(integrators.DivergenceError):
         integrators.integrate(prob_old, 0.5, 0.01, method="rk4", step=old)
     run = integrators.integrate(prob, 0.5, 0.01, method="rk4", fraction=0.9)
@@ -248,19 +250,19 @@ def test_compiled_rk4_loop_energy_and_case_power_match_reference():
     case = multibody.CaseMotion(amplitude=(1.0, 0.3, -0.2), frequency=(2.0, 1.0, 0.0),
                                 omega0=(0.1, 0.0, 0.2))
     torque = (0.1, 0.0, -0.2, 0.05)
-    fast = multibody.Problem(chain, case=case, torque=torque)
-    ref = multibody.Problem(chain, case=case, torque=torque, fast=False)
-    assert hasattr(fast.rhs, "rk4_steps") and not hasattr(ref.rhs, "rk4_steps")
+    fast = Problem(chain, case=case, torque=torque)
+    ref = Problem(chain, case=case, torque=torque, fast=False)
+    assert fast.rk4_steps is not None and ref.rk4_steps is None
     rng = np.random.default_rng(0)
     n = chain.n_coordinates
     y = np.concatenate([rng.uniform(-3, 3, 4), 0.02 * rng.normal(size=n - 4)])
     yd = rng.normal(size=n)
-    a = fast.rhs.rk4_steps(y, yd, 0.1, 1e-4, 20)
+    a = fast.rk4_steps(y, yd, 0.1, 1e-4, 20)
     b = integrators.rk4_steps(ref.rhs, y, yd, 0.1, 1e-4, 20)
     assert dc.relative_difference(a[0], b[0]) < 1e-12 and dc.relative_difference(a[1], b[1]) < 1e-12
     # the compiled loop carries sum_j q_j G_j from stage to stage instead of recomputing it:
     # over 150 steps in one call it must still agree to round-off
-    a = fast.rhs.rk4_steps(y, yd, 0.1, 1e-4, 150)
+    a = fast.rk4_steps(y, yd, 0.1, 1e-4, 150)
     b = integrators.rk4_steps(ref.rhs, y, yd, 0.1, 1e-4, 150)
     assert dc.relative_difference(a[0], b[0]) < 1e-12 and dc.relative_difference(a[1], b[1]) < 1e-12
     assert fast.energy(0.3, y, yd) == pytest.approx(ref.energy(0.3, y, yd), rel=1e-12)
@@ -269,7 +271,7 @@ def test_compiled_rk4_loop_energy_and_case_power_match_reference():
 
 def _without_whole_run(prob):
     """The same problem run through the per-interval compiled loop and the Python monitor."""
-    del prob.rhs.rk4_integrate
+    prob.rk4_run = None
     return prob
 
 
@@ -285,9 +287,9 @@ def test_compiled_whole_run_matches_per_interval_loop_and_monitor():
     y0[:4] = (0.3, -1.2, 0.4, 0.1)
     yd0 = np.zeros(chain.n_coordinates)
     yd0[:4] = (0.5, -0.3, 0.2, 0.4)
-    whole = multibody.Problem(chain, case=case, torque=torque, y0=y0, yd0=yd0)
-    loop = _without_whole_run(multibody.Problem(chain, case=case, torque=torque, y0=y0, yd0=yd0))
-    assert hasattr(whole.rhs, "rk4_integrate") and not hasattr(loop.rhs, "rk4_integrate")
+    whole = Problem(chain, case=case, torque=torque, y0=y0, yd0=yd0)
+    loop = _without_whole_run(Problem(chain, case=case, torque=torque, y0=y0, yd0=yd0))
+    assert whole.rk4_run is not None and loop.rk4_run is None
     a = integrators.integrate(whole, 0.05, 1e-3, method="rk4", fraction=0.8)
     b = integrators.integrate(loop, 0.05, 1e-3, method="rk4", fraction=0.8)
     assert a.steps == b.steps and a.step == b.step
@@ -304,8 +306,8 @@ def test_compiled_whole_run_stops_divergence_like_the_monitor():
     chain, _ = synthetic_chain(seed=4, omega_max=400.0)
     y0, yd0 = free_state(chain)
     msgs = []
-    for prob in (multibody.Problem(chain, y0=y0, yd0=yd0),
-                 _without_whole_run(multibody.Problem(chain, y0=y0, yd0=yd0))):
+    for prob in (Problem(chain, y0=y0, yd0=yd0),
+                 _without_whole_run(Problem(chain, y0=y0, yd0=yd0))):
         prob.omega_max = prob.modal_omega_max          # the old, too optimistic limit
         step = 0.9 * integrators.rk4_stability_limit(prob.omega_max)
         with pytest.raises(integrators.DivergenceError) as err:

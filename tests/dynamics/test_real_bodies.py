@@ -7,7 +7,7 @@ import h5py
 import numpy as np
 import pytest
 
-from solver.dynamics import integrators, multibody, scenes, simulate
+from solver.dynamics import compiled, dense_baseline, integrators, multibody, scenes, simulate
 from reduction import models
 from tests.dynamics_fixtures import REAL_MODES as MODES, REAL_REDUCTION as REDUCTION
 from tests.dynamics_fixtures import load_real_bodies, real_bodies_only, run_model
@@ -65,13 +65,12 @@ def test_mass_matrix_columns_agree_with_the_jacobian_assembly_on_the_truth_model
     """Two formulations of M(y): columns of the recursive inverse dynamics (without the
     modal stiffness, whose K q ~ 1e5 |M| would cost digits) and the Jacobian (composite)
     assembly sum J^T N J of the dense baseline.  With K q left in, they differed by 8.7e-12."""
-    from solver.dynamics import dense_baseline, fast_rhs
     rankings, data = real
     chain = models.build_chain(models.parse_model("truth", rankings), data)
     n = chain.n_coordinates
     y = np.zeros(n)
     y[:4] = scenes.load_scene("thesis").initial_angles
     y[4:] = 1e-7 * np.random.default_rng(3).normal(size=n - 4)
-    M_columns = fast_rhs.FastChain(chain).mass_matrix(y)
+    M_columns = compiled.FastChain(chain).mass_matrix(y)
     M_jacobian = dense_baseline.mass_matrix_composite(dense_baseline.pack_dense(chain), y)
     assert np.abs(M_columns - M_jacobian).max() <= 1e-14 * np.abs(M_jacobian).max()

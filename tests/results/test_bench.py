@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from results.bench import pareto, scaling
-from solver.dynamics import dense_baseline, integrators, multibody
+from solver.dynamics import compiled, dense_baseline, integrators, multibody
 from results.bench.oracle import synthetic_chain
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -40,10 +40,10 @@ def random_state(chain, rng, q_scale):
 # ------------------------------------------------------------------ dense baseline
 @pytest.mark.parametrize("seed", [0, 3, 7])
 def test_dense_baseline_matches_structured_rhs(seed):
-    """Same accelerations as fast_rhs.make_rhs to 1e-10 relative, case motion, torques and
+    """Same accelerations as compiled.make_rhs to 1e-10 relative, case motion, torques and
     damping on; physical (small) modal amplitudes, so the Cholesky path runs."""
     chain, _ = synthetic_chain(seed=seed, n_modes=(4, 3, 3, 2), damping_ratio=0.02)
-    structured = integrators.make_rhs(chain, CASE, TORQUE)
+    structured = compiled.make_rhs(chain, CASE, TORQUE)
     dense = dense_baseline.make_dense_rhs(chain, CASE, TORQUE)
     rng = np.random.default_rng(seed + 10)
     for t in (0.0, 0.37):
@@ -69,7 +69,7 @@ def test_dense_baseline_falls_back_to_lu_when_not_positive_definite():
     answer is still the structured one."""
     chain, _ = synthetic_chain(seed=4, damping_ratio=0.01)
     rng = np.random.default_rng(1)
-    structured = integrators.make_rhs(chain, CASE, TORQUE)
+    structured = compiled.make_rhs(chain, CASE, TORQUE)
     dense = dense_baseline.make_dense_rhs(chain, CASE, TORQUE)
     indefinite = 0
     for _ in range(4):
@@ -84,7 +84,7 @@ def test_dense_rk4_loop_matches_compiled_loop():
     y0, yd0 = random_state(chain, np.random.default_rng(5), 1e-4)
     h = 0.2 * integrators.rk4_stability_limit(400.0 * 3)
     a = dense_baseline.make_dense_rhs(chain, CASE, TORQUE).rk4_steps(y0, yd0, 0.1, h, 20)
-    b = integrators.make_rhs(chain, CASE, TORQUE).rk4_steps(y0, yd0, 0.1, h, 20)
+    b = compiled.make_rhs(chain, CASE, TORQUE).rk4_steps(y0, yd0, 0.1, h, 20)
     assert rel(a[1], b[1]) < 1e-10 and rel(a[0], b[0]) < 1e-12
 
 
@@ -105,7 +105,7 @@ def test_synthetic_modal_bodies_are_valid_and_agree():
     y, yd = scaling.timing_state(chain)
     dense = dense_baseline.make_dense_rhs(chain, scaling.CASE)
     assert np.linalg.eigvalsh(dense.mass_matrix(y)).min() > 0
-    structured = integrators.make_rhs(chain, scaling.CASE)
+    structured = compiled.make_rhs(chain, scaling.CASE)
     assert rel(dense(0.01, y, yd), structured(0.01, y, yd)) < 1e-10
 
 

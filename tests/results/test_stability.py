@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from results.bench import chain_stability, hard_cases, rk4_theory, stability
-from solver.dynamics import integrators, multibody, scenes
+from solver.dynamics import integrators, linearized, multibody, scenes
+from solver.dynamics.problem import Problem
 from reduction import models
 from results.bench.oracle import synthetic_chain
 from tests.dynamics_fixtures import load_real_bodies
@@ -62,20 +63,22 @@ def test_coupled_modes_are_mass_orthonormal_eigenvectors_of_the_full_pencil():
     y[:4] = chain_stability.THESIS_ANGLES
     M = multibody.mass_matrix(chain, y)
     K = np.diag(chain.stiffness_diagonal())
-    omega, phi = chain_stability.coupled_modes(M, chain.stiffness_diagonal()[4:])
-    np.testing.assert_allclose(omega, multibody.coupled_frequencies(chain, y), rtol=1e-8)
+    omega, phi = linearized.free_joint_modes(M, chain.stiffness_diagonal()[4:])
+    np.testing.assert_allclose(omega, linearized.coupled_frequencies(chain, y), rtol=1e-8)
+    omega_y, phi_y = linearized.coupled_modes(chain, y)          # M(y) by the compiled columns
+    np.testing.assert_allclose(omega_y, omega, rtol=1e-8)
     np.testing.assert_allclose(phi.T @ M @ phi, np.eye(omega.size), atol=1e-9)
     np.testing.assert_allclose(K @ phi, M @ phi * omega ** 2, atol=1e-8 * omega.max() ** 2)
     np.testing.assert_allclose((M @ phi)[:4], 0.0, atol=1e-12)   # no joint momentum
-    with pytest.raises(rk4_theory.StabilityInputError, match="do not match"):
-        chain_stability.coupled_modes(M, chain.stiffness_diagonal())
+    with pytest.raises(ValueError, match="do not match"):
+        linearized.free_joint_modes(M, chain.stiffness_diagonal())
 
 
 def test_equal_energy_excitation_puts_the_requested_energy_in_every_mode():
     chain, _ = synthetic_chain(seed=4)
     y0, yd0, omega, M = chain_stability.excited_state(chain, energy=2e-6)
     assert multibody.kinetic_energy(chain, y0, yd0) == pytest.approx(2e-6, rel=1e-9)
-    _, phi = chain_stability.coupled_modes(M, chain.stiffness_diagonal()[4:])
+    _, phi = linearized.free_joint_modes(M, chain.stiffness_diagonal()[4:])
     per_mode = 0.5 * (phi.T @ M @ yd0) ** 2
     np.testing.assert_allclose(per_mode, 2e-6 / omega.size, rtol=1e-8)
 
@@ -95,7 +98,7 @@ def test_measured_rk4_limit_of_a_synthetic_chain_matches_theory():
 def test_energy_growth_flags_an_unstable_step_and_not_a_stable_one():
     chain, _ = synthetic_chain(seed=0)
     y0, yd0, omega, _ = chain_stability.excited_state(chain)
-    prob = multibody.Problem(chain, y0=y0, yd0=yd0)
+    prob = Problem(chain, y0=y0, yd0=yd0)
     h_star = 2 * np.sqrt(2) / omega[-1]
     assert chain_stability.energy_growth(prob, y0, yd0, 0.98 * h_star, 1000) <= 1.0 + 1e-9
     assert chain_stability.energy_growth(prob, y0, yd0, 1.05 * h_star, 1000) > 10.0
@@ -147,7 +150,7 @@ def test_unstable_step_is_diagnosed_in_one_line_and_a_disagreeing_run_is_garbage
     # omega_max understated by 2x (below even the largest kept modal frequency): the default
     # step is beyond the true limit (the output interval must not cap it)
     coarse = hard_cases.scene_variant(thesis, "coarse", duration=0.1, output_interval=5e-3)
-    prob = multibody.Problem(chain, case=thesis.case, y0=y0, omega_max=0.5 * chain.omega_max)
+    prob = Problem(chain, case=thesis.case, y0=y0, omega_max=0.5 * chain.omega_max)
     res = hard_cases.checked_run(chain, coarse, "synthetic", problem=prob)
     assert res["outcome"] == "diagnosed" and res["error"] == "DivergenceError"
     assert hard_cases.is_one_line_diagnosis(res["message"], "'synthetic'", "t = ", "step")

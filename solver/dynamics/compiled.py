@@ -1,0 +1,280 @@
+"""Compiled right-hand side of the chain: the same equations as ``solver.dynamics.multibody``.
+
+Why compiled: the recursion of ``multibody.accelerations`` is a few hundred
+tiny array operations (3-vectors, 6x6 matrices) per evaluation; in NumPy each
+costs ~1-5 us of call overhead, so one evaluation takes milliseconds, while
+the truth model needs ~1e5 evaluations.  The profile shows the time goes to
+call overhead (``np.cross``, small ``inv``, ``tensordot``), not arithmetic,
+which is exactly what Numba removes.  The arithmetic that remains is the
+O(D^2) contraction of the modal Coriolis tensor G (D, 3, D) with q, q' and
+omega, done in one fused pass over G per body (``kernels.modal``).
+
+This module is the Python side of the kernels (``solver.dynamics.kernels``): ``pack``
+turns a ``multibody.Chain`` into the named tuple ``PackedChain`` the kernels take,
+bodies' modes concatenated; ``FastChain`` offers ``multibody``'s functions on it, and
+``CompiledRhs`` (``make_rhs``) is the right-hand side of a chain in a scene with its
+compiled RK4 loops.  Importing it raises ImportError when Numba is missing
+(``solver.dynamics.problem`` then falls back to the NumPy reference path).  Tests
+compare it with ``multibody`` to round-off.
+
+Calls from Python pass the packed chain as a *plain* tuple (``FastChain.arrays``) to
+small entry functions here, which rebuild the named tuple inside compiled code: Numba's
+dispatcher types a plain tuple of arrays from a cached fingerprint, a named tuple only
+through its Python ``typeof`` (measured ~2 us more per call, ~10 % of a truth-model
+evaluation).
+"""
+
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from solver.dynamics import multibody
+from solver.dynamics.kernels import JIT
+from solver.dynamics.kernels import recursion, rk4
+from solver.dynamics.kernels.modal import YS_PAIRS
+
+
+class PackedChain(NamedTuple):
+    """The chain as flat arrays for the kernels (``pack``).
+
+    D (4,) modes per body; off (4,) offsets of each body's modes in q (S = sum D);
+    M6 (4, 6, 6) rigid mass X^T M X; V (12, S) rows [P; H; Psi; Theta] per body
+    (Psi = Theta = 0 for the platform); gram (4, 12, 12) V_k V_k^T; M1 (15, S) the 15
+    independent entries of dM_X/dq_i (``inertia_gradient_rows``); G: 4-tuple of
+    (D_k, 3 D_k) Coriolis tensors G[j, a D + i] = (G_j)_{a i}; om2 (S,) Omega^2
+    [(rad/s)^2]; cd (S,) 2 zeta Omega [1/s]; C1, C (3, 3) fixed joint axes; rho (3,)
+    gimbal offset [in]."""
+    D: np.ndarray
+    off: np.ndarray
+    M6: np.ndarray
+    V: np.ndarray
+    gram: np.ndarray
+    M1: np.ndarray
+    G: tuple
+    om2: np.ndarray
+    cd: np.ndarray
+    C1: np.ndarray
+    C: np.ndarray
+    rho: np.ndarray
+
+
+def inertia_gradient_rows(inertia_gradient, number=0):
+    """(15, D): per mode the entries Yv[a, b] (rows 3a + b) and Ys[a, b], a <= b (rows
+    9.. in the order of kernels.modal.YS_PAIRS) of dM_X/dq_i (D, 6, 6), whose structure
+    (zero translational block, symmetry) is checked: the kernels rely on it."""
+    M1 = np.asarray(inertia_gradient, float)
+    scale = max(np.abs(M1).max(), 1e-300)
+    if np.abs(M1[:, :3, :3]).max() > 1e-12 * scale or \
+            np.abs(M1 - M1.transpose(0, 2, 1)).max() > 1e-12 * scale:
+        raise ValueError(f"body {number}: inertia_gradient is not [[0, Yv^T], [Yv, Ys]] "
+                         f"with Ys symmetric (reduction.modal_integrals.inertia_gradient)")
+    rows = np.empty((15, M1.shape[0]))
+    for a in range(3):
+        for b in range(3):
+            rows[3 * a + b] = M1[:, 3 + a, b]
+    for c, (a, b) in enumerate(YS_PAIRS):
+        rows[9 + c] = M1[:, 3 + a, 3 + b]
+    return rows
+
+
+def pack(chain):
+    """The ``PackedChain`` of a ``multibody.Chain`` (field meanings there)."""
+    D = np.array(chain.n_modes, dtype=np.int64)
+    off = np.zeros(4, dtype=np.int64)
+    off[1:] = np.cumsum(D)[:3]
+    S = int(D.sum())
+    M6 = np.zeros((4, 6, 6))
+    V = np.zeros((12, S))
+    gram = np.zeros((4, 12, 12))
+    M1 = np.zeros((15, S))
+    om2 = np.zeros(S)
+    cd = np.zeros(S)
+    G = []
+    for k, b in enumerate(chain.bodies):
+        s = slice(off[k], off[k] + D[k])
+        G.append(np.ascontiguousarray(np.asarray(b.coriolis, float).reshape(D[k], 3 * D[k])))
+        M6[k] = b.rigid_mass
+        if D[k]:
+            V[0:6, s] = b.momentum
+            if b.inside_translation is not None and k < 3:
+                V[6:9, s] = b.inside_translation
+                V[9:12, s] = b.inside_rotation
+            gram[k] = V[:, s] @ V[:, s].T
+            M1[:, s] = inertia_gradient_rows(b.inertia_gradient, b.number)
+            om2[s] = b.omega2
+            cd[s] = b.damping
+    return PackedChain(D, off, M6, V, gram, M1, tuple(G), om2, cd,
+                       np.ascontiguousarray(chain.case_to_outer, dtype=float),
+                       np.ascontiguousarray(chain.parent_to_child, dtype=float),
+                       np.ascontiguousarray(chain.gimbal_offset, dtype=float))
+
+
+def case_arrays(case):
+    """The case motion as the kernels take it (``kernels.recursion.case_twist``): a tuple
+    (amplitude, 2 pi frequency, phase, omega0) of (3,) arrays (multibody.CaseMotion)."""
+    return (np.array(case.amplitude, float), 2 * math.pi * np.array(case.frequency, float),
+            np.array(case.phase, float), np.array(case.omega0, float))
+
+
+# ------------------------------------------------------------------ entries from Python
+# Each takes the packed chain as the plain tuple ``data`` (module docstring: fast dispatch).
+@numba.njit(**JIT)
+def _inverse_dynamics(y, yd, ydd, w1, dw1, data):
+    return recursion.inverse_dynamics(y, yd, ydd, w1, dw1, PackedChain(*data))[0]
+
+
+@numba.njit(**JIT)
+def _solve_mass(y, r, dg, unit, data):
+    ch = PackedChain(*data)
+    zero = np.zeros(y.shape[0])
+    _, fr, _ = recursion.inverse_dynamics(y, zero, zero, np.zeros(6), np.zeros(6), ch)
+    return recursion.solve(r, dg, unit, ch, fr)
+
+
+@numba.njit(**JIT)
+def _accelerations(y, yd, w1, dw1, tau, data):
+    return recursion.accelerations(y, yd, w1, dw1, tau, PackedChain(*data))
+
+
+@numba.njit(**JIT)
+def _rhs(t, y, yd, at_rest, case, w1, dw1, tau, data):
+    """y'' at t: the case twist (into w1, dw1; left alone if at_rest), then the accelerations."""
+    if not at_rest:
+        recursion.case_twist(t, case, w1, dw1)
+    return recursion.accelerations(y, yd, w1, dw1, tau, PackedChain(*data))
+
+
+@numba.njit(**JIT)
+def _kinetic_energy(y, yd, w1, data):
+    return recursion.kinetic_energy(y, yd, w1, PackedChain(*data))
+
+
+@numba.njit(**JIT)
+def _case_power(y, yd, w1, dw1, tau, data):
+    return recursion.case_power(y, yd, w1, dw1, tau, PackedChain(*data))
+
+
+@numba.njit(**JIT)
+def _rk4_run(y, yd, t0, h, n_steps, case, tau, data):
+    return rk4.rk4_run(y, yd, t0, h, n_steps, case, tau, PackedChain(*data))
+
+
+@numba.njit(**JIT)
+def _rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau, data):
+    return rk4.rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau,
+                             PackedChain(*data))
+
+
+# ------------------------------------------------------------------ wrappers
+class FastChain:
+    """The chain packed for the kernels, with the same functions as ``multibody``.
+
+    data: the ``PackedChain``; arrays: the same as a plain tuple (what the entries take)."""
+
+    def __init__(self, chain):
+        self.chain = chain
+        self.data = pack(chain)
+        self.arrays = tuple(self.data)
+
+    def inverse_dynamics(self, y, yd, ydd, w1, dw1):
+        return _inverse_dynamics(np.asarray(y, float), np.asarray(yd, float), np.asarray(ydd, float),
+                                 w1, dw1, self.arrays)
+
+    def solve_mass(self, y, r, modal_diagonal=None):
+        y = np.asarray(y, float)
+        n = y.size
+        unit = modal_diagonal is None
+        dg = np.ones(n - 4) if unit else np.asarray(modal_diagonal, float)
+        return _solve_mass(y, np.asarray(r, float), dg, unit, self.arrays)
+
+    def mass_matrix(self, y):
+        """M(y) (n, n), symmetrised, column by column from the inverse dynamics at unit
+        accelerations.  The modal stiffness and damping are left out of these calls: they do
+        not enter M, and subtracting K q (up to ~1e5 |M| on the truth model at q ~ 1e-7)
+        from every column would cost ~5 digits of M."""
+        y = np.asarray(y, float)
+        n = y.size
+        data = tuple(self.data._replace(om2=np.zeros_like(self.data.om2),
+                                        cd=np.zeros_like(self.data.cd)))
+        zero, z6 = np.zeros(n), np.zeros(6)
+        base = _inverse_dynamics(y, zero, zero, z6, z6, data)
+        M = np.empty((n, n))
+        e = np.zeros(n)
+        for i in range(n):
+            e[i] = 1.0
+            M[:, i] = _inverse_dynamics(y, zero, e, z6, z6, data) - base
+            e[i] = 0.0
+        return 0.5 * (M + M.T)
+
+    def accelerations(self, y, yd, w1, dw1, tau):
+        return _accelerations(y, yd, w1, dw1, tau, self.arrays)
+
+    def kinetic_energy(self, y, yd, w1):
+        """T [in lbf] with the case twist w1 (6,)."""
+        return _kinetic_energy(np.asarray(y, float), np.asarray(yd, float), w1, self.arrays)
+
+    def case_power_at(self, y, yd, w1, dw1, tau):
+        """case_power at the accelerations of the equations (one compiled call)."""
+        return float(_case_power(np.asarray(y, float), np.asarray(yd, float), w1, dw1,
+                                 np.asarray(tau, float), self.arrays))
+
+
+class CompiledRhs:
+    """The compiled right-hand side of a chain in a case motion with motor torques.
+
+    Calling it, rhs(t, y, y') -> y'' (``rhs`` is the same as a plain function, a little
+    cheaper per call).  ``case_twist(t)``; with constant torques (``has_rk4``) also the
+    compiled RK4 loops ``rk4_steps`` and ``rk4_integrate``.  ``fast_chain``: the
+    ``FastChain`` (inverse dynamics, solve, energies)."""
+
+    def __init__(self, chain, case=None, torque=None):
+        self.fast_chain = FastChain(chain)
+        self.case = case or multibody.CaseMotion()
+        self.torque = multibody.torque_function(torque)
+        self.at_rest = self.case.at_rest
+        self._case = case_arrays(self.case)
+        const_tau = None if callable(torque) else np.asarray(self.torque(0.0), float)
+        self.has_rk4 = const_tau is not None
+        self._tau = None if const_tau is None else np.ascontiguousarray(const_tau, dtype=float)
+        data, case_data, at_rest, tau_f = self.fast_chain.arrays, self._case, self.at_rest, self.torque
+        w1 = np.zeros(6)
+        dw1 = np.zeros(6)
+
+        def rhs(t, y, yd):
+            tau = const_tau if const_tau is not None else np.asarray(tau_f(t), float)
+            return _rhs(float(t), y, yd, at_rest, case_data, w1, dw1, tau, data)
+        self.rhs = rhs
+
+    def __call__(self, t, y, yd):
+        return self.rhs(t, y, yd)
+
+    def case_twist(self, t):
+        """(w1, dw1) (6,) each, compiled (multibody.CaseMotion.twist)."""
+        w, dw = np.zeros(6), np.zeros(6)
+        recursion.case_twist(float(t), self._case, w, dw)
+        return w, dw
+
+    def _constant_torque(self, what):
+        if not self.has_rk4:
+            raise ValueError(f"{what} needs constant motor torques (a callable was given)")
+
+    def rk4_steps(self, y, yd, t0, h, n):
+        """n compiled RK4 steps from (t0, y, y'); returns (y, y')."""
+        self._constant_torque("the compiled RK4 loop")
+        return _rk4_run(np.asarray(y, float), np.asarray(yd, float), float(t0), float(h), int(n),
+                        self._case, self._tau, self.fast_chain.arrays)
+
+    def rk4_integrate(self, y0, yd0, t_out, h, n_sub, growth):
+        """A whole RK4 run with outputs and energy watch (``kernels.rk4.rk4_integrate``):
+        returns (Y, Yd, energy, info)."""
+        self._constant_torque("the compiled RK4 run")
+        return _rk4_integrate(np.asarray(y0, float), np.asarray(yd0, float),
+                              np.asarray(t_out, float), float(h), int(n_sub), float(growth),
+                              bool(self.at_rest), self._case, self._tau, self.fast_chain.arrays)
+
+
+def make_rhs(chain, case=None, torque=None):
+    """The compiled right-hand side (``CompiledRhs``) of a chain in a case motion."""
+    return CompiledRhs(chain, case, torque)

@@ -1,0 +1,37 @@
+"""Compiled kernels of the chain's equations (Numba), by layer.
+
+``linalg``: 3-vectors (as tuples) and 6x6 products; ``modal``: the O(D) passes over a
+body's modal rows and the O(D^2) Coriolis passes; ``recursion``: kinematics, the
+Newton-Euler backward pass, the articulated-body solve, energies and the case twist;
+``rk4``: the compiled RK4 loops.  They are the equations of ``solver.dynamics.multibody``
+(docs/dynamics.md Sections 3 and 8) written for speed; ``solver.dynamics.compiled``
+packs a chain for them and is their Python interface.
+
+The chain reaches the kernels as ONE argument ``ch``, the named tuple
+``compiled.PackedChain`` (D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho; see
+``compiled.pack``); the forward and backward passes share ``recursion.Frames``.
+
+Importing this package raises LLVM's limit of runtime alias checks (below) before
+any kernel is compiled.
+"""
+
+import llvmlite.binding
+
+# Compiler options of the kernels.  JIT: IEEE arithmetic.  FAST: reassociation only (no
+# "no-NaN/no-Inf" assumptions: a diverging state must stay visible).
+JIT = dict(cache=True, fastmath=False, error_model="numpy")
+FAST = dict(cache=True, fastmath={"reassoc", "contract", "nsz"}, error_model="numpy")
+
+
+def _allow_runtime_alias_checks(limit=16):
+    """Let LLVM vectorise loops over many row views.  Numba cannot tell LLVM that two
+    array views do not overlap, so a loop that writes one and reads several is
+    vectorised only behind runtime overlap checks, at most 8 by default: the Coriolis
+    pass with four rows of G needs more and ran 3x slower, unvectorised.  An LLVM
+    option may be given only once per process, hence the guard."""
+    if not getattr(llvmlite.binding, "_gimbal_alias_checks", False):
+        llvmlite.binding.set_option("", f"--runtime-memory-check-threshold={limit}")
+        llvmlite.binding._gimbal_alias_checks = True
+
+
+_allow_runtime_alias_checks()

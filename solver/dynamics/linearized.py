@@ -1,0 +1,111 @@
+"""The chain linearised at a configuration: its mass matrix, coupled modes and frequencies,
+and the highest coupled frequency that bounds an explicit integrator's step.
+
+The joint angles have no stiffness, so the pencil (K, M(y)), K = diag(0_4, Omega^2),
+is reduced to the modal coordinates by the Schur complement
+S = M_qq - M_qg M_gg^-1 M_gq (the modal inertia with the joints free): K_q x = lambda S x.
+Because the modes carry momentum about the drive axes (X^T M Phi != 0: the supports hold
+each body at its bearing regions only), S is *smaller* than the modal mass and the
+coupled frequencies lie above the kept ones -- on the real bodies by up to 3x
+(docs/dynamics.md, Section 6).  This, not the largest kept modal frequency, bounds an
+explicit integrator's step.
+"""
+
+import numpy as np
+import scipy.linalg
+
+from solver.dynamics import multibody
+
+try:
+    from solver.dynamics import compiled
+except ImportError:         # Numba missing: the NumPy mass matrix (slower, same matrix)
+    compiled = None
+
+
+def mass_matrix_fast(chain, y):
+    """M(y) (n_y, n_y) from n_y calls of the compiled inverse dynamics without the modal
+    stiffness (``compiled.FastChain.mass_matrix``; NumPy path if Numba is missing)."""
+    y = np.asarray(y, float)
+    if compiled is None:
+        return multibody.mass_matrix(chain, y)
+    return compiled.FastChain(chain).mass_matrix(y)
+
+
+def _free_joints(M):
+    """(joint_of_mode (4, m), S (m, m)): the joint motion g = joint_of_mode x that makes a
+    modal motion x carry no joint momentum (M_gg g + M_gq x = 0), and the symmetrised
+    Schur complement S = M_qq - M_qg M_gg^-1 M_gq of M (n, n), m = n - 4."""
+    Mgg, Mgq, Mqq = M[:4, :4], M[:4, 4:], M[4:, 4:]
+    joint_of_mode = -np.linalg.solve(Mgg, Mgq)
+    S = Mqq + Mgq.T @ joint_of_mode
+    return joint_of_mode, 0.5 * (S + S.T)
+
+
+def free_joint_modes(M, stiffness):
+    """Natural modes of the linearised chain with mass matrix M (n, n) and modal stiffness
+    (n - 4,) Omega^2 [(rad/s)^2] (the four joint angles have none): the joints are
+    eliminated (module docstring) and Omega^2 x = lambda S x solved.  Each mode moves the
+    joints by g = -M_gg^-1 M_gq x, which makes its joint momenta M_gg g + M_gq x vanish,
+    so phi = [g; x] satisfies K phi = lambda M phi and phi_i^T M phi_j = x_i^T S x_j =
+    delta_ij: M-orthonormal in the full coordinates.
+
+    Returns (omega (m,) [rad/s] ascending, shapes (n, m)), m = n - 4.  Raises ValueError
+    unless M is (n, n) and stiffness (n - 4,) with n > 4."""
+    M = np.asarray(M, dtype=float)
+    k = np.asarray(stiffness, dtype=float)
+    n = M.shape[0]
+    if M.shape != (n, n) or k.shape != (n - 4,) or n < 5:
+        raise ValueError(f"coupled_modes: M {M.shape} and stiffness {k.shape} do not match "
+                         f"(need (n, n) and (n - 4,), n > 4)")
+    joint_of_mode, S = _free_joints(M)
+    lam, X = scipy.linalg.eigh(np.diag(k), S)              # X^T S X = I
+    return np.sqrt(np.maximum(lam, 0.0)), np.vstack([joint_of_mode @ X, X])
+
+
+def coupled_modes(chain, y):
+    """(omega (m,) [rad/s] ascending, shapes (n, m)): the natural modes of the chain
+    linearised at configuration y (``free_joint_modes`` of M(y), ``mass_matrix_fast``)."""
+    return free_joint_modes(mass_matrix_fast(chain, y), chain.stiffness_diagonal()[4:])
+
+
+def coupled_frequencies(chain, y):
+    """Natural frequencies [rad/s] (ascending, the elastic ones) of the chain linearised
+    at configuration y: sqrt of the generalised eigenvalues of the pencil (K, M(y)),
+    K = diag(0_4, Omega^2), by the Schur complement on the joints (module docstring).
+    Eigenvalues only (``coupled_modes`` for the shapes): the RK4 bound's omega_max."""
+    n_q = sum(chain.n_modes)
+    if n_q == 0:
+        return np.zeros(0)
+    _, S = _free_joints(mass_matrix_fast(chain, y))
+    lam = scipy.linalg.eigh(np.diag(chain.stiffness_diagonal()[4:]), S, eigvals_only=True)
+    return np.sqrt(np.maximum(lam, 0.0))
+
+
+# Gimbal-angle offsets at which coupled_omega_max samples the configuration (besides y0).
+# M(y) depends on the angles; the highest coupled frequency varies with them by up to ~1 %
+# on the real reduced models, and it peaks where two gimbal axes align (gamma_2 = 0: outer
+# and inner gimbal axes; gamma_3 = 0: middle gimbal and platform axes), measured by
+# results.bench.stability (docs/stability.md): +5.4 % over the offsets alone for freq-1,1,0,0.
+# So the lock configurations are sampled too (LOCK_ANGLES: gamma_2, gamma_3 set to 0).
+COUPLED_SAMPLE_OFFSETS = ((0.0, 0.0, 0.0, 0.0), (0.7, -0.4, 1.1, 0.3), (-1.3, 0.9, -0.6, 2.1),
+                          (2.4, 1.7, 0.5, -1.9))
+LOCK_ANGLES = ((1,), (2,), (1, 2))
+
+
+def coupled_omega_max(chain, y0=None, offsets=COUPLED_SAMPLE_OFFSETS, lock_angles=LOCK_ANGLES):
+    """Highest frequency [rad/s] of the chain linearised at y0, at the gimbal angles
+    y0 + offsets, and at y0 with the angles of lock_angles (0-based indices into gamma)
+    set to zero (elastic coordinates as in y0): the RK4 stability bound's omega_max."""
+    if sum(chain.n_modes) == 0:
+        return 0.0
+    y0 = np.zeros(chain.n_coordinates) if y0 is None else np.asarray(y0, float)
+    samples = []
+    for off in offsets:
+        y = y0.copy()
+        y[:4] += np.asarray(off, float)
+        samples.append(y)
+    for idx in lock_angles:
+        y = y0.copy()
+        y[list(idx)] = 0.0
+        samples.append(y)
+    return max(float(coupled_frequencies(chain, y)[-1]) for y in samples)

@@ -1,0 +1,115 @@
+"""What an integrator integrates: a chain with its case motion, motor torques and initial
+state (``Problem``), and the choice between the compiled and the NumPy right-hand side
+(``make_rhs``).
+
+``solver.dynamics.integrators`` works on this interface only: ``rhs``, ``residual``,
+``solve``, ``kinetic_energy``, ``potential_energy``, ``energy``, ``input_power``,
+``stiffness_diagonal``, ``damping_diagonal``, ``y0``, ``yd0``, ``omega_max``, and the two
+optional compiled paths ``rk4_steps`` and ``rk4_run`` (None when there is none).
+"""
+
+import numpy as np
+
+from solver.dynamics import linearized
+from solver.dynamics.multibody import (CaseMotion, accelerations, case_power, inverse_dynamics,
+                                       kinetic_energy, solve_mass, torque_function)
+
+try:
+    from solver.dynamics import compiled
+except ImportError:         # Numba missing: the NumPy reference path (~100x slower)
+    compiled = None
+
+
+def make_rhs(chain, case=None, torque=None, fast=True):
+    """y'' = rhs(t, y, y'): the chain's accelerations, compiled (``compiled.CompiledRhs``)
+    when fast and Numba is available, else the NumPy reference ``multibody.accelerations``."""
+    if fast and compiled is not None:
+        return compiled.make_rhs(chain, case, torque)
+    tau = torque_function(torque)
+
+    def rhs(t, y, yd):
+        return accelerations(chain, y, yd, t, case, tau(t))
+    return rhs
+
+
+class Problem:
+    """A chain with its case motion, motor torques and initial state: what an
+    integrator needs (``solver.dynamics.integrators.integrate``).
+
+    torque: (4,) constant motor torques [in lbf] or a callable t -> (4,).
+    omega_max: the stability bound's frequency [rad/s]; default
+    ``linearized.coupled_omega_max(chain, y0)`` (the coupled chain's highest frequency).
+    ``modal_omega_max`` is the largest kept modal frequency, for reference.
+
+    Optional compiled paths (None unless the right-hand side is compiled and the torques
+    are constant): ``rk4_steps(y, y', t0, h, n) -> (y, y')``, n RK4 steps in one
+    compiled call; ``rk4_run(y0, y'0, t_out, h, n_sub, growth) -> (Y, Yd, energy, info)``,
+    a whole RK4 run with the energy watch (``kernels.rk4.rk4_integrate``)."""
+
+    def __init__(self, chain, case=None, torque=None, y0=None, yd0=None, fast=True, omega_max=None):
+        self.chain = chain
+        self.case = case or CaseMotion()
+        self.torque = torque_function(torque)        # t -> (4,) [in lbf]
+        n = chain.n_coordinates
+        self.y0 = np.zeros(n) if y0 is None else np.asarray(y0, float)
+        self.yd0 = np.zeros(n) if yd0 is None else np.asarray(yd0, float)
+        rhs = make_rhs(chain, self.case, torque, fast=fast)
+        fast_rhs = rhs if compiled is not None and isinstance(rhs, compiled.CompiledRhs) else None
+        self.rhs = rhs if fast_rhs is None else fast_rhs.rhs     # (the plain function: cheaper per call)
+        self.modal_omega_max = chain.omega_max            # largest kept modal frequency
+        # the integrators' stability bound: the coupled chain's highest frequency
+        self.omega_max = linearized.coupled_omega_max(chain, self.y0) if omega_max is None \
+            else float(omega_max)
+        self.stiffness_diagonal = chain.stiffness_diagonal()
+        self.damping_diagonal = chain.damping_diagonal()
+        self._fast = None if fast_rhs is None else fast_rhs.fast_chain      # compiled kernels
+        self._twist = self.case.twist if fast_rhs is None else fast_rhs.case_twist
+        has_rk4 = fast_rhs is not None and fast_rhs.has_rk4
+        self.rk4_steps = fast_rhs.rk4_steps if has_rk4 else None
+        self.rk4_run = fast_rhs.rk4_integrate if has_rk4 else None
+
+    def tau(self, t):
+        out = np.zeros(self.chain.n_coordinates)
+        out[:4] = self.torque(t)
+        return out
+
+    def residual(self, t, y, yd, ydd):
+        """M(y) y'' + c(y, y', t) - tau(t)."""
+        if self._fast is not None:
+            w1, dw1 = self.case.twist(t)
+            return self._fast.inverse_dynamics(y, yd, ydd, w1, dw1) - self.tau(t)
+        return inverse_dynamics(self.chain, y, yd, ydd, t, self.case) - self.tau(t)
+
+    def solve(self, y, r, modal_diagonal=None):
+        """(M(y) + diag(0, d - 1))^-1 r by the articulated-body recursion."""
+        if self._fast is not None:
+            return self._fast.solve_mass(y, r, modal_diagonal)
+        return solve_mass(self.chain, y, r, modal_diagonal)
+
+    def kinetic_energy(self, t, y, yd):
+        """T [in lbf] (compiled path when available)."""
+        if self._fast is not None:
+            w1, _ = self._twist(t)
+            return float(self._fast.kinetic_energy(y, yd, w1))
+        return kinetic_energy(self.chain, y, yd, t, self.case)
+
+    def potential_energy(self, y):
+        """U = 1/2 sum Omega^2 q^2 [in lbf] (precomputed stiffness diagonal)."""
+        y = np.asarray(y, float)
+        return float(0.5 * np.dot(self.stiffness_diagonal * y, y))
+
+    def energy(self, t, y, yd):
+        """T + U [in lbf]."""
+        return self.kinetic_energy(t, y, yd) + self.potential_energy(y)
+
+    def input_power(self, t, y, yd):
+        """Power fed in by the case motion and the motors, minus modal damping [in lbf/s]."""
+        tau = self.torque(t)
+        P = float(np.dot(tau, yd[:4])) - float(np.sum(self.damping_diagonal * yd * yd))
+        if not self.case.at_rest:
+            if self._fast is not None:          # accelerations and wrench in one compiled call
+                w1, dw1 = self._twist(t)
+                P += self._fast.case_power_at(y, yd, w1, dw1, tau)
+            else:
+                P += case_power(self.chain, y, yd, self.rhs(t, y, yd), t, self.case)
+        return P
