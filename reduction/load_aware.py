@@ -2,9 +2,6 @@
 
     python -m reduction.load_aware --scene thesis --modes-dir results/modes \\
         --reduction-dir results/reduction --out results/reduction/load/thesis.h5
-    python -m reduction.load_aware plot --truth results/sim/thesis/truth.h5 \\
-        --cases results/sim/thesis/*.h5 --ranking results/reduction/load/thesis.h5 \\
-        --table results/tables/selection.csv --figure results/figures/bench/global_ranking.png
 
 The thesis closes with "it is advantageous to take into account the given
 conditions applied to the system when reducing the model" and proposes (Section
@@ -55,16 +52,21 @@ Units: in, lbf, s, rad; mass lbf s^2/in.
 """
 
 import argparse
+import hashlib
 import json
 import os
 import sys
 import time
 
+import h5py
 import numpy as np
 
+from reduction import models
 from reduction.errors import ReductionError
-
-BODIES = (2, 3, 4, 5)
+from solver.bodydata import BODIES
+from solver.dynamics import integrators, multibody, scenes, simulate
+from solver.dynamics.error_measure import error_measure
+from workflow.provenance import atomic_h5, read_h5_checked, versions
 N_JOINTS = 4
 FORMAT_VERSION = 1
 DEFAULT_POOL = 160          # pooled modes ranked by backward elimination (40 per body on average)
@@ -87,7 +89,6 @@ def rigid_run(rigid_chain, scene, rtol=1e-12, atol=1e-14):
 
     DOP853 at rtol 1e-12 (4 coordinates: about a second); accelerations from the
     equations of motion at the output samples."""
-    from solver.dynamics import integrators, simulate
     if sum(rigid_chain.n_modes):
         raise LoadAwareError(f"rigid_run needs a chain without modes, got {rigid_chain.n_modes}")
     prob = simulate.scene_problem(rigid_chain, scene)
@@ -113,7 +114,6 @@ def modal_loads(chain, t, y, yd, ydd, case):
     the bearing wrench F_child of the inner subtree through the inside-frame
     motion L_i (Psi, Theta).  Unit: lbf / sqrt(lbf s^2/in) = sqrt(mass) in/s^2,
     the generalised force of a mass-normalised modal coordinate."""
-    from solver.dynamics import multibody
     t = np.asarray(t, float)
     y, yd, ydd = (np.asarray(a, float) for a in (y, yd, ydd))
     if y.shape != (t.size, N_JOINTS) or yd.shape != y.shape or ydd.shape != y.shape:
@@ -135,7 +135,6 @@ def linear_model(chain, y0, t, gamma_rigid, loads):
     rigid_rates (T, 4) [rad/s] (gamma_dot of the rigid run), loads (T, n - 4)
     (``modal_loads``), offsets (5,): body b's modes are columns offsets[k]:offsets[k+1]
     of loads (k = b - 2), and the full set's response ``full`` (T, 4) [rad/s]."""
-    from solver.dynamics import multibody
     M = multibody.mass_matrix(chain, np.asarray(y0, float))
     K = chain.stiffness_diagonal()
     model = {"M": M, "K": K, "t": np.asarray(t, float),
@@ -255,7 +254,6 @@ def rate_response(model, keep):
 def estimate_error(model, keep):
     """A-priori eq. 3.53 error (4,) of keeping ``keep``: rates of the kept set against the
     full set, both in the frozen linear chain (``solver.dynamics.error_measure.error_measure``)."""
-    from solver.dynamics.error_measure import error_measure
     t, g0, full = model["t"], model["rigid_rates"], model["full"]
     return np.asarray(error_measure(t, g0 + full, g0 + rate_response(model, keep)), float)
 
@@ -549,7 +547,6 @@ def body_curves(model, orders, n_max=N_CURVE):
 # ----------------------------------------------------------------- the stage
 def build_linear_model(scene, body_data, log=None):
     """(model, info) of a scene and the body files {b: body dict}: every computed mode."""
-    from reduction import models
     log = log or (lambda *_: None)
     D = {b: int(np.asarray(body_data[b]["eigenvalues"]).size) for b in BODIES}
     rigid = models.build_chain(models.ModelSpec("rigid", {b: np.zeros(0, int) for b in BODIES},
@@ -631,7 +628,6 @@ def write_ranking(path, result, model, attrs):
     ``estimate/additive_global``; ``estimate/rigid`` (4,); ``linear/{M,K,t,
     rigid_rates,loads,offsets,full}`` the frozen linear chain (the a-priori estimator);
     ``coupled/omega`` (n,) [rad/s], ``coupled/rate_share`` (4, n)."""
-    from workflow.provenance import atomic_h5
     off = model["offsets"]
     order = result["order"]
     body_of = np.searchsorted(off, order, side="right") + 1          # 2..5
@@ -667,14 +663,12 @@ def write_ranking(path, result, model, attrs):
 
 def read_linear_model(path):
     """The frozen linear chain stored in a ranking file (``write_ranking``)."""
-    from workflow.provenance import read_h5_checked
     with read_h5_checked(path, ("linear/M", "linear/loads")) as f:
         return {k: f["linear"][k][()] for k in f["linear"]}
 
 
 def ranking_config_hash(scene, body_hashes, options):
     """16 hex digits of the scene, the body files' config hashes and the options (dict)."""
-    import hashlib
     payload = {"scene": scene.config_hash(), "bodies": list(body_hashes), "options": options,
                "format": FORMAT_VERSION}
     return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:16]
@@ -685,7 +679,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
-def rank_main(argv=None):
+def main(argv=None):
     ap = _Parser(prog="python -m reduction.load_aware",
                  description="Load-aware ranking of every body's modes for one scene, pooled and "
                              "per body, with a-priori eq. 3.53 error estimates (docs/selection.md).")
@@ -711,10 +705,6 @@ def rank_main(argv=None):
     log = (lambda *_: None) if args.quiet else (lambda m: print(f"load_aware: {m}", flush=True))
     start = time.perf_counter()
     try:
-        import h5py
-        from reduction import models
-        from solver.dynamics import scenes
-        from workflow.provenance import versions
         if args.pool < 1 or args.curve < 1 or args.search_stride < 1:
             raise LoadAwareError(f"--pool, --curve and --search-stride must be >= 1, got "
                                  f"{args.pool}, {args.curve}, {args.search_stride}")
@@ -766,14 +756,6 @@ def rank_main(argv=None):
         ", ".join(f"{J[n]:.3e}" for n in (40, 80, 160) if n < len(J)) +
         f" ({attrs['wall_time_s']:.0f} s)")
     return 0
-
-
-def main(argv=None):
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if argv and argv[0] == "plot":
-        from results.bench import selection
-        return selection.main(argv[1:])
-    return rank_main(argv)
 
 
 if __name__ == "__main__":

@@ -19,8 +19,6 @@ inside frame found by solving the bearing conditions, the elastic energy
 and gets M(y) and f(y, y', t) by automatic differentiation of L.
 """
 
-import os
-
 import numpy as np
 import scipy.linalg
 
@@ -168,8 +166,9 @@ def rigid_body(number, mass, inertia_diag, com=(0.0, 0.0, 0.0)):
 
 # ------------------------------------------------------------------ the oracle
 def jax_available():
+    """Whether JAX (optional: only the oracle needs it) can be imported."""
     try:
-        import jax  # noqa: F401
+        import jax  # noqa: F401  (optional heavy dependency, imported only when asked for)
         return True
     except Exception:
         return False
@@ -185,7 +184,7 @@ class Oracle:
     def __init__(self, datas, axis=(1.0, 0.0, 0.0), amp=0.0, freq=0.0, phase=0.0, omega0=0.0,
                  damping_ratio=0.0, rho=multibody.GIMBAL_OFFSET,
                  rotate_rotation_blocks=True):
-        import jax
+        import jax  # optional heavy dependency: imported only when an oracle is built
         jax.config.update("jax_enable_x64", True)
         import jax.numpy as jnp
         self.jax, self.jnp = jax, jnp

@@ -54,11 +54,14 @@ from dataclasses import dataclass  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from reduction import models  # noqa: E402
 from results.study.cases import describe_model  # noqa: E402
+from results.study.figures import GROUP_STYLE, STYLE, pareto_front  # noqa: E402
 from results.study.tables import RATE_COLUMNS  # noqa: E402
+from solver.dynamics import dense_baseline, integrators, scenes, simulate  # noqa: E402
 from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
 from solver.dynamics.simfile import read_sim  # noqa: E402
-from workflow.provenance import csv_text  # noqa: E402
+from workflow.provenance import atomic_path, csv_text, versions, write_json, write_text  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 E_FLOOR = 1e-12                  # below the truth file's own convergence (E ~ 7e-12)
@@ -117,7 +120,6 @@ def model_family(name):
 def pareto_mask(cost, err):
     """(N,) bool: True for the non-dominated points of (cost, err), both minimised; points
     with a non-finite coordinate are never on the front (``results.study.figures.pareto_front``)."""
-    from results.study.figures import pareto_front
     mask = np.zeros(len(cost), dtype=bool)
     mask[pareto_front(cost, err)] = True
     return mask
@@ -145,14 +147,12 @@ def truth_prefix(truth, duration):
 
 
 def integrate(prob, setting, duration, dt, model):
-    from solver.dynamics import integrators
     return integrators.integrate(prob, duration, dt, model=model, **setting.kwargs())
 
 
 def time_setting(prob, setting, duration, dt, t_ref, g_ref, repeats, budget_s, model):
     """Row fields of one model x setting: median wall time [s] of up to ``repeats`` runs
     after a warm-up run over two output intervals, and E against (t_ref, g_ref)."""
-    from solver.dynamics import integrators
     row = {"solver": "structured", "integrator": setting.name, "method": setting.method,
            "fraction": setting.fraction, "rtol": setting.rtol}
     try:
@@ -176,7 +176,6 @@ def dense_comparison(prob, duration, dt, repeats, assembly="composite"):
     """The dense baseline against the structured solver, RK4 at the stability-limited step,
     over the first ``duration`` seconds: (dense wall time [s] of one run, structured median
     [s] of ``repeats`` runs, steps, deviation = max |rate difference| / max |rate|)."""
-    from solver.dynamics import dense_baseline
     setting = Setting("rk4-1", "rk4", fraction=1.0)
     dprob = dense_baseline.dense_problem(prob, assembly)
     integrate(dprob, setting, min(dt, duration), dt, "truth (dense)")             # warm-up
@@ -197,8 +196,6 @@ def load_models(names, scene, modes_dir, reduction_dir, load_ranking=None):
     """{name: (chain, problem, setup seconds)}; every name is parsed before anything is built
     (one-line ModelError for a bad one).  load-N / global-N models read the scene's
     load-aware ranking (default <reduction_dir>/load/<scene>.h5, ``reduction.load_aware``)."""
-    from reduction import models
-    from solver.dynamics import simulate
     rankings = models.load_rankings(reduction_dir)
     load_aware = any(models.needs_load_ranking(n) for n in names)
     if load_aware:
@@ -268,7 +265,6 @@ FAMILY_COLORS = {"truth": "black", "dense-composite": "tab:red", "dense-columns"
 
 def _styles(rows):
     """(marker per integrator, colour per family) for the chart."""
-    from results.study.figures import GROUP_STYLE
     markers, used = {}, {}
     for r in rows:
         if r["integrator"] not in markers:
@@ -287,12 +283,10 @@ def _styles(rows):
 def plot(rows, path, title):
     """Wall time [s] (log) against E (log): every row that ran, the Pareto front as a
     staircase with its points labelled; E below E_FLOOR drawn at the floor."""
-    import matplotlib
+    import matplotlib  # optional heavy dependency: imported only when the chart is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
-    from results.study.figures import STYLE
-    from workflow.provenance import atomic_path
     ok = [r for r in rows if r["status"] == "ok"]
     markers, colors = _styles(ok)
     with plt.rc_context(STYLE):
@@ -380,9 +374,6 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true",
                     help=f"first {QUICK_DURATION:g} s of the scene, 2 repeats: a smoke test")
     args = ap.parse_args(argv)
-    from reduction import models
-    from solver.dynamics import scenes
-    from workflow.provenance import versions, write_json
     start = time.perf_counter()
     try:
         if args.repeats < 1:
@@ -433,9 +424,7 @@ def main(argv=None) -> int:
         rows[i]["pareto"] = int(m)
     for r in rows:
         r.pop("_run", None)
-    from workflow.provenance import atomic_path
-    with atomic_path(args.out_csv) as tmp:
-        tmp.write_text(format_csv(rows))
+    write_text(args.out_csv, format_csv(rows))
     plot(rows, args.figure, f"Cost against accuracy, scene {scene.name} ({duration * 1e3:g} ms); "
                             f"dashed: Pareto front")
     for c in comparisons:

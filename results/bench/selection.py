@@ -5,8 +5,6 @@
         --reduction-dir results/reduction \\
         --table results/tables/selection.csv --figure results/figures/bench/global_ranking.png
 
-(also ``python -m reduction.load_aware plot ...`` with the same options).
-
 For every simulated case: the measured eq. 3.53 error E_n of each gimbal rate
 against the truth (``results.study.tables``), and, for models without static modes,
 the a-priori estimate of the same four numbers from the frozen linear chain
@@ -30,13 +28,15 @@ import os
 import re
 import sys
 
+import h5py
 import numpy as np
 
+from reduction import load_aware, models
 from results.study.cases import BODY_NAMES
 from solver.bodydata import BODIES
 from solver.dynamics.error_measure import check_same_grid, error_measure
 from solver.dynamics.simfile import read_sim
-from workflow.provenance import csv_text, write_text
+from workflow.provenance import atomic_path, csv_text, write_text
 
 FAMILIES = ("freq", "xmx", "xmgmx", "load", "global")
 RATES = tuple(BODY_NAMES[b] for b in BODIES)
@@ -73,8 +73,6 @@ def kept_indices(spec, offsets) -> np.ndarray | None:
 def case_rows(truth: dict, cases: list[dict], linear: dict | None, rankings: dict | None,
               scores: np.ndarray | None) -> list[dict]:
     """Rows of the table (measured and a-priori E per rate) for the simulated cases."""
-    from reduction import load_aware
-    from reduction import models
     rows = []
     for case in cases:
         label = case.get("path", case["model"])
@@ -114,7 +112,6 @@ def format_csv(rows: list[dict]) -> str:
 
 def read_ranking(path) -> dict:
     """Curves, scores and the linear model of a ranking file (reduction.load_aware)."""
-    import h5py
     if not os.path.exists(path):
         raise SelectionInputError(f"{path}: ranking file missing (run python -m reduction.load_aware)")
     try:
@@ -130,7 +127,7 @@ def read_ranking(path) -> dict:
 
 def plot(rows: list[dict], curves: dict, path: str) -> list[str]:
     """The two-panel figure (PNG at ``path`` and a PDF beside it); returns the paths."""
-    import matplotlib
+    import matplotlib  # optional heavy dependency: imported only when the figure is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.3), gridspec_kw={"width_ratios": [1.5, 1]})
@@ -176,7 +173,6 @@ def plot(rows: list[dict], curves: dict, path: str) -> list[str]:
     bx.set_xlabel("measured E_n")
     bx.set_ylabel("a-priori E_n (frozen linear chain)")
     fig.tight_layout()
-    from workflow.provenance import atomic_path
     out = []
     for p in (path, os.path.splitext(path)[0] + ".pdf"):
         with atomic_path(p) as tmp:
@@ -208,7 +204,6 @@ def main(argv=None) -> int:
                          "results/figures/bench/global_ranking.png")
     args = ap.parse_args(argv)
     try:
-        from reduction import models
         ranking = read_ranking(args.ranking)
         rankings = models.load_rankings(args.reduction_dir)
         models.load_load_ranking(args.ranking, rankings)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from workflow.provenance import read_h5_checked, versions, write_json
 
@@ -44,8 +45,6 @@ def stage_of(rule_file: str) -> str:
 
 def workflow_benchmark(rule_dir: str) -> dict:
     """Wall time (s) per stage summed over the rules' ``benchmark:`` records, and each stage's share."""
-    from pathlib import Path
-
     totals: dict[str, float] = {}
     for tsv in Path(rule_dir).rglob("*.tsv"):
         lines = tsv.read_text().splitlines()
