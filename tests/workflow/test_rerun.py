@@ -28,8 +28,6 @@ NAMES = dict(zip(BODIES, cfgmod.BODY_NAMES))
 WHOLE_CONFIG = {"verify_fe", "report"}
 # a stage the rule runs besides its shell's python -m modules
 EXTRA_CODE = {"verify_mpi": ("solver.fe.modes",)}   # solver.fe.verify mpi runs solver.fe.modes under mpirun
-# rules with a python -m stage but no code trigger yet, left to their owner (reported)
-NO_CODE_YET = {"reduced_model"}                      # workflow/rules/models.smk
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +46,7 @@ def test_every_stage_rule_carries_the_hash_of_its_code(workflow):
     checked = set()
     for rule in workflow.rules:
         modules = stage_modules(rule)
-        if not modules or rule.name in NO_CODE_YET:
+        if not modules:
             continue
         assert "code" in rule.params.keys(), f"rule {rule.name} runs {modules} but has no params.code"
         assert rule.params.code == imports.code_hash(*modules, *EXTRA_CODE.get(rule.name, ())), rule.name
@@ -56,7 +54,7 @@ def test_every_stage_rule_carries_the_hash_of_its_code(workflow):
         code_inputs = [f for f in rule.input if str(f).endswith(".py")]
         assert not code_inputs, (rule.name, code_inputs)
         checked.add(rule.name)
-    assert {"mesh_body", "modes_body", "simulate", "reduction_body", "report", "verify_mpi"} <= checked
+    assert {"mesh_body", "modes_body", "reduced_model", "simulate", "reduction_body", "report", "verify_mpi"} <= checked
 
 
 def test_simulation_code_is_what_the_dynamics_imports(workflow):
