@@ -55,7 +55,7 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph
 import scipy.sparse.linalg
 
-from solver.bodydata import BEARING_NAMES, RIGID_MOTION_NAMES, rigid_modes, skew  # noqa: F401 (re-used names)
+from solver.bodydata import BEARING_NAMES, RIGID_MOTION_NAMES
 from reduction.errors import (
     BearingIndexError,
     ModeCountError,

@@ -52,7 +52,7 @@ from reduction import ranking as rk
 from reduction import stage
 from reduction import static_modes as st
 from reduction import verification as vf
-from solver.bodydata import read_body_file
+from solver.bodydata import RIGID_MOTION_NAMES, read_body_file, rigid_modes
 from reduction.errors import BodyFileError, ReductionError
 from workflow.provenance import check_record, versions, write_csv, write_json
 
@@ -308,7 +308,7 @@ def invariance_checks(label, body, result, seed=3):
 
 
 def hand_check():
-    """The hand-checkable case of tests/test_reduction_hand.py, rebuilt here independently.
+    """The hand-checkable case of tests/reduction/test_hand.py, rebuilt here independently.
 
     Three point masses m = 1/2 at (2, 0, 0), (-1, 1, 0), (-1, -1, 0) on equal
     springs k = 100 to ground (T = I): M_inf = diag(3/2, 3/2, 3/2, 1, 3, 4),
@@ -320,7 +320,7 @@ def hand_check():
     M = sp.identity(9, format="csr") * m
     K = sp.identity(9, format="csr") * k
     T = sp.identity(9, format="csr")
-    X = mi.rigid_modes(np.repeat(pos, 3, axis=0), np.tile(np.arange(3), 3))
+    X = rigid_modes(np.repeat(pos, 3, axis=0), np.tile(np.arange(3), 3))
     modes = np.eye(9) / np.sqrt(m)
     lam = np.full(9, k / m)
     P, H = mi.momentum_coefficients(M, X, modes)
@@ -412,7 +412,7 @@ def agreement_diagnostics(result, M_rigid, cluster_gap=0.02, n=TABLE_ROWS):
         W = rk.symmetric_inverse_sqrt(A) @ (V * scale)
         share = W ** 2 / np.maximum((W ** 2).sum(axis=0), np.finfo(float).tiny)
         directions[label] = {
-            str(int(i) + 1): [mi.RIGID_MOTION_NAMES[int(np.argmax(share[:, i]))],
+            str(int(i) + 1): [RIGID_MOTION_NAMES[int(np.argmax(share[:, i]))],
                               float(np.max(share[:, i]))]
             for i in np.union1d(a[:TOP_LISTED], b[:TOP_LISTED])}
     return {

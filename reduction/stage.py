@@ -31,7 +31,7 @@ from reduction import modal_integrals as mi
 from reduction import ranking as rk
 from reduction import static_modes as st
 from reduction import verification as vf
-from solver.bodydata import read_body_file
+from solver.bodydata import BEARING_NAMES, read_body_file
 from reduction.errors import BodyFileError, MissingBearingError, ReductionError
 from workflow.provenance import atomic_h5, check_record
 
@@ -66,7 +66,7 @@ def reduce_body(body, n_modes=None, static_kept=10, static_ranking="frequency",
         if not np.all(np.isfinite(points[bearing])):
             if explicit:
                 raise MissingBearingError(
-                    f"{where}: load case {name!r} needs bearing {mi.BEARING_NAMES[bearing]}, "
+                    f"{where}: load case {name!r} needs bearing {BEARING_NAMES[bearing]}, "
                     f"which this body does not have")
             skipped.append(name)
     cases = [c for c in cases if c not in skipped]

@@ -46,7 +46,7 @@ from reduction.errors import (
     StaticModeError,
     UnknownLoadCaseError,
 )
-from reduction.modal_integrals import BEARING_NAMES
+from solver.bodydata import BEARING_NAMES
 
 THESIS_LOAD_CASES = (
     "output_motor_fz",  # Figure 4-12 / 4-24, the default

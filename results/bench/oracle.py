@@ -23,6 +23,7 @@ import numpy as np
 import scipy.linalg
 
 from reduction import modal_integrals
+from solver.bodydata import rigid_modes, skew
 from solver.dynamics import multibody
 
 MOTOR_SIGN = {2: 1.0, 3: 1.0, 4: -1.0, 5: 1.0}           # thesis Table 2.2
@@ -51,7 +52,7 @@ def rigid_fit_operator(node_pos, center):
     rows = []
     for p in node_pos:
         d = p - center
-        rows.append(np.hstack([np.eye(3), -modal_integrals.skew(d)]))   # u + theta x d
+        rows.append(np.hstack([np.eye(3), -skew(d)]))   # u + theta x d
     A = np.vstack(rows)
     return np.linalg.pinv(A)
 
@@ -95,7 +96,7 @@ def synthetic_body(rng, number, n_nodes=6, rotations=False, consistent=False, n_
                 M[i, j] += c / 2
                 M[j, i] += c / 2
     M = 0.5 * (M + M.T)
-    X = modal_integrals.rigid_modes(dof_coords, dof_component)
+    X = rigid_modes(dof_coords, dof_component)
     # free stiffness with null space = rigid motions
     P = np.eye(ndof) - X @ np.linalg.pinv(X)
     B = rng.normal(size=(ndof, ndof))
@@ -155,8 +156,8 @@ def rigid_body(number, mass, inertia_diag, com=(0.0, 0.0, 0.0)):
     c = np.asarray(com, float)
     Mr = np.zeros((6, 6))
     Mr[:3, :3] = mass * np.eye(3)
-    Mr[3:, :3] = mass * modal_integrals.skew(c)
-    Mr[:3, 3:] = -mass * modal_integrals.skew(c)
+    Mr[3:, :3] = mass * skew(c)
+    Mr[:3, 3:] = -mass * skew(c)
     Mr[3:, 3:] = np.diag(inertia_diag)
     integ = {"rigid_mass": Mr, "momentum": np.zeros((6, 0)),
              "inertia_gradient": np.zeros((0, 6, 6)), "coriolis": np.zeros((0, 3, 0)),
