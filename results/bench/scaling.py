@@ -54,8 +54,9 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from workflow.provenance import csv_text  # noqa: E402
+from results.study.figures import STYLE  # noqa: E402
 from solver.dynamics import compiled, dense_baseline, integrators, multibody  # noqa: E402
+from workflow.provenance import atomic_path, csv_text, versions, write_json, write_text  # noqa: E402
 
 # Modal spectrum of each real body, f_k = c k^beta [Hz] (least squares on log-log over modes
 # k = 10..100 of results/modes/body{n}.h5, bodies of 2026-11-21): the rings bend like plates
@@ -291,11 +292,9 @@ COLORS = {"structured": "tab:blue", "structured_loop": "tab:cyan", "dense": "tab
 def plot(rows, fits, path):
     """Three panels: cost per evaluation [s] (with the fitted growth laws), speed-up
     dense / structured, cost per simulated second [s]; written to path (PNG)."""
-    import matplotlib
+    import matplotlib  # optional heavy dependency: imported only when the figure is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from results.study.figures import STYLE
-    from workflow.provenance import atomic_path
     with plt.rc_context(STYLE):
         fig, axs = plt.subplots(1, 3, figsize=(12.0, 3.8), constrained_layout=True)
         for m in METHODS:
@@ -340,12 +339,6 @@ def plot(rows, fits, path):
         plt.close(fig)
 
 
-def write_text(path, text):
-    from workflow.provenance import atomic_path
-    with atomic_path(path) as tmp:
-        tmp.write_text(text)
-
-
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
         self.exit(2, f"results.bench.scaling: {message} (see --help)\n")
@@ -373,7 +366,6 @@ def main(argv=None) -> int:
     if min(sizes) < 1:
         ap.error(f"--sizes must be >= 1, got {min(sizes)}")
     batch = args.batch_seconds if args.batch_seconds is not None else (0.01 if args.quick else 0.03)
-    from workflow.provenance import versions, write_json
     start = time.perf_counter()
     load0 = os.getloadavg()
     rows = []
