@@ -43,6 +43,8 @@ from solver.dynamics import checks as dc
 from solver.dynamics import integrators, linearized, multibody, scenes, simulate
 from solver.dynamics.problem import make_rhs
 from reduction import models
+from results.bench.oracle import Oracle, jax_available, synthetic_chain
+from workflow.provenance import versions, write_json
 
 CONSERVATION_MODEL = "freq-2"     # real bodies, 2 modes each: 1e5 RK4 steps in seconds
 ORDER_MODEL = "freq-2"
@@ -68,7 +70,6 @@ def rate_error(run, ref):
 # ----------------------------------------------------------------- the checks
 def oracle_checks(real_chain, real_chains=()):
     out = []
-    from results.bench.oracle import Oracle, jax_available, synthetic_chain
     chain, datas = synthetic_chain(seed=3, n_modes=(3, 2, 2, 2), damping_ratio=0.02)
     rng = np.random.default_rng(11)
     torque = np.array([0.3, -0.2, 0.1, 0.05])
@@ -322,7 +323,6 @@ def main(argv=None):
     ap.add_argument("--benchmark", required=True, help="output JSON of the truth-model timings")
     ap.add_argument("--repeats", type=int, default=5, help="runs per integrator (median)")
     args = ap.parse_args(argv)
-    from workflow.provenance import versions, write_json
     start = time.perf_counter()
     try:
         rankings = models.load_rankings(args.reduction_dir)

@@ -17,11 +17,12 @@ compiled RK4 loops.  Importing it raises ImportError when Numba is missing
 (``solver.dynamics.problem`` then falls back to the NumPy reference path).  Tests
 compare it with ``multibody`` to round-off.
 
-Calls from Python pass the packed chain as a *plain* tuple (``FastChain.arrays``) to
-small entry functions here, which rebuild the named tuple inside compiled code: Numba's
-dispatcher types a plain tuple of arrays from a cached fingerprint, a named tuple only
-through its Python ``typeof`` (measured ~2 us more per call, ~10 % of a truth-model
-evaluation).
+Calls from Python go through small entry functions here that take the chain's twelve
+arrays as separate arguments (``*fast_chain.data``) and build the named tuple inside
+compiled code: the only place where the flat argument list remains.  Handing Numba's
+dispatcher the tuple itself costs ~0.2 ms per call on the truth model (typing a tuple of
+many arrays falls off its fast path; measured 200-230 us for a plain or named tuple, and
+for ``*args``, against 2 us for twelve separate arrays), six times a whole evaluation.
 """
 
 import math
@@ -119,75 +120,82 @@ def case_arrays(case):
 
 
 # ------------------------------------------------------------------ entries from Python
-# Each takes the packed chain as the plain tuple ``data`` (module docstring: fast dispatch).
+# Each takes the packed chain's twelve arrays as separate arguments (``*chain.data``) and
+# builds the PackedChain inside (module docstring: dispatch cost).
 @numba.njit(**JIT)
-def _inverse_dynamics(y, yd, ydd, w1, dw1, data):
-    return recursion.inverse_dynamics(y, yd, ydd, w1, dw1, PackedChain(*data))[0]
+def _inverse_dynamics(y, yd, ydd, w1, dw1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return recursion.inverse_dynamics(y, yd, ydd, w1, dw1, ch)[0]
 
 
 @numba.njit(**JIT)
-def _solve_mass(y, r, dg, unit, data):
-    ch = PackedChain(*data)
+def _solve_mass(y, r, dg, unit, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
     zero = np.zeros(y.shape[0])
     _, fr, _ = recursion.inverse_dynamics(y, zero, zero, np.zeros(6), np.zeros(6), ch)
     return recursion.solve(r, dg, unit, ch, fr)
 
 
 @numba.njit(**JIT)
-def _accelerations(y, yd, w1, dw1, tau, data):
-    return recursion.accelerations(y, yd, w1, dw1, tau, PackedChain(*data))
+def _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return recursion.accelerations(y, yd, w1, dw1, tau, ch)
 
 
 @numba.njit(**JIT)
-def _rhs(t, y, yd, at_rest, case, w1, dw1, tau, data):
+def _rhs(t, y, yd, at_rest, case, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """y'' at t: the case twist (into w1, dw1; left alone if at_rest), then the accelerations."""
     if not at_rest:
         recursion.case_twist(t, case, w1, dw1)
-    return recursion.accelerations(y, yd, w1, dw1, tau, PackedChain(*data))
+    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return recursion.accelerations(y, yd, w1, dw1, tau, ch)
 
 
 @numba.njit(**JIT)
-def _kinetic_energy(y, yd, w1, data):
-    return recursion.kinetic_energy(y, yd, w1, PackedChain(*data))
+def _kinetic_energy(y, yd, w1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return recursion.kinetic_energy(y, yd, w1, ch)
 
 
 @numba.njit(**JIT)
-def _case_power(y, yd, w1, dw1, tau, data):
-    return recursion.case_power(y, yd, w1, dw1, tau, PackedChain(*data))
+def _case_power(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return recursion.case_power(y, yd, w1, dw1, tau, ch)
 
 
 @numba.njit(**JIT)
-def _rk4_run(y, yd, t0, h, n_steps, case, tau, data):
-    return rk4.rk4_run(y, yd, t0, h, n_steps, case, tau, PackedChain(*data))
+def _rk4_run(y, yd, t0, h, n_steps, case, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return rk4.rk4_run(y, yd, t0, h, n_steps, case, tau, ch)
 
 
 @numba.njit(**JIT)
-def _rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau, data):
-    return rk4.rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau,
-                             PackedChain(*data))
+def _rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau,
+                   D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
+    return rk4.rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau, ch)
 
 
 # ------------------------------------------------------------------ wrappers
 class FastChain:
     """The chain packed for the kernels, with the same functions as ``multibody``.
 
-    data: the ``PackedChain``; arrays: the same as a plain tuple (what the entries take)."""
+    data: the ``PackedChain``."""
 
     def __init__(self, chain):
         self.chain = chain
         self.data = pack(chain)
-        self.arrays = tuple(self.data)
 
     def inverse_dynamics(self, y, yd, ydd, w1, dw1):
         return _inverse_dynamics(np.asarray(y, float), np.asarray(yd, float), np.asarray(ydd, float),
-                                 w1, dw1, self.arrays)
+                                 w1, dw1, *self.data)
 
     def solve_mass(self, y, r, modal_diagonal=None):
         y = np.asarray(y, float)
         n = y.size
         unit = modal_diagonal is None
         dg = np.ones(n - 4) if unit else np.asarray(modal_diagonal, float)
-        return _solve_mass(y, np.asarray(r, float), dg, unit, self.arrays)
+        return _solve_mass(y, np.asarray(r, float), dg, unit, *self.data)
 
     def mass_matrix(self, y):
         """M(y) (n, n), symmetrised, column by column from the inverse dynamics at unit
@@ -196,29 +204,28 @@ class FastChain:
         from every column would cost ~5 digits of M."""
         y = np.asarray(y, float)
         n = y.size
-        data = tuple(self.data._replace(om2=np.zeros_like(self.data.om2),
-                                        cd=np.zeros_like(self.data.cd)))
+        data = self.data._replace(om2=np.zeros_like(self.data.om2), cd=np.zeros_like(self.data.cd))
         zero, z6 = np.zeros(n), np.zeros(6)
-        base = _inverse_dynamics(y, zero, zero, z6, z6, data)
+        base = _inverse_dynamics(y, zero, zero, z6, z6, *data)
         M = np.empty((n, n))
         e = np.zeros(n)
         for i in range(n):
             e[i] = 1.0
-            M[:, i] = _inverse_dynamics(y, zero, e, z6, z6, data) - base
+            M[:, i] = _inverse_dynamics(y, zero, e, z6, z6, *data) - base
             e[i] = 0.0
         return 0.5 * (M + M.T)
 
     def accelerations(self, y, yd, w1, dw1, tau):
-        return _accelerations(y, yd, w1, dw1, tau, self.arrays)
+        return _accelerations(y, yd, w1, dw1, tau, *self.data)
 
     def kinetic_energy(self, y, yd, w1):
         """T [in lbf] with the case twist w1 (6,)."""
-        return _kinetic_energy(np.asarray(y, float), np.asarray(yd, float), w1, self.arrays)
+        return _kinetic_energy(np.asarray(y, float), np.asarray(yd, float), w1, *self.data)
 
     def case_power_at(self, y, yd, w1, dw1, tau):
         """case_power at the accelerations of the equations (one compiled call)."""
         return float(_case_power(np.asarray(y, float), np.asarray(yd, float), w1, dw1,
-                                 np.asarray(tau, float), self.arrays))
+                                 np.asarray(tau, float), *self.data))
 
 
 class CompiledRhs:
@@ -238,13 +245,13 @@ class CompiledRhs:
         const_tau = None if callable(torque) else np.asarray(self.torque(0.0), float)
         self.has_rk4 = const_tau is not None
         self._tau = None if const_tau is None else np.ascontiguousarray(const_tau, dtype=float)
-        data, case_data, at_rest, tau_f = self.fast_chain.arrays, self._case, self.at_rest, self.torque
+        data, case_data, at_rest, tau_f = self.fast_chain.data, self._case, self.at_rest, self.torque
         w1 = np.zeros(6)
         dw1 = np.zeros(6)
 
         def rhs(t, y, yd):
             tau = const_tau if const_tau is not None else np.asarray(tau_f(t), float)
-            return _rhs(float(t), y, yd, at_rest, case_data, w1, dw1, tau, data)
+            return _rhs(float(t), y, yd, at_rest, case_data, w1, dw1, tau, *data)
         self.rhs = rhs
 
     def __call__(self, t, y, yd):
@@ -264,7 +271,7 @@ class CompiledRhs:
         """n compiled RK4 steps from (t0, y, y'); returns (y, y')."""
         self._constant_torque("the compiled RK4 loop")
         return _rk4_run(np.asarray(y, float), np.asarray(yd, float), float(t0), float(h), int(n),
-                        self._case, self._tau, self.fast_chain.arrays)
+                        self._case, self._tau, *self.fast_chain.data)
 
     def rk4_integrate(self, y0, yd0, t_out, h, n_sub, growth):
         """A whole RK4 run with outputs and energy watch (``kernels.rk4.rk4_integrate``):
@@ -272,7 +279,7 @@ class CompiledRhs:
         self._constant_torque("the compiled RK4 run")
         return _rk4_integrate(np.asarray(y0, float), np.asarray(yd0, float),
                               np.asarray(t_out, float), float(h), int(n_sub), float(growth),
-                              bool(self.at_rest), self._case, self._tau, self.fast_chain.arrays)
+                              bool(self.at_rest), self._case, self._tau, *self.fast_chain.data)
 
 
 def make_rhs(chain, case=None, torque=None):

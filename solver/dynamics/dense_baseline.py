@@ -68,15 +68,15 @@ def pack_dense(chain):
 
 
 @numba.njit(**_JIT)
-def _mass_factors(y, Jall, Pall, BtJ, data):
+def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """Fill Jall (24, n) (the four bodies' twist Jacobians J_k), Pall (24, n)
     (P_k = M_X J_k + B E_k) and BtJ (S, n) (rows of the modal coordinates, B_k^T J_k),
     so that M(y) = Jall^T Pall + [0; BtJ] + I_modal (module docstring).  The joint
     poses and maps are those of the structured solver's kinematics
     (``kernels.recursion.kinematics``: L = [R^T Psi; Lw Theta] on the parent's modes).
-    data: the packed chain as a plain tuple (``compiled.FastChain.arrays``)."""
-    ch = PackedChain(*data)
-    D, off, M6, V, M1, G = ch.D, ch.off, ch.M6, ch.V, ch.M1, ch.G
+    The chain's arrays come as separate arguments (``*pack_dense(chain)``): the dispatch of
+    a tuple of many arrays is slow (``solver.dynamics.compiled``)."""
+    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
     S = V.shape[1]
     n = 4 + S
     fr = recursion.new_frames(0)
@@ -151,7 +151,7 @@ def mass_matrix_composite(data, y, work=None):
     without one, into a new array."""
     y = np.ascontiguousarray(y, dtype=float)
     work = Workspace(y.size) if work is None else work
-    _mass_factors(y, work.Jall, work.Pall, work.BtJ, tuple(data))
+    _mass_factors(y, work.Jall, work.Pall, work.BtJ, *data)
     M = np.dot(work.Jall.T, work.Pall, out=work.M)     # the one O(n^2) product: BLAS dgemm
     M[4:] += work.BtJ
     idx = np.arange(4, y.size)
