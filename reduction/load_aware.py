@@ -64,7 +64,7 @@ import numpy as np
 from reduction import models
 from reduction.errors import ReductionError
 from solver.bodydata import BODIES
-from solver.dynamics import integrators, multibody, scenes, simulate
+from solver.dynamics import integrators, linearized, multibody, scenes, simulate
 from solver.dynamics.error_measure import error_measure
 from workflow.provenance import atomic_h5, read_h5_checked, versions
 N_JOINTS = 4
@@ -159,18 +159,20 @@ def check_model(model):
 
 
 # ------------------------------------------------------------ linear response
-def coupled_modes(M, K, n_free=N_JOINTS):
-    """Modes of the frozen chain: omega (n,) [rad/s] and V (n, n) with V^T M V = I,
-    V^T diag(K) V = diag(omega^2).  The first ``n_free`` (the free joints, K = 0)
-    have omega = 0 and no elastic components."""
-    import scipy.linalg
+def coupled_modes(M, K):
+    """Modes of the frozen chain with mass matrix M (n, n) and stiffness K (n,) (0 on the
+    joints): ``solver.dynamics.linearized.free_joint_modes`` (the joints eliminated by
+    their Schur complement), with the n_free = 4 joint columns put in front as zeros (omega
+    0, no motion), so that omega (n,) [rad/s] and V (n, n) keep the shapes of the full
+    pencil; the elastic columns satisfy V^T M V = I, V^T diag(K) V = diag(omega^2)."""
+    M = np.asarray(M, float)
     K = np.asarray(K, float)
-    lam, V = scipy.linalg.eigh(np.diag(K), np.asarray(M, float))
-    if K.size > n_free and lam[n_free] <= 1e-9 * lam[-1]:
-        raise LoadAwareError(f"linear model: more than {n_free} zero frequencies "
+    omega, shapes = linearized.free_joint_modes(M, K[N_JOINTS:])
+    if omega.size and omega[0] ** 2 <= 1e-9 * omega[-1] ** 2:
+        raise LoadAwareError(f"linear model: more than {N_JOINTS} zero frequencies "
                              f"(mass matrix not positive definite?)")
-    lam[:n_free] = 0.0
-    return np.sqrt(np.maximum(lam, 0.0)), V
+    n = M.shape[0]
+    return np.concatenate([np.zeros(N_JOINTS), omega]), np.hstack([np.zeros((n, N_JOINTS)), shapes])
 
 
 def _phi(a, order):
