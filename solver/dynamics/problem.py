@@ -54,19 +54,19 @@ class Problem:
         self.y0 = np.zeros(n) if y0 is None else np.asarray(y0, float)
         self.yd0 = np.zeros(n) if yd0 is None else np.asarray(yd0, float)
         rhs = make_rhs(chain, self.case, torque, fast=fast)
-        fast_rhs = rhs if compiled is not None and isinstance(rhs, compiled.CompiledRhs) else None
-        self.rhs = rhs if fast_rhs is None else fast_rhs.rhs     # (the plain function: cheaper per call)
+        compiled_rhs = rhs if compiled is not None and isinstance(rhs, compiled.CompiledRhs) else None
+        self.rhs = rhs if compiled_rhs is None else compiled_rhs.rhs     # (the plain function: cheaper per call)
         self.modal_omega_max = chain.omega_max            # largest kept modal frequency
         # the integrators' stability bound: the coupled chain's highest frequency
         self.omega_max = linearized.coupled_omega_max(chain, self.y0) if omega_max is None \
             else float(omega_max)
         self.stiffness_diagonal = chain.stiffness_diagonal()
         self.damping_diagonal = chain.damping_diagonal()
-        self._fast = None if fast_rhs is None else fast_rhs.fast_chain      # compiled kernels
-        self._twist = self.case.twist if fast_rhs is None else fast_rhs.case_twist
-        has_rk4 = fast_rhs is not None and fast_rhs.has_rk4
-        self.rk4_steps = fast_rhs.rk4_steps if has_rk4 else None
-        self.rk4_run = fast_rhs.rk4_integrate if has_rk4 else None
+        self._fast = None if compiled_rhs is None else compiled_rhs.fast_chain      # compiled kernels
+        self._twist = self.case.twist if compiled_rhs is None else compiled_rhs.case_twist
+        has_rk4 = compiled_rhs is not None and compiled_rhs.has_rk4
+        self.rk4_steps = compiled_rhs.rk4_steps if has_rk4 else None
+        self.rk4_run = compiled_rhs.rk4_integrate if has_rk4 else None
 
     def tau(self, t):
         out = np.zeros(self.chain.n_coordinates)
