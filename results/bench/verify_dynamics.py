@@ -44,7 +44,7 @@ from solver.dynamics import integrators, linearized, multibody, scenes, simulate
 from solver.dynamics.problem import make_rhs
 from reduction import models
 from results.bench.oracle import Oracle, jax_available, synthetic_chain
-from workflow.provenance import versions, write_json
+from workflow.provenance import check_record, versions, write_json
 
 CONSERVATION_MODEL = "freq-2"     # real bodies, 2 modes each: 1e5 RK4 steps in seconds
 ORDER_MODEL = "freq-2"
@@ -53,13 +53,12 @@ DOP853_RTOL = 1.0e-10
 
 
 def _check(name, value, tolerance, passed=None, **details):
-    n, v, t, p = dc.check(name, value, tolerance, passed)
-    return {"name": n, "value": v, "tolerance": t, "passed": p, "details": details}
+    return check_record(str(name), value, tolerance, passed, details=details)
 
 
 def _from_tuple(res, **details):
-    n, v, t, p = res
-    return {"name": n, "value": v, "tolerance": t, "passed": p, "details": details}
+    """A record of solver.dynamics.checks with this run's details nested under 'details'."""
+    return {**res, "details": details}
 
 
 def rate_error(run, ref):

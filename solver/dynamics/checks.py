@@ -1,5 +1,6 @@
-"""Verification checks of the dynamics, each a pure function returning
-``(name, value, tolerance, passed)`` for results/verification/dynamics.json.
+"""Verification checks of the dynamics, each a pure function returning check records
+(``workflow.provenance.check_record``: {name, value, tolerance, passed}) for
+results/verification/dynamics.json.
 
 The tests (tests/test_dynamics*.py) call these on synthetic bodies; a later
 workflow stage calls the same functions on the real bodies.
@@ -10,15 +11,12 @@ import numpy as np
 from solver.dynamics.error_measure import error_measure  # thesis eq. 3.53, one definition
 from solver.dynamics import integrators, linearized, multibody
 from solver.dynamics.problem import Problem
+from workflow.provenance import check_record
 
 
 def check(name, value, tolerance, passed=None):
-    """(name, value, tolerance, passed) with passed = value <= tolerance unless given."""
-    value = float(value)
-    tolerance = float(tolerance)
-    if passed is None:
-        passed = bool(np.isfinite(value) and value <= tolerance)
-    return (str(name), value, tolerance, bool(passed))
+    """The check record {name, value, tolerance, passed}; passed = value <= tolerance unless given."""
+    return check_record(str(name), value, tolerance, passed)
 
 
 def relative_difference(a, b):

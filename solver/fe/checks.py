@@ -38,6 +38,7 @@ from geometry.mesh import mesh_from_config, mesh_from_inputs, mesh_size
 from solver.bodydata import read_body_file, rigid_modes
 from solver.fe import bearings, eigen, forms as fe, modes
 from workflow import config as cfgmod
+from workflow.provenance import check_record
 
 COMM = MPI.COMM_SELF
 
@@ -51,7 +52,8 @@ FV12_CONVERGED_THIN_HZ = np.array([1.622, 2.360, 2.922, 4.190, 4.190, 7.356])
 
 
 def _result(name: str, value: float, tolerance: float, passed: bool, **details) -> dict:
-    return {"name": name, "value": float(value), "tolerance": float(tolerance), "passed": bool(passed), **details}
+    """The FE checks' records: workflow.provenance.check_record with the verdict given."""
+    return check_record(name, value, tolerance, passed, **details)
 
 
 def free_free(mesh_path, params: dict, config: dict, count: int, reference_hz: float):

@@ -1,7 +1,7 @@
 """Verification of the chain dynamics on small synthetic bodies (no JAX needed).
 
 Each check is a pure function of solver.dynamics.checks returning
-(name, value, tolerance, passed); the tests assert them.
+check records {name, value, tolerance, passed}; the tests assert them.
 """
 
 import numpy as np
@@ -23,10 +23,10 @@ needs_numba = pytest.mark.skipif(not HAS_NUMBA, reason="numba not installed (wor
 
 
 def assert_checks(results):
-    if isinstance(results, tuple):
+    if isinstance(results, dict):
         results = [results]
-    for name, value, tol, passed in results:
-        assert passed, f"{name}: {value:.3e} (tolerance {tol:.1e})"
+    for r in results:
+        assert r["passed"], f"{r['name']}: {r['value']:.3e} (tolerance {r['tolerance']:.1e})"
 
 
 def free_state(chain, rates=(0.3, -0.2, 0.25, 0.15)):
