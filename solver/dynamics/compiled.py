@@ -143,10 +143,12 @@ def _accelerations(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1,
 
 
 @numba.njit(**JIT)
-def _rhs(t, y, yd, at_rest, case, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
-    """y'' at t: the case twist (into w1, dw1; left alone if at_rest), then the accelerations."""
+def _rhs(t, y, yd, at_rest, amp, omf, phase, om0, w1, dw1, tau,
+         D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """y'' at t: the case twist (into w1, dw1; left alone if at_rest), then the accelerations.
+    The case arrays come separately too (a tuple of them costs ~10 us to dispatch)."""
     if not at_rest:
-        recursion.case_twist(t, case, w1, dw1)
+        recursion.case_twist(t, (amp, omf, phase, om0), w1, dw1)
     ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
     return recursion.accelerations(y, yd, w1, dw1, tau, ch)
 
@@ -164,16 +166,17 @@ def _case_power(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C,
 
 
 @numba.njit(**JIT)
-def _rk4_run(y, yd, t0, h, n_steps, case, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+def _rk4_run(y, yd, t0, h, n_steps, amp, omf, phase, om0, tau,
+             D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-    return rk4.rk4_run(y, yd, t0, h, n_steps, case, tau, ch)
+    return rk4.rk4_run(y, yd, t0, h, n_steps, (amp, omf, phase, om0), tau, ch)
 
 
 @numba.njit(**JIT)
-def _rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau,
+def _rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, amp, omf, phase, om0, tau,
                    D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-    return rk4.rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau, ch)
+    return rk4.rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, (amp, omf, phase, om0), tau, ch)
 
 
 # ------------------------------------------------------------------ wrappers
@@ -251,7 +254,7 @@ class CompiledRhs:
 
         def rhs(t, y, yd):
             tau = const_tau if const_tau is not None else np.asarray(tau_f(t), float)
-            return _rhs(float(t), y, yd, at_rest, case_data, w1, dw1, tau, *data)
+            return _rhs(float(t), y, yd, at_rest, *case_data, w1, dw1, tau, *data)
         self.rhs = rhs
 
     def __call__(self, t, y, yd):
@@ -271,7 +274,7 @@ class CompiledRhs:
         """n compiled RK4 steps from (t0, y, y'); returns (y, y')."""
         self._constant_torque("the compiled RK4 loop")
         return _rk4_run(np.asarray(y, float), np.asarray(yd, float), float(t0), float(h), int(n),
-                        self._case, self._tau, *self.fast_chain.data)
+                        *self._case, self._tau, *self.fast_chain.data)
 
     def rk4_integrate(self, y0, yd0, t_out, h, n_sub, growth):
         """A whole RK4 run with outputs and energy watch (``kernels.rk4.rk4_integrate``):
@@ -279,7 +282,7 @@ class CompiledRhs:
         self._constant_torque("the compiled RK4 run")
         return _rk4_integrate(np.asarray(y0, float), np.asarray(yd0, float),
                               np.asarray(t_out, float), float(h), int(n_sub), float(growth),
-                              bool(self.at_rest), self._case, self._tau, *self.fast_chain.data)
+                              bool(self.at_rest), *self._case, self._tau, *self.fast_chain.data)
 
 
 def make_rhs(chain, case=None, torque=None):
