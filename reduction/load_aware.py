@@ -1,7 +1,7 @@
 """Load-aware mode selection: rank the modes by what the scene's loads make them do.
 
-    python -m reduction.load_aware --scene thesis --modes-dir results/modes \\
-        --reduction-dir results/reduction --out results/reduction/load/thesis.h5
+    python -m reduction.load_aware --scene thesis --bodies results/modes/body{2,3,4,5}.h5 \\
+        --reductions results/reduction/body{2,3,4,5}.h5 --out results/reduction/load/thesis.h5
 
 The thesis closes with "it is advantageous to take into account the given
 conditions applied to the system when reducing the model" and proposes (Section
@@ -686,9 +686,10 @@ def main(argv=None):
                  description="Load-aware ranking of every body's modes for one scene, pooled and "
                              "per body, with a-priori eq. 3.53 error estimates (docs/selection.md).")
     ap.add_argument("--scene", required=True, help="scene name (config/scenes/NAME.yaml) or path")
-    ap.add_argument("--modes-dir", default="results/modes", help="body files body{2..5}.h5")
-    ap.add_argument("--reduction-dir", default="results/reduction",
-                    help="reduction files body{2..5}.h5 (frequency/XMX/XMGMX rankings)")
+    ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE",
+                    help="the modal stage's body files of bodies 2, 3, 4, 5")
+    ap.add_argument("--reductions", nargs=4, required=True, metavar="REDUCTION_FILE",
+                    help="the reduction stage's files of bodies 2..5 (frequency/XMX/XMGMX rankings)")
     ap.add_argument("--out", required=True, help="ranking file, e.g. results/reduction/load/thesis.h5")
     ap.add_argument("--pool", type=int, default=DEFAULT_POOL,
                     help=f"modes ranked by backward elimination (default {DEFAULT_POOL})")
@@ -713,11 +714,11 @@ def main(argv=None):
         if not 0.0 <= args.drop_fraction < 1.0:
             raise LoadAwareError(f"--drop-fraction must lie in [0, 1), got {args.drop_fraction}")
         scene = scenes.load_scene(args.scene)
-        body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))
-                     for b in BODIES}
-        rankings = models.load_rankings(args.reduction_dir)
+        body_data = {b: models.load_body_file(path) for b, path in zip(BODIES, args.bodies)}
+        reductions = dict(zip(BODIES, args.reductions))
+        rankings = models.read_rankings(reductions)
         for b in BODIES:
-            path = os.path.join(args.reduction_dir, f"body{b}.h5")
+            path = reductions[b]
             with h5py.File(path, "r") as f:
                 if "rho_xmx" in f:
                     rankings[b]["rho_xmx"] = f["rho_xmx"][()]

@@ -2,7 +2,8 @@
 
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python -m results.bench.pareto --scene thesis \\
         --truth results/sim/thesis/truth.h5 --models freq-5 freq-10 xmx-10 static-8 \\
-        --repeats 5 --modes-dir results/modes --reduction-dir results/reduction \\
+        --repeats 5 --bodies results/modes/body{2,3,4,5}.h5 --reductions results/reduction/body{2,3,4,5}.h5 \\
+        --load-ranking results/reduction/load/thesis.h5 \\
         --out-csv results/benchmarks/pareto.csv --figure results/figures/bench/pareto.png [--quick]
 
 For every model (``reduction.models`` grammar, load-aware ``load-N`` / ``global-N``
@@ -192,17 +193,19 @@ def dense_comparison(prob, duration, dt, repeats, assembly="composite"):
             "deviation": dev, "lu_fallbacks": dprob.rhs.stats["lu_fallbacks"], "_run": d}
 
 
-def load_models(names, scene, modes_dir, reduction_dir, load_ranking=None):
+def load_models(names, scene, body_files, reduction_files, load_ranking=None):
     """{name: (chain, problem, setup seconds)}; every name is parsed before anything is built
     (one-line ModelError for a bad one).  load-N / global-N models read the scene's
-    load-aware ranking (default <reduction_dir>/load/<scene>.h5, ``reduction.load_aware``)."""
-    rankings = models.load_rankings(reduction_dir)
+    load-aware ranking (``reduction.load_aware``).  body_files, reduction_files: {body: path}."""
+    rankings = models.read_rankings(reduction_files)
     load_aware = any(models.needs_load_ranking(n) for n in names)
     if load_aware:
-        load_ranking = load_ranking or os.path.join(reduction_dir, "load", f"{scene.name}.h5")
+        if load_ranking is None:
+            raise models.ModelError("load-N / global-N models need the scene's load-aware ranking "
+                                    "(--load-ranking)")
         models.load_load_ranking(load_ranking, rankings)
     specs = [models.parse_model(n, rankings) for n in names]
-    body_data = {b: models.load_body_file(os.path.join(modes_dir, f"body{b}.h5")) for b in models.BODIES}
+    body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
     if load_aware:
         models.check_load_ranking(load_ranking, rankings, body_data)   # same body files?
     out = {}
@@ -353,11 +356,12 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=5, help="timed runs per setting (median)")
     ap.add_argument("--budget", type=float, default=20.0,
                     help="seconds of timed runs per setting; slower settings get fewer repeats")
-    ap.add_argument("--modes-dir", default=os.path.join(ROOT, "results", "modes"))
-    ap.add_argument("--reduction-dir", default=os.path.join(ROOT, "results", "reduction"))
+    ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE",
+                    help="the modal stage's body files of bodies 2, 3, 4, 5")
+    ap.add_argument("--reductions", nargs=4, required=True, metavar="REDUCTION_FILE",
+                    help="the reduction stage's files of bodies 2..5 (frequency/XMX/XMGMX rankings)")
     ap.add_argument("--load-ranking", default=None,
-                    help="load-aware ranking for load-N / global-N models "
-                         "(default <reduction-dir>/load/<scene>.h5)")
+                    help="the scene's load-aware ranking, for load-N / global-N models")
     ap.add_argument("--out-csv", required=True)
     ap.add_argument("--figure", required=True, help="PNG path")
     ap.add_argument("--rk4-fractions", type=float, nargs="+", default=[1.0, 0.5])
@@ -396,7 +400,8 @@ def main(argv=None) -> int:
             raise ValueError(f"{args.truth} is a run of scene {ta['scene']!r}, not {scene.name!r}")
         names = list(dict.fromkeys(list(args.models) + ["truth"]))
         settings = default_settings(args.rk4_fractions, args.rtols, args.galpha_steps)
-        problems = load_models(names, scene, args.modes_dir, args.reduction_dir, args.load_ranking)
+        problems = load_models(names, scene, dict(zip(models.BODIES, args.bodies)),
+                               dict(zip(models.BODIES, args.reductions)), args.load_ranking)
     except (ValueError, FileNotFoundError, ErrorsInputError, models.ModelError) as exc:
         print(f"results.bench.pareto: error: {exc}", file=sys.stderr)
         return 2

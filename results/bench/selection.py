@@ -2,7 +2,7 @@
 
     python -m results.bench.selection --truth results/sim/thesis/truth.h5 \\
         --cases results/sim/thesis/*.h5 --ranking results/reduction/load/thesis.h5 \\
-        --reduction-dir results/reduction \\
+        --reductions results/reduction/body{2,3,4,5}.h5 \\
         --table results/tables/selection.csv --figure results/figures/bench/global_ranking.png
 
 For every simulated case: the measured eq. 3.53 error E_n of each gimbal rate
@@ -196,8 +196,8 @@ def main(argv=None) -> int:
     ap.add_argument("--truth", required=True, help="truth simulation file")
     ap.add_argument("--cases", nargs="+", required=True, help="simulation files of reduced models")
     ap.add_argument("--ranking", required=True, help="ranking file of reduction.load_aware")
-    ap.add_argument("--reduction-dir", default="results/reduction",
-                    help="reduction files (frequency/XMX/XMGMX rankings)")
+    ap.add_argument("--reductions", nargs=4, required=True, metavar="REDUCTION_FILE",
+                    help="the reduction stage's files of bodies 2..5 (frequency/XMX/XMGMX rankings)")
     ap.add_argument("--table", required=True, help="CSV output, e.g. results/tables/selection.csv")
     ap.add_argument("--figure", required=True,
                     help="PNG output (a PDF is written beside it), e.g. "
@@ -205,7 +205,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     try:
         ranking = read_ranking(args.ranking)
-        rankings = models.load_rankings(args.reduction_dir)
+        rankings = models.read_rankings(dict(zip(models.BODIES, args.reductions)))
         models.load_load_ranking(args.ranking, rankings)
         truth = read_sim(args.truth)
         if ranking["scene"] and truth["attrs"].get("scene") not in (None, ranking["scene"]):

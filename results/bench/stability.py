@@ -1,7 +1,7 @@
 """Numerical stability stress tests of the gimbal-chain integrators (issue 6, "Fast and stable").
 
-    MPLBACKEND=Agg .venv/bin/python -m results.bench.stability --modes-dir results/modes \\
-        --reduction-dir results/reduction --out-dir results/stability \\
+    MPLBACKEND=Agg .venv/bin/python -m results.bench.stability --bodies results/modes/body{2,3,4,5}.h5 \\
+        --reductions results/reduction/body{2,3,4,5}.h5 --out-dir results/stability \\
         --figures-dir results/figures/stability [--quick]
 
 Three parts (method and measured numbers: docs/stability.md):
@@ -83,16 +83,16 @@ DRIFT_OPTIONS = {"rk4": {}, "dop853": {}, "generalized-alpha": {"step": 1e-3}}
 
 
 # ============================================================== the study (CLI)
-def load_inputs(modes_dir, reduction_dir):
-    """(rankings, body data, provenance of the inputs) with one-line errors for missing files."""
-    for d, what in ((modes_dir, "modes"), (reduction_dir, "reduction")):
+def load_inputs(body_files, reduction_files):
+    """(rankings, body data, provenance of the inputs) with one-line errors for missing files;
+    body_files, reduction_files: {body: path}."""
+    for files, what in ((body_files, "modes"), (reduction_files, "reduction")):
         for b in models.BODIES:
-            path = os.path.join(d, f"body{b}.h5")
-            if not os.path.exists(path):
-                raise FileNotFoundError(f"{path} missing (run the {what} stage first)")
-    rankings = models.load_rankings(reduction_dir)
-    data = {b: models.load_body_file(os.path.join(modes_dir, f"body{b}.h5")) for b in models.BODIES}
-    prov = {f"body{b}": {"path": os.path.join(modes_dir, f"body{b}.h5"),
+            if not os.path.exists(files[b]):
+                raise FileNotFoundError(f"{files[b]} missing (run the {what} stage first)")
+    rankings = models.read_rankings(reduction_files)
+    data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
+    prov = {f"body{b}": {"path": body_files[b],
                          "config_hash": str(data[b]["attrs"].get("config_hash", ""))}
             for b in models.BODIES}
     return rankings, data, prov
@@ -274,8 +274,10 @@ def main(argv=None):
     ap = _Parser(prog="python -m results.bench.stability",
                  description="Numerical stability stress tests of the integrators (issue 6; "
                              "docs/stability.md).")
-    ap.add_argument("--modes-dir", default=os.path.join(ROOT, "results", "modes"))
-    ap.add_argument("--reduction-dir", default=os.path.join(ROOT, "results", "reduction"))
+    ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE",
+                    help="the modal stage's body files of bodies 2, 3, 4, 5")
+    ap.add_argument("--reductions", nargs=4, required=True, metavar="REDUCTION_FILE",
+                    help="the reduction stage's files of bodies 2..5 (frequency/XMX/XMGMX rankings)")
     ap.add_argument("--out-dir", default=os.path.join(ROOT, "results", "stability"))
     ap.add_argument("--figures-dir", default=os.path.join(ROOT, "results", "figures", "stability"))
     ap.add_argument("--quick", action="store_true",
@@ -285,14 +287,15 @@ def main(argv=None):
     os.environ.setdefault("MPLBACKEND", "Agg")
     start = time.perf_counter()
     try:
-        rankings, data, inputs = load_inputs(args.modes_dir, args.reduction_dir)
+        rankings, data, inputs = load_inputs(dict(zip(models.BODIES, args.bodies)),
+                                             dict(zip(models.BODIES, args.reductions)))
         drift_scene = scenes.load_scene("free_10s")
     except (FileNotFoundError, ValueError) as exc:
         print(f"stability: {exc}", file=sys.stderr)
         return 2
     if args.quick:
         drift_scene = scene_variant(drift_scene, "free_10s (quick: 1 s)", duration=1.0)
-    log(f"{'quick' if args.quick else 'full'} run; inputs {args.modes_dir}, {args.reduction_dir}")
+    log(f"{'quick' if args.quick else 'full'} run; inputs {' '.join(args.bodies)} {' '.join(args.reductions)}")
 
     omega = 1000.0
     osc = oscillator_rk4_limit(omega)

@@ -1,6 +1,7 @@
 """Verification and benchmark of the dynamics stage on the real bodies.
 
-    python -m results.bench.verify_dynamics --modes-dir results/modes --reduction-dir results/reduction \\
+    python -m results.bench.verify_dynamics --bodies results/modes/body{2,3,4,5}.h5 \\
+        --reductions results/reduction/body{2,3,4,5}.h5 \\
         --verification results/verification/dynamics.json --benchmark results/benchmarks/dynamics.json
 
 dynamics.json: every check as {name, value, tolerance, passed, details}:
@@ -184,14 +185,14 @@ def rigid_checks(body_data, rankings):
     return out
 
 
-def _reduce_and_simulate(args, modes_dir, reduction_dir, out_dir):
+def _reduce_and_simulate(args, body_files, reduction_files, out_dir):
     """The workflow's two jobs of one simulation (reduce, then simulate), in process:
     args = ["--scene", S, "--model", M, *simulate options]; the first non-zero status."""
     scene, model, options = args[1], args[3], args[4:]
     model_file = os.path.join(out_dir, "models", f"{model}.h5")
     rc = models.main(["--model", model, "--scene", scene,
-                      "--bodies", *[os.path.join(modes_dir, f"body{b}.h5") for b in models.BODIES],
-                      "--reductions", *[os.path.join(reduction_dir, f"body{b}.h5") for b in models.BODIES],
+                      "--bodies", *[body_files[b] for b in models.BODIES],
+                      "--reductions", *[reduction_files[b] for b in models.BODIES],
                       "--out", model_file])
     if rc:
         return rc
@@ -199,7 +200,7 @@ def _reduce_and_simulate(args, modes_dir, reduction_dir, out_dir):
                           "--out", os.path.join(out_dir, f"{model}.h5"), *options])
 
 
-def bad_input_checks(modes_dir, reduction_dir, out_dir):
+def bad_input_checks(body_files, reduction_files, out_dir):
     cases = {
         "unknown model": ["--scene", "thesis", "--model", "fraq-10"],
         "mode count above computed": ["--scene", "thesis", "--model", "freq-101"],
@@ -228,7 +229,7 @@ def bad_input_checks(modes_dir, reduction_dir, out_dir):
         err = io.StringIO()
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
             try:
-                rc = _reduce_and_simulate(args, modes_dir, reduction_dir, out_dir)
+                rc = _reduce_and_simulate(args, body_files, reduction_files, out_dir)
             except SystemExit as exc:          # argparse errors
                 rc = exc.code
         lines = err.getvalue().strip().splitlines()
@@ -316,17 +317,20 @@ def truth_runs(body_data, rankings, repeats):
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m results.bench.verify_dynamics",
                                  description="Verify the dynamics on the real bodies; benchmark the truth model.")
-    ap.add_argument("--modes-dir", required=True)
-    ap.add_argument("--reduction-dir", required=True)
+    ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE",
+                    help="the modal stage's body files of bodies 2, 3, 4, 5")
+    ap.add_argument("--reductions", nargs=4, required=True, metavar="REDUCTION_FILE",
+                    help="the reduction stage's files of bodies 2..5")
     ap.add_argument("--verification", required=True, help="output JSON of the checks")
     ap.add_argument("--benchmark", required=True, help="output JSON of the truth-model timings")
     ap.add_argument("--repeats", type=int, default=5, help="runs per integrator (median)")
     args = ap.parse_args(argv)
     start = time.perf_counter()
     try:
-        rankings = models.load_rankings(args.reduction_dir)
-        body_data = {b: models.load_body_file(os.path.join(args.modes_dir, f"body{b}.h5"))
-                     for b in models.BODIES}
+        body_files = dict(zip(models.BODIES, args.bodies))
+        reduction_files = dict(zip(models.BODIES, args.reductions))
+        rankings = models.read_rankings(reduction_files)
+        body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
     except (OSError, ValueError) as exc:
         print(f"verify_dynamics: {exc}", file=sys.stderr)
         return 2
@@ -346,7 +350,7 @@ def main(argv=None):
     checks.append(section("rk4 order", order_check, body_data, rankings))
     checks += section("rigid limits", rigid_checks, body_data, rankings)
     import tempfile
-    checks += section("bad input", bad_input_checks, args.modes_dir, args.reduction_dir, tempfile.mkdtemp())
+    checks += section("bad input", bad_input_checks, body_files, reduction_files, tempfile.mkdtemp())
     truth_checks, bench, info = section("truth", truth_runs, body_data, rankings, args.repeats)
     checks += truth_checks
     total = time.perf_counter() - start

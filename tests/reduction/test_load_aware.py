@@ -212,9 +212,9 @@ def synthetic(tmp_path_factory):
             f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
             f["rho_xmx"] = np.array([0.3, 0.5, 0.2, 0.9, 0.01, 0.05])
     out = root / "load" / "thesis.h5"
-    rc = la.main(["--scene", "thesis", "--modes-dir", str(root / "modes"), "--reduction-dir",
-                  str(root / "reduction"), "--out", str(out), "--pool", "24", "--curve", "6",
-                  "--drop-fraction", "0", "--quiet"])
+    rc = la.main(["--scene", "thesis", "--bodies", *[str(root / "modes" / f"body{b}.h5") for b in models.BODIES],
+                  "--reductions", *[str(root / "reduction" / f"body{b}.h5") for b in models.BODIES],
+                  "--out", str(out), "--pool", "24", "--curve", "6", "--drop-fraction", "0", "--quiet"])
     assert rc == 0
     return root, out
 
@@ -250,7 +250,8 @@ def test_estimate_predicts_simulated_error_on_synthetic_chain(synthetic, tmp_pat
         assert f.attrs["load_ranking"] == str(out) and list(f.attrs["n_modes"]) == [2, 2, 2, 2]
     rc = selection.main(["--truth", str(tmp_path / "thesis" / "freq-6.h5"), "--cases"] +
                         [str(tmp_path / "thesis" / f"{m}.h5") for m in ("load-2", "global-5", "freq-2")] +
-                        ["--ranking", str(out), "--reduction-dir", str(root / "reduction"),
+                        ["--ranking", str(out), "--reductions",
+                         *[str(root / "reduction" / f"body{b}.h5") for b in models.BODIES],
                          "--table", str(tmp_path / "sel.csv"), "--figure",
                          str(tmp_path / "fig" / "global_ranking.png")])
     assert rc == 0 and (tmp_path / "fig" / "global_ranking.png").stat().st_size > 1000
@@ -286,12 +287,13 @@ def test_simulate_refuses_ranking_of_other_bodies(synthetic, tmp_path, capsys):
 
 
 def test_cli_bad_input_is_one_line(tmp_path, capsys):
-    rc = la.main(["--scene", "nope", "--out", str(tmp_path / "x.h5"), "--quiet"])
+    files = ["--bodies", *[str(tmp_path / f"body{b}.h5") for b in models.BODIES],
+             "--reductions", *[str(tmp_path / f"red{b}.h5") for b in models.BODIES]]
+    rc = la.main(["--scene", "nope", "--out", str(tmp_path / "x.h5"), "--quiet", *files])
     assert rc == 2 and not (tmp_path / "x.h5").exists()
-    rc = la.main(["--scene", "thesis", "--modes-dir", str(tmp_path), "--out",
-                  str(tmp_path / "x.h5"), "--quiet"])
+    rc = la.main(["--scene", "thesis", "--out", str(tmp_path / "x.h5"), "--quiet", *files])
     assert rc == 2
-    rc = la.main(["--scene", "thesis", "--pool", "0", "--out", str(tmp_path / "x.h5"), "--quiet"])
+    rc = la.main(["--scene", "thesis", "--pool", "0", "--out", str(tmp_path / "x.h5"), "--quiet", *files])
     assert rc == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 3 and "unknown scene" in err[0] and "body file" in err[1]

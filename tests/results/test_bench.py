@@ -20,6 +20,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 REAL = {"truth": os.path.join(ROOT, "results", "sim", "thesis", "truth.h5"),
         "modes": os.path.join(ROOT, "results", "modes", "body5.h5"),
         "reduction": os.path.join(ROOT, "results", "reduction", "body5.h5")}
+REAL_FILES = ["--bodies", *[os.path.join(ROOT, "results", "modes", f"body{b}.h5") for b in (2, 3, 4, 5)],
+              "--reductions", *[os.path.join(ROOT, "results", "reduction", f"body{b}.h5") for b in (2, 3, 4, 5)]]
 needs_real = pytest.mark.skipif(not all(os.path.exists(p) for p in REAL.values()),
                                 reason="real body, reduction and truth files absent (snakemake dynamics)")
 
@@ -192,7 +194,7 @@ def test_pareto_cli_quick(tmp_path):
     csv_path, png = tmp_path / "pareto.csv", tmp_path / "pareto.png"
     rc = pareto.main(["--quick", "--truth", REAL["truth"], "--models", "freq-2", "--repeats", "2",
                       "--rk4-fractions", "1", "--rtols", "1e-6", "--galpha-steps", "1e-5",
-                      "--out-csv", str(csv_path), "--figure", str(png)])
+                      "--out-csv", str(csv_path), "--figure", str(png), *REAL_FILES])
     assert rc == 0 and png.stat().st_size > 0
     rows = list(csv.DictReader(csv_path.open()))
     assert {(r["model"], r["integrator"], r["solver"]) for r in rows} == {
@@ -217,14 +219,14 @@ def test_pareto_cli_quick(tmp_path):
 @needs_real
 def test_pareto_cli_bad_model(tmp_path, capsys):
     rc = pareto.main(["--quick", "--truth", REAL["truth"], "--models", "freq-x",
-                      "--out-csv", str(tmp_path / "p.csv"), "--figure", str(tmp_path / "p.png")])
+                      "--out-csv", str(tmp_path / "p.csv"), "--figure", str(tmp_path / "p.png"), *REAL_FILES])
     assert rc == 2 and "freq-x" in capsys.readouterr().err
     assert not (tmp_path / "p.csv").exists()
 
 
 def test_pareto_cli_missing_truth(tmp_path, capsys):
     rc = pareto.main(["--truth", str(tmp_path / "none.h5"), "--out-csv", str(tmp_path / "p.csv"),
-                      "--figure", str(tmp_path / "p.png")])
+                      "--figure", str(tmp_path / "p.png"), *REAL_FILES])
     err = capsys.readouterr().err
     assert rc == 2 and "none.h5" in err and err.count("\n") == 1
 

@@ -227,7 +227,8 @@ def test_stress_scenes_load_and_variants_are_validated():
 
 
 def test_cli_missing_inputs_one_line(tmp_path, capsys):
-    rc = stability.main(["--modes-dir", str(tmp_path), "--reduction-dir", str(tmp_path),
+    rc = stability.main(["--bodies", *[str(tmp_path / f"body{b}.h5") for b in (2, 3, 4, 5)],
+                         "--reductions", *[str(tmp_path / f"red{b}.h5") for b in (2, 3, 4, 5)],
                   "--out-dir", str(tmp_path / "out"), "--figures-dir", str(tmp_path / "fig")])
     assert rc == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -14,8 +14,8 @@ SELECTION_MODELS = (["rigid"] + [f"{f}-{n}" for f in ("freq", "xmx", "xmgmx") fo
 rule stability:
     input:
         "config/scenes/free_10s.yaml",
-        expand("results/modes/body{n}.h5", n=BODIES),
-        expand("results/reduction/body{n}.h5", n=BODIES),
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
     output:
         json="results/stability/stability.json",
     params:
@@ -25,8 +25,8 @@ rule stability:
     benchmark:
         "results/benchmarks/rules/bench/stability.tsv"
     shell:
-        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.stability --modes-dir results/modes "
-        "--reduction-dir results/reduction --out-dir results/stability "
+        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.stability --bodies {input.bodies} "
+        "--reductions {input.reductions} --out-dir results/stability "
         "--figures-dir results/figures/stability > {log} 2>&1"
 
 
@@ -51,9 +51,9 @@ rule scaling:
 
 rule pareto:
     input:
-        expand("results/modes/body{n}.h5", n=BODIES),
-        expand("results/reduction/body{n}.h5", n=BODIES),
-        "results/reduction/load/thesis.h5",
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        load_ranking="results/reduction/load/thesis.h5",
         truth="results/sim/thesis/truth.h5",
     output:
         csv="results/benchmarks/pareto.csv",
@@ -71,13 +71,14 @@ rule pareto:
     threads: 2
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.pareto --scene thesis --truth {input.truth} "
-        "--models {params.models} --repeats 5 --budget 600 --modes-dir results/modes --reduction-dir results/reduction "
+        "--models {params.models} --repeats 5 --budget 600 --bodies {input.bodies} --reductions {input.reductions} "
+        "--load-ranking {input.load_ranking} "
         "--out-csv {output.csv} --figure {output.figure} > {log} 2>&1"
 
 
 rule selection:
     input:
-        expand("results/reduction/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         truth="results/sim/thesis/truth.h5",
         ranking="results/reduction/load/thesis.h5",
         cases=expand("results/sim/thesis/{model}.h5", model=SELECTION_MODELS),
@@ -92,7 +93,7 @@ rule selection:
         "results/benchmarks/rules/bench/selection.tsv"
     shell:
         "MPLBACKEND=Agg {PY} -m results.bench.selection --truth {input.truth} --cases {input.cases} "
-        "--ranking {input.ranking} --reduction-dir results/reduction --table {output.table} "
+        "--ranking {input.ranking} --reductions {input.reductions} --table {output.table} "
         "--figure {output.figure} > {log} 2>&1"
 
 

@@ -6,20 +6,21 @@ def scene_physics_hash(wildcards):
 
 rule load_ranking:
     input:
-        "config/scenes/{scene}.yaml",
-        expand("results/modes/body{n}.h5", n=BODIES),
-        expand("results/reduction/body{n}.h5", n=BODIES),
+        scene="config/scenes/{scene}.yaml",
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
     output:
         "results/reduction/load/{scene}.h5",
     params:
         code=code_hash("reduction.load_aware"),
+        scene=scene_file,
     log:
         "logs/reduction/load_{scene}.log",
     benchmark:
         "results/benchmarks/rules/load_ranking_{scene}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m reduction.load_aware --scene {wildcards.scene} --modes-dir results/modes "
-        "--reduction-dir results/reduction --out {output} > {log} 2>&1"
+        "OMP_NUM_THREADS=1 {PY} -m reduction.load_aware --scene {params.scene} --bodies {input.bodies} "
+        "--reductions {input.reductions} --out {output} > {log} 2>&1"
 
 
 rule simulate:
@@ -44,8 +45,8 @@ rule simulate:
 
 rule dynamics_verification:
     input:
-        expand("results/modes/body{n}.h5", n=BODIES),
-        expand("results/reduction/body{n}.h5", n=BODIES),
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
     output:
         verification="results/verification/dynamics.json",
         benchmark="results/benchmarks/dynamics.json",
@@ -59,8 +60,8 @@ rule dynamics_verification:
     # (BLAS still pinned to one thread, as everywhere)
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.verify_dynamics --modes-dir results/modes "
-        "--reduction-dir results/reduction --verification {output.verification} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.verify_dynamics --bodies {input.bodies} "
+        "--reductions {input.reductions} --verification {output.verification} "
         "--benchmark {output.benchmark} > {log} 2>&1"
 
 
