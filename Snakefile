@@ -21,8 +21,8 @@ include: "workflow/rules/verification.smk"
 include: "workflow/rules/reduction.smk"
 include: "workflow/rules/models.smk"
 include: "workflow/rules/dynamics.smk"
-include: "workflow/rules/results.smk"
 include: "workflow/rules/bench.smk"
+include: "workflow/rules/results.smk"
 
 
 rule all:

@@ -56,31 +56,34 @@ DEFAULTS = {
     "ranking_table": "results/tables/errors_ranking.csv",
     "static_table": "results/tables/errors_static.csv",
     "findings": "results/tables/findings.json",
-    "figures_dir": "results/figures/study",
+    "figures": "results/figures/study/figures.json",
     "fe": "results/verification/fe.json",
     "modes_benchmark": "results/benchmarks/modes.json",
     "reduction": "results/verification/reduction.json",
     "truth": "results/sim/thesis/truth.h5",
     "config": "config/config.yaml",
     "scene": "config/scenes/thesis.yaml",
-    "mode_shapes_dir": "results/figures",
     "stability": "results/stability/stability.json",
     "pareto": "results/benchmarks/pareto.csv",
     "scaling": "results/benchmarks/scaling.json",
     "selection": "results/tables/selection.csv",
-    "bench_figures_dir": "results/figures",
     "out": "results/report/report.pdf",
 }
 MAKES = {"ranking_table": "python -m results.study.tables", "static_table": "python -m results.study.tables",
-         "findings": "python -m results.study.findings", "figures_dir": "python -m results.study.figures",
+         "findings": "python -m results.study.findings", "figures": "python -m results.study.figures",
          "fe": "snakemake verify_fe", "modes_benchmark": "snakemake modes",
          "reduction": "python -m reduction.report", "truth": "python -m solver.dynamics.simulate --model truth",
          "config": "the project's config", "scene": "the scene file",
-         "mode_shapes_dir": "python -m results.study.mode_shapes",
          "stability": "snakemake stability", "pareto": "snakemake pareto",
-         "scaling": "snakemake scaling", "selection": "snakemake selection",
-         "bench_figures_dir": "snakemake bench"}
-# Figures of the performance section: (key, file under bench_figures_dir, caption)
+         "scaling": "snakemake scaling", "selection": "snakemake selection"}
+# Lists of files (the rule hands over each file, never a folder)
+LIST_DEFAULTS = {
+    "mode_shapes": [f"results/figures/mode_shapes_body{b}.png" for b in (2, 3, 4, 5)],
+    "bench_figures": ["results/figures/bench/pareto.png", "results/figures/bench/scaling.png",
+                      "results/figures/bench/global_ranking.png", "results/figures/stability/rk4_limit.png",
+                      "results/figures/stability/energy_drift.png"],
+}
+# Figures of the performance section: (key, the end of its path, caption)
 BENCH_FIGURES = (
     ("pareto", "bench/pareto.png", "Wall time (median of repeated runs) against the error E of eq. 3.53 "
      "with respect to the converged truth, for every reduced model and integrator; the line is the "
@@ -131,6 +134,7 @@ def gather(paths: dict) -> dict:
     """Everything the report shows, from the input files (keys of DEFAULTS); each input that
     is missing or unreadable is recorded in ``missing`` ({key: reason}) and left None."""
     p = {k: _abs(paths.get(k) or v) for k, v in DEFAULTS.items()}
+    p.update({k: [_abs(f) for f in (paths.get(k) or v)] for k, v in LIST_DEFAULTS.items()})
     ctx = {"paths": p, "missing": {}, "status": {}}
 
     def load(key, reader):
@@ -163,22 +167,21 @@ def gather(paths: dict) -> dict:
     else:
         ctx["findings"] = findings.evaluate(ctx["ranking_rows"], ctx["static_rows"], ctx["reduction"])
         ctx["findings_source"] = "computed"
-    manifest = load("figures_dir", lambda d: _json(os.path.join(d, "figures.json")))
+    manifest = load("figures", _json)
     figs = []
     for e in (manifest or {}).get("figures", []):
-        pdf = os.path.join(p["figures_dir"], e["pdf"])
+        pdf = os.path.join(os.path.dirname(p["figures"]), e["pdf"])
         if os.path.exists(pdf):
             figs.append({**e, "pdf": pdf})
     ctx["figures"] = figs
-    ctx["mode_shapes"] = [f for f in (os.path.join(p["mode_shapes_dir"], f"mode_shapes_body{b}.png")
-                                      for b in BODIES) if os.path.exists(f)]
+    ctx["mode_shapes"] = [f for f in p["mode_shapes"] if os.path.exists(f)]
     ctx["stability"] = load("stability", _json)
     ctx["pareto_rows"] = load("pareto", _csv_rows) or []
     ctx["scaling"] = load("scaling", _json)
     ctx["selection_rows"] = load("selection", _csv_rows) or []
-    ctx["bench_figures"] = [(key, os.path.join(p["bench_figures_dir"], rel), cap)
-                            for key, rel, cap in BENCH_FIGURES
-                            if os.path.exists(os.path.join(p["bench_figures_dir"], rel))]
+    ctx["bench_figures"] = [(key, path, cap) for key, rel, cap in BENCH_FIGURES
+                            for path in p["bench_figures"]
+                            if path.endswith(os.sep + rel) and os.path.exists(path)]
     ctx["versions"] = _versions()
     ctx["date"] = time.strftime("%Y-%m-%d %H:%M:%S %Z")
     return ctx
@@ -361,8 +364,8 @@ def _model_section(ctx, root):
                    f"shapes of the bodies ({s(', '.join(os.path.basename(p) for p in ctx['mode_shapes']))}"
                    f"; displacement exaggerated).]) <fig-mode-shapes>\n\n")
     else:
-        out.append(note(f"mode-shape plots {s(os.path.relpath(ctx['paths']['mode_shapes_dir'], ROOT))}"
-                        f"/mode_shapes_body{{2..5}}.png missing (made by python -m results.study.mode_shapes)"))
+        out.append(note(f"mode-shape plots {s(', '.join(os.path.relpath(f, ROOT) for f in ctx['paths']['mode_shapes']))} "
+                        f"missing (made by python -m results.study.mode_shapes)"))
     return "".join(out)
 
 
@@ -491,7 +494,7 @@ def _results_section(ctx, root):
         for f in err_figs:
             out.append(figure(f["pdf"], s(f["caption"]), root, label=f"fig-{f['id']}"))
     else:
-        out.append(note(ctx["missing"].get("figures_dir", "no error figures in the figure manifest")))
+        out.append(note(ctx["missing"].get("figures", "no error figures in the figure manifest")))
     rate_figs = [f for f in figs if f["kind"] == "rates"]
     out.append("== Gimbal rates of every case\n\n")
     if rate_figs:
@@ -500,7 +503,7 @@ def _results_section(ctx, root):
         for f in rate_figs:
             out.append(figure(f["pdf"], s(f["caption"]), root, width="92%"))
     else:
-        out.append(note(ctx["missing"].get("figures_dir", "no rate figures in the figure manifest "
+        out.append(note(ctx["missing"].get("figures", "no rate figures in the figure manifest "
                                                           "(simulation files missing)")))
     return "".join(out)
 
@@ -692,8 +695,11 @@ def main(argv=None) -> int:
                                      description="Typeset the study's PDF report with Typst.")
     for key, default in DEFAULTS.items():
         parser.add_argument("--" + key.replace("_", "-"), default=default, help=f"(default {default})")
+    for key, default in LIST_DEFAULTS.items():
+        parser.add_argument("--" + key.replace("_", "-"), nargs="*", default=default,
+                            help=f"files (default {' '.join(default)})")
     args = parser.parse_args(argv)
-    paths = {k: getattr(args, k) for k in DEFAULTS}
+    paths = {k: getattr(args, k) for k in (*DEFAULTS, *LIST_DEFAULTS)}
     ctx = gather(paths)
     out = _abs(args.out)
     root = report_root(ctx, out)

@@ -92,7 +92,7 @@ def test_report_pdf_has_sections_tables_and_figures(study_outputs, tmp_path):
     out = tmp_path / "report" / "report.pdf"
     so = study_outputs
     code = report.main(["--ranking-table", str(so["ranking"]), "--static-table", str(so["static"]),
-                        "--findings", str(so["findings"]), "--figures-dir", str(so["figures"]),
+                        "--findings", str(so["findings"]), "--figures", str(so["figures"] / "figures.json"),
                         "--truth", so["truth"], "--out", str(out)])
     assert code == 0 and out.read_bytes()[:5] == b"%PDF-"
     assert (tmp_path / "report" / "report.typ").exists()

@@ -18,6 +18,8 @@ rule stability:
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
     output:
         json="results/stability/stability.json",
+        rk4_limit="results/figures/stability/rk4_limit.png",
+        drift="results/figures/stability/energy_drift.png",
     params:
         code=code_hash("results.bench.stability"),
     log:
@@ -27,7 +29,7 @@ rule stability:
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.stability --bodies {input.bodies} "
         "--reductions {input.reductions} --out-dir results/stability "
-        "--figures-dir results/figures/stability > {log} 2>&1"
+        "--figures-dir $(dirname {output.rk4_limit}) > {log} 2>&1"
 
 
 rule scaling:

@@ -69,8 +69,8 @@ rule study_figures:
 
 rule report:
     input:
-        "config/scenes/thesis.yaml",
-        rules.mode_shapes.input,
+        scene="config/scenes/thesis.yaml",
+        mode_shapes=rules.mode_shapes.input,
         truth=TRUTH,
         ranking="results/tables/errors_ranking.csv",
         static="results/tables/errors_static.csv",
@@ -83,8 +83,8 @@ rule report:
         pareto="results/benchmarks/pareto.csv",
         scaling="results/benchmarks/scaling.json",
         selection="results/tables/selection.csv",
-        bench_figures=["results/figures/bench/pareto.png", "results/figures/bench/scaling.png",
-                       "results/figures/bench/global_ranking.png"],
+        bench_figures=[rules.pareto.output.figure, rules.scaling.output.figure, rules.selection.output.figure,
+                       rules.stability.output.rk4_limit, rules.stability.output.drift],
     output:
         "results/report/report.pdf",
     params:
@@ -96,9 +96,9 @@ rule report:
         "results/benchmarks/rules/report.tsv"
     shell:
         "{PY} -m results.study.report --ranking-table {input.ranking} --static-table {input.static} "
-        "--findings {input.findings} --figures-dir results/figures/study --fe {input.fe} "
+        "--findings {input.findings} --figures {input.figures} --fe {input.fe} "
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
-        "--config {CONFIG} --scene config/scenes/thesis.yaml --mode-shapes-dir results/figures "
+        "--config {CONFIG} --scene {input.scene} --mode-shapes {input.mode_shapes} "
         "--stability {input.stability} --pareto {input.pareto} --scaling {input.scaling} "
-        "--selection {input.selection} --bench-figures-dir results/figures "
+        "--selection {input.selection} --bench-figures {input.bench_figures} "
         "--out {output} > {log} 2>&1"
