@@ -8,8 +8,8 @@ import os
 import pytest
 
 from reduction import models
+from results.bench.verify_dynamics import reduce_and_simulate
 from solver.bodydata import BODIES
-from solver.dynamics import simulate
 
 # The real body files of the workflow (FE and reduction stages), for the tests that use
 # them; those tests skip in a clean clone, before `make all` has run.
@@ -36,15 +36,8 @@ def run_model(scene, model, modes_dir, reduction_dir, out_dir, options=(), load_
     solver.dynamics.simulate, into out_dir/SCENE/MODEL.h5).  Returns the exit status of the
     first job that fails, or 0."""
     stem = os.path.splitext(os.path.basename(scene))[0]
-    model_file = os.path.join(out_dir, "models", stem, f"{model}.h5")
-    args = ["--model", model, "--scene", scene,
-            "--bodies", *[os.path.join(modes_dir, f"body{b}.h5") for b in BODIES],
-            "--reductions", *[os.path.join(reduction_dir, f"body{b}.h5") for b in BODIES],
-            "--out", model_file]
-    if load_ranking is not None:
-        args += ["--load-ranking", str(load_ranking)]
-    rc = models.main(args)
-    if rc:
-        return rc
-    return simulate.main(["--scene", scene, "--model-file", model_file,
-                          "--out", os.path.join(out_dir, stem, f"{model}.h5"), *options])
+    return reduce_and_simulate(
+        model, scene, {b: os.path.join(modes_dir, f"body{b}.h5") for b in BODIES},
+        {b: os.path.join(reduction_dir, f"body{b}.h5") for b in BODIES},
+        os.path.join(out_dir, "models", stem, f"{model}.h5"), os.path.join(out_dir, stem, f"{model}.h5"),
+        options, load_ranking)

@@ -185,19 +185,31 @@ def rigid_checks(body_data, rankings):
     return out
 
 
+def reduce_and_simulate(model, scene, body_files, reduction_files, model_out, sim_out, options=(),
+                        load_ranking=None):
+    """The workflow's two jobs of one simulation, in process (tests, verification): reduce
+    (``reduction.models.main``: body files {body: path}, reduction files {body: path} -> model_out), then
+    simulate (``solver.dynamics.simulate.main``: model_out -> sim_out, with ``options``).
+    Returns the exit status of the first job that fails, or 0."""
+    args = ["--model", model, "--scene", str(scene),
+            "--bodies", *[str(body_files[b]) for b in models.BODIES],
+            "--reductions", *[str(reduction_files[b]) for b in models.BODIES], "--out", str(model_out)]
+    if load_ranking is not None:
+        args += ["--load-ranking", str(load_ranking)]
+    rc = models.main(args)
+    if rc:
+        return rc
+    return simulate.main(["--scene", str(scene), "--model-file", str(model_out), "--out", str(sim_out),
+                          *options])
+
+
 def _reduce_and_simulate(args, body_files, reduction_files, out_dir):
     """The workflow's two jobs of one simulation (reduce, then simulate), in process:
     args = ["--scene", S, "--model", M, *simulate options]; the first non-zero status."""
     scene, model, options = args[1], args[3], args[4:]
-    model_file = os.path.join(out_dir, "models", f"{model}.h5")
-    rc = models.main(["--model", model, "--scene", scene,
-                      "--bodies", *[body_files[b] for b in models.BODIES],
-                      "--reductions", *[reduction_files[b] for b in models.BODIES],
-                      "--out", model_file])
-    if rc:
-        return rc
-    return simulate.main(["--scene", scene, "--model-file", model_file,
-                          "--out", os.path.join(out_dir, f"{model}.h5"), *options])
+    return reduce_and_simulate(model, scene, body_files, reduction_files,
+                               os.path.join(out_dir, "models", f"{model}.h5"),
+                               os.path.join(out_dir, f"{model}.h5"), options)
 
 
 def bad_input_checks(body_files, reduction_files, out_dir):

@@ -129,9 +129,12 @@ def main(argv=None):
     ap.add_argument("--rtol", type=float, default=1e-10, help="dop853 relative tolerance")
     ap.add_argument("--atol", type=float, default=1e-14, help="dop853 absolute tolerance")
     ap.add_argument("--store-modal", action="store_true", help="also store q(t), q'(t)")
-    args = ap.parse_args(argv)
-    if args.model_file is None and args.model is None:
-        ap.error("give --model-file FILE or --model NAME")
+    try:
+        args = ap.parse_args(argv)
+        if args.model_file is None and args.model is None:
+            ap.error("give --model-file FILE or --model NAME")
+    except SystemExit as exc:       # the one-line message is printed; in process, return the status
+        return exc.code
     stem = _scene_stem(args.scene)
     model_file = args.model_file or os.path.join(ROOT, "results", "models", stem, f"{args.model}.h5")
     try:
@@ -186,14 +189,17 @@ def main(argv=None):
 
 
 def _check_writable(path):
-    """ValueError (one line) before the integration if ``path``'s folder cannot be written."""
+    """ValueError (one line) before the integration if ``path`` could not be written: its
+    folder, or the nearest existing folder above it, must be writable.  Nothing is created
+    here (the folder appears only with the file, so a failed run leaves nothing behind)."""
     folder = os.path.dirname(os.path.abspath(path))
-    try:
-        os.makedirs(folder, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"cannot create the output folder {folder} ({exc.strerror})") from None
-    if not os.access(folder, os.W_OK):
-        raise ValueError(f"output folder {folder} is not writable")
+    existing = folder
+    while not os.path.isdir(existing):
+        if os.path.exists(existing):
+            raise ValueError(f"cannot create the output folder {folder}: {existing} is a file")
+        existing = os.path.dirname(existing)
+    if not os.access(existing, os.W_OK):
+        raise ValueError(f"output folder {existing} is not writable")
 
 
 if __name__ == "__main__":
