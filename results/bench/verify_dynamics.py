@@ -262,7 +262,7 @@ def truth_runs(body_data, rankings, repeats):
     prob = simulate.scene_problem(chain, scene)
     t_omega = time.perf_counter() - t0
     limit = integrators.rk4_stability_limit(prob.omega_max)
-    cfg = dict(simulate.TRUTH_DEFAULT)
+    cfg = dict(simulate.REFERENCE)
     go = lambda **kw: integrators.integrate(prob, scene.duration, scene.output_interval, **kw)
     # convergence of the default: its run, and the same integrator with every step at most
     # half the default's mean step (DOP853 is stability-limited here, its steps nearly uniform)

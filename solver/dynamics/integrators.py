@@ -1,7 +1,12 @@
 """Time integrators for M(y) y'' = f(y, y', t).
 
-Three methods, one interface (``integrate``):
+Four methods, one interface (``integrate``):
 
+* ``exponential``: the modal exponential integrator (``solver.dynamics.exponential``,
+  docs/exponential.md), the default.  The linearised chain's modes are solved in closed
+  form and only the slow remainder is stepped (exponential Adams PECE, error control
+  from ``tol``, re-linearisation as the gimbals turn), so its step is not bounded by
+  omega_max: ~30 steps for the thesis window where RK4 needs 1e5.
 * ``rk4``: the classical fixed-step fourth-order Runge-Kutta method, as the
   thesis used.  Explicit, so its step is bounded by the highest frequency
   of the chain: on the imaginary axis (undamped modes) RK4 is stable for
@@ -41,7 +46,7 @@ stops a run with DivergenceError naming the time, the model and the step.
 The integrators see a problem only through its interface (``solver.dynamics.problem``:
 rhs, residual, solve, energies, input_power, diagonals, y0, yd0, omega_max, and the
 optional compiled RK4 paths ``rk4_steps`` / ``rk4_run``, None when absent); they import
-no other module of the project.
+no other module of the project but ``solver.dynamics.exponential`` (and its ``linearized``).
 """
 
 import math
@@ -51,9 +56,17 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from solver.dynamics import exponential
+
 RK4_STABILITY = 2.785          # h * omega_max at RK4's stability limit (real-axis bound)
 RK4_DEFAULT_FRACTION = 0.5
-METHODS = ("rk4", "dop853", "generalized-alpha")
+METHODS = ("exponential", "rk4", "dop853", "generalized-alpha")
+# options that belong to one method only (``integrate`` refuses them with another)
+METHOD_OPTIONS = {"fraction": ("rk4",), "rtol": ("dop853",), "atol": ("dop853",),
+                  "max_step": ("dop853",), "rho_inf": ("generalized-alpha",),
+                  "tol": ("exponential",), "relinearise_every": ("exponential",),
+                  "drift": ("exponential",), "order": ("exponential",),
+                  "relinearise": ("exponential",)}
 
 
 class DivergenceError(RuntimeError):
@@ -186,14 +199,41 @@ class Monitor:
         return E
 
 
-def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None, rtol=1e-10,
-              atol=1e-14, rho_inf=0.9, newton_tol=1e-10, max_newton=12, growth_factor=1e3,
-              y0=None, yd0=None, model="", max_step=np.inf):
-    """Integrate ``problem`` (``solver.dynamics.problem.Problem``-like: rhs, residual, solve,
-    energy, input_power, y0, yd0, omega_max, rk4_steps, rk4_run) from t = 0 to t_end,
-    returning outputs every output_dt.  See the module docstring for the methods."""
+def check_options(method, step, options):
+    """ValueError (one line) on an unknown method or option, an option of another method, or
+    bad exponential options (``exponential.check_options``); None values count as not given.
+    Nothing is computed before this check."""
     if method not in METHODS:
         raise ValueError(f"unknown integrator {method!r}; known: {', '.join(METHODS)}")
+    options = {k: v for k, v in options.items() if v is not None}
+    for key in options:
+        if key not in METHOD_OPTIONS:
+            raise ValueError(f"unknown integrator option {key!r}; known: "
+                             f"{', '.join(sorted(METHOD_OPTIONS))}")
+        if method not in METHOD_OPTIONS[key]:
+            raise ValueError(f"option --{key.replace('_', '-')} belongs to "
+                             f"{METHOD_OPTIONS[key][0]}, not {method}")
+    if method == "exponential":
+        exponential.check_options(options.get("tol"), step, options.get("relinearise_every"),
+                                  options.get("order", exponential.DEFAULT_ORDER),
+                                  options.get("drift", exponential.DEFAULT_DRIFT))
+
+
+def integrate(problem, t_end, output_dt, method="rk4", step=None, growth_factor=1e3,
+              y0=None, yd0=None, model="", newton_tol=1e-10, max_newton=12, **options):
+    """Integrate ``problem`` (``solver.dynamics.problem.Problem``-like: rhs, residual, solve,
+    mass_matrix, energy, input_power, y0, yd0, omega_max, rk4_steps, rk4_run) from t = 0 to
+    t_end, returning outputs every output_dt.  See the module docstring for the methods.
+
+    Method options (``METHOD_OPTIONS``; an option of another method is refused): rk4
+    ``fraction``; dop853 ``rtol`` (1e-10), ``atol`` (1e-14), ``max_step``;
+    generalized-alpha ``rho_inf`` (0.9); exponential ``tol`` (``exponential.DEFAULT_TOL``
+    unless a ``step`` is given), ``relinearise_every`` [s] (fixed step only), ``drift``
+    [rad], ``order``, ``relinearise``.  An option given as None counts as not given."""
+    if method not in METHODS:
+        raise ValueError(f"unknown integrator {method!r}; known: {', '.join(METHODS)}")
+    options = {k: v for k, v in options.items() if v is not None}
+    check_options(method, step, options)
     if not (np.isfinite(t_end) and t_end >= 0):
         raise ValueError(f"duration must be finite and >= 0, got {t_end}")
     if not (np.isfinite(output_dt) and output_dt > 0):
@@ -209,18 +249,23 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, fraction=None,
     Y[0], V[0] = y, yd
     # the whole RK4 run compiled, energy watch included (compiled path, constant torques)
     whole_run = method == "rk4" and problem.rk4_run is not None
-    if not whole_run:
+    if not whole_run and not (method == "exponential" and step is None):
         monitor(0.0, y, yd, 0.0, method)
     start = time.perf_counter()
     out = _Outputs(t_out, dt_out, Y, V, monitor, method, model)
-    if method == "rk4":
-        h, steps, stats = _rk4(problem, out, step, fraction, growth_factor, whole_run)
+    if method == "exponential":
+        h, steps, stats = _exponential(problem, out, step, options)
+    elif method == "rk4":
+        h, steps, stats = _rk4(problem, out, step, options.get("fraction"), growth_factor, whole_run)
     elif method == "dop853":
-        h, steps, stats = _dop853(problem, out, step, rtol, atol, max_step)
+        h, steps, stats = _dop853(problem, out, step, options.get("rtol", 1e-10),
+                                  options.get("atol", 1e-14), options.get("max_step", np.inf))
     else:
-        h, steps, stats = _generalized_alpha(problem, out, step, rho_inf, newton_tol, max_newton)
+        h, steps, stats = _generalized_alpha(problem, out, step, options.get("rho_inf", 0.9),
+                                             newton_tol, max_newton)
     wall = time.perf_counter() - start
-    stats["energy_input"] = monitor.work
+    if monitor.history:
+        stats["energy_input"] = monitor.work
     hist = np.array(monitor.history)
     energy = {} if hist.shape[0] != t_out.size else {
         "kinetic": hist[:, 1], "potential": hist[:, 2], "power": hist[:, 3], "input_work": hist[:, 4]}
@@ -245,6 +290,29 @@ class _Outputs:
         """Watch sample k (``Monitor``), then keep it."""
         self.monitor(self.t[k], y, yd, h, self.method)
         self.Y[k], self.V[k] = y, yd
+
+
+def _exponential(problem, out, step, options):
+    """The modal exponential integrator (``exponential.ExponentialAdams``); (h, steps, stats),
+    h the largest step taken."""
+    integrator = exponential.ExponentialAdams(problem, step=step, model=out.model, **options)
+    # adaptive: the error control watches the run, the energy is not sampled (Run.energy
+    # stays empty; simulate.energy_history computes it afterwards); fixed step: the monitor
+    watch = step is not None
+
+    def on_outputs(ks, Y, V, h):
+        if watch:
+            for k, y, yd in zip(ks, Y, V):
+                out.store(k, y, yd, h)
+        else:
+            out.Y[ks], out.V[ks] = Y, V
+    st = integrator.run(out.t, out.Y[0], out.V[0], on_outputs)
+    return st.largest_step, st.steps, {
+        "tol": integrator.tol if integrator.tol is not None else np.nan,
+        "order": integrator.order, "drift": integrator.drift,
+        "evaluations": st.evaluations, "rejected": st.rejected,
+        "relinearisations": st.relinearisations, "basis_time_s": st.basis_time,
+        "smallest_step": st.smallest_step, "largest_step": st.largest_step}
 
 
 def _rk4(problem, out, step, fraction, growth_factor, whole_run):

@@ -3,8 +3,9 @@ state (``Problem``), and the choice between the compiled and the NumPy right-han
 (``make_rhs``).
 
 ``solver.dynamics.integrators`` works on this interface only: ``rhs``, ``residual``,
-``solve``, ``kinetic_energy``, ``potential_energy``, ``energy``, ``input_power``,
-``stiffness_diagonal``, ``damping_diagonal``, ``y0``, ``yd0``, ``omega_max``, and the two
+``solve``, ``mass_matrix``, ``kinetic_energy``, ``potential_energy``, ``energy``,
+``input_power``, ``stiffness_diagonal``, ``damping_diagonal``, ``y0``, ``yd0``, ``omega_max``
+(computed on first use), and the two
 optional compiled paths ``rk4_steps`` and ``rk4_run`` (None when there is none).
 """
 
@@ -12,7 +13,7 @@ import numpy as np
 
 from solver.dynamics import linearized
 from solver.dynamics.multibody import (CaseMotion, accelerations, case_power, inverse_dynamics,
-                                       kinetic_energy, solve_mass, torque_function)
+                                       kinetic_energy, mass_matrix, solve_mass, torque_function)
 
 try:
     from solver.dynamics import compiled
@@ -38,7 +39,8 @@ class Problem:
 
     torque: (4,) constant motor torques [in lbf] or a callable t -> (4,).
     omega_max: the stability bound's frequency [rad/s]; default
-    ``linearized.coupled_omega_max(chain, y0)`` (the coupled chain's highest frequency).
+    ``linearized.coupled_omega_max(chain, y0)`` (the coupled chain's highest frequency),
+    computed when first asked for.
     ``modal_omega_max`` is the largest kept modal frequency, for reference.
 
     Optional compiled paths (None unless the right-hand side is compiled and the torques
@@ -57,9 +59,7 @@ class Problem:
         compiled_rhs = rhs if compiled is not None and isinstance(rhs, compiled.CompiledRhs) else None
         self.rhs = rhs if compiled_rhs is None else compiled_rhs.rhs     # (the plain function: cheaper per call)
         self.modal_omega_max = chain.omega_max            # largest kept modal frequency
-        # the integrators' stability bound: the coupled chain's highest frequency
-        self.omega_max = linearized.coupled_omega_max(chain, self.y0) if omega_max is None \
-            else float(omega_max)
+        self._omega_max = None if omega_max is None else float(omega_max)
         self.stiffness_diagonal = chain.stiffness_diagonal()
         self.damping_diagonal = chain.damping_diagonal()
         self._fast = None if compiled_rhs is None else compiled_rhs.fast_chain      # compiled kernels
@@ -67,6 +67,22 @@ class Problem:
         has_rk4 = compiled_rhs is not None and compiled_rhs.has_rk4
         self.rk4_steps = compiled_rhs.rk4_steps if has_rk4 else None
         self.rk4_run = compiled_rhs.rk4_integrate if has_rk4 else None
+
+    @property
+    def omega_max(self):
+        """The explicit integrators' stability bound [rad/s]: the coupled chain's highest
+        frequency (``linearized.coupled_omega_max``, ~7 eigenvalue problems), computed on
+        first use only (the exponential integrator never needs it)."""
+        if self._omega_max is None:
+            self._omega_max = linearized.coupled_omega_max(self.chain, self.y0)
+        return self._omega_max
+
+    def mass_matrix(self, y):
+        """M(y) (n, n) [lbf s^2 in and mixed units of the coordinates] (compiled when
+        available): the exponential integrator's linearisation."""
+        if self._fast is not None:
+            return self._fast.mass_matrix(y)
+        return mass_matrix(self.chain, y)
 
     def tau(self, t):
         out = np.zeros(self.chain.n_coordinates)

@@ -28,22 +28,19 @@ import time
 
 import numpy as np
 
-from solver.dynamics import chainfile, integrators, multibody, scenes, simfile
+from solver.dynamics import chainfile, exponential, integrators, scenes, simfile
 from solver.dynamics.problem import Problem
 from workflow.provenance import versions
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-# The truth model's default integration (simulate --model truth without --integrator/--step/
-# --fraction): chosen so that halving the step changes every gimbal rate on scene thesis by
-# E < 1e-10 (results.bench.verify_dynamics; docs/dynamics.md Section 8).
-# Measured on the real bodies (thesis, 15 ms): RK4 needs 1/8 of its stability limit (264k steps,
-# ~100 s; E(h, h/2) ~ 1e-11, E(h/4, h/2) = 2e-7 at half the limit: the top coupled modes,
-# excited by the case's sudden acceleration, are stable but their phase is not resolved), while
-# DOP853 at rtol 1e-10 runs near its larger stability limit (21k steps, 12 evaluations each) and
-# agrees with that RK4 run to E = 4e-12: the cheaper converged choice.
-TRUTH_DEFAULT = {"integrator": "dop853", "rtol": 1e-10, "atol": 1e-14}
+# The default integrator of every simulation (truth and reduced models alike): the modal
+# exponential integrator at its default tolerance (solver.dynamics.exponential,
+# docs/exponential.md: E <= 1e-8 against the converged DOP853 on every verified scene).
+# The converged reference that referees every error is REFERENCE (dop853 at rtol 1e-10).
+DEFAULT_INTEGRATOR = "exponential"
+REFERENCE = {"integrator": "dop853", "rtol": 1e-10, "atol": 1e-14}
 
 
 def config_hash(scene, model_hash, options):
@@ -60,14 +57,20 @@ def scene_problem(chain, scene):
     return Problem(chain, case=scene.case, torque=scene.motor_torques, y0=y0, yd0=yd0)
 
 
-def run_scene(chain, scene, method="rk4", step=None, fraction=None, rho_inf=0.9, rtol=1e-10,
-              atol=1e-14, model_name="", problem=None):
-    """Integrate a chain through a scene; returns (Run, Problem)."""
+def run_scene(chain, scene, integrator=DEFAULT_INTEGRATOR, step=None, model_name="", problem=None,
+              **options):
+    """Integrate a chain through a scene; returns (Run, Problem).  options: the integrator's
+    own (``integrators.METHOD_OPTIONS``: tol, fraction, rtol, rho_inf, ...)."""
     prob = scene_problem(chain, scene) if problem is None else problem
-    run = integrators.integrate(prob, scene.duration, scene.output_interval, method=method,
-                                step=step, fraction=fraction, rho_inf=rho_inf, rtol=rtol, atol=atol,
-                                model=model_name)
+    run = integrators.integrate(prob, scene.duration, scene.output_interval, method=integrator,
+                                step=step, model=model_name, **options)
     return run, prob
+
+
+def integrator_options(args):
+    """The integrator options given on the command line (those left at None dropped)."""
+    given = {key: getattr(args, key) for key in integrators.METHOD_OPTIONS if hasattr(args, key)}
+    return {k: v for k, v in given.items() if v is not None}
 
 
 def energy_history(prob, run):
@@ -75,10 +78,8 @@ def energy_history(prob, run):
     integrator's monitor when available, else recomputed)."""
     if run.energy and np.all(np.isfinite(run.energy["kinetic"])):
         return run.energy["kinetic"], run.energy["potential"], run.energy["input_work"]
-    chain = prob.chain
-    T = np.array([multibody.kinetic_energy(chain, y, v, t, prob.case)
-                  for t, y, v in zip(run.t, run.y, run.yd)])
-    U = np.array([multibody.potential_energy(chain, y) for y in run.y])
+    T = np.array([prob.kinetic_energy(t, y, v) for t, y, v in zip(run.t, run.y, run.yd)])
+    U = np.array([prob.potential_energy(y) for y in run.y])
     P = np.array([prob.input_power(t, y, v) for t, y, v in zip(run.t, run.y, run.yd)])
     W = np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1]) * np.diff(run.t))])
     return T, U, W
@@ -119,15 +120,28 @@ def main(argv=None):
     ap.add_argument("--model", help="model name, to find the default model file and output")
     ap.add_argument("--out", help="simulation file to write (default results/sim/SCENE/MODEL.h5)")
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
-                    help="default rk4 (truth: TRUTH_DEFAULT, the converged setting)")
+                    help=f"default {DEFAULT_INTEGRATOR} (docs/exponential.md); dop853 at rtol "
+                         f"1e-10 is the converged reference, rk4 the thesis's method")
     ap.add_argument("--step", type=_positive("--step"), default=None,
-                    help="fixed step [s] (rk4, generalized-alpha)")
+                    help="fixed step [s] (rk4, generalized-alpha, exponential without --tol)")
+    ap.add_argument("--tol", type=_positive("--tol"), default=None,
+                    help=f"exponential: local error tolerance (default {exponential.DEFAULT_TOL:g})")
+    ap.add_argument("--relinearise-every", type=_positive("--relinearise-every"), default=None,
+                    help="exponential with --step: re-linearisation interval [s]")
+    ap.add_argument("--drift", type=_positive("--drift"), default=None,
+                    help=f"exponential: gimbal-angle drift [rad] that triggers a new basis "
+                         f"(default {exponential.DEFAULT_DRIFT:g})")
+    ap.add_argument("--order", type=int, default=None,
+                    help=f"exponential: Adams order (default {exponential.DEFAULT_ORDER})")
     ap.add_argument("--fraction", type=_positive("--fraction"), default=None,
                     help=f"rk4 step as a fraction of 2.785/omega_max (default "
                          f"{integrators.RK4_DEFAULT_FRACTION})")
-    ap.add_argument("--rho-inf", type=float, default=0.9, help="generalized-alpha spectral radius")
-    ap.add_argument("--rtol", type=float, default=1e-10, help="dop853 relative tolerance")
-    ap.add_argument("--atol", type=float, default=1e-14, help="dop853 absolute tolerance")
+    ap.add_argument("--rho-inf", type=float, default=None,
+                    help="generalized-alpha spectral radius (default 0.9)")
+    ap.add_argument("--rtol", type=_positive("--rtol"), default=None,
+                    help="dop853 relative tolerance (default 1e-10)")
+    ap.add_argument("--atol", type=_positive("--atol"), default=None,
+                    help="dop853 absolute tolerance (default 1e-14)")
     ap.add_argument("--store-modal", action="store_true", help="also store q(t), q'(t)")
     try:
         args = ap.parse_args(argv)
@@ -144,11 +158,9 @@ def main(argv=None):
         if args.model is not None and args.model != model:
             raise ValueError(f"{model_file} holds model {model!r}, not {args.model!r}")
         if args.integrator is None:
-            args.integrator = "rk4"
-            if model == "truth" and args.step is None and args.fraction is None:
-                cfg = dict(TRUTH_DEFAULT)
-                args.integrator, args.fraction = cfg["integrator"], cfg.get("fraction")
-                args.rtol, args.atol = cfg.get("rtol", args.rtol), cfg.get("atol", args.atol)
+            args.integrator = DEFAULT_INTEGRATOR
+        options = integrator_options(args)
+        integrators.check_options(args.integrator, args.step, options)
         prob = scene_problem(chain, scene)
         if args.integrator == "rk4" and args.step is not None:
             limit = integrators.rk4_stability_limit(prob.omega_max)
@@ -156,14 +168,12 @@ def main(argv=None):
                 raise integrators.StepTooLargeError(
                     f"rk4 step {args.step:.3e} s exceeds the stability limit {limit:.3e} s "
                     f"(coupled omega_max = {prob.omega_max:.4g} rad/s) of model {model!r}")
-        options = {"integrator": args.integrator, "step": args.step, "fraction": args.fraction,
-                   "rho_inf": args.rho_inf, "rtol": args.rtol, "atol": args.atol}
+        options = {"integrator": args.integrator, "step": args.step, **options}
         chash = config_hash(scene, str(info.get("config_hash", "")), options)
         out = args.out or os.path.join(ROOT, "results", "sim", stem, f"{model}.h5")
         _check_writable(out)
         t0 = time.perf_counter()
-        run, prob = run_scene(chain, scene, args.integrator, args.step, args.fraction, args.rho_inf,
-                              args.rtol, args.atol, model, problem=prob)
+        run, prob = run_scene(chain, scene, model_name=model, problem=prob, **options)
         wall = time.perf_counter() - t0
     except (ValueError, FileNotFoundError, integrators.DivergenceError) as exc:
         print(f"simulate: {exc}", file=sys.stderr)

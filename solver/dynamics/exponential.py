@@ -1,0 +1,503 @@
+"""Modal exponential integrator: the linearised chain solved exactly, the rest by Adams.
+
+Why: every time stepper that treats the chain's fast modes numerically (explicit or
+implicit) must keep the phase of modes up to ~2e6 rad/s right over the window, so
+it needs ~1e5 steps on the truth model (docs/exponential.md, Section 1).  Here the
+fast modes are never stepped: their oscillators are solved in closed form and the
+step is set by the smoothness of what is left.
+
+The equations (``docs/exponential.md`` has the derivation).  Linearise at a
+configuration y_r: M0 = M(y_r), K = diag(0_4, Omega^2), modal damping
+C = diag(0_4, 2 zeta Omega).  The coupled modes Phi (n, n) solve K Phi = M0 Phi Lambda
+with Phi^T M0 Phi = I: four joint modes (Lambda = 0, Phi_r = [L^-T; 0], M0_gg = L L^T)
+and the elastic ones (``linearized.free_joint_modes``).  Write y = y_r + Phi eta,
+y_r holding the linearisation angles and zero elastic coordinates.  With
+a(t, y, y') the full nonlinear accelerations (the project's right-hand side),
+
+    eta'' + D eta' + Lambda eta = g(t, eta, eta'),
+    g = Phi^T M0 a + Lambda eta + D eta',          D = diag(Phi^T C Phi),
+
+is exact (g just moves the linear part to the left).  g holds the case forcing and
+every nonlinear, coupling and off-diagonal damping term; while the gimbals stay
+near y_r it is small and slow.  Each elastic mode (eigenvalues lambda, conj lambda,
+lambda = -d/2 + i nu, nu = sqrt(omega^2 - d^2/4)) is one complex coordinate
+xi = (eta' - conj(lambda) eta) / Delta, Delta = 2 i nu, with eta = 2 Re xi,
+eta' = 2 Re(lambda xi) and xi' = lambda xi + g / Delta; a joint mode is eta'' = g.
+Over a step t_n -> t_n + H with g replaced by a polynomial
+p(s) = sum_j c_j (s / h)^j the variation-of-constants formula is exact:
+
+    xi(t_n + H) = e^{H lambda} xi_n + (H / Delta) sum_j c_j (H / h)^j j! phi_{j+1}(H lambda),
+    eta(t_n + H) = eta_n + H eta'_n + H^2 sum_j c_j (H / h)^j j! / (j + 2)!   (joint modes),
+    eta'(t_n + H) = eta'_n + H sum_j c_j (H / h)^j j! / (j + 1)!,
+
+phi_0(z) = e^z, phi_{j+1}(z) = (phi_j(z) - 1/j!) / z (``phi_functions``).  H = h is the
+step, H < h the dense output at the scene's output times.
+
+The scheme: exponential Adams in PECE form.  The predictor's p interpolates g at the
+last q accepted times (order q), the corrector's adds the predicted g at t_n + h
+(order q + 1); every node pattern is handled by a q x q Vandermonde solve, so variable
+steps cost nothing extra.  The difference corrector - predictor estimates the local
+error (``ErrorNorm``); the step is halved or doubled on a dyadic grid of the output
+interval, so dense outputs reuse cached weights.  The basis is rebuilt (re-linearised)
+when the gimbal angles drift from y_r by more than ``drift`` [rad], or when steps keep
+failing in an aged basis; the stored history of accelerations is carried over.  A run
+that cannot hold (steps below the floor, a singular joint mass matrix, an overdamped
+mode, a frozen basis beyond its validity) stops with ``ExponentialError`` naming the
+time and the cause.
+
+Units: in, lbf, s, rad as everywhere (``solver.dynamics.multibody``).
+"""
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from solver.dynamics.linearized import free_joint_modes
+
+N_JOINTS = 4
+DEFAULT_TOL = 1e-6         # local error per step, relative (ErrorNorm); docs/exponential.md Sec. 5
+DEFAULT_ORDER = 4          # Adams predictor order (corrector q + 1)
+DEFAULT_DRIFT = 0.01       # [rad] gimbal-angle drift that triggers a new basis (measured, Sec. 6)
+FROZEN_VALIDITY = 0.05     # [rad] drift beyond which a frozen basis is refused (Sec. 6)
+SUBDIVISIONS = 24          # the step grid: output interval / 2^SUBDIVISIONS
+JOINT_MASS_COND = 1e12     # refuse a basis whose joint mass block is this ill-conditioned
+SERIES_RADIUS = 2.0        # |z| below which phi_j uses its Taylor series
+SERIES_TERMS = 30
+GROW_SAFETY = 0.5          # double the step when the error estimate allows err 2^(q+1) <= SAFETY tol
+MAX_REJECTIONS_IN_BASIS = 3
+
+
+class ExponentialError(RuntimeError):
+    """The exponential integrator cannot continue (one-line diagnosis with time and cause)."""
+
+
+def phi_functions(z, order):
+    """phi_0 .. phi_order at z: (order + 1, n) complex, z (n,) complex.
+
+    phi_0 = exp(z), phi_{j+1}(z) = (phi_j(z) - 1/j!) / z, phi_j(0) = 1/j!.  The
+    recurrence for |z| >= SERIES_RADIUS (it loses at most a factor ~(j + 1)/|z| per
+    step there), the Taylor series phi_j(z) = sum_m z^m / (m + j)! below."""
+    z = np.atleast_1d(np.asarray(z, dtype=complex))
+    out = np.empty((order + 1, z.size), dtype=complex)
+    out[0] = np.exp(z)
+    big = np.abs(z) >= SERIES_RADIUS
+    if big.any():
+        zb = z[big]
+        prev = out[0, big]
+        for j in range(order):
+            prev = (prev - 1.0 / math.factorial(j)) / zb
+            out[j + 1, big] = prev
+    small = ~big
+    if small.any():
+        zs = z[small]
+        for j in range(1, order + 1):
+            acc = np.full(zs.shape, 1.0 / math.factorial(SERIES_TERMS + j), dtype=complex)
+            for m in range(SERIES_TERMS - 1, -1, -1):
+                acc = acc * zs + 1.0 / math.factorial(m + j)
+            out[j, small] = acc
+    return out
+
+
+@dataclass
+class ModalBasis:
+    """The chain linearised at y_r (module docstring).
+
+    y_ref (n,): linearisation angles, elastic coordinates zero; phi (n, n) columns =
+    modes (4 joint modes first), phi^T M0 phi = I; inverse (n, n) = phi^T M0 = phi^-1;
+    omega (n,) [rad/s] (0 for the joint modes); damping (n,) [1/s] the diagonal of
+    phi^T C phi; lam (n - 4,) complex eigenvalues -d/2 + i nu of the elastic modes;
+    t [s] when it was built."""
+    y_ref: np.ndarray
+    phi: np.ndarray
+    inverse: np.ndarray
+    omega: np.ndarray
+    damping: np.ndarray
+    lam: np.ndarray
+    t: float
+
+    @property
+    def omega2(self):
+        return self.omega ** 2
+
+    def to_modal(self, y, yd):
+        """(eta, eta') (n,) of a physical state."""
+        return self.inverse @ (y - self.y_ref), self.inverse @ yd
+
+    def to_physical(self, eta, etad):
+        """(y, y') (n,) of a modal state."""
+        return self.y_ref + self.phi @ eta, self.phi @ etad
+
+
+def linearise(mass_matrix, stiffness, damping, y, t=0.0):
+    """The ``ModalBasis`` of a chain at configuration y (n,).
+
+    mass_matrix: y -> M(y) (n, n); stiffness (n,) Omega^2 [(rad/s)^2] and damping (n,)
+    2 zeta Omega [1/s] on the diagonal (zero for the joints).  Raises ExponentialError
+    when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal lock) or a
+    coupled mode is overdamped (d >= 2 omega)."""
+    y = np.asarray(y, float)
+    n = y.size
+    M0 = mass_matrix(y)
+    Mgg = M0[:N_JOINTS, :N_JOINTS]
+    cond = np.linalg.cond(Mgg)
+    if not np.isfinite(cond) or cond > JOINT_MASS_COND:
+        raise ExponentialError(
+            f"t = {t:.6g} s: the joint mass matrix is singular (condition {cond:.3g} at gimbal "
+            f"angles {np.array2string(y[:N_JOINTS], precision=4)} rad): gimbal lock")
+    y_ref = np.zeros(n)
+    y_ref[:N_JOINTS] = y[:N_JOINTS]
+    L = np.linalg.cholesky(Mgg)
+    joint = np.zeros((n, N_JOINTS))
+    joint[:N_JOINTS] = scipy.linalg.solve_triangular(L, np.eye(N_JOINTS), lower=True).T  # L^-T
+    if n > N_JOINTS:
+        om, shapes = free_joint_modes(M0, np.asarray(stiffness, float)[N_JOINTS:])
+        phi = np.hstack([joint, shapes])
+    else:
+        om, phi = np.zeros(0), joint
+    omega = np.concatenate([np.zeros(N_JOINTS), om])
+    d = np.einsum("ij,i,ij->j", phi, np.asarray(damping, float), phi)
+    d[:N_JOINTS] = 0.0                        # C phi_r = 0 exactly (joints carry no damping)
+    d_el, om_el = d[N_JOINTS:], omega[N_JOINTS:]
+    if np.any(om_el <= 0) or np.any(d_el >= 2 * om_el):
+        i = int(np.argmax((om_el <= 0) | (d_el >= 2 * om_el)))
+        raise ExponentialError(
+            f"t = {t:.6g} s: coupled mode {i + 1} (omega {om_el[i]:.4g} rad/s, damping "
+            f"{d_el[i]:.4g} 1/s) is overdamped or has no stiffness: not an oscillator")
+    nu = np.sqrt(om_el ** 2 - 0.25 * d_el ** 2)
+    lam = -0.5 * d_el + 1j * nu
+    return ModalBasis(y_ref=y_ref, phi=phi, inverse=phi.T @ M0, omega=omega, damping=d, lam=lam,
+                      t=float(t))
+
+
+class StepWeights:
+    """Cached weights of the variation-of-constants formula for one basis (module docstring):
+    for a length H [s], ``get(H)`` -> (E (m,), W (K+1, m), wpos (K+1,), wvel (K+1,)) with
+    E = e^{H lambda}, W_j = (H / Delta) j! phi_{j+1}(H lambda), wpos_j = H^2 j!/(j+2)!,
+    wvel_j = H j!/(j+1)!, K the highest polynomial degree."""
+
+    def __init__(self, basis, degree):
+        self.lam = basis.lam
+        self.delta = 2j * basis.lam.imag
+        self.K = degree
+        self.cache = {}
+        self.dense_cache = {}
+
+    def get(self, H):
+        w = self.cache.get(H)
+        if w is None:
+            phis = phi_functions(H * self.lam, self.K + 1)
+            fact = np.array([math.factorial(j) for j in range(self.K + 1)], float)
+            W = (H / self.delta)[None, :] * fact[:, None] * phis[1:]
+            wpos = H * H * fact / np.array([math.factorial(j + 2) for j in range(self.K + 1)])
+            wvel = H * fact / np.array([math.factorial(j + 1) for j in range(self.K + 1)])
+            w = (phis[0], W, wpos, wvel)
+            self.cache[H] = w
+        return w
+
+
+def advance(basis, weights, eta, etad, coef, H, theta):
+    """The modal state (eta, eta') (n,) after a length H = theta h from (eta, eta'), with g
+    replaced by sum_j coef[j] (s / h)^j, coef (K'+1, n), K' <= K (module docstring)."""
+    E, W, wpos, wvel = weights.get(H)
+    kk = coef.shape[0]
+    ct = coef * (theta ** np.arange(kk))[:, None]
+    j = N_JOINTS
+    lam = basis.lam
+    xi = (etad[j:] - lam.conj() * eta[j:]) / weights.delta
+    xi = E * xi + np.einsum("km,km->m", ct[:, j:], W[:kk])
+    eta_new = np.empty_like(eta)
+    etad_new = np.empty_like(etad)
+    eta_new[j:] = 2.0 * xi.real
+    etad_new[j:] = 2.0 * (lam * xi).real
+    eta_new[:j] = eta[:j] + H * etad[:j] + wpos[:kk] @ ct[:, :j]
+    etad_new[:j] = etad[:j] + wvel[:kk] @ ct[:, :j]
+    return eta_new, etad_new
+
+
+def dense_advance(basis, weights, eta, etad, coef, offsets, m, tick):
+    """``advance`` to several points inside one step of m grid ticks: offsets (k,) in ticks
+    (tuple, a cache key), tick [s]; returns (eta, eta') (k, n).  The stacked weights of an
+    offset pattern are cached (with a steady step every step has the same pattern)."""
+    key = (offsets, m)
+    w = weights.dense_cache.get(key)
+    if w is None:
+        parts = [weights.get(o * tick) for o in offsets]
+        theta = np.array(offsets, float) / m
+        tpow = theta[:, None] ** np.arange(weights.K + 1)[None, :]         # (k, K+1)
+        E = np.array([p[0] for p in parts])                                   # (k, m_el)
+        W = np.array([p[1] for p in parts]) * tpow[:, :, None]               # (k, K+1, m_el)
+        wpos = np.array([p[2] for p in parts]) * tpow                        # (k, K+1)
+        wvel = np.array([p[3] for p in parts]) * tpow
+        H = np.array(offsets, float) * tick
+        w = (E, W, wpos, wvel, H)
+        weights.dense_cache[key] = w
+    E, W, wpos, wvel, H = w
+    kk = coef.shape[0]
+    j = N_JOINTS
+    lam = basis.lam
+    xi0 = (etad[j:] - lam.conj() * eta[j:]) / weights.delta
+    xi = E * xi0[None, :] + np.einsum("okm,km->om", W[:, :kk], coef[:, j:])
+    eta_out = np.empty((len(offsets), eta.size))
+    etad_out = np.empty_like(eta_out)
+    eta_out[:, j:] = 2.0 * xi.real
+    etad_out[:, j:] = 2.0 * (lam[None, :] * xi).real
+    eta_out[:, :j] = eta[None, :j] + H[:, None] * etad[None, :j] + wpos[:, :kk] @ coef[:, :j]
+    etad_out[:, :j] = etad[None, :j] + wvel[:, :kk] @ coef[:, :j]
+    return eta_out, etad_out
+
+
+def poly_coefficients(nodes, values):
+    """Monomial coefficients c (q, n) of the polynomial through (nodes[m], values[m]),
+    nodes (q,) in units of the step, values (q, n)."""
+    V = np.vander(np.asarray(nodes, float), increasing=True)
+    return np.linalg.solve(V, values)
+
+
+class ErrorNorm:
+    """The local error measure of a step, relative, compared with tol.
+
+    max of (i) the energy norm of the modal difference, sqrt(sum eta'^2 + omega^2 eta^2)
+    (twice the linearised kinetic plus strain energy, joints included), over the largest
+    such norm of the solution so far, and (ii) the largest gimbal-rate difference over
+    the largest gimbal rate so far (all four rates share that scale, so a rate that
+    stays ~0 does not demand an absolute accuracy)."""
+
+    def __init__(self):
+        self.energy_scale = 0.0
+        self.rate_scale = 0.0
+
+    @staticmethod
+    def energy(basis, eta, etad):
+        return math.sqrt(float(np.dot(etad, etad)) + float(np.dot(basis.omega2 * eta, eta)))
+
+    def __call__(self, basis, state_c, state_p):
+        eta_c, etad_c = state_c
+        d_eta, d_etad = eta_c - state_p[0], etad_c - state_p[1]
+        e_scale = max(self.energy_scale, self.energy(basis, eta_c, etad_c), 1e-300)
+        err = self.energy(basis, d_eta, d_etad) / e_scale
+        rates = basis.phi[:N_JOINTS] @ etad_c
+        r_scale = max(self.rate_scale, float(np.abs(rates).max()), 1e-300)
+        d_rates = basis.phi[:N_JOINTS] @ d_etad
+        return max(err, float(np.abs(d_rates).max()) / r_scale)
+
+    def accept(self, basis, eta, etad, yd):
+        self.energy_scale = max(self.energy_scale, self.energy(basis, eta, etad))
+        self.rate_scale = max(self.rate_scale, float(np.abs(yd[:N_JOINTS]).max()))
+
+
+@dataclass
+class _Node:
+    """An accepted time: t [s], physical state y, y' and accelerations a (n,) (to carry g
+    into a new basis), and g (n,) in the current basis."""
+    t: float
+    y: np.ndarray
+    yd: np.ndarray
+    a: np.ndarray
+    g: np.ndarray
+
+
+@dataclass
+class ExponentialStats:
+    steps: int = 0
+    rejected: int = 0
+    evaluations: int = 0
+    relinearisations: int = 0
+    basis_time: float = 0.0
+    smallest_step: float = np.inf
+    largest_step: float = 0.0
+    bases: list = field(default_factory=list)     # times [s] of every basis
+
+
+def check_options(tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
+                  drift=DEFAULT_DRIFT):
+    """ValueError (one line) on bad exponential-integrator options, before any work."""
+    if tol is not None and (step is not None or relinearise_every is not None):
+        raise ValueError("exponential: give a tolerance, or a fixed step (and re-linearisation "
+                         "interval), not both")
+    if tol is not None and not (np.isfinite(tol) and tol > 0):
+        raise ValueError(f"exponential: tolerance must be finite and > 0, got {tol}")
+    if step is not None and not (np.isfinite(step) and step > 0):
+        raise ValueError(f"exponential: step must be finite and > 0, got {step}")
+    if relinearise_every is not None and not (np.isfinite(relinearise_every) and relinearise_every > 0):
+        raise ValueError(f"exponential: re-linearisation interval must be finite and > 0 s, "
+                         f"got {relinearise_every}")
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= order <= 6:
+        raise ValueError(f"exponential: order must be an integer in 1..6, got {order!r}")
+    if not (np.isfinite(drift) and drift > 0):
+        raise ValueError(f"exponential: drift must be finite and > 0 rad, got {drift}")
+
+
+class ExponentialAdams:
+    """Exponential Adams PECE in the coupled modal basis (module docstring).
+
+    problem: the integrators' problem interface (rhs, mass_matrix, stiffness_diagonal,
+    damping_diagonal).  Adaptive (tol) or fixed step (step, optional relinearise_every
+    [s]); relinearise=False freezes the first basis (then refused beyond
+    FROZEN_VALIDITY rad of drift)."""
+
+    def __init__(self, problem, tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
+                 drift=DEFAULT_DRIFT, relinearise=True, model=""):
+        if tol is None and step is None:
+            tol = DEFAULT_TOL
+        check_options(tol, step, relinearise_every, order, drift)
+        self.problem = problem
+        self.tol, self.step, self.every = tol, step, relinearise_every
+        self.order, self.drift, self.relinearise = int(order), float(drift), bool(relinearise)
+        self.model = model
+        self.stats = ExponentialStats()
+        self.norm = ErrorNorm()
+
+    # -- the basis
+    def _new_basis(self, t, y):
+        t0 = time.perf_counter()
+        p = self.problem
+        self.basis = linearise(p.mass_matrix, p.stiffness_diagonal, p.damping_diagonal, y, t)
+        self.weights = StepWeights(self.basis, self.order)
+        self.stats.basis_time += time.perf_counter() - t0
+        self.stats.bases.append(float(t))
+        self.rejections_in_basis = 0
+
+    def _carry_history(self):
+        """g of every stored node in the current basis (from its physical a, y, y')."""
+        b = self.basis
+        for node in self.history:
+            eta, etad = b.to_modal(node.y, node.yd)
+            node.g = b.inverse @ node.a + b.omega2 * eta + b.damping * etad
+
+    def _evaluate(self, t, eta, etad):
+        """(g, y, y', a) at a modal state: the project's right-hand side, moved to the modal
+        forcing g = Phi^T M0 a + Lambda eta + D eta'."""
+        b = self.basis
+        y, yd = b.to_physical(eta, etad)
+        a = self.problem.rhs(t, y, yd)
+        self.stats.evaluations += 1
+        g = b.inverse @ a + b.omega2 * eta + b.damping * etad
+        return g, y, yd, a
+
+    def _fail(self, t, cause):
+        raise ExponentialError(f"exponential: t = {t:.6g} s, model {self.model!r}: {cause}")
+
+    # -- the run
+    def run(self, t_out, y0, yd0, on_outputs):
+        """Integrate from t_out[0] = 0 to t_out[-1] (equally spaced), calling
+        on_outputs(ks, Y, V, h) after every step that reaches output times: ks (k,) their
+        indices into t_out, Y, V (k, n) the states there, h [s] the step.  Returns the stats."""
+        n_out = t_out.size - 1
+        if n_out == 0:
+            return self.stats
+        dt_out = float(t_out[1] - t_out[0])
+        if self.step is None:
+            tpo = 2 ** SUBDIVISIONS                         # grid points per output interval
+            m = tpo                                         # first try: one output interval
+        elif self.step <= dt_out:
+            tpo = max(int(math.ceil(dt_out / self.step - 1e-9)), 1)
+            m = 1
+        else:
+            tpo, m = 1, max(int(round(self.step / dt_out)), 1)
+        tick = dt_out / tpo
+        i_end = n_out * tpo
+        fixed = self.step is not None
+        every_ticks = None if self.every is None else max(int(round(self.every / tick)), 1)
+
+        self.history = []
+        y, yd = np.array(y0, float), np.array(yd0, float)
+        self._new_basis(0.0, y)
+        eta, etad = self.basis.to_modal(y, yd)
+        g, y, yd, a = self._evaluate(0.0, eta, etad)
+        self.history.append(_Node(0.0, y, yd, a, g))
+        self.norm.accept(self.basis, eta, etad, yd)
+        i = 0
+        basis_tick = 0
+        since_change = 0
+        while i < i_end:
+            while m > i_end - i:
+                m //= 2
+            h = m * tick
+            t = i * tick
+            q = min(self.order, len(self.history))
+            nodes = [(nd.t - t) / h for nd in self.history[:q]]
+            G = np.array([nd.g for nd in self.history[:q]])
+            # predict, evaluate
+            cP = poly_coefficients(nodes, G)
+            etaP, etadP = advance(self.basis, self.weights, eta, etad, cP, h, 1.0)
+            gP, _, _, _ = self._evaluate(t + h, etaP, etadP)
+            # correct
+            cC = poly_coefficients([1.0] + nodes, np.vstack([gP[None, :], G]))
+            etaC, etadC = advance(self.basis, self.weights, eta, etad, cC, h, 1.0)
+            finite = np.all(np.isfinite(gP)) and np.all(np.isfinite(etaC)) and np.all(np.isfinite(etadC))
+            err = self.norm(self.basis, (etaC, etadC), (etaP, etadP)) if finite else np.inf
+            if not fixed and not err <= self.tol:
+                self.stats.rejected += 1
+                self.rejections_in_basis += 1
+                aged = i > basis_tick
+                if self.relinearise and aged and self.rejections_in_basis > MAX_REJECTIONS_IN_BASIS:
+                    self._relinearise(i * tick, eta, etad)
+                    eta, etad = self.basis.to_modal(self.history[0].y, self.history[0].yd)
+                    basis_tick = i
+                    continue
+                if m == 1:
+                    self._fail(t, f"the step fell to {h:.3g} s with the local error {err:.3g} "
+                                  f"above the tolerance {self.tol:.3g}"
+                                  + ("" if self.relinearise else " (frozen basis: resonance?)"))
+                m //= 2
+                since_change = 0
+                continue
+            if not finite:
+                self._fail(t + h, "non-finite state (the fixed step is too large for the "
+                                  "forcing, or the basis is invalid)")
+            # accept: evaluate at the corrected state, store outputs
+            g1, y1, yd1, a1 = self._evaluate(t + h, etaC, etadC)
+            if not np.all(np.isfinite(g1)):
+                self._fail(t + h, "non-finite accelerations")
+            first = (i // tpo) + 1
+            last = (i + m) // tpo
+            if last >= first:
+                ks = np.arange(first, last + 1)
+                offsets = ks * tpo - i
+                inner = offsets < m
+                Y = np.empty((ks.size, y1.size))
+                V = np.empty_like(Y)
+                Y[~inner], V[~inner] = y1, yd1
+                if inner.any():
+                    e_, ed_ = dense_advance(self.basis, self.weights, eta, etad, cC,
+                                            tuple(offsets[inner]), m, tick)
+                    Y[inner] = self.basis.y_ref + e_ @ self.basis.phi.T
+                    V[inner] = ed_ @ self.basis.phi.T
+                on_outputs(ks, Y, V, h)
+            self.history.insert(0, _Node(t + h, y1, yd1, a1, g1))
+            del self.history[self.order + 1:]
+            eta, etad = etaC, etadC
+            self.norm.accept(self.basis, eta, etad, yd1)
+            self.stats.steps += 1
+            self.stats.smallest_step = min(self.stats.smallest_step, h)
+            self.stats.largest_step = max(self.stats.largest_step, h)
+            i += m
+            since_change += 1
+            drift = float(np.abs(y1[:N_JOINTS] - self.basis.y_ref[:N_JOINTS]).max())
+            if i < i_end:
+                if fixed:
+                    due = every_ticks is not None and i - basis_tick >= every_ticks
+                else:
+                    due = self.relinearise and drift > self.drift
+                if due:
+                    self._relinearise(t + h, eta, etad)
+                    eta, etad = self.basis.to_modal(y1, yd1)
+                    basis_tick = i
+                elif drift > FROZEN_VALIDITY and (not self.relinearise or fixed):
+                    self._fail(t + h, f"the gimbals have turned {drift:.3g} rad from the frozen "
+                                      f"basis (valid to {FROZEN_VALIDITY} rad): re-linearise")
+            # grow the step (dyadic, aligned, after >= 2 steps at this size)
+            if not fixed and since_change >= 2 and err * 2.0 ** (q + 1) <= GROW_SAFETY * self.tol \
+                    and i % (2 * m) == 0:
+                m *= 2
+                since_change = 0
+        return self.stats
+
+    def _relinearise(self, t, eta, etad):
+        y, yd = self.basis.to_physical(eta, etad)
+        self._new_basis(t, y)
+        self.stats.relinearisations += 1
+        self._carry_history()
