@@ -160,3 +160,20 @@ def step_halving_convergence(name, problem, t_end, output_dt, step=None, fractio
     E = error_measure(a.t, b.yd[:, :4], a.yd[:, :4])  # reference: the finer step
     return check(f"{name}: RK4 step halving ({a.step:.3e} s -> {b.step:.3e} s), max E over rates",
                  float(np.max(E)), tol)
+
+
+def exponential_conservation(name, problem, t_end, output_dt, limit=1e-9, **options):
+    """Case at rest, no torques: the exponential integrator (options: its own, e.g. tol)
+    over [0, t_end]; the check passes when each drift is <= limit.  The largest
+    relative drift of the energy T + U and of the axial angular momentum (conjugate to
+    gamma_1) over the outputs.  Returns (two check records, the Run)."""
+    run = integrators.integrate(problem, t_end, output_dt, method="exponential", **options)
+    chain = problem.chain
+    E = np.array([problem.energy(t, y, v) for t, y, v in zip(run.t, run.y, run.yd)])
+    p = np.array([multibody.generalized_momentum(chain, y, v)[0] for y, v in zip(run.y, run.yd)])
+    what = (f"over {t_end:g} s, exponential ({run.steps} steps, "
+            f"{run.stats['relinearisations']} re-linearisations)")
+    return [check(f"{name}: energy drift {what}", float(np.abs(E - E[0]).max() / abs(E[0])), limit),
+            check(f"{name}: axial angular momentum drift {what}",
+                  float(np.abs(p - p[0]).max() / abs(p[0])), limit)], run
+

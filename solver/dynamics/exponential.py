@@ -14,15 +14,17 @@ and the elastic ones (``linearized.free_joint_modes``).  Write y = y_r + Phi eta
 y_r holding the linearisation angles and zero elastic coordinates.  With
 a(t, y, y') the full nonlinear accelerations (the project's right-hand side),
 
-    eta'' + D eta' + Lambda eta = g(t, eta, eta'),
-    g = Phi^T M0 a + Lambda eta + D eta',          D = diag(Phi^T C Phi),
+    eta'' + Ct eta' + Lambda eta = g(t, eta, eta'),
+    g = Phi^T M0 a + Lambda eta + Ct eta',          Ct = Phi^T C Phi,
 
 is exact (g just moves the linear part to the left).  g holds the case forcing and
-every nonlinear, coupling and off-diagonal damping term; while the gimbals stay
-near y_r it is small and slow.  Each elastic mode (eigenvalues lambda, conj lambda,
-lambda = -d/2 + i nu, nu = sqrt(omega^2 - d^2/4)) is one complex coordinate
-xi = (eta' - conj(lambda) eta) / Delta, Delta = 2 i nu, with eta = 2 Re xi,
-eta' = 2 Re(lambda xi) and xi' = lambda xi + g / Delta; a joint mode is eta'' = g.
+every nonlinear and coupling term; while the gimbals stay
+near y_r it is small and slow.  Undamped, each elastic mode (eigenvalues lambda,
+conj lambda, lambda = i omega) is one complex coordinate xi = (eta' - conj(lambda) eta) /
+Delta, Delta = 2 i omega, with eta = 2 Re xi, eta' = 2 Re(lambda xi) and
+xi' = lambda xi + g / Delta (``DiagonalBank``); with damping, the damped elastic block is
+diagonalised in state space the same way (``CoupledBank``: xi' = mu xi + P g); a joint
+mode is eta'' = g.
 Over a step t_n -> t_n + H with g replaced by a polynomial
 p(s) = sum_j c_j (s / h)^j the variation-of-constants formula is exact:
 
@@ -58,7 +60,7 @@ import scipy.linalg
 from solver.dynamics.linearized import free_joint_modes
 
 N_JOINTS = 4
-DEFAULT_TOL = 1e-6         # local error per step, relative (ErrorNorm); docs/exponential.md Sec. 5
+DEFAULT_TOL = 1e-5         # local error per step, relative (ErrorNorm); docs/exponential.md Sec. 5
 DEFAULT_ORDER = 4          # Adams predictor order (corrector q + 1)
 DEFAULT_DRIFT = 0.01       # [rad] gimbal-angle drift that triggers a new basis (measured, Sec. 6)
 FROZEN_VALIDITY = 0.05     # [rad] drift beyond which a frozen basis is refused (Sec. 6)
@@ -101,26 +103,93 @@ def phi_functions(z, order):
     return out
 
 
+class DiagonalBank:
+    """The elastic modes as independent damped oscillators (module docstring): eigenvalues
+    mu = -d/2 + i nu (m,), xi = (eta' - conj(mu) eta) / Delta, Delta = 2 i nu,
+    eta = 2 Re xi, eta' = 2 Re(mu xi), xi' = mu xi + g / Delta."""
+
+    def __init__(self, omega, damping):
+        nu = np.sqrt(omega ** 2 - 0.25 * damping ** 2)
+        self.mu = -0.5 * damping + 1j * nu
+        self.delta = 2j * nu
+
+    def to_xi(self, eta, etad):
+        """xi (..., m) complex of (eta, eta') (..., m)."""
+        return (etad - self.mu.conj() * eta) / self.delta
+
+    def from_xi(self, xi):
+        """(eta, eta') (..., m) of xi (..., m)."""
+        return 2.0 * xi.real, 2.0 * (self.mu * xi).real
+
+    def forcing(self, g):
+        """The xi-space forcing (..., m) complex of a modal forcing g (..., m)."""
+        return g / self.delta
+
+
+class CoupledBank:
+    """The elastic modes with a non-diagonal damping Ct = phi^T C phi (m, m): the first-order
+    system z' = A z + [0; g], z = [eta; eta'], A = [[0, I], [-Omega^2, -Ct]], diagonalised,
+    A = V diag(mu) V^-1.  For an underdamped chain the 2m eigenvalues are m conjugate pairs;
+    with V+ the eigenvectors of Im mu > 0 and P+ the matching rows of V^-1, the real state is
+    z = 2 Re(V+ xi), xi = P+ z, xi' = mu xi + P+[:, m:] g.  (Modal damping diagonal in every
+    body's own modes is not diagonal in the coupled modes; leaving the off-diagonal part in g
+    would put fast oscillations into g and collapse the step, docs/exponential.md Sec. 4.)"""
+
+    def __init__(self, omega, Ct, t=0.0):
+        m = omega.size
+        A = np.zeros((2 * m, 2 * m))
+        A[:m, m:] = np.eye(m)
+        A[m:, :m] = -np.diag(omega ** 2)
+        A[m:, m:] = -Ct
+        mu, V = scipy.linalg.eig(A)
+        upper = mu.imag > 0
+        if int(upper.sum()) != m:
+            raise ExponentialError(f"t = {t:.6g} s: {2 * m - 2 * int(upper.sum())} coupled "
+                                   f"eigenvalues are real: an overdamped mode, not an oscillator")
+        P = np.linalg.inv(V)[upper]
+        order = np.argsort(mu[upper].imag)
+        self.mu = mu[upper][order]
+        self.P_eta, self.P_vel = P[order, :m], P[order, m:]         # (m, m) complex each
+        self.V_eta, self.V_vel = V[:m, upper][:, order], V[m:, upper][:, order]
+
+    def to_xi(self, eta, etad):
+        return eta @ self.P_eta.T + etad @ self.P_vel.T
+
+    def from_xi(self, xi):
+        return 2.0 * (xi @ self.V_eta.T).real, 2.0 * (xi @ self.V_vel.T).real
+
+    def forcing(self, g):
+        return g @ self.P_vel.T
+
+
 @dataclass
 class ModalBasis:
     """The chain linearised at y_r (module docstring).
 
     y_ref (n,): linearisation angles, elastic coordinates zero; phi (n, n) columns =
     modes (4 joint modes first), phi^T M0 phi = I; inverse (n, n) = phi^T M0 = phi^-1;
-    omega (n,) [rad/s] (0 for the joint modes); damping (n,) [1/s] the diagonal of
-    phi^T C phi; lam (n - 4,) complex eigenvalues -d/2 + i nu of the elastic modes;
-    t [s] when it was built."""
+    omega (n,) [rad/s] (0 for the joint modes); bank: the elastic modes' oscillators
+    (``DiagonalBank`` undamped, ``CoupledBank`` damped); t [s] when it was built;
+    damping_matrix (m, m) [1/s] Ct = phi_e^T C phi_e of the elastic modes (None undamped)."""
     y_ref: np.ndarray
     phi: np.ndarray
     inverse: np.ndarray
     omega: np.ndarray
-    damping: np.ndarray
-    lam: np.ndarray
+    bank: object
     t: float
+    damping_matrix: np.ndarray = None
 
     @property
     def omega2(self):
         return self.omega ** 2
+
+    def linear_terms(self, eta, etad):
+        """Lambda eta + Ct eta' (n,): what the left side of the modal equations holds
+        (Ct = phi^T C phi, the bank's damping), added to Phi^T M0 a to form g."""
+        out = self.omega2 * eta
+        if self.damping_matrix is not None:
+            out[N_JOINTS:] += self.damping_matrix @ etad[N_JOINTS:]
+        return out
 
     def to_modal(self, y, yd):
         """(eta, eta') (n,) of a physical state."""
@@ -137,7 +206,7 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
     mass_matrix: y -> M(y) (n, n); stiffness (n,) Omega^2 [(rad/s)^2] and damping (n,)
     2 zeta Omega [1/s] on the diagonal (zero for the joints).  Raises ExponentialError
     when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal lock) or a
-    coupled mode is overdamped (d >= 2 omega)."""
+    coupled mode is overdamped."""
     y = np.asarray(y, float)
     n = y.size
     M0 = mass_matrix(y)
@@ -158,29 +227,31 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
     else:
         om, phi = np.zeros(0), joint
     omega = np.concatenate([np.zeros(N_JOINTS), om])
-    d = np.einsum("ij,i,ij->j", phi, np.asarray(damping, float), phi)
-    d[:N_JOINTS] = 0.0                        # C phi_r = 0 exactly (joints carry no damping)
-    d_el, om_el = d[N_JOINTS:], omega[N_JOINTS:]
-    if np.any(om_el <= 0) or np.any(d_el >= 2 * om_el):
-        i = int(np.argmax((om_el <= 0) | (d_el >= 2 * om_el)))
-        raise ExponentialError(
-            f"t = {t:.6g} s: coupled mode {i + 1} (omega {om_el[i]:.4g} rad/s, damping "
-            f"{d_el[i]:.4g} 1/s) is overdamped or has no stiffness: not an oscillator")
-    nu = np.sqrt(om_el ** 2 - 0.25 * d_el ** 2)
-    lam = -0.5 * d_el + 1j * nu
-    return ModalBasis(y_ref=y_ref, phi=phi, inverse=phi.T @ M0, omega=omega, damping=d, lam=lam,
-                      t=float(t))
+    c = np.asarray(damping, float)
+    Ct = None
+    if np.any(om <= 0):
+        i = int(np.argmax(om <= 0))
+        raise ExponentialError(f"t = {t:.6g} s: coupled mode {i + 1} has no stiffness "
+                               f"(omega {om[i]:.4g} rad/s): not an oscillator")
+    if np.any(c != 0):
+        # C phi_r = 0 exactly (joints carry no damping): only the elastic block
+        Ct = phi[:, N_JOINTS:].T @ (c[:, None] * phi[:, N_JOINTS:])
+        Ct = 0.5 * (Ct + Ct.T)
+        bank = CoupledBank(om, Ct, t)
+    else:
+        bank = DiagonalBank(om, np.zeros_like(om))
+    return ModalBasis(y_ref=y_ref, phi=phi, inverse=phi.T @ M0, omega=omega,
+                      bank=bank, t=float(t), damping_matrix=Ct)
 
 
 class StepWeights:
     """Cached weights of the variation-of-constants formula for one basis (module docstring):
     for a length H [s], ``get(H)`` -> (E (m,), W (K+1, m), wpos (K+1,), wvel (K+1,)) with
-    E = e^{H lambda}, W_j = (H / Delta) j! phi_{j+1}(H lambda), wpos_j = H^2 j!/(j+2)!,
-    wvel_j = H j!/(j+1)!, K the highest polynomial degree."""
+    E = e^{H mu}, W_j = H j! phi_{j+1}(H mu) (mu: the bank's eigenvalues), wpos_j =
+    H^2 j!/(j+2)!, wvel_j = H j!/(j+1)!, K the highest polynomial degree."""
 
     def __init__(self, basis, degree):
-        self.lam = basis.lam
-        self.delta = 2j * basis.lam.imag
+        self.mu = basis.bank.mu
         self.K = degree
         self.cache = {}
         self.dense_cache = {}
@@ -188,9 +259,9 @@ class StepWeights:
     def get(self, H):
         w = self.cache.get(H)
         if w is None:
-            phis = phi_functions(H * self.lam, self.K + 1)
+            phis = phi_functions(H * self.mu, self.K + 1)
             fact = np.array([math.factorial(j) for j in range(self.K + 1)], float)
-            W = (H / self.delta)[None, :] * fact[:, None] * phis[1:]
+            W = H * fact[:, None] * phis[1:]
             wpos = H * H * fact / np.array([math.factorial(j + 2) for j in range(self.K + 1)])
             wvel = H * fact / np.array([math.factorial(j + 1) for j in range(self.K + 1)])
             w = (phis[0], W, wpos, wvel)
@@ -205,13 +276,11 @@ def advance(basis, weights, eta, etad, coef, H, theta):
     kk = coef.shape[0]
     ct = coef * (theta ** np.arange(kk))[:, None]
     j = N_JOINTS
-    lam = basis.lam
-    xi = (etad[j:] - lam.conj() * eta[j:]) / weights.delta
-    xi = E * xi + np.einsum("km,km->m", ct[:, j:], W[:kk])
+    bank = basis.bank
+    xi = E * bank.to_xi(eta[j:], etad[j:]) + np.einsum("km,km->m", bank.forcing(ct[:, j:]), W[:kk])
     eta_new = np.empty_like(eta)
     etad_new = np.empty_like(etad)
-    eta_new[j:] = 2.0 * xi.real
-    etad_new[j:] = 2.0 * (lam * xi).real
+    eta_new[j:], etad_new[j:] = bank.from_xi(xi)
     eta_new[:j] = eta[:j] + H * etad[:j] + wpos[:kk] @ ct[:, :j]
     etad_new[:j] = etad[:j] + wvel[:kk] @ ct[:, :j]
     return eta_new, etad_new
@@ -237,13 +306,12 @@ def dense_advance(basis, weights, eta, etad, coef, offsets, m, tick):
     E, W, wpos, wvel, H = w
     kk = coef.shape[0]
     j = N_JOINTS
-    lam = basis.lam
-    xi0 = (etad[j:] - lam.conj() * eta[j:]) / weights.delta
-    xi = E * xi0[None, :] + np.einsum("okm,km->om", W[:, :kk], coef[:, j:])
+    bank = basis.bank
+    xi0 = bank.to_xi(eta[j:], etad[j:])
+    xi = E * xi0[None, :] + np.einsum("okm,km->om", W[:, :kk], bank.forcing(coef[:, j:]))
     eta_out = np.empty((len(offsets), eta.size))
     etad_out = np.empty_like(eta_out)
-    eta_out[:, j:] = 2.0 * xi.real
-    etad_out[:, j:] = 2.0 * (lam[None, :] * xi).real
+    eta_out[:, j:], etad_out[:, j:] = bank.from_xi(xi)
     eta_out[:, :j] = eta[None, :j] + H[:, None] * etad[None, :j] + wpos[:, :kk] @ coef[:, :j]
     etad_out[:, :j] = etad[None, :j] + wvel[:, :kk] @ coef[:, :j]
     return eta_out, etad_out
@@ -309,6 +377,7 @@ class ExponentialStats:
     smallest_step: float = np.inf
     largest_step: float = 0.0
     bases: list = field(default_factory=list)     # times [s] of every basis
+    coupled_omega_max: float = 0.0                # [rad/s] highest coupled frequency, first basis
 
 
 def check_options(tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
@@ -358,6 +427,8 @@ class ExponentialAdams:
         self.weights = StepWeights(self.basis, self.order)
         self.stats.basis_time += time.perf_counter() - t0
         self.stats.bases.append(float(t))
+        if len(self.stats.bases) == 1:
+            self.stats.coupled_omega_max = float(self.basis.omega.max(initial=0.0))
         self.rejections_in_basis = 0
 
     def _carry_history(self):
@@ -365,7 +436,7 @@ class ExponentialAdams:
         b = self.basis
         for node in self.history:
             eta, etad = b.to_modal(node.y, node.yd)
-            node.g = b.inverse @ node.a + b.omega2 * eta + b.damping * etad
+            node.g = b.inverse @ node.a + b.linear_terms(eta, etad)
 
     def _evaluate(self, t, eta, etad):
         """(g, y, y', a) at a modal state: the project's right-hand side, moved to the modal
@@ -374,7 +445,7 @@ class ExponentialAdams:
         y, yd = b.to_physical(eta, etad)
         a = self.problem.rhs(t, y, yd)
         self.stats.evaluations += 1
-        g = b.inverse @ a + b.omega2 * eta + b.damping * etad
+        g = b.inverse @ a + b.linear_terms(eta, etad)
         return g, y, yd, a
 
     def _fail(self, t, cause):
@@ -412,6 +483,8 @@ class ExponentialAdams:
         i = 0
         basis_tick = 0
         since_change = 0
+        if fixed and self.order > 1 and self.order * m <= i_end:
+            i, eta, etad = self._block_start(eta, etad, m, tick, tpo, on_outputs)
         while i < i_end:
             while m > i_end - i:
                 m //= 2
@@ -495,6 +568,40 @@ class ExponentialAdams:
                 m *= 2
                 since_change = 0
         return self.stats
+
+    def _block_start(self, eta, etad, m, tick, tpo, on_outputs, iterations=None):
+        """The first `order` fixed steps at full order: the states at t_1..t_k (k = order,
+        t_j = j h) from one polynomial through g at t_0..t_k, iterated to a fixed point
+        (each sweep gains one order; 2k + 2 sweeps), so that a fixed-step run is of order
+        k + 1 from the start (a low-order start would cost its order: O(h^2) from an order-1
+        first step).  Outputs inside [0, t_k] come from the same polynomial.  Returns
+        (i, eta, eta') at t_k, the history holding t_k..t_0."""
+        k = self.order
+        total = k * m
+        offsets = tuple(j * m for j in range(1, k + 1))
+        nodes = np.arange(k + 1) / k
+        G = np.repeat(self.history[0].g[None, :], k + 1, axis=0)
+        for _ in range(iterations or 2 * k + 2):
+            c = poly_coefficients(nodes, G)
+            e_, ed_ = dense_advance(self.basis, self.weights, eta, etad, c, offsets, total, tick)
+            evals = [self._evaluate(j * m * tick, e_[j - 1], ed_[j - 1]) for j in range(1, k + 1)]
+            G = np.vstack([G[:1], np.array([ev[0] for ev in evals])])
+            if not np.all(np.isfinite(G)):
+                self._fail(0.0, "non-finite accelerations in the start-up block")
+        c = poly_coefficients(nodes, G)
+        e_, ed_ = dense_advance(self.basis, self.weights, eta, etad, c, offsets, total, tick)
+        for j in range(1, k + 1):
+            g, y, yd, a = self._evaluate(j * m * tick, e_[j - 1], ed_[j - 1])
+            self.history.insert(0, _Node(j * m * tick, y, yd, a, g))
+        del self.history[self.order + 1:]
+        ks = np.arange(1, total // tpo + 1)
+        if ks.size:
+            oe, oed = dense_advance(self.basis, self.weights, eta, etad, c,
+                                    tuple(int(x) for x in ks * tpo), total, tick)
+            on_outputs(ks, self.basis.y_ref + oe @ self.basis.phi.T, oed @ self.basis.phi.T,
+                       m * tick)
+        self.stats.steps += k
+        return total, e_[-1], ed_[-1]
 
     def _relinearise(self, t, eta, etad):
         y, yd = self.basis.to_physical(eta, etad)

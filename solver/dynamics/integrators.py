@@ -312,7 +312,8 @@ def _exponential(problem, out, step, options):
         "order": integrator.order, "drift": integrator.drift,
         "evaluations": st.evaluations, "rejected": st.rejected,
         "relinearisations": st.relinearisations, "basis_time_s": st.basis_time,
-        "smallest_step": st.smallest_step, "largest_step": st.largest_step}
+        "smallest_step": st.smallest_step, "largest_step": st.largest_step,
+        "coupled_omega_max": st.coupled_omega_max}
 
 
 def _rk4(problem, out, step, fraction, growth_factor, whole_run):

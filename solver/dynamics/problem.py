@@ -77,6 +77,10 @@ class Problem:
             self._omega_max = linearized.coupled_omega_max(self.chain, self.y0)
         return self._omega_max
 
+    @omega_max.setter
+    def omega_max(self, value):
+        self._omega_max = float(value)
+
     def mass_matrix(self, y):
         """M(y) (n, n) [lbf s^2 in and mixed units of the coordinates] (compiled when
         available): the exponential integrator's linearisation."""

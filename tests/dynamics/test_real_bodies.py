@@ -39,7 +39,8 @@ def test_freq10_thesis_runs_through_cli(real, tmp_path):
     with h5py.File(tmp_path / "thesis" / "freq-10.h5", "r") as f:
         assert np.all(np.isfinite(f["gamma_dot"][()]))
         assert f.attrs["omega_max"] > f.attrs["modal_omega_max"]
-        assert f.attrs["step"] <= f.attrs["stability_limit"]
+        assert f.attrs["integrator"] == "exponential"       # the default (issue 13)
+        assert f.attrs["step"] > 100 * f.attrs["stability_limit"]    # not bound by omega_max
         T, W = f["energy/total"][()], f["energy/input_work"][()]
         assert abs(T[-1] - T[0] - W[-1]) < 1e-3 * abs(W[-1])
 
@@ -48,9 +49,13 @@ def test_freq10_thesis_runs_through_cli(real, tmp_path):
     (["--scene", "thesis", "--model", "fraq-10"], "unknown model"),
     (["--scene", "thesis", "--model", "freq-101"], "only 100 computed"),
     (["--scene", "nope", "--model", "freq-10"], "unknown scene"),
-    (["--scene", "thesis", "--model", "freq-10", "--step", "1e-5"], "stability limit"),
+    (["--scene", "thesis", "--model", "freq-10", "--integrator", "rk4", "--step", "1e-5"], "stability limit"),
     (["--scene", "thesis", "--model", "freq-10", "--step=-1e-7"], "positive"),
-    (["--scene", "thesis", "--model", "truth", "--fraction", "1.5"], "stability limit"),
+    (["--scene", "thesis", "--model", "truth", "--integrator", "rk4", "--fraction", "1.5"], "stability limit"),
+    (["--scene", "thesis", "--model", "freq-10", "--tol", "0"], "positive"),
+    (["--scene", "thesis", "--model", "freq-10", "--tol", "1e-5", "--step", "1e-4"], "not both"),
+    (["--scene", "thesis", "--model", "freq-10", "--rho-inf", "0.5"], "belongs to generalized-alpha"),
+    (["--scene", "thesis", "--model", "freq-10", "--fraction", "0.5"], "belongs to rk4"),
 ])
 def test_bad_input_one_line_on_real_data(real, tmp_path, capsys, args, message):
     scene, model, options = args[1], args[3], args[4:]

@@ -23,6 +23,14 @@ rule load_ranking:
         "--reductions {input.reductions} --out {output} > {log} 2>&1"
 
 
+def integrator_options(wildcards):
+    """The command-line options of the configured integrator (simulation.tolerance is the
+    exponential integrator's; rk4 runs at its default, half its stability limit)."""
+    if cfgmod.value(config, "simulation.integrator") == "exponential":
+        return f"--tol {cfgmod.value(config, 'simulation.tolerance')!r}"
+    return ""
+
+
 rule simulate:
     input:
         model="results/models/{scene}/{model}.h5",
@@ -38,9 +46,12 @@ rule simulate:
         physics=scene_physics_hash,
         scene=scene_file,
         code=code_hash("solver.dynamics.simulate"),
+        # config simulation: the integrator (exponential or rk4, the thesis's) and its options
+        integrator=cfgmod.value(config, "simulation.integrator"),
+        options=integrator_options,
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
-        "--out {output} > {log} 2>&1"
+        "--integrator {params.integrator} {params.options} --out {output} > {log} 2>&1"
 
 
 rule dynamics_verification:
