@@ -1,6 +1,7 @@
 # Stage 6: fast and stable (issue 6). Run time against error, the right-hand side's cost
 # against model size (with the dense-mass-matrix baseline timed in the same run), and the
-# stability stress tests. Every benchmark writes files; nothing here is a timed assertion.
+# stability stress tests; the exponential integrator's speed table (issue 13) against the converged
+# DOP853 references. Every benchmark writes files; nothing here is a timed assertion.
 #   snakemake --cores 2 bench
 # Pareto: one model per family at ~40-100 elastic coordinates (each costs ~2 min of repeated
 # runs; the truth, always added, ~5 min).
@@ -9,6 +10,18 @@ PARETO_MODELS = ["freq-10", "xmx-10", "load-10", "global-100"]
 SELECTION_MODELS = (["rigid"] + [f"{f}-{n}" for f in ("freq", "xmx", "xmgmx") for n in (5, 10, 15, 20, 25)]
                     + [f"load-{n}" for n in (5, 10, 15, 20, 25, 30, 40)]
                     + [f"global-{n}" for n in (20, 40, 60, 80, 100, 120, 160)])
+# Exponential integrator speed (issue 13): one reduced model per family of the study on thesis
+# (each ~50-120 ms a run). The benchmark's cost (loaded 2-core machine, 2026-11-24): the DOP853
+# comparison ~3 min (6 DOP853 runs of 25-40 s), `long` ~2.5 min (6 runs of ~25 s), the rest < 1 min.
+EXPONENTIAL_MODELS = ["freq-10", "xmx-10", "xmgmx-10", "static-8", "load-10", "global-100", "rigid"]
+# Scenes whose converged DOP853 reference the exponential benchmark judges E against. Costs of
+# one reference (truth model, rtol 1e-10, one core): thesis ~1 min, stress_rates_10 ~4 min.
+EXPONENTIAL_REFERENCE_SCENES = ["thesis", "stress_rates_10"]
+# The `long` scene's reference costs ~1 hour of DOP853 (1 s simulated: ~1.4e6 steps of ~7e-7 s,
+# 67 times the thesis reference's 15 ms), so it
+# is optional: with LONG_REFERENCE = [] the benchmark still times `long` and reports its E as
+# "no reference".
+LONG_REFERENCE = ["results/reference/long/truth.h5"]
 
 
 rule stability:
@@ -99,9 +112,63 @@ rule selection:
         "--figure {output.figure} > {log} 2>&1"
 
 
+rule reference_simulation:
+    """The converged reference of a scene: DOP853 at rtol 1e-10 on the scene's truth model (the
+    simulation default is the exponential integrator, so results/sim/{scene}/truth.h5 is not it)."""
+    input:
+        model="results/models/{scene}/truth.h5",
+    output:
+        "results/reference/{scene}/truth.h5",
+    log:
+        "logs/reference/{scene}.log",
+    benchmark:
+        "results/benchmarks/rules/reference/{scene}.tsv"
+    params:
+        physics=scene_physics_hash,
+        scene=scene_file,
+        code=code_hash("solver.dynamics.simulate"),
+    shell:
+        "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
+        "--integrator dop853 --rtol 1e-10 --atol 1e-14 --out {output} > {log} 2>&1"
+
+
+def reference_arguments(wildcards, input):
+    """--reference SCENE=FILE of every reference file (the scene is the file's folder)."""
+    files = list(input.references) + list(input.long_reference)
+    return " ".join(f"'{os.path.basename(os.path.dirname(f))}={f}'" for f in files)
+
+
+rule exponential_bench:
+    input:
+        truth_model="results/models/thesis/truth.h5",
+        references=expand("results/reference/{scene}/truth.h5", scene=EXPONENTIAL_REFERENCE_SCENES),
+        long_reference=LONG_REFERENCE,
+        models=expand("results/models/thesis/{model}.h5", model=EXPONENTIAL_MODELS),
+    output:
+        json="results/benchmarks/exponential.json",
+        md="results/benchmarks/exponential.md",
+        csv="results/benchmarks/exponential.csv",
+    params:
+        references=reference_arguments,
+        models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
+        code=code_hash("results.bench.exponential"),
+    log:
+        "logs/bench/exponential.log",
+    benchmark:
+        "results/benchmarks/rules/bench/exponential.tsv"
+    # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
+    # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
+    threads: 2
+    shell:
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.exponential "
+        "--truth-model {input.truth_model} --reference {params.references} --models {params.models} "
+        "--repeats 5 --out-json {output.json} --out-md {output.md} --out-csv {output.csv} > {log} 2>&1"
+
+
 rule bench:
     input:
         rules.stability.output,
         rules.scaling.output,
         rules.pareto.output,
         rules.selection.output,
+        rules.exponential_bench.output,
