@@ -43,16 +43,12 @@ torque [in lbf].
 
 import copy
 
-import numba
 import numpy as np
 from scipy.linalg import lapack
 
 from solver.dynamics import compiled, multibody
-from solver.dynamics.compiled import PackedChain
 from solver.dynamics.integrators import rk4_step
-from solver.dynamics.kernels import modal, recursion
 
-_JIT = dict(cache=True, fastmath=False)
 ASSEMBLIES = ("composite", "columns")
 
 
@@ -67,103 +63,18 @@ def pack_dense(chain):
     return compiled.pack(chain)
 
 
-@numba.njit(**_JIT)
-def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
-    """Fill Jall (24, n) (the four bodies' twist Jacobians J_k), Pall (24, n)
-    (P_k = M_X J_k + B E_k) and BtJ (S, n) (rows of the modal coordinates, B_k^T J_k),
-    so that M(y) = Jall^T Pall + [0; BtJ] + I_modal (module docstring).  The joint
-    poses and maps are those of the structured solver's kinematics
-    (``kernels.recursion.kinematics``: L = [R^T Psi; Lw Theta] on the parent's modes).
-    The chain's arrays come as separate arguments (``*pack_dense(chain)``): the dispatch of
-    a tuple of many arrays is slow (``solver.dynamics.compiled``)."""
-    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-    S = V.shape[1]
-    n = 4 + S
-    fr = recursion.new_frames(0)
-    R_all, p_all, Lw_all = fr.R, fr.p, fr.Lw
-    zero_n, zero6 = np.zeros(n), np.zeros(6)
-    recursion.kinematics(y, zero_n, zero_n, zero6, zero6, ch, fr)
-    J = np.zeros((6, n))                        # twist Jacobian of the parent (case: zero)
-    for k in range(4):
-        R, p = R_all[k], p_all[k]
-        o, Dk = off[k], D[k]
-        m = 4 + o                               # J_k is zero beyond the angles and ancestors' modes
-        # J_k = Ad^-1(R, p) J_parent + L E_parent + s e_k;  Ad^-1 = [[R^T, -R^T p~], [0, R^T]]
-        Jk = np.zeros((6, n))
-        for c in range(m):
-            v0, v1, v2 = J[0, c], J[1, c], J[2, c]
-            w0, w1, w2 = J[3, c], J[4, c], J[5, c]
-            u0 = v0 + w1 * p[2] - w2 * p[1]     # v + omega x p
-            u1 = v1 + w2 * p[0] - w0 * p[2]
-            u2 = v2 + w0 * p[1] - w1 * p[0]
-            for a in range(3):
-                Jk[a, c] = R[0, a] * u0 + R[1, a] * u1 + R[2, a] * u2
-                Jk[3 + a, c] = R[0, a] * w0 + R[1, a] * w1 + R[2, a] * w2
-        if k > 0:                               # + L q'_parent, L = [R^T Psi; Lw Theta]
-            op, Dp = off[k - 1], D[k - 1]
-            Lw = Lw_all[k]
-            for i in range(Dp):
-                for a in range(3):
-                    sv, sw = 0.0, 0.0
-                    for b in range(3):
-                        sv += R[b, a] * V[6 + b, op + i]
-                        sw += Lw[a, b] * V[9 + b, op + i]
-                    Jk[a, 4 + op + i] += sv
-                    Jk[3 + a, 4 + op + i] += sw
-        Jk[3, k] += 1.0
-        # body matrices at q: M_X = M6 + sum q_i M1_i, B = [P; H + sum_j q_j G_j]
-        Mx = M6[k].copy()
-        Bk = V[0:6, o:o + Dk].copy()
-        if Dk > 0:
-            q = y[4 + o:4 + o + Dk].copy()
-            modal.add_inertia(Mx, M1, o, Dk, q)
-            hq = q @ G[k]
-            for a in range(3):
-                Bk[3 + a] += hq[a * Dk:(a + 1) * Dk]
-        Pk = Mx @ Jk
-        for i in range(Dk):
-            for a in range(6):
-                Pk[a, 4 + o + i] += Bk[a, i]
-        BtJ[o:o + Dk] = Bk.T @ Jk
-        Jall[6 * k:6 * k + 6] = Jk
-        Pall[6 * k:6 * k + 6] = Pk
-        J = Jk
-
-
-# ------------------------------------------------------------------ wrappers
-class Workspace:
-    """Buffers of the composite assembly for n coordinates, reused from call to call:
-    Jall, Pall (24, n), BtJ (n - 4, n), M (n, n).  Reuse matters beyond the copy: a fresh
-    n x n array is fresh memory, and its first touch costs a page fault per 4 kB page
-    (measured: ~5 ms of a 7 ms assembly at n = 804 on the benchmark VM)."""
-
-    def __init__(self, n):
-        self.Jall = np.zeros((24, n))
-        self.Pall = np.zeros((24, n))
-        self.BtJ = np.zeros((n - 4, n))
-        self.M = np.zeros((n, n))
-
-
-def mass_matrix_composite(data, y, work=None):
-    """M(y) (n, n) by the Jacobian (composite) assembly; data = ``pack_dense(chain)``.
-
-    With a ``Workspace`` the result is written into (and returned as) work.M;
-    without one, into a new array."""
-    y = np.ascontiguousarray(y, dtype=float)
-    work = Workspace(y.size) if work is None else work
-    _mass_factors(y, work.Jall, work.Pall, work.BtJ, *data)
-    M = np.dot(work.Jall.T, work.Pall, out=work.M)     # the one O(n^2) product: BLAS dgemm
-    M[4:] += work.BtJ
-    idx = np.arange(4, y.size)
-    M[idx, idx] += 1.0
-    return M
+# The composite assembly (``_mass_factors``, ``Workspace``, ``mass_matrix_composite``) lives
+# in ``solver.dynamics.compiled``: the exponential integrator's linearisation and the RK4
+# bound's coupled frequencies use it too.
+mass_matrix_composite = compiled.mass_matrix_composite
+Workspace = compiled.Workspace
 
 
 def mass_matrix_columns(fast_chain, y, out=None):
     """M(y) (n, n) column by column, n + 1 compiled inverse-dynamics calls with unit
-    accelerations (Walker-Orin method 1: ``compiled.FastChain.mass_matrix``); copied into
-    ``out`` if given."""
-    M = fast_chain.mass_matrix(y)
+    accelerations (Walker-Orin method 1: ``compiled.FastChain.mass_matrix_by_columns``);
+    copied into ``out`` if given."""
+    M = fast_chain.mass_matrix_by_columns(y)
     if out is None:
         return M
     out[...] = M

@@ -256,6 +256,18 @@ class StepWeights:
         self.cache = {}
         self.dense_cache = {}
 
+    def many(self, H):
+        """The weights of ``get`` for several lengths H (k,) at once (one vectorised
+        phi_functions call): E (k, m), W (k, K+1, m), wpos, wvel (k, K+1)."""
+        H = np.asarray(H, float)
+        phis = phi_functions((H[:, None] * self.mu[None, :]).ravel(), self.K + 1)
+        phis = phis.reshape(self.K + 2, H.size, self.mu.size)
+        fact = np.array([math.factorial(j) for j in range(self.K + 1)], float)
+        W = (H[:, None, None] * fact[None, :, None]) * phis[1:].transpose(1, 0, 2)
+        wpos = H[:, None] ** 2 * (fact / np.array([math.factorial(j + 2) for j in range(self.K + 1)]))
+        wvel = H[:, None] * (fact / np.array([math.factorial(j + 1) for j in range(self.K + 1)]))
+        return phis[0], W, wpos, wvel
+
     def get(self, H):
         w = self.cache.get(H)
         if w is None:
@@ -293,15 +305,11 @@ def dense_advance(basis, weights, eta, etad, coef, offsets, m, tick):
     key = (offsets, m)
     w = weights.dense_cache.get(key)
     if w is None:
-        parts = [weights.get(o * tick) for o in offsets]
+        H = np.array(offsets, float) * tick                                    # (k,)
         theta = np.array(offsets, float) / m
-        tpow = theta[:, None] ** np.arange(weights.K + 1)[None, :]         # (k, K+1)
-        E = np.array([p[0] for p in parts])                                   # (k, m_el)
-        W = np.array([p[1] for p in parts]) * tpow[:, :, None]               # (k, K+1, m_el)
-        wpos = np.array([p[2] for p in parts]) * tpow                        # (k, K+1)
-        wvel = np.array([p[3] for p in parts]) * tpow
-        H = np.array(offsets, float) * tick
-        w = (E, W, wpos, wvel, H)
+        tpow = theta[:, None] ** np.arange(weights.K + 1)[None, :]            # (k, K+1)
+        E, W, wpos, wvel = weights.many(H)
+        w = (E, W * tpow[:, :, None], wpos * tpow, wvel * tpow, H)
         weights.dense_cache[key] = w
     E, W, wpos, wvel, H = w
     kk = coef.shape[0]
@@ -317,11 +325,22 @@ def dense_advance(basis, weights, eta, etad, coef, offsets, m, tick):
     return eta_out, etad_out
 
 
+_VANDERMONDE_INVERSES = {}
+
+
 def poly_coefficients(nodes, values):
     """Monomial coefficients c (q, n) of the polynomial through (nodes[m], values[m]),
-    nodes (q,) in units of the step, values (q, n)."""
-    V = np.vander(np.asarray(nodes, float), increasing=True)
-    return np.linalg.solve(V, values)
+    nodes (q,) in units of the step, values (q, n).  The inverse Vandermonde matrix of a
+    node pattern is cached (a steady step repeats the same pattern; q <= 7, so the
+    inverse is as accurate as a solve)."""
+    key = tuple(nodes)
+    Vinv = _VANDERMONDE_INVERSES.get(key)
+    if Vinv is None:
+        Vinv = np.linalg.inv(np.vander(np.asarray(nodes, float), increasing=True))
+        if len(_VANDERMONDE_INVERSES) > 4096:
+            _VANDERMONDE_INVERSES.clear()
+        _VANDERMONDE_INVERSES[key] = Vinv
+    return Vinv @ values
 
 
 class ErrorNorm:
@@ -365,6 +384,58 @@ class _Node:
     yd: np.ndarray
     a: np.ndarray
     g: np.ndarray
+
+
+class ModalStates:
+    """Physical states (T, n) of a modal trajectory, computed when read: row k is
+    offset_s + phi_s eta[k], s = segment[k] the basis active at output k (offset y_ref for
+    positions, 0 for velocities).  Indexing [rows, cols] computes only those entries (the
+    gimbal columns [:, :4] cost 4 n per row, not n^2: the output transform of every
+    coordinate is ~1 GFlop on the thesis scene, more than the integration); anything
+    else (np.asarray, arithmetic, [k]) builds the whole (T, n) array once and keeps it."""
+
+    def __init__(self, eta, segment, offsets, phis):
+        self.eta = eta                   # (T, n) modal coordinates
+        self.segment = segment           # (T,) int, index into offsets / phis
+        self.offsets = offsets           # list of (n,)
+        self.phis = phis                 # list of (n, n)
+        self.shape = eta.shape
+        self.ndim = 2
+        self.dtype = np.dtype(float)
+        self._full = None
+
+    def __len__(self):
+        return self.shape[0]
+
+    def _block(self, rows, cols):
+        out = np.empty((rows.size, cols.size))
+        seg = self.segment[rows]
+        for s in np.unique(seg):
+            sel = seg == s
+            out[sel] = self.offsets[s][cols] + self.eta[rows[sel]] @ self.phis[s][cols].T
+        return out
+
+    def full(self):
+        """The (T, n) array (built once)."""
+        if self._full is None:
+            self._full = self._block(np.arange(self.shape[0]), np.arange(self.shape[1]))
+        return self._full
+
+    def __getitem__(self, key):
+        if self._full is None and isinstance(key, tuple) and len(key) == 2:
+            r = np.arange(self.shape[0])[key[0]]
+            c = np.arange(self.shape[1])[key[1]]
+            out = self._block(np.atleast_1d(r), np.atleast_1d(c))
+            if np.ndim(r) == 0:
+                out = out[0]
+            if np.ndim(c) == 0:
+                out = out[..., 0]
+            return out
+        return self.full()[key]
+
+    def __array__(self, dtype=None):
+        a = self.full()
+        return a if dtype is None else a.astype(dtype)
 
 
 @dataclass
@@ -427,6 +498,8 @@ class ExponentialAdams:
         self.weights = StepWeights(self.basis, self.order)
         self.stats.basis_time += time.perf_counter() - t0
         self.stats.bases.append(float(t))
+        if hasattr(self, "segments"):
+            self.segments.append((self.basis.y_ref, self.basis.phi))
         if len(self.stats.bases) == 1:
             self.stats.coupled_omega_max = float(self.basis.omega.max(initial=0.0))
         self.rejections_in_basis = 0
@@ -452,13 +525,24 @@ class ExponentialAdams:
         raise ExponentialError(f"exponential: t = {t:.6g} s, model {self.model!r}: {cause}")
 
     # -- the run
-    def run(self, t_out, y0, yd0, on_outputs):
-        """Integrate from t_out[0] = 0 to t_out[-1] (equally spaced), calling
-        on_outputs(ks, Y, V, h) after every step that reaches output times: ks (k,) their
-        indices into t_out, Y, V (k, n) the states there, h [s] the step.  Returns the stats."""
+    def run(self, t_out, y0, yd0, on_outputs=None):
+        """Integrate from t_out[0] = 0 to t_out[-1] (equally spaced).  Returns (stats,
+        positions, velocities), the last two ``ModalStates`` (T, n) at t_out.  If given,
+        on_outputs(ks, Y, V, h) is called after every step that reaches output times: ks
+        (k,) their indices into t_out, Y, V (k, n) the physical states there, h [s] the step
+        (the fixed-step runs' energy watch)."""
+        n = np.asarray(y0).size
+        self.out_eta = np.zeros((t_out.size, n))
+        self.out_etad = np.zeros((t_out.size, n))
+        self.out_segment = np.zeros(t_out.size, dtype=int)
+        self.segments = []
+        self.on_outputs = on_outputs
         n_out = t_out.size - 1
         if n_out == 0:
-            return self.stats
+            self._new_basis(0.0, np.asarray(y0, float))
+            self.out_eta[0], self.out_etad[0] = self.basis.to_modal(np.asarray(y0, float),
+                                                                    np.asarray(yd0, float))
+            return self._result()
         dt_out = float(t_out[1] - t_out[0])
         if self.step is None:
             tpo = 2 ** SUBDIVISIONS                         # grid points per output interval
@@ -477,6 +561,7 @@ class ExponentialAdams:
         y, yd = np.array(y0, float), np.array(yd0, float)
         self._new_basis(0.0, y)
         eta, etad = self.basis.to_modal(y, yd)
+        self._record(np.array([0]), eta[None, :], etad[None, :], 0.0)
         g, y, yd, a = self._evaluate(0.0, eta, etad)
         self.history.append(_Node(0.0, y, yd, a, g))
         self.norm.accept(self.basis, eta, etad, yd)
@@ -484,7 +569,7 @@ class ExponentialAdams:
         basis_tick = 0
         since_change = 0
         if fixed and self.order > 1 and self.order * m <= i_end:
-            i, eta, etad = self._block_start(eta, etad, m, tick, tpo, on_outputs)
+            i, eta, etad = self._block_start(eta, etad, m, tick, tpo)
         while i < i_end:
             while m > i_end - i:
                 m //= 2
@@ -531,15 +616,13 @@ class ExponentialAdams:
                 ks = np.arange(first, last + 1)
                 offsets = ks * tpo - i
                 inner = offsets < m
-                Y = np.empty((ks.size, y1.size))
-                V = np.empty_like(Y)
-                Y[~inner], V[~inner] = y1, yd1
+                E_ = np.empty((ks.size, eta.size))
+                Ed_ = np.empty_like(E_)
+                E_[~inner], Ed_[~inner] = etaC, etadC
                 if inner.any():
-                    e_, ed_ = dense_advance(self.basis, self.weights, eta, etad, cC,
-                                            tuple(offsets[inner]), m, tick)
-                    Y[inner] = self.basis.y_ref + e_ @ self.basis.phi.T
-                    V[inner] = ed_ @ self.basis.phi.T
-                on_outputs(ks, Y, V, h)
+                    E_[inner], Ed_[inner] = dense_advance(self.basis, self.weights, eta, etad, cC,
+                                                          tuple(offsets[inner]), m, tick)
+                self._record(ks, E_, Ed_, h)
             self.history.insert(0, _Node(t + h, y1, yd1, a1, g1))
             del self.history[self.order + 1:]
             eta, etad = etaC, etadC
@@ -567,9 +650,25 @@ class ExponentialAdams:
                     and i % (2 * m) == 0:
                 m *= 2
                 since_change = 0
-        return self.stats
+        return self._result()
 
-    def _block_start(self, eta, etad, m, tick, tpo, on_outputs, iterations=None):
+    def _record(self, ks, eta, etad, h):
+        """Keep the modal outputs ks (k,), eta, eta' (k, n) in the current basis's segment;
+        hand the physical states to on_outputs if there is one."""
+        self.out_eta[ks], self.out_etad[ks] = eta, etad
+        self.out_segment[ks] = len(self.segments) - 1
+        if self.on_outputs is not None:
+            b = self.basis
+            self.on_outputs(ks, b.y_ref + eta @ b.phi.T, etad @ b.phi.T, h)
+
+    def _result(self):
+        offsets = [sg[0] for sg in self.segments]
+        phis = [sg[1] for sg in self.segments]
+        zeros = [np.zeros_like(o) for o in offsets]
+        return (self.stats, ModalStates(self.out_eta, self.out_segment, offsets, phis),
+                ModalStates(self.out_etad, self.out_segment, zeros, phis))
+
+    def _block_start(self, eta, etad, m, tick, tpo, iterations=None):
         """The first `order` fixed steps at full order: the states at t_1..t_k (k = order,
         t_j = j h) from one polynomial through g at t_0..t_k, iterated to a fixed point
         (each sweep gains one order; 2k + 2 sweeps), so that a fixed-step run is of order
@@ -598,8 +697,7 @@ class ExponentialAdams:
         if ks.size:
             oe, oed = dense_advance(self.basis, self.weights, eta, etad, c,
                                     tuple(int(x) for x in ks * tpo), total, tick)
-            on_outputs(ks, self.basis.y_ref + oe @ self.basis.phi.T, oed @ self.basis.phi.T,
-                       m * tick)
+            self._record(ks, oe, oed, m * tick)
         self.stats.steps += k
         return total, e_[-1], ed_[-1]
 

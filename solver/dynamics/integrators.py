@@ -125,7 +125,9 @@ def generalized_alpha_parameters(rho_inf):
 
 @dataclass
 class Run:
-    """What a run produced: outputs and bookkeeping."""
+    """What a run produced: outputs and bookkeeping.  y, yd (T, n): arrays, or for the
+    exponential integrator ``exponential.ModalStates`` (the same values, computed when read;
+    [:, :4] reads only the gimbal columns)."""
     t: np.ndarray
     y: np.ndarray
     yd: np.ndarray
@@ -301,12 +303,10 @@ def _exponential(problem, out, step, options):
     watch = step is not None
 
     def on_outputs(ks, Y, V, h):
-        if watch:
-            for k, y, yd in zip(ks, Y, V):
-                out.store(k, y, yd, h)
-        else:
-            out.Y[ks], out.V[ks] = Y, V
-    st = integrator.run(out.t, out.Y[0], out.V[0], on_outputs)
+        for k, y, yd in zip(ks, Y, V):
+            out.store(k, y, yd, h)
+    st, out.Y, out.V = integrator.run(out.t, out.Y[0].copy(), out.V[0].copy(),
+                                      on_outputs if watch else None)
     return st.largest_step, st.steps, {
         "tol": integrator.tol if integrator.tol is not None else np.nan,
         "order": integrator.order, "drift": integrator.drift,
