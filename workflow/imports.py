@@ -40,6 +40,8 @@ LAYERS = (
     ("geometry",),
     ("solver", "solver.bodydata"),
     ("solver.fe", "solver.dynamics"),
+    # the CLI's short name (python -m solver.simulate), forwarding to solver.dynamics.simulate
+    ("solver.simulate",),
     ("reduction",),
     ("results", "results.study", "results.bench"),
 )
