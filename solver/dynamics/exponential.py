@@ -60,7 +60,7 @@ import scipy.linalg
 from solver.dynamics.linearized import free_joint_modes
 
 N_JOINTS = 4
-DEFAULT_TOL = 1e-5         # local error per step, relative (ErrorNorm); docs/exponential.md Sec. 5
+DEFAULT_TOL = 5e-6         # local error per step, relative (ErrorNorm); docs/exponential.md Sec. 5
 DEFAULT_ORDER = 4          # Adams predictor order (corrector q + 1)
 DEFAULT_DRIFT = 0.01       # [rad] gimbal-angle drift that triggers a new basis (measured, Sec. 6)
 FROZEN_VALIDITY = 0.05     # [rad] drift beyond which a frozen basis is refused (Sec. 6)
@@ -70,10 +70,25 @@ SERIES_RADIUS = 2.0        # |z| below which phi_j uses its Taylor series
 SERIES_TERMS = 30
 GROW_SAFETY = 0.5          # double the step when the error estimate allows err 2^(q+1) <= SAFETY tol
 MAX_REJECTIONS_IN_BASIS = 3
+PROBE_DRIFT = 1e-5         # [rad] drift at which the first basis measures its frequency sensitivity
+PHASE_LIMIT = 1.0          # re-linearise when the estimated phase error exceeds PHASE_LIMIT * tol
+RATE_FLOOR = 1e-3          # a gimbal rate's error scale is at least this fraction of the largest
 
 
 class ExponentialError(RuntimeError):
     """The exponential integrator cannot continue (one-line diagnosis with time and cause)."""
+
+
+def coupled_frequencies_at(M, stiffness):
+    """Elastic coupled frequencies [rad/s] (ascending, (n - 4,)) of the chain with mass matrix
+    M (n, n) and stiffness diagonal (n,): eigenvalues only of the Schur-complement pencil
+    (``linearized.free_joint_modes``)."""
+    M = np.asarray(M, float)
+    Mgg, Mgq, Mqq = M[:N_JOINTS, :N_JOINTS], M[:N_JOINTS, N_JOINTS:], M[N_JOINTS:, N_JOINTS:]
+    S = Mqq - Mgq.T @ np.linalg.solve(Mgg, Mgq)
+    lam = scipy.linalg.eigh(np.diag(np.asarray(stiffness, float)[N_JOINTS:]), 0.5 * (S + S.T),
+                            eigvals_only=True)
+    return np.sqrt(np.maximum(lam, 0.0))
 
 
 def phi_functions(z, order):
@@ -355,6 +370,7 @@ class ErrorNorm:
     def __init__(self):
         self.energy_scale = 0.0
         self.rate_scale = 0.0
+        self.rate_scales = np.zeros(N_JOINTS)
 
     @staticmethod
     def energy(basis, eta, etad):
@@ -373,6 +389,12 @@ class ErrorNorm:
     def accept(self, basis, eta, etad, yd):
         self.energy_scale = max(self.energy_scale, self.energy(basis, eta, etad))
         self.rate_scale = max(self.rate_scale, float(np.abs(yd[:N_JOINTS]).max()))
+        self.rate_scales = np.maximum(self.rate_scales, np.abs(yd[:N_JOINTS]))
+
+    def per_rate_scales(self):
+        """(4,) [rad/s]: each gimbal rate's largest magnitude so far, floored at RATE_FLOOR
+        of the largest (E, eq. 3.53, is relative to each rate's own signal)."""
+        return np.maximum(self.rate_scales, RATE_FLOOR * max(self.rate_scale, 1e-300))
 
 
 @dataclass
@@ -449,6 +471,7 @@ class ExponentialStats:
     largest_step: float = 0.0
     bases: list = field(default_factory=list)     # times [s] of every basis
     coupled_omega_max: float = 0.0                # [rad/s] highest coupled frequency, first basis
+    phase_relinearisations: int = 0               # bases renewed for the phase error, not drift
 
 
 def check_options(tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
@@ -494,7 +517,9 @@ class ExponentialAdams:
     def _new_basis(self, t, y):
         t0 = time.perf_counter()
         p = self.problem
+        old = getattr(self, "basis", None)
         self.basis = linearise(p.mass_matrix, p.stiffness_diagonal, p.damping_diagonal, y, t)
+        self._phase_start(old)
         self.weights = StepWeights(self.basis, self.order)
         self.stats.basis_time += time.perf_counter() - t0
         self.stats.bases.append(float(t))
@@ -568,6 +593,7 @@ class ExponentialAdams:
         i = 0
         basis_tick = 0
         since_change = 0
+        drift_prev = 0.0
         if fixed and self.order > 1 and self.order * m <= i_end:
             i, eta, etad = self._block_start(eta, etad, m, tick, tpo)
         while i < i_end:
@@ -595,6 +621,7 @@ class ExponentialAdams:
                     self._relinearise(i * tick, eta, etad)
                     eta, etad = self.basis.to_modal(self.history[0].y, self.history[0].yd)
                     basis_tick = i
+                    drift_prev = 0.0
                     continue
                 if m == 1:
                     self._fail(t, f"the step fell to {h:.3g} s with the local error {err:.3g} "
@@ -633,15 +660,25 @@ class ExponentialAdams:
             i += m
             since_change += 1
             drift = float(np.abs(y1[:N_JOINTS] - self.basis.y_ref[:N_JOINTS]).max())
+            phase_err = 0.0
+            if not fixed and self.relinearise:
+                if not self.probed and drift >= PROBE_DRIFT:
+                    self._phase_probe(y1, drift)
+                phase_err = self._phase_error(etaC, etadC, h, drift_prev, drift)
+            drift_prev = drift
             if i < i_end:
                 if fixed:
                     due = every_ticks is not None and i - basis_tick >= every_ticks
                 else:
-                    due = self.relinearise and drift > self.drift
+                    due = self.relinearise and (drift > self.drift
+                                                or phase_err > PHASE_LIMIT * self.tol)
+                    if due and drift <= self.drift:
+                        self.stats.phase_relinearisations += 1
                 if due:
                     self._relinearise(t + h, eta, etad)
                     eta, etad = self.basis.to_modal(y1, yd1)
                     basis_tick = i
+                    drift_prev = 0.0
                 elif drift > FROZEN_VALIDITY and (not self.relinearise or fixed):
                     self._fail(t + h, f"the gimbals have turned {drift:.3g} rad from the frozen "
                                       f"basis (valid to {FROZEN_VALIDITY} rad): re-linearise")
@@ -685,8 +722,10 @@ class ExponentialAdams:
             e_, ed_ = dense_advance(self.basis, self.weights, eta, etad, c, offsets, total, tick)
             evals = [self._evaluate(j * m * tick, e_[j - 1], ed_[j - 1]) for j in range(1, k + 1)]
             G = np.vstack([G[:1], np.array([ev[0] for ev in evals])])
-            if not np.all(np.isfinite(G)):
-                self._fail(0.0, "non-finite accelerations in the start-up block")
+            bad = [j for j in range(1, k + 1) if not np.all(np.isfinite(G[j]))]
+            if bad:
+                self._fail(bad[0] * m * tick, "non-finite accelerations in the start-up block "
+                                              "(the first steps)")
         c = poly_coefficients(nodes, G)
         e_, ed_ = dense_advance(self.basis, self.weights, eta, etad, c, offsets, total, tick)
         for j in range(1, k + 1):
@@ -700,6 +739,53 @@ class ExponentialAdams:
             self._record(ks, oe, oed, m * tick)
         self.stats.steps += k
         return total, e_[-1], ed_[-1]
+
+    # -- the frozen basis's phase error (docs/exponential.md Section 6)
+    def _phase_start(self, old):
+        """A new basis: reset the accumulated phase, and take the relative frequency
+        sensitivity kappa (m,) [1/rad] from the change since the previous basis if there is
+        one (the first basis measures it with a probe, ``_phase_probe``)."""
+        m = self.basis.omega.size - N_JOINTS
+        self.phase = np.zeros(m)
+        self.probed = old is not None
+        if old is None:
+            self.kappa = np.zeros(m)
+            return
+        dg = float(np.abs(self.basis.y_ref[:N_JOINTS] - old.y_ref[:N_JOINTS]).max())
+        w_old, w_new = old.omega[N_JOINTS:], self.basis.omega[N_JOINTS:]
+        if dg > 0:
+            self.kappa = np.maximum(np.abs(w_new - w_old) / (w_old * dg), 0.5 * self.kappa)
+
+    def _phase_probe(self, y, drift):
+        """The first basis's frequency sensitivity: the coupled frequencies at the current
+        configuration (eigenvalues only), compared with the basis's, per radian of drift."""
+        p = self.problem
+        t0 = time.perf_counter()
+        om = coupled_frequencies_at(p.mass_matrix(y), p.stiffness_diagonal)
+        self.stats.basis_time += time.perf_counter() - t0
+        w = self.basis.omega[N_JOINTS:]
+        self.kappa = np.abs(om - w) / (w * drift)
+        self.probed = True
+
+    def _phase_error(self, eta, etad, h, drift0, drift1):
+        """Add the phase that every elastic mode gains in a step of h [s] while the gimbals
+        drift from drift0 to drift1 [rad] (delta omega_i = kappa_i omega_i drift), and return
+        the error it causes: a phase error delta_i turns mode i's complex coordinate xi_i into
+        xi_i e^{i delta_i}, so eta' changes by 2 Re(mu_i i delta_i xi_i) and eta by
+        2 Re(i delta_i xi_i); the larger of that change's energy norm over the solution's
+        (``ErrorNorm``) and of its gimbal rates (phi[:4] delta eta') each over that rate's
+        own scale (``ErrorNorm.per_rate_scales``: the phase error accumulates, and E weighs
+        every rate against its own signal)."""
+        j = N_JOINTS
+        b = self.basis
+        w = b.omega[j:]
+        self.phase += self.kappa * w * 0.5 * (drift0 + drift1) * h
+        dxi = 1j * self.phase * b.bank.to_xi(eta[j:], etad[j:])
+        d_eta, d_etad = b.bank.from_xi(dxi)
+        e_scale = max(self.norm.energy_scale, 1e-300)
+        energy = math.sqrt(float(np.dot(d_etad, d_etad)) + float(np.dot((w * d_eta) ** 2, np.ones_like(w))))
+        rates = float((np.abs(b.phi[:j, j:] @ d_etad) / self.norm.per_rate_scales()).max())
+        return max(energy / e_scale, rates)
 
     def _relinearise(self, t, eta, etad):
         y, yd = self.basis.to_physical(eta, etad)

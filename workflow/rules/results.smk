@@ -4,6 +4,30 @@ STUDY_SIMS = expand("results/sim/thesis/{model}.h5", model=STUDY_MODELS)
 TRUTH = "results/sim/thesis/truth.h5"
 
 
+rule integrator_tables:
+    """The study's error table with the exponential integrator against RK4 (issue 13): every
+    study model and the truth integrated both ways, in one process (results.bench.integrator_tables)."""
+    input:
+        truth_model="results/models/thesis/truth.h5",
+        models=expand("results/models/thesis/{model}.h5", model=STUDY_MODELS),
+    output:
+        json="results/benchmarks/integrator_tables.json",
+        csv="results/benchmarks/integrator_tables.csv",
+    params:
+        code=code_hash("results.bench.integrator_tables"),
+        physics=lambda wildcards: scenes_mod.load_scene("config/scenes/thesis.yaml").config_hash(),
+        tol=cfgmod.value(config, "simulation.tolerance"),
+        models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
+    log:
+        "logs/results/integrator_tables.log",
+    benchmark:
+        "results/benchmarks/rules/integrator_tables.tsv"
+    shell:
+        "OMP_NUM_THREADS=1 {PY} -m results.bench.integrator_tables --scene config/scenes/thesis.yaml "
+        "--truth-model {input.truth_model} --models {params.models} --tol {params.tol} "
+        "--out-json {output.json} --out-csv {output.csv} > {log} 2>&1"
+
+
 rule study:
     input:
         TRUTH,
@@ -83,6 +107,7 @@ rule report:
         pareto="results/benchmarks/pareto.csv",
         scaling="results/benchmarks/scaling.json",
         selection="results/tables/selection.csv",
+        integrators="results/benchmarks/integrator_tables.json",
         bench_figures=[rules.pareto.output.figure, rules.scaling.output.figure, rules.selection.output.figure,
                        rules.stability.output.rk4_limit, rules.stability.output.drift],
     output:
@@ -100,5 +125,6 @@ rule report:
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
         "--config {CONFIG} --scene {input.scene} --mode-shapes {input.mode_shapes} "
         "--stability {input.stability} --pareto {input.pareto} --scaling {input.scaling} "
-        "--selection {input.selection} --bench-figures {input.bench_figures} "
+        "--selection {input.selection} --integrators {input.integrators} "
+        "--bench-figures {input.bench_figures} "
         "--out {output} > {log} 2>&1"
