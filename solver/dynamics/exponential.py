@@ -57,6 +57,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
+from solver.dynamics.kernels import exponential as kernels
 from solver.dynamics.linearized import free_joint_modes
 
 N_JOINTS = 4
@@ -298,9 +299,16 @@ class StepWeights:
 
 def advance(basis, weights, eta, etad, coef, H, theta):
     """The modal state (eta, eta') (n,) after a length H = theta h from (eta, eta'), with g
-    replaced by sum_j coef[j] (s / h)^j, coef (K'+1, n), K' <= K (module docstring)."""
+    replaced by sum_j coef[j] (s / h)^j, coef (K'+1, n), K' <= K (module docstring).
+    The undamped bank takes the compiled loop (``kernels.exponential.advance_diagonal``)."""
     E, W, wpos, wvel = weights.get(H)
     kk = coef.shape[0]
+    if isinstance(basis.bank, DiagonalBank):
+        out_eta, out_etad = np.empty_like(eta), np.empty_like(etad)
+        kernels.advance_diagonal(eta, etad, np.ascontiguousarray(coef, dtype=float),
+                                 theta ** np.arange(kk, dtype=float), E, W, wpos, wvel,
+                                 basis.bank.mu, basis.bank.delta, float(H), out_eta, out_etad)
+        return out_eta, out_etad
     ct = coef * (theta ** np.arange(kk))[:, None]
     j = N_JOINTS
     bank = basis.bank
