@@ -165,6 +165,34 @@ rule exponential_bench:
         "--repeats 5 --out-json {output.json} --out-md {output.md} --out-csv {output.csv} > {log} 2>&1"
 
 
+# Scenes on which the exponential integrator's accuracy is verified against a converged DOP853
+# reference (issue 13); references cost (one core): thesis ~1 min, free ~2, damped ~1,
+# stress_lock ~1, stress_rates_10 ~4, stress_rates_100 ~10 (and long ~1 h, see LONG_REFERENCE).
+ACCURACY_SCENES = ["thesis", "free", "damped", "stress_lock", "stress_rates_10", "stress_rates_100"]
+
+
+rule exponential_accuracy:
+    input:
+        truth_model="results/models/thesis/truth.h5",
+        references=expand("results/reference/{scene}/truth.h5", scene=ACCURACY_SCENES),
+        long_reference=LONG_REFERENCE,
+    output:
+        json="results/verification/exponential.json",
+        md="results/verification/exponential.md",
+    params:
+        references=reference_arguments,
+        tol=cfgmod.value(config, "simulation.tolerance"),
+        code=code_hash("results.bench.exponential_accuracy"),
+    log:
+        "logs/bench/exponential_accuracy.log",
+    benchmark:
+        "results/benchmarks/rules/bench/exponential_accuracy.tsv"
+    shell:
+        "OMP_NUM_THREADS=1 {PY} -m results.bench.exponential_accuracy --truth-model {input.truth_model} "
+        "--reference {params.references} --tol {params.tol} --out-json {output.json} "
+        "--out-md {output.md} > {log} 2>&1"
+
+
 rule bench:
     input:
         rules.stability.output,
@@ -172,3 +200,4 @@ rule bench:
         rules.pareto.output,
         rules.selection.output,
         rules.exponential_bench.output,
+        rules.exponential_accuracy.output,

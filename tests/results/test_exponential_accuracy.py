@@ -1,0 +1,61 @@
+"""results.bench.exponential_accuracy: its argument and reference checks (one-line errors
+before any integration) and its table."""
+
+import h5py
+import numpy as np
+import pytest
+
+from results.bench import exponential_accuracy as ea
+
+
+def write_reference(path, **attrs):
+    base = {"scene": "thesis", "model": "truth", "model_config_hash": "abc",
+            "integrator": "dop853", "stat_rtol": 1e-10}
+    base.update(attrs)
+    with h5py.File(path, "w") as f:
+        f["t"] = np.linspace(0, 1e-3, 11)
+        f["gamma_dot"] = np.zeros((11, 4))
+        for k, v in base.items():
+            f.attrs[k] = v
+    return str(path)
+
+
+def test_parse_references():
+    assert ea.parse_references(["thesis=a.h5", "free=b.h5"]) == {"thesis": "a.h5", "free": "b.h5"}
+    for bad in (["thesis"], ["=a.h5"], ["thesis="], ["thesis=a", "thesis=b"]):
+        with pytest.raises(ea.AccuracyInputError) as exc:
+            ea.parse_references(bad)
+        assert "\n" not in str(exc.value)
+
+
+def test_a_converged_reference_is_read(tmp_path):
+    t, rates = ea.read_reference("thesis", write_reference(tmp_path / "r.h5"), "abc")
+    assert t.shape == (11,) and rates.shape == (11, 4)
+
+
+@pytest.mark.parametrize("attrs, word", [({"scene": "free"}, "scene"), ({"model": "freq-10"}, "model"),
+                                         ({"model_config_hash": "zzz"}, "model"),
+                                         ({"integrator": "rk4"}, "integrator"),
+                                         ({"stat_rtol": 1e-6}, "rtol")])
+def test_a_reference_that_is_not_the_converged_truth_is_refused(tmp_path, attrs, word):
+    path = write_reference(tmp_path / "r.h5", **attrs)
+    with pytest.raises(ea.AccuracyInputError) as exc:
+        ea.read_reference("thesis", path, "abc")
+    assert word in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_a_missing_reference_is_refused_by_the_cli(tmp_path, capsys):
+    rc = ea.main(["--truth-model", str(tmp_path / "none.h5"), "--reference", f"thesis={tmp_path}/x.h5",
+                  "--out-json", str(tmp_path / "o.json"), "--out-md", str(tmp_path / "o.md")])
+    assert rc == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("exponential_accuracy:")
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_markdown_has_a_row_per_scene():
+    case = {"E_max": 1e-9, "steps": 10, "bases": 2, "wall_s": 0.1}
+    text = ea.markdown([{"scene": "thesis", "default": case, "tight": case},
+                        {"scene": "free", "default": case, "tight": case}])
+    assert text.count("\n| thesis |") + text.count("| thesis |") >= 1
+    assert len(text.strip().splitlines()) == 4
