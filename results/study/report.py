@@ -631,7 +631,8 @@ def _performance_section(ctx, root):
                              "bound of an undamped mode is 2 sqrt 2 = 2.8284.", "tab-rk4-limit"))
         out.append(_bench_figure(ctx, "rk4_limit", root, width="70%"))
         drift = st.get("energy_drift", {}).get("methods", {})
-        body = [[s(m), s(v["steps"]), sci(v["drift_max"]), sci(v["drift_final"]), s(f"{v['wall_s']:.3g}")]
+        body = [[s(m + "".join(f", {k} {val:g}" for k, val in v.get("options", {}).items())),
+                 s(v["steps"]), sci(v["drift_max"]), sci(v["drift_final"]), s(f"{v['wall_s']:.3g}")]
                 for m, v in drift.items()]
         if body:
             out.append(table(["integrator", "steps", "max drift", "final drift", "wall time [s]"], body,
