@@ -183,13 +183,15 @@ class ModalBasis:
     """The chain linearised at y_r (module docstring).
 
     y_ref (n,): linearisation angles, elastic coordinates zero; phi (n, n) columns =
-    modes (4 joint modes first), phi^T M0 phi = I; inverse (n, n) = phi^T M0 = phi^-1;
+    modes (4 joint modes first), phi^T M0 phi = I; M0 (n, n) the frozen mass matrix
+    (phi^-1 = phi^T M0 is applied as two products, never formed: forming it is an n^3
+    product per basis, its two matrix-vector products cost ~2 n^2 per evaluation);
     omega (n,) [rad/s] (0 for the joint modes); bank: the elastic modes' oscillators
     (``DiagonalBank`` undamped, ``CoupledBank`` damped); t [s] when it was built;
     damping_matrix (m, m) [1/s] Ct = phi_e^T C phi_e of the elastic modes (None undamped)."""
     y_ref: np.ndarray
     phi: np.ndarray
-    inverse: np.ndarray
+    M0: np.ndarray
     omega: np.ndarray
     bank: object
     t: float
@@ -209,7 +211,11 @@ class ModalBasis:
 
     def to_modal(self, y, yd):
         """(eta, eta') (n,) of a physical state."""
-        return self.inverse @ (y - self.y_ref), self.inverse @ yd
+        return self.project(y - self.y_ref), self.project(yd)
+
+    def project(self, v):
+        """phi^-1 v = phi^T (M0 v) (n,) of a physical vector v (n,)."""
+        return self.phi.T @ (self.M0 @ v)
 
     def to_physical(self, eta, etad):
         """(y, y') (n,) of a modal state."""
@@ -256,7 +262,7 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
         bank = CoupledBank(om, Ct, t)
     else:
         bank = DiagonalBank(om, np.zeros_like(om))
-    return ModalBasis(y_ref=y_ref, phi=phi, inverse=phi.T @ M0, omega=omega,
+    return ModalBasis(y_ref=y_ref, phi=phi, M0=M0, omega=omega,
                       bank=bank, t=float(t), damping_matrix=Ct)
 
 
@@ -542,7 +548,7 @@ class ExponentialAdams:
         b = self.basis
         for node in self.history:
             eta, etad = b.to_modal(node.y, node.yd)
-            node.g = b.inverse @ node.a + b.linear_terms(eta, etad)
+            node.g = b.project(node.a) + b.linear_terms(eta, etad)
 
     def _evaluate(self, t, eta, etad):
         """(g, y, y', a) at a modal state: the project's right-hand side, moved to the modal
@@ -551,7 +557,7 @@ class ExponentialAdams:
         y, yd = b.to_physical(eta, etad)
         a = self.problem.rhs(t, y, yd)
         self.stats.evaluations += 1
-        g = b.inverse @ a + b.linear_terms(eta, etad)
+        g = b.project(a) + b.linear_terms(eta, etad)
         return g, y, yd, a
 
     def _fail(self, t, cause):
