@@ -80,3 +80,34 @@ def test_a_scene_target_plans_exactly_its_declared_simulations():
     assert run.returncode == 0, run.stderr[-2000:]
     assert _planned_jobs(run.stdout)["simulate"] == len(declared)
     assert _planned_jobs(run.stdout)["reduced_model"] == len(declared)
+
+
+def _simulate_command(*args):
+    run = snakemake("--dry-run", "--forceall", "--printshellcmds", "results/sim/thesis/freq-10.h5", *args)
+    assert run.returncode == 0, run.stderr[-2000:]
+    return [line for line in run.stdout.splitlines() if "-m solver.dynamics.simulate" in line]
+
+
+def test_the_config_switch_runs_the_simulations_with_rk4(tmp_path):
+    """simulation.integrator (issue 13): exponential with its tolerance by default; rk4 (the
+    thesis's method) at its default step when switched."""
+    (default,) = _simulate_command()
+    assert "--integrator exponential --tol 5e-06" in default
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    config["simulation"]["integrator"]["value"] = "rk4"
+    rk4 = tmp_path / "rk4.yaml"
+    rk4.write_text(yaml.safe_dump(config))
+    (switched,) = _simulate_command("--configfile", str(rk4))
+    assert "--integrator rk4" in switched and "--tol" not in switched
+
+
+def test_an_unknown_integrator_in_the_config_stops_with_one_line(tmp_path):
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    config["simulation"]["integrator"]["value"] = "euler"
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(config))
+    run = snakemake("--dry-run", "all", "--configfile", str(bad))
+    assert run.returncode != 0
+    lines = [line for line in (run.stdout + run.stderr).splitlines()
+             if line.strip() and not line.startswith("Config file config/config.yaml is extended")]
+    assert len(lines) == 1 and "simulation.integrator" in lines[0] and "euler" in lines[0], lines
