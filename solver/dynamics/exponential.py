@@ -675,7 +675,7 @@ class ExponentialAdams:
             since_change += 1
             drift = float(np.abs(y1[:N_JOINTS] - self.basis.y_ref[:N_JOINTS]).max())
             phase_err = 0.0
-            if not fixed and self.relinearise:
+            if not fixed and self.relinearise and self.phase.size:
                 if not self.probed and drift >= PROBE_DRIFT:
                     self._phase_probe(y1, drift)
                 phase_err = self._phase_error(etaC, etadC, h, drift_prev, drift)
@@ -761,7 +761,7 @@ class ExponentialAdams:
         one (the first basis measures it with a probe, ``_phase_probe``)."""
         m = self.basis.omega.size - N_JOINTS
         self.phase = np.zeros(m)
-        self.probed = old is not None
+        self.probed = old is not None or m == 0       # a rigid chain has no phase to lose
         if old is None:
             self.kappa = np.zeros(m)
             return

@@ -323,6 +323,18 @@ def test_agrees_with_rk4_at_a_small_step():
     assert E_max(a, b) <= 1e-8
 
 
+def test_rigid_chain_without_elastic_modes_matches_dop853():
+    """No elastic coordinate (model 'rigid': the four joint angles only): no oscillator, no
+    phase probe (a probe eigenproblem of size 0 once crashed the workflow's rigid simulation)."""
+    scene = scenes.load_scene("thesis")
+    prob = problem(dict(seed=3, omega_max=2e3, n_modes=(0, 0, 0, 0)), scene)
+    assert prob.chain.n_coordinates == 4
+    ref = run(prob, scene, method="dop853", rtol=1e-10, atol=1e-14)
+    b = run(prob, scene)
+    assert b.stats["relinearisations"] == 0
+    assert E_max(ref, b) <= 1e-8
+
+
 # ---------------------------------------------------------------- 6. bad input
 class CountingProblem:
     """A problem whose every evaluation is counted (rhs, mass matrix, energies, ...)."""
