@@ -245,7 +245,7 @@ def test_estimate_predicts_simulated_error_on_synthetic_chain(synthetic, tmp_pat
     root, out = synthetic
     for name in ("freq-6", "load-2", "global-5", "freq-2"):
         assert run_model("thesis", name, str(root / "modes"), str(root / "reduction"), str(tmp_path),
-                         ["--fraction", "0.25"], load_ranking=out) == 0
+                         ["--integrator", "rk4", "--fraction", "0.25"], load_ranking=out) == 0
     with h5py.File(tmp_path / "thesis" / "load-2.h5", "r") as f:
         assert f.attrs["load_ranking"] == str(out) and list(f.attrs["n_modes"]) == [2, 2, 2, 2]
     rc = selection.main(["--truth", str(tmp_path / "thesis" / "freq-6.h5"), "--cases"] +

@@ -167,7 +167,7 @@ def test_simulate_cli_writes_result(files, tmp_path):
     path = out / "thesis" / "static-xmx-2.h5"
     with h5py.File(path, "r") as f:
         assert f["gamma"].shape == (1501, 4) and f["gamma_dot"].shape == (1501, 4)
-        assert f.attrs["integrator"] == "rk4" and f.attrs["steps"] > 0
+        assert f.attrs["integrator"] == "exponential" and f.attrs["steps"] > 0   # the default
         assert len(f.attrs["config_hash"]) == 16
         T, W = f["energy/total"][()], f["energy/input_work"][()]
         assert abs(T[-1] - T[0] - W[-1]) < 1e-3 * abs(W[-1])
@@ -178,7 +178,7 @@ def test_simulate_cli_errors_are_one_line(files, tmp_path, capsys):
     root, _ = files
     common = (str(root / "modes"), str(root / "reduction"), str(tmp_path))
     assert run_model("thesis", "freq-99", *common) == 2
-    assert run_model("thesis", "freq-6", *common, options=["--step", "1.0"]) == 2
+    assert run_model("thesis", "freq-6", *common, options=["--integrator", "rk4", "--step", "1.0"]) == 2
     assert run_model("nope", "freq-6", *common) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 3 and "only 6 computed" in err[0] and "stability limit" in err[1]
