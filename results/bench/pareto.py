@@ -1,7 +1,7 @@
 """Wall time against accuracy for every reduced model x integrator: the Pareto front.
 
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python -m results.bench.pareto --scene thesis \\
-        --truth results/sim/thesis/truth.h5 --models freq-5 freq-10 xmx-10 static-8 \\
+        --truth results/reference/thesis/truth.h5 --models freq-5 freq-10 xmx-10 static-8 \\
         --repeats 5 --bodies results/modes/body{2,3,4,5}.h5 --reductions results/reduction/body{2,3,4,5}.h5 \\
         --load-ranking results/reduction/load/thesis.h5 \\
         --out-csv results/benchmarks/pareto.csv --figure results/figures/bench/pareto.png [--quick]
@@ -85,9 +85,12 @@ class Setting:
     fraction: float | None = None    # rk4: step as a fraction of 2.785 / omega_max
     rtol: float | None = None        # dop853 (atol 1e-14, as the truth default)
     step: float | None = None        # generalized-alpha step [s] (rho_inf 0.9)
+    tol: float | None = None         # exponential: local error tolerance
 
     def kwargs(self):
         out = {"method": self.method}
+        if self.tol is not None:
+            out["tol"] = self.tol
         if self.fraction is not None:
             out["fraction"] = self.fraction
         if self.rtol is not None:
@@ -98,11 +101,13 @@ class Setting:
 
 
 def default_settings(rk4_fractions=(1.0, 0.5), rtols=(1e-6, 1e-8, 1e-10),
-                     galpha_steps=(1e-5, 5e-6, 2.5e-6)):
-    """The integrator settings: RK4 at each fraction of its stability limit (1.0 = the
-    largest stable step dividing the output interval; 0.5 = the project default),
+                     galpha_steps=(1e-5, 5e-6, 2.5e-6), exp_tols=(5e-6, 5e-8)):
+    """The integrator settings: the modal exponential integrator at each tolerance (5e-6:
+    the workflow's default), RK4 at each fraction of its stability limit (1.0 = the
+    largest stable step dividing the output interval; 0.5 = the thesis's setting),
     DOP853 at each rtol, generalised-alpha at each step [s]."""
-    return ([Setting(f"rk4-{f:g}", "rk4", fraction=float(f)) for f in rk4_fractions]
+    return ([Setting(f"exp-{t:.0e}", "exponential", tol=float(t)) for t in exp_tols]
+            + [Setting(f"rk4-{f:g}", "rk4", fraction=float(f)) for f in rk4_fractions]
             + [Setting(f"dop853-{r:.0e}", "dop853", rtol=float(r)) for r in rtols]
             + [Setting(f"galpha-{h:.2g}", "generalized-alpha", step=float(h)) for h in galpha_steps])
 
@@ -261,7 +266,7 @@ def format_csv(rows):
     return csv_text(rows, CSV_COLUMNS, 6)
 
 
-MARKERS = {"rk4": ("o", "s", "h"), "dop853": ("^", "v", "<", ">"),
+MARKERS = {"exponential": ("D", "d"), "rk4": ("o", "s", "h"), "dop853": ("^", "v", "<", ">"),
            "generalized-alpha": ("P", "X", "*", "p")}
 FAMILY_COLORS = {"truth": "black", "dense-composite": "tab:red", "dense-columns": "darkred"}
 
@@ -350,7 +355,8 @@ def main(argv=None) -> int:
                  description="Wall time against eq 3.53 error for every model x integrator; "
                              "Pareto front; dense baseline on the truth model.")
     ap.add_argument("--scene", default="thesis")
-    ap.add_argument("--truth", required=True, help="converged truth simulation (results/sim/<scene>/truth.h5)")
+    ap.add_argument("--truth", required=True, help="converged truth simulation (the DOP853 "
+                    "reference, results/reference/<scene>/truth.h5)")
     ap.add_argument("--models", nargs="+", default=list(DEFAULT_MODELS),
                     help="model names (reduction.models grammar); the truth model is always added")
     ap.add_argument("--repeats", type=int, default=5, help="timed runs per setting (median)")
@@ -367,6 +373,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rk4-fractions", type=float, nargs="+", default=[1.0, 0.5])
     ap.add_argument("--rtols", type=float, nargs="+", default=[1e-6, 1e-8, 1e-10])
     ap.add_argument("--galpha-steps", type=float, nargs="+", default=[1e-5, 5e-6, 2.5e-6])
+    ap.add_argument("--exp-tols", type=float, nargs="+", default=[5e-6, 5e-8])
     ap.add_argument("--dense-duration", type=float, default=None,
                     help=f"simulated seconds the dense baseline runs, then extrapolated "
                          f"(default {DENSE_DURATION:g}; --quick {QUICK_DENSE_DURATION:g})")
@@ -399,7 +406,7 @@ def main(argv=None) -> int:
         if ta.get("scene") and ta["scene"] != scene.name:
             raise ValueError(f"{args.truth} is a run of scene {ta['scene']!r}, not {scene.name!r}")
         names = list(dict.fromkeys(list(args.models) + ["truth"]))
-        settings = default_settings(args.rk4_fractions, args.rtols, args.galpha_steps)
+        settings = default_settings(args.rk4_fractions, args.rtols, args.galpha_steps, args.exp_tols)
         problems = load_models(names, scene, dict(zip(models.BODIES, args.bodies)),
                                dict(zip(models.BODIES, args.reductions)), args.load_ranking)
     except (ValueError, FileNotFoundError, ErrorsInputError, models.ModelError) as exc:

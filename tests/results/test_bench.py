@@ -194,11 +194,13 @@ def test_pareto_cli_quick(tmp_path):
     csv_path, png = tmp_path / "pareto.csv", tmp_path / "pareto.png"
     rc = pareto.main(["--quick", "--truth", REAL["truth"], "--models", "freq-2", "--repeats", "2",
                       "--rk4-fractions", "1", "--rtols", "1e-6", "--galpha-steps", "1e-5",
+                      "--exp-tols", "5e-6",
                       "--out-csv", str(csv_path), "--figure", str(png), *REAL_FILES])
     assert rc == 0 and png.stat().st_size > 0
     rows = list(csv.DictReader(csv_path.open()))
     assert {(r["model"], r["integrator"], r["solver"]) for r in rows} == {
-        (m, i, "structured") for m in ("freq-2", "truth") for i in ("rk4-1", "dop853-1e-06", "galpha-1e-05")
+        (m, i, "structured") for m in ("freq-2", "truth")
+        for i in ("exp-5e-06", "rk4-1", "dop853-1e-06", "galpha-1e-05")
     } | {("truth", "rk4-1", "dense-composite")}
     ok = [r for r in rows if r["status"] == "ok"]
     assert len(ok) == len(rows) and any(r["pareto"] == "1" for r in rows)
