@@ -217,9 +217,14 @@ def bad_input_checks(body_files, reduction_files, out_dir):
         "unknown model": ["--scene", "thesis", "--model", "fraq-10"],
         "mode count above computed": ["--scene", "thesis", "--model", "freq-101"],
         "unknown scene": ["--scene", "nope", "--model", "freq-10"],
-        "rk4 step beyond the limit": ["--scene", "thesis", "--model", "freq-10", "--step", "1e-5"],
+        "rk4 step beyond the limit": ["--scene", "thesis", "--model", "freq-10", "--integrator", "rk4",
+                                      "--step", "1e-5"],
         "negative step": ["--scene", "thesis", "--model", "freq-10", "--step=-1e-7"],
         "bad integrator": ["--scene", "thesis", "--model", "freq-10", "--integrator", "euler"],
+        "zero tolerance": ["--scene", "thesis", "--model", "freq-10", "--tol", "0"],
+        "tolerance with a step": ["--scene", "thesis", "--model", "freq-10", "--tol", "1e-6",
+                                  "--step", "1e-4"],
+        "option of another integrator": ["--scene", "thesis", "--model", "freq-10", "--rho-inf", "0.5"],
     }
     import tempfile
     import yaml
