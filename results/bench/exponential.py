@@ -681,18 +681,6 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{PROG}: {message} (see --help)\n")
 
 
-def _positive(name):
-    def parse(text):
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not (math.isfinite(value) and value > 0):
-            raise argparse.ArgumentTypeError(f"{name} must be finite and > 0, got {text!r}")
-        return value
-    return parse
-
-
 def parser():
     ap = _Parser(prog=f"python -m {PROG}",
                  description="Speed of the modal exponential integrator on the real truth model and the "
@@ -706,11 +694,11 @@ def parser():
     ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES,
                     help="truth cases to run (thesis always runs)")
     ap.add_argument("--repeats", type=int, default=5, help="timed runs per case after one warm-up (median)")
-    ap.add_argument("--tol", type=_positive("--tol"), default=None,
+    ap.add_argument("--tol", type=simulate.positive_number("--tol"), default=None,
                     help=f"exponential tolerance (default exponential.DEFAULT_TOL = {exponential.DEFAULT_TOL:g})")
-    ap.add_argument("--dop853-rtol", type=_positive("--dop853-rtol"), default=DOP853_RTOL,
+    ap.add_argument("--dop853-rtol", type=simulate.positive_number("--dop853-rtol"), default=DOP853_RTOL,
                     help=f"DOP853 rtol of the comparison (default {DOP853_RTOL:g}, atol {DOP853_ATOL:g})")
-    ap.add_argument("--duration", type=_positive("--duration"), default=None,
+    ap.add_argument("--duration", type=simulate.positive_number("--duration"), default=None,
                     help="simulated seconds of every case (default the scene's; a smoke test, not the issue's cases)")
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-md", required=True)

@@ -85,7 +85,7 @@ def energy_history(prob, run):
     return T, U, W
 
 
-def _positive(name):
+def positive_number(name):
     """argparse type: a positive finite float; a negative value is read as a value, then refused."""
     def parse(text):
         try:
@@ -122,25 +122,25 @@ def main(argv=None):
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
                     help=f"default {DEFAULT_INTEGRATOR} (docs/exponential.md); dop853 at rtol "
                          f"1e-10 is the converged reference, rk4 the thesis's method")
-    ap.add_argument("--step", type=_positive("--step"), default=None,
+    ap.add_argument("--step", type=positive_number("--step"), default=None,
                     help="fixed step [s] (rk4, generalized-alpha, exponential without --tol)")
-    ap.add_argument("--tol", type=_positive("--tol"), default=None,
+    ap.add_argument("--tol", type=positive_number("--tol"), default=None,
                     help=f"exponential: local error tolerance (default {exponential.DEFAULT_TOL:g})")
-    ap.add_argument("--relinearise-every", type=_positive("--relinearise-every"), default=None,
+    ap.add_argument("--relinearise-every", type=positive_number("--relinearise-every"), default=None,
                     help="exponential with --step: re-linearisation interval [s]")
-    ap.add_argument("--drift", type=_positive("--drift"), default=None,
+    ap.add_argument("--drift", type=positive_number("--drift"), default=None,
                     help=f"exponential: gimbal-angle drift [rad] that triggers a new basis "
                          f"(default {exponential.DEFAULT_DRIFT:g})")
     ap.add_argument("--order", type=int, default=None,
                     help=f"exponential: Adams order (default {exponential.DEFAULT_ORDER})")
-    ap.add_argument("--fraction", type=_positive("--fraction"), default=None,
+    ap.add_argument("--fraction", type=positive_number("--fraction"), default=None,
                     help=f"rk4 step as a fraction of 2.785/omega_max (default "
                          f"{integrators.RK4_DEFAULT_FRACTION})")
     ap.add_argument("--rho-inf", type=float, default=None,
                     help="generalized-alpha spectral radius (default 0.9)")
-    ap.add_argument("--rtol", type=_positive("--rtol"), default=None,
+    ap.add_argument("--rtol", type=positive_number("--rtol"), default=None,
                     help="dop853 relative tolerance (default 1e-10)")
-    ap.add_argument("--atol", type=_positive("--atol"), default=None,
+    ap.add_argument("--atol", type=positive_number("--atol"), default=None,
                     help="dop853 absolute tolerance (default 1e-14)")
     ap.add_argument("--store-modal", action="store_true", help="also store q(t), q'(t)")
     try:

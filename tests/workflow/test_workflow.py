@@ -13,6 +13,12 @@ def snakemake(*args, cwd=ROOT):
                           capture_output=True, text=True, timeout=300)
 
 
+def output_lines(run):
+    """The lines a run printed, less Snakemake's note that --configfile extends the default."""
+    return [line for line in (run.stdout + run.stderr).splitlines()
+            if line.strip() and not line.startswith("Config file config/config.yaml is extended")]
+
+
 def test_dry_run_plans_all_stages(tmp_path):
     run = snakemake("--dry-run", "all", "--forceall")
     assert run.returncode == 0, run.stderr[-2000:]
@@ -28,8 +34,7 @@ def test_bad_config_stops_with_one_line(tmp_path):
     run = snakemake("--dry-run", "all", "--configfile", str(bad))
     assert run.returncode != 0
     # Snakemake may first note that --configfile extends the default; nothing else may be printed
-    lines = [line for line in (run.stdout + run.stderr).splitlines()
-             if line.strip() and not line.startswith("Config file config/config.yaml is extended")]
+    lines = output_lines(run)
     assert lines == ["config error at 'bodies.inner_gimbal.thickness.value': -0.25 is less than or equal to the "
                      "minimum of 0"], run.stderr[-2000:]
 
@@ -108,6 +113,5 @@ def test_an_unknown_integrator_in_the_config_stops_with_one_line(tmp_path):
     bad.write_text(yaml.safe_dump(config))
     run = snakemake("--dry-run", "all", "--configfile", str(bad))
     assert run.returncode != 0
-    lines = [line for line in (run.stdout + run.stderr).splitlines()
-             if line.strip() and not line.startswith("Config file config/config.yaml is extended")]
+    lines = output_lines(run)
     assert len(lines) == 1 and "simulation.integrator" in lines[0] and "euler" in lines[0], lines
