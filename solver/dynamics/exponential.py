@@ -58,7 +58,7 @@ import numpy as np
 import scipy.linalg
 
 from solver.dynamics.kernels import exponential as kernels
-from solver.dynamics.linearized import free_joint_modes
+from solver.dynamics.linearized import free_joints, free_joint_modes
 
 N_JOINTS = 4
 DEFAULT_TOL = 5e-6         # local error per step, relative (ErrorNorm); docs/exponential.md Sec. 5
@@ -83,12 +83,9 @@ class ExponentialError(RuntimeError):
 def coupled_frequencies_at(M, stiffness):
     """Elastic coupled frequencies [rad/s] (ascending, (n - 4,)) of the chain with mass matrix
     M (n, n) and stiffness diagonal (n,): eigenvalues only of the Schur-complement pencil
-    (``linearized.free_joint_modes``)."""
-    M = np.asarray(M, float)
-    Mgg, Mgq, Mqq = M[:N_JOINTS, :N_JOINTS], M[:N_JOINTS, N_JOINTS:], M[N_JOINTS:, N_JOINTS:]
-    S = Mqq - Mgq.T @ np.linalg.solve(Mgg, Mgq)
-    lam = scipy.linalg.eigh(np.diag(np.asarray(stiffness, float)[N_JOINTS:]), 0.5 * (S + S.T),
-                            eigvals_only=True)
+    (``linearized.free_joints``, as ``linearized.free_joint_modes``)."""
+    _, S = free_joints(np.asarray(M, float))
+    lam = scipy.linalg.eigh(np.diag(np.asarray(stiffness, float)[N_JOINTS:]), S, eigvals_only=True)
     return np.sqrt(np.maximum(lam, 0.0))
 
 

@@ -31,7 +31,7 @@ def mass_matrix_fast(chain, y):
     return compiled.FastChain(chain).mass_matrix(y)
 
 
-def _free_joints(M):
+def free_joints(M):
     """(joint_of_mode (4, m), S (m, m)): the joint motion g = joint_of_mode x that makes a
     modal motion x carry no joint momentum (M_gg g + M_gq x = 0), and the symmetrised
     Schur complement S = M_qq - M_qg M_gg^-1 M_gq of M (n, n), m = n - 4."""
@@ -57,7 +57,7 @@ def free_joint_modes(M, stiffness):
     if M.shape != (n, n) or k.shape != (n - 4,) or n < 5:
         raise ValueError(f"coupled_modes: M {M.shape} and stiffness {k.shape} do not match "
                          f"(need (n, n) and (n - 4,), n > 4)")
-    joint_of_mode, S = _free_joints(M)
+    joint_of_mode, S = free_joints(M)
     lam, X = scipy.linalg.eigh(np.diag(k), S)              # X^T S X = I
     return np.sqrt(np.maximum(lam, 0.0)), np.vstack([joint_of_mode @ X, X])
 
@@ -76,7 +76,7 @@ def coupled_frequencies(chain, y):
     n_q = sum(chain.n_modes)
     if n_q == 0:
         return np.zeros(0)
-    _, S = _free_joints(mass_matrix_fast(chain, y))
+    _, S = free_joints(mass_matrix_fast(chain, y))
     lam = scipy.linalg.eigh(np.diag(chain.stiffness_diagonal()[4:]), S, eigvals_only=True)
     return np.sqrt(np.maximum(lam, 0.0))
 
