@@ -251,10 +251,22 @@ def load_load_ranking(path, rankings=None):
 
 
 # ------------------------------------------------------------------ body files
+_BODY_CACHE = {}
+
+
 def load_body_file(path):
     """The FE stage's per-body file (docs/body-data.md), read and checked by its one owner
-    (``solver.bodydata.read_body_file``)."""
-    return read_body_file(path)
+    (``solver.bodydata.read_body_file``).  Kept in process for the next model (a study reduces
+    ~50 models from the same four files, ``results.study.run_scene``), keyed by the file's path,
+    size and modification time, so a rewritten file is read again; callers treat it as read-only."""
+    st = os.stat(path)
+    key = (os.path.abspath(path), st.st_size, st.st_mtime_ns)
+    data = _BODY_CACHE.get(key)
+    if data is None:
+        if len(_BODY_CACHE) >= 8:
+            _BODY_CACHE.clear()
+        data = _BODY_CACHE[key] = read_body_file(path)
+    return data
 
 
 def read_rankings(paths):
@@ -281,7 +293,11 @@ def static_modes_for(data, load_cases, kept_modes, kept_eigenvalues):
     """Static correction modes of one body (reduction.static_modes, eq. 3.48) for a kept set:
     the dict of ``static_correction_modes`` (modes (ndof, s), modal_stiffness (s,), and their
     frequencies, Gram condition and couplings to the kept modes)."""
-    apply_G = modal_integrals.supported_flexibility(data["K"], data["T"], data["rigid_modes"])
+    # the factorised supported stiffness, kept with the body's data for the next model
+    apply_G = data.get("_apply_G")
+    if apply_G is None:
+        apply_G = modal_integrals.supported_flexibility(data["K"], data["T"], data["rigid_modes"])
+        data["_apply_G"] = apply_G
     F = np.column_stack([load_case_vector(data["bearing_operator"], c, data["bearing_points"])
                          for c in load_cases])
     return static_correction_modes(data["M"], data["K"], apply_G, F, kept_modes, kept_eigenvalues,

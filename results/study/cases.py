@@ -15,6 +15,15 @@ static-xmx,   1 static + 2, 4, 6, 8 ranked modes per body   Figs 4-17..4-20, Tab
 static-xmgmx
 load-case     10 lowest modes per body + 1 static mode on   Figs 4-21..4-27
               the outer gimbal, one of 7 load cases
+rigid         no elastic mode (the baseline every case must   (not in the thesis)
+              beat to be worth its coordinates)
+freq          2, 4, 6, 8 lowest modes: the no-static          (controls)
+              controls of static-2..8
+load          5..25 modes per body ranked by the scene's      (not in the thesis;
+              joint loads (docs/selection.md)                 its Section 5.1 advice)
+global        20..100 modes in total pooled over the bodies   (as load)
+truth-check   the truth + 1 static mode per body (residual    (the truth's own
+              flexibility of the truncated modes)             error)
 ============  ============================================  ====================
 
 The thesis ranks with one criterion for both XMX and XMGMX (its first 40
@@ -41,8 +50,15 @@ BODY_LABELS = {2: "outer gimbal", 3: "middle gimbal", 4: "inner gimbal", 5: "sta
 RATE_LABELS = {2: r"$\dot\gamma_1$ (outer gimbal)", 3: r"$\dot\gamma_2$ (middle gimbal)",
                4: r"$\dot\gamma_3$ (inner gimbal)", 5: r"$\dot\gamma_4$ (stable platform)"}
 TRUTH = "truth"
+# The scenes of the study (config/scenes/NAME.yaml), each with every case: the thesis's scene, the
+# same with 1 % modal damping, the same with a smooth start (no step in the case acceleration at
+# t = 0), and the thesis forcing over 1 s.  They separate what the thesis scene cannot: whether a
+# method's ranking survives damping of the start-up ringing, its absence, and a longer window.
+STUDY_SCENES = ("thesis", "damped", "smooth", "long")
 MODE_COUNTS = (5, 10, 15, 20, 25)             # Figs 4-2..4-11, Table 4.2
 STATIC_COUNTS = (2, 4, 6, 8)                  # Figs 4-13..4-20, Table 4.3
+CONTROL_COUNTS = STATIC_COUNTS                # freq-N without the static mode: static-N's control
+GLOBAL_TOTALS = tuple(4 * n for n in MODE_COUNTS)   # global-N: as many modes as freq-N/4 in all
 LOAD_CASE_COUNT = 10                          # Figs 4-21..4-27
 RANKINGS = ("xmx", "xmgmx")
 # (load case, thesis figure) in the thesis's figure order; Fig 4-24 is the default case
@@ -57,8 +73,10 @@ LOAD_CASE_LABELS = {"output_motor_fz": "z-force at the output motor joint",
                     "input_motor_fx": "x-force at the input motor joint",
                     "input_motor_my": "y-moment at the input motor joint",
                     "input_motor_mz": "z-moment at the input motor joint"}
-GROUPS = ("freq", "xmx", "xmgmx", "static-freq", "static-xmx", "static-xmgmx", "load-case")
-RANKING_TABLE_GROUPS = ("freq", "xmx", "xmgmx")                        # Table 4.2 analogue
+THESIS_GROUPS = ("freq", "xmx", "xmgmx", "static-freq", "static-xmx", "static-xmgmx", "load-case")
+GROUPS = ("rigid", *THESIS_GROUPS, "load", "global", "truth-check")
+RANKING_TABLE_GROUPS = ("rigid", "freq", "xmx", "xmgmx", "load", "global",
+                        "truth-check")                                  # Table 4.2 analogue + ours
 STATIC_TABLE_GROUPS = ("static-freq", "static-xmx", "static-xmgmx", "load-case")  # Table 4.3
 GROUP_LABELS = {"freq": "lowest-frequency modes", "xmx": "XMX-ranked modes",
                 "xmgmx": "XMGMX-ranked modes",
@@ -66,18 +84,28 @@ GROUP_LABELS = {"freq": "lowest-frequency modes", "xmx": "XMX-ranked modes",
                 "static-xmx": "1 static + XMX-ranked modes",
                 "static-xmgmx": "1 static + XMGMX-ranked modes",
                 "load-case": "10 lowest modes + 1 static mode on the outer gimbal",
+                "rigid": "rigid bodies (no elastic mode)",
+                "load": "modes ranked by the scene's joint loads",
+                "global": "modes pooled over the bodies (total count)",
+                "truth-check": "truth + 1 static mode per body (residual flexibility)",
                 "truth": "truth model (100 modes per body)", "other": "other model"}
 
 
-def study_cases(rankings=RANKINGS, static_rankings=RANKINGS) -> list[dict]:
-    """The thesis study as a list of case records, in thesis figure order.
+def study_cases(rankings=RANKINGS, static_rankings=RANKINGS, extended=True) -> list[dict]:
+    """The study as a list of case records: the thesis's cases in thesis figure order, then
+    (``extended``) the baseline, the controls and the scene-aware selections.
 
     Each record: ``model`` (model name), ``group`` (see module doc), ``ranking``
-    (freq/xmx/xmgmx), ``count`` (kept vibration modes per body), ``static``
-    (static modes per body: 0 or 1; load-case group: on the outer gimbal only),
-    ``load_case`` (or None), ``thesis_figure`` ("4-2" ...), ``title``.
+    (freq/xmx/xmgmx/load/global), ``count`` (kept vibration modes per body; global: in
+    total), ``static`` (static modes per body: 0 or 1; load-case group: on the outer gimbal
+    only), ``load_case`` (or None), ``thesis_figure`` ("4-2" ...), ``title``.
     """
     cases = []
+    if extended:
+        cases.append(_case("rigid", "rigid", None, 0, 0, None, "", "rigid bodies (no elastic mode)"))
+        for n in CONTROL_COUNTS:
+            cases.append(_case(f"freq-{n}", "freq", "freq", n, 0, None, "",
+                               f"{n} lowest-frequency modes per body (control of static-{n})"))
     for k, n in enumerate(MODE_COUNTS):
         cases.append(_case(f"freq-{n}", "freq", "freq", n, 0, None, f"4-{2 + k}",
                            f"{n} lowest-frequency modes per body"))
@@ -98,6 +126,15 @@ def study_cases(rankings=RANKINGS, static_rankings=RANKINGS) -> list[dict]:
                            LOAD_CASE_COUNT, 1, case, fig,
                            f"{LOAD_CASE_COUNT} lowest modes per body + static mode of the outer "
                            f"gimbal ({LOAD_CASE_LABELS[case]})"))
+    if extended:
+        for n in MODE_COUNTS:
+            cases.append(_case(f"load-{n}", "load", "load", n, 0, None, "",
+                               f"{n} modes per body ranked by the scene's joint loads"))
+        for n in GLOBAL_TOTALS:
+            cases.append(_case(f"global-{n}", "global", "global", n, 0, None, "",
+                               f"{n} modes in total, pooled over the bodies by the scene's loads"))
+        cases.append(_case("static-100", "truth-check", "freq", 100, 1, DEFAULT_LOAD_CASE, "",
+                           "truth + 1 static mode per body (residual flexibility)"))
     return cases
 
 
@@ -136,7 +173,10 @@ def _n_elastic(name: str):
     if name == "rigid":
         return 0
     base, _, rest = name.partition("@")
-    m = re.fullmatch(r"(static-)?(?:(freq|xmx|xmgmx)-)?([0-9]+(?:,[0-9]+){3}|[0-9]+)", base)
+    pooled = re.fullmatch(r"(static-)?global-([0-9]+)", base)
+    if pooled:
+        return int(pooled.group(2)) + (4 if pooled.group(1) and not rest else 0)
+    m = re.fullmatch(r"(static-)?(?:(freq|xmx|xmgmx|load)-)?([0-9]+(?:,[0-9]+){3}|[0-9]+)", base)
     if not m:
         return None
     counts = [int(c) for c in m.group(3).split(",")]
@@ -151,12 +191,15 @@ def _n_elastic(name: str):
 def check_models(names, reduction_dir=None, n_modes=100) -> list[str]:
     """Parse every name with ``reduction.models.parse_model``; returns the names.
 
-    Without ``reduction_dir`` the rankings are identity permutations of
-    ``n_modes`` modes (the grammar check only); raises ``reduction.models.ModelError``.
+    Without ``reduction_dir`` the rankings (load-aware and pooled too) are identity
+    permutations of ``n_modes`` modes (the grammar check only); raises ``reduction.models.ModelError``.
     """
     if reduction_dir is None:
         order = np.arange(n_modes)
-        rankings = {b: {k: order for k in models.RANKING_KEYS.values()} for b in models.BODIES}
+        rankings = {b: {k: order for k in (*models.RANKING_KEYS.values(), models.LOAD_KEY)}
+                    for b in models.BODIES}
+        rankings[models.POOLED_KEY] = {"body": np.repeat(models.BODIES, n_modes),
+                                       "mode": np.tile(order, len(models.BODIES))}
     else:
         rankings = models.load_rankings(reduction_dir)
     for name in names:

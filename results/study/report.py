@@ -68,6 +68,10 @@ DEFAULTS = {
     "scaling": "results/benchmarks/scaling.json",
     "selection": "results/tables/selection.csv",
     "integrators": "results/benchmarks/integrator_tables.json",
+    "dynamics": "results/verification/dynamics.json",
+    "exponential": "results/verification/exponential.json",
+    "exponential_bench": "results/benchmarks/exponential.json",
+    "fe_full": "results/verification/fe.json",
     "out": "results/report/report.pdf",
 }
 MAKES = {"ranking_table": "python -m results.study.tables", "static_table": "python -m results.study.tables",
@@ -77,7 +81,9 @@ MAKES = {"ranking_table": "python -m results.study.tables", "static_table": "pyt
          "config": "the project's config", "scene": "the scene file",
          "stability": "snakemake stability", "pareto": "snakemake pareto",
          "scaling": "snakemake scaling", "selection": "snakemake selection",
-         "integrators": "snakemake results/benchmarks/integrator_tables.json"}
+         "integrators": "snakemake results/benchmarks/integrator_tables.json",
+         "dynamics": "snakemake verify", "exponential": "snakemake verify",
+         "exponential_bench": "snakemake bench", "fe_full": "snakemake verify"}
 # Lists of files (the rule hands over each file, never a folder)
 LIST_DEFAULTS = {
     "mode_shapes": [f"results/figures/mode_shapes_body{b}.png" for b in (2, 3, 4, 5)],

@@ -18,7 +18,9 @@ scene mismatch).
 Simulation files (written by ``solver.dynamics.simulate``): datasets ``t`` (T,) [s],
 ``gamma`` (T, 4) [rad], ``gamma_dot`` (T, 4) [rad/s]; attributes ``model``,
 ``scene``, ``integrator``, ``step`` [s], ``steps``, ``wall_time_s`` [s],
-``integration_time_s`` [s], ``config_hash``, ``n_modes`` (4,).
+``integration_time_s`` [s], ``config_hash``, ``n_modes`` (4,); ``platform_attitude`` (T, 3, 3)
+when written (then the table has the platform's attitude error against the truth, arcsec:
+what an IMU designer reads next to E).
 
 Tables (CSV, one row per case, long format; the report pivots them):
 ``--ranking-table``: the truth row (E = 0) and groups freq, xmx, xmgmx
@@ -31,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 import os
 import sys
 
@@ -38,13 +41,15 @@ import numpy as np
 
 from results.study.cases import BODY_NAMES, STATIC_TABLE_GROUPS, describe_model, study_cases
 from solver.bodydata import BODIES
-from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
+from solver.dynamics.error_measure import (ARCSEC_PER_RAD, ErrorsInputError, attitude_error,
+                                           check_same_grid, error_measure)
 from solver.dynamics.simfile import read_sim
 from workflow.provenance import csv_text, write_text
 
 RATE_COLUMNS = tuple(f"E_{BODY_NAMES[b]}" for b in BODIES)
+ATTITUDE_COLUMNS = ("attitude_max_arcsec", "attitude_rms_arcsec")
 TABLE_COLUMNS = ("group", "model", "ranking", "count", "static", "load_case", "thesis_figure",
-                 "n_elastic", *RATE_COLUMNS, "wall_time_s", "integration_time_s", "integrator",
+                 "n_elastic", *RATE_COLUMNS, *ATTITUDE_COLUMNS, "wall_time_s", "integration_time_s", "integrator",
                  "step_s", "steps", "samples", "scene", "config_hash", "file")
 
 
@@ -63,6 +68,7 @@ def case_row(truth: dict, case: dict) -> dict:
     row = {k: desc[k] for k in ("group", "model", "ranking", "count", "static", "load_case",
                                 "thesis_figure")}
     row.update({"n_elastic": n_elastic, **{c: float(e) for c, e in zip(RATE_COLUMNS, E)},
+                **dict(zip(ATTITUDE_COLUMNS, attitude_errors(truth, case))),
                 "wall_time_s": _num(a.get("wall_time_s")),
                 "integration_time_s": _num(a.get("integration_time_s")),
                 "integrator": a.get("integrator", ""), "step_s": _num(a.get("step")),
@@ -70,6 +76,19 @@ def case_row(truth: dict, case: dict) -> dict:
                 "scene": a.get("scene", ""), "config_hash": a.get("config_hash", ""),
                 "file": case.get("path", "")})
     return row
+
+
+def attitude_errors(truth: dict, case: dict) -> tuple:
+    """(largest, RMS over time) [arcsec] of the angle between the case's and the truth's
+    platform attitude (``error_measure.attitude_error``; the RMS by the trapezoid rule over
+    the window); NaN when a file has no ``platform_attitude``."""
+    Ra, Rb = truth.get("platform_attitude"), case.get("platform_attitude")
+    if Ra is None or Rb is None:
+        return float("nan"), float("nan")
+    a = attitude_error(Ra, Rb) * ARCSEC_PER_RAD
+    t = np.asarray(truth["t"], float)
+    rms = math.sqrt(np.trapz(a ** 2, t) / (t[-1] - t[0])) if t[-1] > t[0] else float(a[0])
+    return float(a.max()), float(rms)
 
 
 def _num(v):
@@ -103,7 +122,7 @@ def read_table(path) -> list[dict]:
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     for r in rows:
-        for k in (*RATE_COLUMNS, "wall_time_s", "integration_time_s", "step_s"):
+        for k in (*RATE_COLUMNS, *ATTITUDE_COLUMNS, "wall_time_s", "integration_time_s", "step_s"):
             r[k] = float(r[k]) if r.get(k) not in (None, "") else float("nan")
         for k in ("count", "static", "n_elastic", "steps", "samples"):
             r[k] = int(float(r[k])) if r.get(k) not in (None, "") else None

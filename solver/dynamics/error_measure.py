@@ -42,6 +42,21 @@ def error_measure(t, reference, reduced):
     return float(out) if np.ndim(out) == 0 else out
 
 
+ARCSEC_PER_RAD = 180.0 * 3600.0 / np.pi
+
+
+def attitude_error(R_reference, R_reduced):
+    """Angle (T,) [rad] of the rotation between two attitude histories (T, 3, 3): the angle of
+    R_reference^T R_reduced, from its skew part (asin |vee(A - A^T)| / 2, exact to rounding
+    for the small angles of interest, where the trace formula loses half the digits) and its
+    trace (the branch beyond pi/2)."""
+    A = np.einsum("tji,tjk->tik", np.asarray(R_reference, float), np.asarray(R_reduced, float))
+    v = np.stack([A[:, 2, 1] - A[:, 1, 2], A[:, 0, 2] - A[:, 2, 0], A[:, 1, 0] - A[:, 0, 1]], axis=1)
+    s = np.clip(0.5 * np.linalg.norm(v, axis=1), 0.0, 1.0)
+    c = 0.5 * (np.trace(A, axis1=1, axis2=2) - 1.0)
+    return np.where(c >= 0, np.arcsin(s), np.pi - np.arcsin(s))
+
+
 def check_same_grid(t_truth, t_case, label="case"):
     """Raise ErrorsInputError (one line) unless the two output grids (s) are the same."""
     a, b = np.asarray(t_truth, float), np.asarray(t_case, float)

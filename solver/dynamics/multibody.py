@@ -366,6 +366,52 @@ def kinematics(chain, y, yd, t, case=None, ydd=None):
     return joints, ws, dws
 
 
+def _rotations(axis, a):
+    """Rotations (T, 3, 3) about the body axis 0/1/2 (x/y/z) by angles a (T,) [rad]."""
+    a = np.asarray(a, float)
+    c, s = np.cos(a), np.sin(a)
+    R = np.zeros(a.shape + (3, 3))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    R[..., axis, axis] = 1.0
+    R[..., i, i] = c
+    R[..., j, j] = c
+    R[..., i, j] = -s
+    R[..., j, i] = s
+    return R
+
+
+def platform_attitude(chain, y):
+    """The stable platform's frame in case axes, R (T, 3, 3), at states y (T, n_y).
+
+    The product of the four joint rotations (``joint_state``: R_1 = case_to_outer Rx(gamma_1),
+    R_j = E_j C Rx(gamma_j) with E_j = Rx(th_1) Ry(th_2) Rz(th_3) the elastic rotation of the
+    parent's inside bearing, th = Theta q of the parent), vectorised over the rows.  The case
+    motion is prescribed, the same in every model, so two models' platform attitude in
+    inertial axes differ exactly as their R here do (R_case cancels in R_a^T R_b)."""
+    y = np.atleast_2d(np.asarray(y, float))
+    R = chain.case_to_outer @ _rotations(0, y[:, 0])
+    C = chain.parent_to_child
+    for j in range(2, 5):
+        Rj = C @ _rotations(0, y[:, j - 1])
+        parent = chain.bodies[j - 2]
+        if parent.n_modes:
+            th = y[:, chain.slices[j - 2]] @ np.asarray(parent.inside_rotation, float).T   # (T, 3)
+            E = _rotations(0, th[:, 0]) @ _rotations(1, th[:, 1]) @ _rotations(2, th[:, 2])
+            Rj = E @ Rj
+        R = R @ Rj
+    return R
+
+
+def attitude_coordinates(chain):
+    """Column indices into y of what ``platform_attitude`` reads: the four gimbal angles and
+    the elastic coordinates of bodies 2-4 (the platform's own modes do not move its frame)."""
+    cols = list(range(4))
+    for k in range(3):
+        sl = chain.slices[k]
+        cols.extend(range(sl.start, sl.stop))
+    return np.array(cols, dtype=int)
+
+
 def inverse_dynamics(chain, y, yd, ydd, t=0.0, case=None, with_case=True):
     """M(y) ydd + c(y, y', t) (n_y,): the generalised forces the motion needs.
 

@@ -3,7 +3,8 @@
 This module owns the contract.  Datasets: ``t`` (T,) [s], ``gamma`` (T, 4)
 [rad], ``gamma_dot`` (T, 4) [rad/s], optionally ``q``, ``q_dot`` (T, sum D)
 modal coordinates (``--store-modal``), ``energy/{kinetic, potential, total,
-input_work}`` (T,) [in lbf].  Attributes: scene, model, integrator, step [s],
+input_work}`` (T,) [in lbf], ``platform_attitude`` (T, 3, 3) the stable platform's frame
+in case axes (``multibody.platform_attitude``; rotation matrices, dimensionless).  Attributes: scene, model, integrator, step [s],
 steps, wall_time_s, integration_time_s [s], config_hash, omega_max [rad/s],
 modal_omega_max, stability_limit [s], n_modes (4,), units, created, the
 provenance (versions, git revision) and the integrator's ``stat_*`` counters.
@@ -20,14 +21,17 @@ from solver.dynamics.error_measure import ErrorsInputError
 from workflow.provenance import atomic_h5
 
 
-def write_sim(path, run, energies, attrs, store_modal=False):
+def write_sim(path, run, energies, attrs, store_modal=False, attitude=None):
     """Write a run atomically.  run: ``integrators.Run`` (t, y, yd, stats);
-    energies: (kinetic, potential, input_work) (T,) each [in lbf]; attrs: file attributes."""
+    energies: (kinetic, potential, input_work) (T,) each [in lbf]; attrs: file attributes;
+    attitude: the platform's frame (T, 3, 3) in case axes, if computed."""
     T, U, W = energies
     with atomic_h5(path) as f:
         f["t"] = run.t
         f["gamma"] = run.y[:, :4]
         f["gamma_dot"] = run.yd[:, :4]
+        if attitude is not None:
+            f["platform_attitude"] = attitude
         if store_modal:
             f["q"] = run.y[:, 4:]
             f["q_dot"] = run.yd[:, 4:]
@@ -41,7 +45,8 @@ def write_sim(path, run, energies, attrs, store_modal=False):
 
 
 def read_sim(path) -> dict:
-    """A simulation file as {t (T,), gamma (T,4), gamma_dot (T,4), attrs, path}."""
+    """A simulation file as {t (T,), gamma (T,4), gamma_dot (T,4), platform_attitude (T,3,3) or
+    None, attrs, path}."""
     if not os.path.exists(path):
         raise ErrorsInputError(f"{path}: simulation file missing (run solver.dynamics.simulate first)")
     try:
@@ -54,6 +59,7 @@ def read_sim(path) -> dict:
                    "attrs": {k: _plain(v) for k, v in f.attrs.items()}}
             if "energy" in f:
                 out["energy"] = {k: f["energy"][k][()] for k in f["energy"]}
+            out["platform_attitude"] = f["platform_attitude"][()] if "platform_attitude" in f else None
     except OSError as exc:
         raise ErrorsInputError(f"{path}: unreadable HDF5 file ({exc.__class__.__name__})") from None
     t, gd = np.asarray(out["t"], float), np.asarray(out["gamma_dot"], float)

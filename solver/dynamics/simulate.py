@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from solver.dynamics import chainfile, exponential, integrators, scenes, simfile
+from solver.dynamics import chainfile, exponential, integrators, multibody, scenes, simfile
 from solver.dynamics.problem import Problem
 from workflow.provenance import versions
 
@@ -83,6 +83,15 @@ def energy_history(prob, run):
     P = np.array([prob.input_power(t, y, v) for t, y, v in zip(run.t, run.y, run.yd)])
     W = np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1]) * np.diff(run.t))])
     return T, U, W
+
+
+def platform_attitude(chain, run):
+    """The platform's frame in case axes (T, 3, 3) at the outputs of a run
+    (``multibody.platform_attitude``; only the columns it reads are built from a modal run)."""
+    cols = multibody.attitude_coordinates(chain)
+    y = np.zeros((len(run.t), chain.n_coordinates))
+    y[:, cols] = run.y[:, cols]
+    return multibody.platform_attitude(chain, y)
 
 
 def positive_number(name):
@@ -192,7 +201,8 @@ def main(argv=None):
         if key in info:
             attrs[key] = info[key]
     attrs.update({f"version_{k}": str(v) for k, v in versions().items()})
-    simfile.write_sim(out, run, energy_history(prob, run), attrs, args.store_modal)
+    simfile.write_sim(out, run, energy_history(prob, run), attrs, args.store_modal,
+                      platform_attitude(chain, run))
     what = (f"(mean step {scene.duration / max(run.steps, 1):.3e} s)" if run.method == "dop853"
             else f"of {run.step:.3e} s")
     print(f"simulate: {out}: {run.steps} {run.method} steps {what} in {wall:.2f} s "

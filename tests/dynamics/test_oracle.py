@@ -97,3 +97,26 @@ def test_rotation_blocks_fixed_in_body_axes_variant():
     ff = multibody.generalized_force(chain, y, yd, 0.3, oracle.case_motion())
     for r in dynamics_checks.oracle_agreement("translation-only", Mf, ff, Mo, fo, TOL):
         assert r["passed"], f"{r['name']}: {r['value']:.2e}"
+
+
+def test_platform_attitude_matches_the_oracles_poses(damped_case):
+    """multibody.platform_attitude (joint rotations and the parents' bearing rotations Theta q)
+    against the oracle's independent poses (inside frames solved from the bearing operator on
+    the nodal displacements): the platform's axes in case axes, A_case^T A_platform."""
+    chain, oracle = damped_case
+    rng = np.random.default_rng(11)
+    n = chain.n_coordinates
+    Y = np.zeros((4, n))
+    Y[:, :4] = rng.uniform(-2.5, 2.5, (4, 4))
+    Y[:, 4:] = 0.05 * rng.standard_normal((4, n - 4))
+    R = multibody.platform_attitude(chain, Y)
+    t = 0.37
+    A_case = np.asarray(oracle._axis_rotation(oracle._case_angle(t)))
+    for k in range(4):
+        A_platform = np.asarray(oracle.poses(Y[k], t)[3][0])
+        assert np.abs(A_case.T @ A_platform - R[k]).max() < 1e-12
+    # the attitude error of two histories is the angle between them (here: a known rotation)
+    from solver.dynamics.error_measure import attitude_error
+    turn = multibody._rotations(2, np.array([1e-6, 0.3, 2.0]))
+    angle = attitude_error(R[:3], R[:3] @ turn)
+    assert np.allclose(angle, [1e-6, 0.3, 2.0], rtol=1e-9, atol=1e-15)

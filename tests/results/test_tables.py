@@ -13,10 +13,16 @@ from tests.results.synthetic_study import T_END, truth_rates, write_sim, write_s
 
 
 def test_study_cases_cover_the_thesis_figures_and_parse():
+    thesis = study_cases(extended=False)
+    assert len(thesis) == len({c["model"] for c in thesis}) == 5 + 10 + 4 + 8 + 7
+    assert [c["model"] for c in thesis[:5]] == ["freq-5", "freq-10", "freq-15", "freq-20", "freq-25"]
     cases = study_cases()
     models = [c["model"] for c in cases]
-    assert len(models) == len(set(models)) == 5 + 10 + 4 + 8 + 7
-    assert models[:5] == ["freq-5", "freq-10", "freq-15", "freq-20", "freq-25"]
+    # + the rigid baseline, the no-static controls freq-2..8, load-5..25, global-20..100, static-100
+    assert len(models) == len(set(models)) == 34 + 1 + 4 + 5 + 5 + 1
+    assert models[0] == "rigid" and {"freq-2", "freq-8", "load-25", "global-100", "static-100"} <= set(models)
+    assert describe_model("global-40")["n_elastic"] == 40 and describe_model("rigid")["n_elastic"] == 0
+    assert describe_model("load-10")["n_elastic"] == 40
     assert {"xmx-5", "xmgmx-25", "static-2", "static-8", "static-xmx-4", "static-xmgmx-6"} <= set(models)
     lc = [c for c in cases if c["group"] == "load-case"]
     assert [c["thesis_figure"] for c in lc] == [f"4-{k}" for k in range(21, 28)]
@@ -99,9 +105,9 @@ def test_tables_of_the_synthetic_study(tmp_path):
                         "--static-table", str(st)]) == 0
     rank, stat = read_table(rt), read_table(st)
     assert [r["group"] for r in rank][:1] == ["truth"]
-    assert {r["group"] for r in rank} == {"truth", "freq", "xmx", "xmgmx"}
+    assert {r["group"] for r in rank} == {"truth", "freq", "xmx", "xmgmx", "rigid", "load", "global", "truth-check"}
     assert {r["group"] for r in stat} == {"static-freq", "static-xmx", "static-xmgmx", "load-case"}
-    assert len(rank) == 16 and len(stat) == 19
+    assert len(rank) == 32 and len(stat) == 19
     by = {r["model"]: r for r in rank + stat}
     assert by["truth"]["E_outer_gimbal"] == 0.0 and by["truth"]["n_elastic"] == 400
     # synthetic rates are (1 + a) r, so E = a^2 exactly (tests/test_results_synthetic.amplitudes)

@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[2]
 BODIES = (2, 3, 4, 5)
 NAMES = dict(zip(BODIES, cfgmod.BODY_NAMES))
 # rules whose params.cfg hashes the whole config (they record or print all of it)
-WHOLE_CONFIG = {"verify_fe", "report"}
+WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "report_scene"}
 # a stage the rule runs besides its shell's python -m modules
 EXTRA_CODE = {"verify_mpi": ("solver.fe.modes",)}   # solver.fe.verify mpi runs solver.fe.modes under mpirun
 
@@ -54,7 +54,7 @@ def test_every_stage_rule_carries_the_hash_of_its_code(workflow):
         code_inputs = [f for f in rule.input if str(f).endswith(".py")]
         assert not code_inputs, (rule.name, code_inputs)
         checked.add(rule.name)
-    assert {"mesh_body", "modes_body", "reduced_model", "simulate", "reduction_body", "report", "verify_mpi"} <= checked
+    assert {"mesh_body", "modes_body", "reduced_model", "simulate", "reduction_body", "report_scene", "study_scene", "study_report", "verify_mpi"} <= checked
 
 
 def test_simulation_code_is_what_the_dynamics_imports(workflow):

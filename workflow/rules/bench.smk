@@ -195,6 +195,35 @@ rule exponential_accuracy:
         "--out-md {output.md} > {log} 2>&1"
 
 
+# The study's thesis table with both integrators (issue 13): the thesis's own cases (the RK4 runs are
+# ~2.5 min; the exponential integrator's ~5 s)
+INTEGRATOR_TABLE_MODELS = importlib.import_module("results.study.cases").study_models(extended=False)
+
+
+rule integrator_tables:
+    """The study's error table with the exponential integrator against RK4 (issue 13): every
+    study model and the truth integrated both ways, in one process (results.bench.integrator_tables)."""
+    input:
+        truth_model="results/models/thesis/truth.h5",
+        models=expand("results/models/thesis/{model}.h5", model=INTEGRATOR_TABLE_MODELS),
+    output:
+        json="results/benchmarks/integrator_tables.json",
+        csv="results/benchmarks/integrator_tables.csv",
+    params:
+        code=code_hash("results.bench.integrator_tables"),
+        physics=lambda wildcards: scenes_mod.load_scene("config/scenes/thesis.yaml").config_hash(),
+        tol=cfgmod.value(config, "simulation.tolerance"),
+        models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
+    log:
+        "logs/results/integrator_tables.log",
+    benchmark:
+        "results/benchmarks/rules/integrator_tables.tsv"
+    shell:
+        "OMP_NUM_THREADS=1 {PY} -m results.bench.integrator_tables --scene config/scenes/thesis.yaml "
+        "--truth-model {input.truth_model} --models {params.models} --tol {params.tol} "
+        "--out-json {output.json} --out-csv {output.csv} > {log} 2>&1"
+
+
 rule bench:
     input:
         rules.stability.output,

@@ -1,52 +1,68 @@
-# Stage 5: the thesis study on the `thesis` scene, error tables, findings, figures and the PDF report.
-STUDY_MODELS = importlib.import_module("results.study.cases").study_models()
-STUDY_SIMS = expand("results/sim/thesis/{model}.h5", model=STUDY_MODELS)
-TRUTH = "results/sim/thesis/truth.h5"
+# Stage 5: the study on every study scene (results.study.cases.STUDY_SCENES: thesis, damped, smooth,
+# long), its error tables, findings, figures and PDF reports (one per scene, and the study's).
+#   snakemake --cores 2 study     every scene's simulations
+#   snakemake --cores 2 report    the study PDF and one PDF per scene
+# The study's heavy checks and timing repeats are not inputs of the reports: the reports read their
+# last results (bench, verify) if present and print their date, or say how to make them.
+_cases = importlib.import_module("results.study.cases")
+STUDY_SCENES = list(_cases.STUDY_SCENES)
+STUDY_MODELS = _cases.study_models()
+SCENE_MODELS = ["truth"] + STUDY_MODELS
 
 
-rule integrator_tables:
-    """The study's error table with the exponential integrator against RK4 (issue 13): every
-    study model and the truth integrated both ways, in one process (results.bench.integrator_tables)."""
+def study_sims(scene):
+    return expand("results/study/{scene}/sim/{model}.h5", scene=scene, model=SCENE_MODELS)
+
+
+rule study_scene:
+    """Every study model of one scene, reduced and simulated in one process (results.study.run_scene:
+    the two stages of a per-model simulation, called in process; ~50 models in ~0.5 min)."""
     input:
-        truth_model="results/models/thesis/truth.h5",
-        models=expand("results/models/thesis/{model}.h5", model=STUDY_MODELS),
+        scene="config/scenes/{scene}.yaml",
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        load_ranking="results/reduction/load/{scene}.h5",
     output:
-        json="results/benchmarks/integrator_tables.json",
-        csv="results/benchmarks/integrator_tables.csv",
+        [f"results/study/{{scene}}/sim/{m}.h5" for m in SCENE_MODELS],
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
     params:
-        code=code_hash("results.bench.integrator_tables"),
-        physics=lambda wildcards: scenes_mod.load_scene("config/scenes/thesis.yaml").config_hash(),
-        tol=cfgmod.value(config, "simulation.tolerance"),
-        models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
+        physics=scene_physics_hash,
+        code=code_hash("results.study.run_scene"),
+        integrator=cfgmod.value(config, "simulation.integrator"),
+        options=integrator_options,
+        models=" ".join(f"'{m}'" for m in SCENE_MODELS),
+        out_dir="results/study/{scene}/sim",
     log:
-        "logs/results/integrator_tables.log",
+        "logs/study/{scene}.log",
     benchmark:
-        "results/benchmarks/rules/integrator_tables.tsv"
+        "results/benchmarks/rules/study/{scene}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m results.bench.integrator_tables --scene config/scenes/thesis.yaml "
-        "--truth-model {input.truth_model} --models {params.models} --tol {params.tol} "
-        "--out-json {output.json} --out-csv {output.csv} > {log} 2>&1"
+        "OMP_NUM_THREADS=1 {PY} -m results.study.run_scene --scene {input.scene} --models {params.models} "
+        "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
+        "--out-dir {params.out_dir} --integrator {params.integrator} {params.options} > {log} 2>&1"
 
 
 rule study:
     input:
-        TRUTH,
-        STUDY_SIMS,
+        [study_sims(s) for s in STUDY_SCENES],
 
 
 rule error_tables:
     input:
-        truth=TRUTH,
-        cases=STUDY_SIMS,
+        truth="results/study/{scene}/sim/truth.h5",
+        cases=lambda wildcards: study_sims(wildcards.scene)[1:],
     output:
-        ranking="results/tables/errors_ranking.csv",
-        static="results/tables/errors_static.csv",
+        ranking="results/tables/{scene}/errors_ranking.csv",
+        static="results/tables/{scene}/errors_static.csv",
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.tables"),
     log:
-        "logs/results/error_tables.log",
+        "logs/results/error_tables_{scene}.log",
     benchmark:
-        "results/benchmarks/rules/error_tables.tsv"
+        "results/benchmarks/rules/error_tables_{scene}.tsv"
     shell:
         "{PY} -m results.study.tables --truth {input.truth} --cases {input.cases} "
         "--ranking-table {output.ranking} --static-table {output.static} > {log} 2>&1"
@@ -54,77 +70,133 @@ rule error_tables:
 
 rule findings:
     input:
-        ranking="results/tables/errors_ranking.csv",
-        static="results/tables/errors_static.csv",
+        ranking="results/tables/{scene}/errors_ranking.csv",
+        static="results/tables/{scene}/errors_static.csv",
         reduction="results/verification/reduction.json",
     output:
-        csv="results/tables/findings.csv",
-        json="results/tables/findings.json",
+        csv="results/tables/{scene}/findings.csv",
+        json="results/tables/{scene}/findings.json",
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.findings"),
     log:
-        "logs/results/findings.log",
+        "logs/results/findings_{scene}.log",
     benchmark:
-        "results/benchmarks/rules/findings.tsv"
+        "results/benchmarks/rules/findings_{scene}.tsv"
     shell:
         "{PY} -m results.study.findings --ranking-table {input.ranking} --static-table {input.static} "
-        "--reduction {input.reduction} --csv {output.csv} --json {output.json} > {log} 2>&1"
+        "--reduction {input.reduction} --scene {wildcards.scene} --csv {output.csv} --json {output.json} "
+        "> {log} 2>&1"
 
 
 rule study_figures:
     input:
-        truth=TRUTH,
-        cases=STUDY_SIMS,
-        ranking="results/tables/errors_ranking.csv",
-        static="results/tables/errors_static.csv",
+        truth="results/study/{scene}/sim/truth.h5",
+        cases=lambda wildcards: study_sims(wildcards.scene)[1:],
+        ranking="results/tables/{scene}/errors_ranking.csv",
+        static="results/tables/{scene}/errors_static.csv",
     output:
-        "results/figures/study/figures.json",
+        "results/figures/study/{scene}/figures.json",
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.figures"),
+        out_dir="results/figures/study/{scene}",
     log:
-        "logs/results/figures.log",
+        "logs/results/figures_{scene}.log",
     benchmark:
-        "results/benchmarks/rules/study_figures.tsv"
+        "results/benchmarks/rules/study_figures_{scene}.tsv"
     shell:
         "MPLBACKEND=Agg {PY} -m results.study.figures --truth {input.truth} --cases {input.cases} "
-        "--ranking-table {input.ranking} --static-table {input.static} --out-dir results/figures/study "
+        "--ranking-table {input.ranking} --static-table {input.static} --out-dir {params.out_dir} "
         "> {log} 2>&1"
 
 
-rule report:
+# What the reports show from the `bench` and `verify` targets: read if present (with their date),
+# never built for the report (they are minutes of timing repeats and fine meshes).
+REPORT_OPTIONAL = {
+    "stability": "results/stability/stability.json",
+    "pareto": "results/benchmarks/pareto.csv",
+    "scaling": "results/benchmarks/scaling.json",
+    "selection": "results/tables/selection.csv",
+    "integrators": "results/benchmarks/integrator_tables.json",
+    "dynamics": "results/verification/dynamics.json",
+    "exponential": "results/verification/exponential.json",
+    "exponential_bench": "results/benchmarks/exponential.json",
+    "fe_full": "results/verification/fe.json",
+}
+REPORT_BENCH_FIGURES = ["results/figures/bench/pareto.png", "results/figures/bench/scaling.png",
+                        "results/figures/bench/global_ranking.png", "results/figures/stability/rk4_limit.png",
+                        "results/figures/stability/energy_drift.png"]
+
+
+def optional_report_inputs(wildcards):
+    return " ".join(f"--{k.replace('_', '-')} {v}" for k, v in REPORT_OPTIONAL.items())
+
+
+rule report_scene:
     input:
-        scene="config/scenes/thesis.yaml",
+        scene="config/scenes/{scene}.yaml",
         mode_shapes=rules.mode_shapes.input,
-        truth=TRUTH,
-        ranking="results/tables/errors_ranking.csv",
-        static="results/tables/errors_static.csv",
-        findings="results/tables/findings.json",
-        figures="results/figures/study/figures.json",
-        fe="results/verification/fe.json",
+        truth="results/study/{scene}/sim/truth.h5",
+        ranking="results/tables/{scene}/errors_ranking.csv",
+        static="results/tables/{scene}/errors_static.csv",
+        findings="results/tables/{scene}/findings.json",
+        figures="results/figures/study/{scene}/figures.json",
+        fe="results/verification/fe_fast.json",
         modes="results/benchmarks/modes.json",
         reduction="results/verification/reduction.json",
-        stability="results/stability/stability.json",
-        pareto="results/benchmarks/pareto.csv",
-        scaling="results/benchmarks/scaling.json",
-        selection="results/tables/selection.csv",
-        integrators="results/benchmarks/integrator_tables.json",
-        bench_figures=[rules.pareto.output.figure, rules.scaling.output.figure, rules.selection.output.figure,
-                       rules.stability.output.rk4_limit, rules.stability.output.drift],
     output:
-        "results/report/report.pdf",
+        report("results/report/{scene}.pdf", category="Reports", subcategory="{scene}",
+               caption="../report/scene_report.rst"),
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.report"),
         cfg=config_hash(),   # the report prints the config's values (the file given by --configfile)
+        optional=optional_report_inputs,
+        bench_figures=" ".join(REPORT_BENCH_FIGURES),
     log:
-        "logs/results/report.log",
+        "logs/results/report_{scene}.log",
     benchmark:
-        "results/benchmarks/rules/report.tsv"
+        "results/benchmarks/rules/report_{scene}.tsv"
     shell:
         "{PY} -m results.study.report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures {input.figures} --fe {input.fe} "
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
         "--config {CONFIG} --scene {input.scene} --mode-shapes {input.mode_shapes} "
-        "--stability {input.stability} --pareto {input.pareto} --scaling {input.scaling} "
-        "--selection {input.selection} --integrators {input.integrators} "
-        "--bench-figures {input.bench_figures} "
+        "{params.optional} --bench-figures {params.bench_figures} "
         "--out {output} > {log} 2>&1"
+
+
+rule report:
+    input:
+        expand("results/report/{scene}.pdf", scene=STUDY_SCENES),
+        "results/report/report.pdf",
+
+
+rule study_report:
+    """The study's PDF: every finding on every scene with its verdict and numbers, the truth's own
+    error, the discussion and the recommendation (results.study.study_report)."""
+    input:
+        rankings=expand("results/tables/{scene}/errors_ranking.csv", scene=STUDY_SCENES),
+        statics=expand("results/tables/{scene}/errors_static.csv", scene=STUDY_SCENES),
+        findings=expand("results/tables/{scene}/findings.json", scene=STUDY_SCENES),
+        figures=expand("results/figures/study/{scene}/figures.json", scene=STUDY_SCENES),
+        scenes=expand("config/scenes/{scene}.yaml", scene=STUDY_SCENES),
+        fe="results/verification/fe_fast.json",
+        reduction="results/verification/reduction.json",
+    output:
+        report("results/report/report.pdf", category="Reports", caption="../report/study_report.rst"),
+    params:
+        code=code_hash("results.study.study_report"),
+        optional=optional_report_inputs,
+    log:
+        "logs/results/study_report.log",
+    benchmark:
+        "results/benchmarks/rules/study_report.tsv"
+    shell:
+        "{PY} -m results.study.study_report --scenes {input.scenes} --ranking-tables {input.rankings} "
+        "--static-tables {input.statics} --findings {input.findings} --figures {input.figures} "
+        "--fe {input.fe} --reduction {input.reduction} {params.optional} --out {output} > {log} 2>&1"

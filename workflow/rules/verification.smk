@@ -96,3 +96,30 @@ rule verify_fe:
     shell:
         "{PY} -m solver.fe.verify combine {input} --config {CONFIG} --out {output.json} "
         "--summary {output.summary} > {log} 2>&1"
+
+
+# The fast subset that `all` runs (issue 14: the main job in minutes): the body files against
+# their contract and their spectra against the independent formulas, the thin-ring formula, the
+# discrete Hughes identities and the bearing connection. The fine meshes (convergence), the solid
+# ring, the plate and platform references and the MPI run are `verify` (results/verification/fe.json).
+FAST_CHECKS = ["ring", "hughes", "connection"]
+
+
+rule verify_fe_fast:
+    input:
+        expand("results/verification/parts/{check}.json", check=FAST_CHECKS),
+        expand("results/verification/parts/body_file_body{n}.json", n=BODIES),
+        expand("results/verification/parts/spectra_body{n}.json", n=BODIES),
+    output:
+        json="results/verification/fe_fast.json",
+        summary="results/verification/fe_fast.md",
+    params:
+        code=VERIFY_CODE,
+        cfg=config_hash(),
+    log:
+        "logs/verification/fe_fast.log",
+    benchmark:
+        "results/benchmarks/rules/verify_fe_fast.tsv"
+    shell:
+        "{PY} -m solver.fe.verify combine {input} --config {CONFIG} --out {output.json} "
+        "--summary {output.summary} > {log} 2>&1"

@@ -1,0 +1,112 @@
+"""The study on one scene, in one process: every model reduced, then simulated.
+
+    python -m results.study.run_scene --scene config/scenes/thesis.yaml \\
+        --bodies results/modes/body{2,3,4,5}.h5 --reductions results/reduction/body{2,3,4,5}.h5 \\
+        --load-ranking results/reduction/load/thesis.h5 --models truth rigid freq-10 ... \\
+        --out-dir results/study/thesis/sim [--integrator exponential --tol 5e-6]
+
+Why one process: a study scene holds ~50 models whose simulations take milliseconds to a
+second each with the exponential integrator, while a workflow job costs ~1 s of interpreter
+start and compiled-kernel loading.  Each model goes through exactly the two stages the
+per-model rules run (``reduction.models`` writes the reduced-model file, here into a
+temporary folder; ``solver.dynamics.simulate`` integrates it and writes
+``{out-dir}/{model}.h5``, the simulation-file contract of ``solver.dynamics.simfile``),
+called in process with the same arguments, so a study file equals the file
+``snakemake results/sim/{scene}/{model}.h5`` makes.
+
+Progress: one line per model with its time and the estimated time left.  The first model
+that fails stops the run with its one-line message and exit status 2 (nothing is left under
+its name; the others' files are removed by Snakemake as the outputs of a failed job).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+
+from reduction import models as reduction_models
+from solver.dynamics import simulate
+
+
+def model_file_name(model: str) -> str:
+    """The file name of a model's output: the model name itself (as the per-model rules)."""
+    return f"{model}.h5"
+
+
+def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrator_args=(),
+              log=print):
+    """Reduce and simulate every model of ``models`` on ``scene`` (a scene file); writes
+    {out_dir}/{model}.h5.  Returns (status, failed model or None)."""
+    n = len(models)
+    t_start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="run_scene_") as tmp:
+        for k, model in enumerate(models, 1):
+            t0 = time.perf_counter()
+            model_file = os.path.join(tmp, f"model{k}.h5")
+            args = ["--model", model, "--scene", str(scene), "--bodies", *map(str, bodies),
+                    "--out", model_file]
+            if reductions:
+                args += ["--reductions", *map(str, reductions)]
+            if load_ranking:
+                args += ["--load-ranking", str(load_ranking)]
+            rc = reduction_models.main(args)
+            if rc == 0:
+                rc = simulate.main(["--scene", str(scene), "--model-file", model_file, "--out",
+                                    os.path.join(out_dir, model_file_name(model)),
+                                    *integrator_args])
+            if rc:
+                return rc, model
+            os.remove(model_file)
+            elapsed = time.perf_counter() - t_start
+            left = elapsed / k * (n - k)
+            log(f"run_scene: [{k}/{n}] {model} done in {time.perf_counter() - t0:.2f} s; "
+                f"{elapsed:.1f} s elapsed, ~{left:.0f} s left")
+    return 0, None
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m results.study.run_scene", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scene", required=True, help="scene file (config/scenes/NAME.yaml)")
+    ap.add_argument("--models", nargs="+", required=True, help="model names (reduction/models.py)")
+    ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE", help="body files 2..5")
+    ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE", help="reduction files 2..5")
+    ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global- models)")
+    ap.add_argument("--out-dir", required=True, help="folder of the simulation files")
+    ap.add_argument("--integrator", default=None, help="simulate's --integrator (default its own)")
+    ap.add_argument("--tol", default=None, help="simulate's --tol (exponential)")
+    args = ap.parse_args(argv)
+    if len(set(args.models)) != len(args.models):
+        dup = sorted({m for m in args.models if args.models.count(m) > 1})
+        print(f"run_scene: model(s) given twice: {', '.join(dup)}", file=sys.stderr)
+        return 2
+    # every name is checked before any work (a typo in the last model must not cost the others)
+    try:
+        if args.reductions:
+            rankings = reduction_models.read_rankings(dict(zip(reduction_models.BODIES, args.reductions)))
+            if args.load_ranking:
+                reduction_models.load_load_ranking(args.load_ranking, rankings)
+            for m in args.models:
+                reduction_models.parse_model(m, rankings)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"run_scene: {exc}", file=sys.stderr)
+        return 2
+    integrator_args = []
+    if args.integrator:
+        integrator_args += ["--integrator", args.integrator]
+    if args.tol:
+        integrator_args += ["--tol", args.tol]
+    t0 = time.perf_counter()
+    rc, failed = run_scene(args.scene, args.models, args.bodies, args.reductions, args.load_ranking,
+                           args.out_dir, integrator_args)
+    if rc:
+        print(f"run_scene: model {failed!r} failed (status {rc}); see the message above", file=sys.stderr)
+        return rc
+    print(f"run_scene: {len(args.models)} models on {args.scene} in {time.perf_counter() - t0:.1f} s "
+          f"-> {args.out_dir}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

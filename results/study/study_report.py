@@ -1,0 +1,1 @@
+"""The study report (placeholder until the module is written)."""
