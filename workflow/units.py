@@ -66,17 +66,16 @@ ksi = 1000 * psi
 percent = 0.01 = %
 """
 
-# names of the dimensions the project reads, for the messages
-_DIMENSION_NAMES = {
-    "": "dimensionless", "[length]": "a length", "[time]": "a time", "[mass]": "a mass",
-    "[angle]": "an angle", "[angle] / [time]": "an angular velocity or frequency",
-    "[angle] / [time] ** 2": "an angular acceleration",
-    "[length] * [mass] / [time] ** 2": "a force",
-    "[length] ** 2 * [mass] / [time] ** 2": "a torque (force*length)",
-    "[mass] / [length] / [time] ** 2": "a pressure (force/area)",
-    "[mass] / [length] ** 3": "a density (mass/volume)",
-    "1 / [time]": "1/time", "[angle] ** 2 / [time] ** 2": "an angular velocity squared",
-}
+# names of the dimensions the project reads, for the messages (exponents of pint's base dimensions)
+_L, _T, _M, _A = "[length]", "[time]", "[mass]", "[angle]"
+_DIMENSION_NAMES = (
+    ({}, "dimensionless"), ({_L: 1}, "a length"), ({_T: 1}, "a time"), ({_M: 1}, "a mass"),
+    ({_A: 1}, "an angle"), ({_A: 1, _T: -1}, "an angular velocity or frequency"),
+    ({_A: 1, _T: -2}, "an angular acceleration"), ({_A: 2, _T: -2}, "an angular velocity squared"),
+    ({_T: -1}, "1/time"), ({_M: 1, _L: 1, _T: -2}, "a force"),
+    ({_M: 1, _L: 2, _T: -2}, "a torque (force*length)"), ({_M: 1, _L: -1, _T: -2}, "a pressure (force/area)"),
+    ({_M: 1, _L: -3}, "a density (mass/volume)"),
+)
 
 _NOTE = re.compile(r"^(?P<unit>.*\S)\s+\((?P<note>[^()]*)\)\s*$")
 
@@ -129,10 +128,11 @@ def quantity(unit: str):
 
 def describe(dimensionality) -> str:
     """A dimension in words (pint's form when the project has no name for it)."""
-    text = str(dimensionality)
-    if text == "dimensionless":
-        text = ""
-    return _DIMENSION_NAMES.get(text, text)
+    exponents = dict(dimensionality)
+    for known, name in _DIMENSION_NAMES:
+        if exponents == known:
+            return name
+    return str(dimensionality)
 
 
 def _is_number(x) -> bool:
