@@ -6,6 +6,12 @@ Every number in ``config/config.yaml`` is a ``{value, unit, source}`` triple.
 the gimbal model (bearings outside the ring wall, nested bodies that fit), and
 raises :class:`ConfigError` with a one-line message naming the culprit key.
 
+Every ``{value, unit}`` entry is read through :func:`workflow.units.convert` into
+the unit its key is read in (``UNITS``): a value given in another consistent unit
+(``kg/m^3``, ``GPa``, ``rad``) is converted, an unknown unit or one of another
+dimension is refused naming the key. The file is read with
+:mod:`workflow.yamlfile`, which refuses a duplicate key.
+
 The helpers :func:`value` and :func:`body_parameters` strip units so that the
 numerical code receives plain floats. :func:`body_inputs` resolves everything a
 body's mesh and modal stages read (the stages read it through this function),
@@ -15,12 +21,16 @@ only when, a value its stage reads changes.
 """
 from __future__ import annotations
 
+import copy
+import fnmatch
 import hashlib
 import json
 from pathlib import Path
 
 import jsonschema
 import yaml
+
+from workflow import units, yamlfile
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_CONFIG = ROOT / "config" / "config.yaml"
@@ -38,9 +48,89 @@ def _key_path(error: jsonschema.ValidationError) -> str:
     return ".".join(str(p) for p in error.absolute_path) or "<root>"
 
 
-def validate(config: dict) -> None:
-    """Check ``config`` against the JSON schema and the model's cross-field rules."""
-    schema = yaml.safe_load(SCHEMA.read_text())
+# The unit each {value, unit} key is read in (workflow.units.convert); a tuple: labels of a
+# non-physical unit, given exactly. "*" stands for one key (a body's name).
+UNITS = {
+    "material.youngs_modulus": "lbf/in^2",
+    "material.poissons_ratio": "1",
+    "material.density": "lbf*s^2/in^4",
+    "bodies.*.diameter": "in",
+    "bodies.*.hole_diameter": "in",
+    "bodies.*.outer_bearing_distance": "in",
+    "bodies.*.inner_bearing_distance": "in",
+    "bodies.*.thickness": "in",
+    "bodies.*.width": "in",
+    "bodies.*.motor_side": ("sign of local x",),
+    "eccentric_mass.mass_fraction": "1",
+    "eccentric_mass.angle": "deg",
+    "eccentric_mass.platform_patch_half_angle": "deg",
+    "bearing_connection.platform_patch_half_angle": "deg",
+    "bearing_connection.rotation_weight_length": "in",
+    "shell.shear_correction": "1",
+    "shell.drilling_factor": "1",
+    "shell.shear_stabilisation": "1",
+    "solid.degree": "1",
+    "mesh.ring_size": "in",
+    "mesh.platform_size": "in",
+    "mesh.refinement_ratio": "1",
+    "modes.count": "1",
+    "modes.tolerance": "1",
+    "modes.max_iterations": "1",
+    "verification.free_modes": "1",
+    "verification.supported_modes": "1",
+    "verification.convergence_modes": "1",
+    "simulation.integrator": ("-",),
+    "simulation.tolerance": "1",
+}
+
+
+def unit_of(dotted_key: str):
+    """The unit (or labels) key ``dotted_key`` is read in, None for a key without one."""
+    for pattern, unit in UNITS.items():
+        if fnmatch.fnmatchcase(dotted_key, pattern) and dotted_key.count(".") == pattern.count("."):
+            return unit
+    return None
+
+
+def resolve_units(config: dict) -> dict:
+    """A copy of ``config`` with every ``{value, unit}`` entry in the unit its key is read in.
+
+    An entry given in that unit is kept as it is (the same value, the same unit string);
+    a converted one gets the key's unit. Entries of keys without a unit (unknown keys)
+    are left for the schema to refuse. ConfigError naming the key for a bad unit.
+    """
+    out = copy.deepcopy(config)
+
+    def walk(node, path):
+        for key, entry in node.items():
+            dotted = f"{path}.{key}" if path else str(key)
+            if isinstance(entry, dict) and "value" in entry and "unit" in entry:
+                expected = unit_of(dotted)
+                if expected is None:
+                    continue
+                try:
+                    converted = units.convert(entry, expected, dotted)
+                except units.UnitError as exc:
+                    raise ConfigError(f"config error at '{exc.key}': {exc.reason}") from None
+                if converted is not entry["value"]:
+                    entry["value"] = converted
+                    entry["unit"] = expected
+            elif isinstance(entry, dict):
+                walk(entry, dotted)
+
+    if isinstance(out, dict):
+        walk(out, "")
+    return out
+
+
+def validate(config: dict) -> dict:
+    """Check ``config`` against the JSON schema and the model's cross-field rules.
+
+    Returns the config with its values in the units their keys are read in
+    (:func:`resolve_units`); ``config`` itself is not changed.
+    """
+    config = resolve_units(config)
+    schema = yamlfile.load_file(SCHEMA)
     validator = jsonschema.Draft7Validator(schema)
     errors = sorted(validator.iter_errors(config), key=lambda e: list(e.absolute_path))
     if errors:
@@ -51,6 +141,7 @@ def validate(config: dict) -> None:
             message = message.replace("Additional properties are not allowed", "unknown key")
         raise ConfigError(f"config error at '{_key_path(error)}': {message}")
     _check_geometry(config)
+    return config
 
 
 def _check_geometry(config: dict) -> None:
@@ -90,21 +181,31 @@ def _check_geometry(config: dict) -> None:
                 f"'bodies.{outer}.inner_bearing_distance' {d_in:g} in (the joint is shared)")
 
 
-def load_config(path: str | Path = DEFAULT_CONFIG) -> dict:
-    """Read and validate a config file; raise ConfigError with a one-line message."""
+def read_config_file(path: str | Path) -> dict:
+    """The mapping of a config file, unvalidated; ConfigError for a missing file, invalid YAML
+    or a duplicate key (naming the key and the file)."""
     path = Path(path)
     try:
-        config = yaml.safe_load(path.read_text())
+        config = yamlfile.load_file(path)
     except FileNotFoundError:
         raise ConfigError(f"config error: file '{path}' not found") from None
+    except yamlfile.DuplicateKeyError as exc:
+        raise ConfigError(f"config error at '{exc.key}': duplicate key in '{path}' line {exc.line} "
+                          "(the last value would silently win)") from None
     except yaml.YAMLError as exc:
         line = getattr(getattr(exc, "problem_mark", None), "line", None)
         where = f" line {line + 1}" if line is not None else ""
         raise ConfigError(f"config error: '{path}'{where} is not valid YAML") from None
     if not isinstance(config, dict):
         raise ConfigError(f"config error: '{path}' does not hold a mapping")
-    validate(config)
     return config
+
+
+def load_config(path: str | Path = DEFAULT_CONFIG) -> dict:
+    """Read and validate a config file; raise ConfigError with a one-line message.
+
+    The values come in the units their keys are read in (:func:`validate`)."""
+    return validate(read_config_file(path))
 
 
 def value(config: dict, dotted_key: str):

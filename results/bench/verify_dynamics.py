@@ -229,7 +229,7 @@ def bad_input_checks(body_files, reduction_files, out_dir):
     import tempfile
     import yaml
     tmp = tempfile.mkdtemp()
-    base = yaml.safe_load(open(os.path.join(scenes.SCENES_DIR, "thesis.yaml")))
+    base = scenes.load_scene("thesis").raw        # read strictly (a duplicate key is refused)
     for label, change in (("negative duration", ("duration", -0.01)),
                           ("non-finite initial value", ("initial_rates", [0.0, float("nan"), 0.0, 0.0])),
                           ("unknown scene key", ("gravity", 1.0))):

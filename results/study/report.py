@@ -32,7 +32,6 @@ import time
 from importlib import metadata
 
 import numpy as np
-import yaml
 
 from results.study import findings
 from results.study.figures import pareto_front
@@ -48,7 +47,8 @@ from results.study.cases import (
 from results.study.tables import RATE_COLUMNS, read_table
 from solver.bodydata import BODIES
 from solver.dynamics.simfile import read_sim
-from workflow.config import BODY_NAMES
+from workflow import yamlfile
+from workflow.config import BODY_NAMES, load_config
 from workflow.provenance import atomic_path, versions
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -121,8 +121,7 @@ def _json(path):
 
 
 def _yaml(path):
-    with open(path) as f:
-        return yaml.safe_load(f)
+    return yamlfile.load_file(path)        # a duplicate key is refused
 
 
 def _csv_rows(path):
@@ -166,7 +165,7 @@ def gather(paths: dict) -> dict:
     ctx["fe"] = load("fe", _json)
     ctx["modes_benchmark"] = load("modes_benchmark", _json)
     ctx["reduction"] = load("reduction", _json)
-    ctx["config"] = load("config", _yaml)
+    ctx["config"] = load("config", load_config)    # values in the units the report prints (inch, lbf, s)
     ctx["scene"] = load("scene", _yaml)
     ctx["truth"] = load("truth", lambda q: read_sim(q)["attrs"])
     fj = load("findings", _json)

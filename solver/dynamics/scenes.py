@@ -4,7 +4,11 @@ A scene file holds, for every number, ``{value, unit, source}`` (see
 config/scenes/thesis.yaml).  ``load_scene`` validates it completely before any
 integration: unknown or missing keys, wrong lengths, non-finite values, a
 negative duration or a non-positive output interval raise SceneError with a
-one-line message.
+one-line message.  Every number is read through :func:`workflow.units.convert`
+into the unit its key is read in (``_TOP``, ``_CASE``): another consistent unit
+(``deg`` for ``rad``, ``rad/s`` for ``Hz``, ``ms`` for ``s``) is converted, an
+unknown unit or one of another dimension is refused naming the key, and a
+duplicate key in the file is refused (:mod:`workflow.yamlfile`).
 
 A scene also states what it needs (optional ``needs`` block, so that the
 workflow computes nothing else):
@@ -27,14 +31,15 @@ import numpy as np
 import yaml
 
 from solver.dynamics.multibody import CaseMotion
+from workflow import units, yamlfile
 
 SCENES_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "config", "scenes")
 
-# key -> (length or None for a scalar, unit)
+# key -> (length or None for a scalar, the unit it is read in: workflow.units.convert)
 _TOP = {
     "duration": (None, "s"), "output_interval": (None, "s"),
     "initial_angles": (4, "rad"), "initial_rates": (4, "rad/s"),
-    "motor_torques": (4, "in*lbf"), "damping_ratio": (None, None),
+    "motor_torques": (4, "in*lbf"), "damping_ratio": (None, "1"),
 }
 _CASE = {
     "angular_acceleration_amplitude": (3, "rad/s^2"), "angular_acceleration_frequency": (3, "Hz"),
@@ -43,7 +48,7 @@ _CASE = {
 
 
 ALL_BODIES = (2, 3, 4, 5)
-_NEEDS = {"bodies": "body number", "models": "model name"}
+_NEEDS = {"bodies": ("body number",), "models": ("model name",)}   # labels, given exactly
 
 
 class SceneError(ValueError):
@@ -75,15 +80,22 @@ class Scene:
         return hashlib.sha256(json.dumps(self.physics, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
-def _number(where, entry, length, unit):
+def _converted(origin, key, entry, unit):
+    """``entry``'s value in ``unit`` (workflow.units.convert); SceneError naming the key."""
+    try:
+        return units.convert(entry, unit, key)
+    except units.UnitError as exc:
+        raise SceneError(f"{origin}: {exc}") from None
+
+
+def _number(origin, key, entry, length, unit):
+    where = f"{origin}: {key}"
     if not isinstance(entry, dict) or "value" not in entry:
         raise SceneError(f"{where}: expected {{value, unit, source}}, got {entry!r}")
     extra = set(entry) - {"value", "unit", "source"}
     if extra:
         raise SceneError(f"{where}: unknown field(s) {', '.join(sorted(extra))}")
-    if unit is not None and entry.get("unit") != unit:
-        raise SceneError(f"{where}: unit must be {unit!r}, got {entry.get('unit')!r}")
-    value = entry["value"]
+    value = _converted(origin, key, entry, unit)
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -115,9 +127,7 @@ def _needs(where, block):
             continue
         if not isinstance(entry, dict) or "value" not in entry or set(entry) - {"value", "unit", "source"}:
             raise SceneError(f"{where}: needs.{key} must be {{value, unit, source}}, got {entry!r}")
-        if entry.get("unit") != unit:
-            raise SceneError(f"{where}: needs.{key} unit must be {unit!r}, got {entry.get('unit')!r}")
-        value = entry["value"]
+        value = _converted(where, f"needs.{key}", entry, unit)
         if not isinstance(value, list):
             raise SceneError(f"{where}: needs.{key} must be a list, got {value!r}")
         out[key] = value
@@ -143,7 +153,7 @@ def parse_scene(raw, origin="scene"):
     missing = (set(_TOP) | {"name", "case_motion"}) - set(raw)
     if missing:
         raise SceneError(f"{origin}: missing key(s) {', '.join(sorted(missing))}")
-    vals = {k: _number(f"{origin}: {k}", raw[k], *spec) for k, spec in _TOP.items()}
+    vals = {k: _number(origin, k, raw[k], *spec) for k, spec in _TOP.items()}
     cm = raw["case_motion"]
     if not isinstance(cm, dict):
         raise SceneError(f"{origin}: case_motion must be a mapping")
@@ -153,7 +163,7 @@ def parse_scene(raw, origin="scene"):
     missing = set(_CASE) - set(cm)
     if missing:
         raise SceneError(f"{origin}: missing case_motion key(s) {', '.join(sorted(missing))}")
-    case = {k: _number(f"{origin}: case_motion.{k}", cm[k], *spec) for k, spec in _CASE.items()}
+    case = {k: _number(origin, f"case_motion.{k}", cm[k], *spec) for k, spec in _CASE.items()}
     if vals["duration"] < 0:
         raise SceneError(f"{origin}: duration must be >= 0 s, got {vals['duration']}")
     if vals["output_interval"] <= 0:
@@ -184,11 +194,13 @@ def load_scene(name_or_path, scenes_dir=SCENES_DIR):
         known = sorted(f[:-5] for f in os.listdir(scenes_dir) if f.endswith(".yaml")) \
             if os.path.isdir(scenes_dir) else []
         raise SceneError(f"unknown scene {name_or_path!r} (known: {', '.join(known)})")
-    with open(path) as fh:
-        try:
-            raw = yaml.safe_load(fh)
-        except yaml.YAMLError as exc:
-            raise SceneError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    try:
+        raw = yamlfile.load_file(path)
+    except yamlfile.DuplicateKeyError as exc:
+        raise SceneError(f"{os.path.basename(path)}: {exc.key}: duplicate key in '{path}' line {exc.line} "
+                         "(the last value would silently win)") from None
+    except yaml.YAMLError as exc:
+        raise SceneError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
     scene = parse_scene(raw, origin=os.path.basename(path))
     stem = os.path.splitext(os.path.basename(path))[0]
     if scene.name != stem:

@@ -34,7 +34,7 @@ def test_needs_default_to_all_bodies_and_no_models():
 @pytest.mark.parametrize("needs, message", [
     ({"bodies": {"value": [2, 6], "unit": "body number"}}, "needs.bodies must be distinct body numbers"),
     ({"bodies": {"value": [2, 2], "unit": "body number"}}, "needs.bodies must be distinct body numbers"),
-    ({"bodies": {"value": [2], "unit": "rad"}}, "needs.bodies unit must be 'body number'"),
+    ({"bodies": {"value": [2], "unit": "rad"}}, "needs.bodies: unit must be 'body number'"),
     ({"models": {"value": "truth", "unit": "model name"}}, "needs.models must be a list"),
     ({"models": {"value": ["truth", ""], "unit": "model name"}}, "needs.models must be model names"),
     ({"bodys": {"value": [2], "unit": "body number"}}, "unknown needs key(s) bodys"),

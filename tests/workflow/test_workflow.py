@@ -115,3 +115,23 @@ def test_an_unknown_integrator_in_the_config_stops_with_one_line(tmp_path):
     assert run.returncode != 0
     lines = output_lines(run)
     assert len(lines) == 1 and "simulation.integrator" in lines[0] and "euler" in lines[0], lines
+
+
+def test_duplicate_key_and_bad_unit_stop_the_dag_build(tmp_path):
+    """Snakemake's own YAML reading keeps the last duplicate; the DAG build re-reads the file strictly."""
+    text = (ROOT / "config" / "config.yaml").read_text()
+    line = "  poissons_ratio: {value: 0.3, unit: \"1\", source: \"thesis Table 2.3\"}\n"
+    dup = tmp_path / "dup.yaml"
+    dup.write_text(text.replace(line, line + line.replace("0.3", "0.33")))
+    run = snakemake("--dry-run", "all", "--configfile", str(dup))
+    assert run.returncode != 0
+    assert output_lines(run) == [f"config error at 'material.poissons_ratio': duplicate key in '{dup}' line 8 "
+                                 "(the last value would silently win)"], run.stderr[-2000:]
+    config = yaml.safe_load(text)
+    config["material"]["density"] = {"value": 2700, "unit": "furlong", "source": "issue 15"}
+    bad = tmp_path / "furlong.yaml"
+    bad.write_text(yaml.safe_dump(config))
+    run = snakemake("--dry-run", "all", "--configfile", str(bad))
+    assert run.returncode != 0
+    assert output_lines(run) == ["config error at 'material.density': unknown unit 'furlong' (expected a density "
+                                 "(mass/volume), e.g. lbf*s^2/in^4)"], run.stderr[-2000:]

@@ -9,8 +9,15 @@ from pathlib import Path
 sys.path.insert(0, str(Path(workflow.basedir)))
 cfgmod = importlib.import_module("workflow.config")  # not "import workflow...": Snakemake owns that name
 
+# the file the stages read; pass another with --configfile (not --config key=value)
+CONFIG = (workflow.overwrite_configfiles or ["config/config.yaml"])[-1]
+
 try:
-    cfgmod.validate(config)
+    # Snakemake's own YAML reading keeps the last of duplicate keys: re-read each file strictly
+    for _path in (workflow.overwrite_configfiles or ["config/config.yaml"]):
+        cfgmod.read_config_file(_path)
+    # the values in the units their keys are read in, as the stages read them (load_config)
+    config.update(cfgmod.validate(config))
 except cfgmod.ConfigError as exc:
     # one line naming the key, and nothing else (Snakemake would wrap it in a traceback)
     sys.stderr.write(f"{exc}\n")
@@ -18,8 +25,6 @@ except cfgmod.ConfigError as exc:
     os._exit(1)
 
 PY = sys.executable
-# the file the stages read; pass another with --configfile (not --config key=value)
-CONFIG = (workflow.overwrite_configfiles or ["config/config.yaml"])[-1]
 BODIES = [2, 3, 4, 5]
 
 wildcard_constraints:
