@@ -377,11 +377,13 @@ def finding3(st: Study, thesis=False) -> dict:
             ctl = _better(es, ec)
             rig = True if rigid is None else _better(es, rigid[i])
             passed.append(sim and ctl and rig)
-            fails = ([] if sim else [f"{_fmt(es / freq[25][i])}x freq-25"]) + \
-                    ([] if ctl else [f"not better than freq-{c} ({_fmt(ec)})"]) + \
-                    ([] if rig else [f"not better than rigid ({_fmt(rigid[i])})"])
-            parts.append(f"static-{n} {_fmt(es)} vs freq-25 {_fmt(freq[25][i])}: " +
-                         ("passes" if not fails else ", ".join(fails)))
+            checks = [f"{_fmt(es / freq[25][i])}x freq-25 {_fmt(freq[25][i])}"
+                      + ("" if sim else f" (> {FACTOR_SIMILAR:g}x)"),
+                      ("better than" if ctl else "not better than") + f" freq-{c} {_fmt(ec)}"]
+            if rigid is not None:
+                checks.append(("better than" if rig else "not better than") + f" rigid {_fmt(rigid[i])}")
+            parts.append(f"static-{n} {_fmt(es)} {'passes' if passed[-1] else 'fails'}: "
+                         + ", ".join(checks))
         if not passed:
             per_rate[r] = ("not evaluated", {}, "missing input: no finite E on this rate", [])
             continue

@@ -137,7 +137,7 @@ def test_f3_rigid_like_study_fails():
 
 def test_f3_fails_when_far_from_25_modes():
     f = findings.finding3(_study(static_6=0.2, static_8=0.2))
-    assert f["verdict"] == "not reproduced" and "4x freq-25" in f["reason"]
+    assert f["verdict"] == "not reproduced" and "4x freq-25 0.05 (> 3x)" in f["reason"]
 
 
 # ---------------------------------------------------------------- finding 4
