@@ -34,7 +34,6 @@ from importlib import metadata
 import numpy as np
 
 from results.study import findings
-from results.study.figures import pareto_front
 from results.study.cases import (
     BODY_LABELS,
     GROUP_LABELS,
@@ -187,6 +186,8 @@ def gather(paths: dict) -> dict:
     ctx["scaling"] = load("scaling", _json)
     ctx["selection_rows"] = load("selection", _csv_rows) or []
     ctx["integrators"] = load("integrators", _json)
+    for key in ("dynamics", "exponential", "exponential_bench", "fe_full"):
+        ctx[key] = load(key, _json)
     ctx["bench_figures"] = [(key, path, cap) for key, rel, cap in BENCH_FIGURES
                             for path in p["bench_figures"]
                             if path.endswith(os.sep + rel) and os.path.exists(path)]
@@ -466,16 +467,32 @@ def _pivot(rows, group, counts):
     return out, bool(sel)
 
 
+def _group_counts(rows, group):
+    """The counts a group has in the table (freq also has the no-static controls 2..8)."""
+    return sorted({r["count"] for r in rows if r["group"] == group and r["count"] is not None})
+
+
 def _results_section(ctx, root):
     out = ["= Results\n\n== Error tables\n\n"]
     rr, sr = ctx["ranking_rows"], ctx["static_rows"]
     if rr:
-        for g in RANKING_TABLE_GROUPS:
-            rows, ok = _pivot(rr, g, MODE_COUNTS)
+        base = [r for r in rr if r["group"] in ("rigid", "truth-check")]
+        if base:
+            out.append(table(["model", "what"] + [s(BODY_LABELS[b]) for b in BODIES],
+                             [[s(r["model"]), s(GROUP_LABELS.get(r["group"], r["group"]))] +
+                              [sci(r[c]) for c in RATE_COLUMNS] for r in base],
+                             "The baseline every reduced model must beat (rigid: no elastic mode) "
+                             "and the truth's own error (static-100: the truth with residual "
+                             "flexibility).", "tab-baseline", size="7.5pt"))
+        for g in [g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check")]:
+            counts = _group_counts(rr, g)
+            rows, ok = _pivot(rr, g, counts)
             if ok:
-                out.append(table(["rate"] + [f"{n} modes" for n in MODE_COUNTS], rows,
-                                 f"Error E (eq 3.53) using {s(GROUP_LABELS[g])} "
-                                 f"(analogue of thesis Table 4.2).", f"tab-err-{g}"))
+                unit = "in total" if g == "global" else "per body"
+                out.append(table(["rate"] + [f"{n}" for n in counts], rows,
+                                 f"Error E (eq 3.53) using {s(GROUP_LABELS[g])}, by the number of modes "
+                                 f"{unit}" + (" (analogue of thesis Table 4.2)." if g in ("freq", "xmx", "xmgmx")
+                                              else "."), f"tab-err-{g}", size="7.5pt"))
     else:
         out.append(note(ctx["missing"].get("ranking_table", "ranking table")))
     if sr:
@@ -516,38 +533,59 @@ def _results_section(ctx, root):
     return "".join(out)
 
 
+_SYMBOL = {"reproduced": "✓", "partly reproduced": "◐", "not reproduced": "✗", "not evaluated": "–"}
+
+
 def _findings_section(ctx):
-    out = ["= Thesis findings <findings>\n\n",
-           "Each finding of the thesis (Sections 4.3-4.5) is decided by an explicit rule "
-           "(results/study/findings.py) on our error tables; the same rule applied to the thesis's own "
-           "Tables 4.2 and 4.3 is shown for comparison. Findings are "
-           + ("read from results/tables/findings.json" if ctx["findings_source"] == "file"
+    out = ["= Findings <findings>\n\n",
+           "Each finding (1-6: the thesis's, Sections 4.3-4.5; 7-9: ours) is decided by an explicit "
+           "rule on this scene's error tables, on every gimbal rate, against a control "
+           "(results/study/findings.py, docs/findings.md). The thesis column applies the same rule "
+           "to the thesis's own Tables 4.2 and 4.3 where they hold the data. Per-rate symbols: "
+           "outer, middle, inner, platform (✓ reproduced or holds, ◐ partly, ✗ not, – not "
+           "evaluated). Findings are "
+           + ("read from results/tables/SCENE/findings.json" if ctx["findings_source"] == "file"
               else "computed from the available tables") + ".\n\n"]
-    rows = [[s(f["finding"]), s(f["statement"]), s(f["rule"]), s(f["ours"] or "--"),
-             s(f["thesis"]), f"*{s(f['verdict'])}*: {s(f['reason'])}"] for f in ctx["findings"]]
-    out.append(table(["no.", "thesis finding", "rule", "our numbers", "thesis numbers", "verdict"],
-                     rows, "The six thesis findings against our results.", "tab-findings",
-                     columns="(auto, 1.2fr, 1fr, 1.5fr, 1.3fr, 1.2fr)", size="6.5pt"))
+    rows = []
+    for f in ctx["findings"]:
+        per = "".join(_SYMBOL.get((f.get("verdict_per_rate") or {}).get(r, "not evaluated"), "?")
+                      for r in ("outer", "middle", "inner", "platform"))
+        th = (f.get("thesis_check") or {}).get("verdict") or "--"
+        rows.append([s(f["finding"]), s(f["statement"]), s(f.get("control", "")),
+                     f"*{s(f['verdict'])}* {s(per)}", s(th), s(f["reason"])])
+    out.append(table(["no.", "finding", "control", "verdict", "thesis", "reason"],
+                     rows, "The findings on this scene, with their controls.", "tab-findings",
+                     columns="(auto, 1.3fr, 1fr, 0.8fr, 0.6fr, 2fr)", size="6.5pt"))
     return "".join(out)
 
 
 def _runtime_section(ctx, root):
-    out = ["= Run time against error <runtime>\n\n"]
-    rows = sorted((r for r in ctx["ranking_rows"] + ctx["static_rows"]),
-                  key=lambda r: (r["group"] != "truth", r["wall_time_s"]))
+    """Cost and accuracy of every case.  Run times are quoted only from the benchmark's medians
+    (``snakemake bench``, results/benchmarks/exponential.json), never from the study's single
+    runs (compilation and a shared machine make those noise)."""
+    out = ["= Cost against error <runtime>\n\n"]
+    rows = sorted((r for r in ctx["ranking_rows"] + ctx["static_rows"] if r["group"] != "truth"),
+                  key=lambda r: (r["n_elastic"] if r["n_elastic"] is not None else 1e9, r["model"]))
     rt = [f for f in ctx["figures"] if f["kind"] == "cost"]
     for f in rt:
         out.append(figure(f["pdf"], s(f["caption"]), root, width="85%", label="fig-runtime"))
+    eb = ctx.get("exponential_bench")
+    if eb:
+        out.append(f"Run times (medians of repeated runs) are those of the exponential integrator's "
+                   f"benchmark of {s(ctx['status'].get('exponential_bench', ''))}: "
+                   f"results/benchmarks/exponential.md.\n\n")
+    else:
+        out.append(note(s(ctx["missing"].get("exponential_bench", "no benchmark")) +
+                        "; no run time is quoted from single runs."))
     if rows:
-        front = set(np.asarray([r["model"] for r in rows if r["group"] != "truth"])[
-            _front_idx([r for r in rows if r["group"] != "truth"])]) if len(rows) > 1 else set()
-        body = [[s(r["model"]) + (" ★" if r["model"] in front else ""), s(r["n_elastic"]),
-                 sci(r["E_outer_gimbal"]), sci(r["E_middle_gimbal"]), s(f"{r['wall_time_s']:.3g}"),
-                 s(r["integrator"]), s(r["steps"])] for r in rows]
-        out.append(table(["model", "elastic coord.", "E outer", "E middle", "wall time [s]",
-                          "integrator", "steps"], body,
-                         "Cost and accuracy of every case, fastest first (★: on the Pareto front "
-                         "of wall time against outer-gimbal error).", "tab-runtime", size="7pt"))
+        body = [[s(r["model"]), s(r["n_elastic"]), sci(r["E_outer_gimbal"]), sci(r["E_middle_gimbal"]),
+                 sci(r["E_inner_gimbal"]), sci(r["E_stable_platform"]),
+                 sci(r.get("attitude_max_arcsec", float("nan"))), s(r["steps"])] for r in rows]
+        out.append(table(["model", "elastic coord.", "E outer", "E middle", "E inner", "E platform",
+                          "attitude [arcsec]", "steps"], body,
+                         "Every case by its size (elastic coordinates): E per rate, the largest "
+                         "platform attitude error against the truth, and the integrator's steps.",
+                         "tab-runtime", size="6.5pt"))
     elif not rt:
         out.append(note(ctx["missing"].get("ranking_table", "error tables")))
     return "".join(out)
@@ -666,11 +704,6 @@ def _performance_section(ctx, root):
     else:
         out.append(note(ctx["missing"].get("selection", "no selection table")))
     return "".join(out)
-
-
-def _front_idx(rows):
-    return np.array(pareto_front([r["wall_time_s"] for r in rows], [r["E_outer_gimbal"] for r in rows]),
-                    dtype=int)
 
 
 def _provenance_section(ctx):

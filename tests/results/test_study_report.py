@@ -1,0 +1,96 @@
+"""results.study.study_report: the numbers of the text from the tables, the sections, the PDF."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from results.study import findings, study_report, tables
+from results.study.report import sci
+from results.study.tables import RATE_COLUMNS
+from tests.results.synthetic_study import write_study
+
+
+def row(model, E, n, group="other", attitude=1.0):
+    r = {"model": model, "group": group, "n_elastic": n, "attitude_max_arcsec": attitude}
+    r.update(dict(zip(RATE_COLUMNS, E)))
+    return r
+
+
+ROWS = [row("truth", (0, 0, 0, 0), 400, "truth", 0.0),
+        row("rigid", (0.04, 1e-3, 2e-5, 1e-2), 0, "rigid"),
+        row("freq-10", (0.07, 1e-3, 8e-6, 3e-3), 40, "freq"),       # worse than rigid on outer
+        row("load-25", (0.009, 3e-4, 3e-6, 7e-5), 100, "load"),      # better everywhere
+        row("global-100", (0.003, 1e-4, 3e-6, 4e-5), 100, "global"),
+        row("static-100", (2e-8, 2e-9, 2e-10, 3e-10), 404, "truth-check", 1e-7)]
+
+
+def test_analyse_scene_counts_what_beats_the_rigid_model_and_the_cheapest_per_target():
+    a = study_report.analyse_scene(ROWS)
+    assert a["n_reduced"] == 3                          # truth, rigid and static-100 are not cases
+    assert a["beat_rigid"]["outer"] == ["load-25", "global-100"]
+    assert a["beat_rigid"]["inner"] == ["freq-10", "load-25", "global-100"]
+    assert a["best"]["outer"] == ("global-100", 0.003, 100)
+    assert np.allclose(a["truth_error"], (2e-8, 2e-9, 2e-10, 3e-10))
+    # E <= 1e-1 on every rate: the rigid model (0 coordinates) is the cheapest
+    assert a["cheapest"][1e-1][0] == "rigid"
+    # E <= 1e-2: load-25 and global-100 both have 100 coordinates; the smaller max E wins
+    assert a["cheapest"][1e-2][0] == "global-100"
+    assert a["cheapest"][1e-4] is None
+
+
+def test_analyse_scene_without_rigid_model_leaves_the_baseline_empty():
+    a = study_report.analyse_scene([r for r in ROWS if r["model"] != "rigid"])
+    assert a["rigid"] is None and a["beat_rigid"] == {}
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    """Two synthetic scenes with tables and findings (the files the workflow hands the report)."""
+    tmp = tmp_path_factory.mktemp("study")
+    out = {"scenes": [], "rank": [], "static": [], "findings": [], "figures": []}
+    for scene in ("thesis", "smooth"):
+        truth, cases = write_study(tmp / "sim", good=(scene == "thesis"), scene=scene)
+        rt, st = tmp / scene / "errors_ranking.csv", tmp / scene / "errors_static.csv"
+        assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
+                            "--static-table", str(st)]) == 0
+        fj = tmp / scene / "findings.json"
+        assert findings.main(["--ranking-table", str(rt), "--static-table", str(st), "--scene", scene,
+                              "--csv", str(tmp / scene / "findings.csv"), "--json", str(fj)]) == 0
+        scene_file = tmp / f"{scene}.yaml"
+        scene_file.write_text(f"name: {scene}\ndescription: synthetic {scene}\n"
+                              "duration: {value: 0.015, unit: s}\ndamping_ratio: {value: 0.0, unit: '1'}\n")
+        out["scenes"].append(str(scene_file))
+        out["rank"].append(str(rt))
+        out["static"].append(str(st))
+        out["findings"].append(str(fj))
+        out["figures"].append(str(tmp / scene / "figures.json"))     # missing: reported, not fatal
+    out["tmp"] = tmp
+    return out
+
+
+def test_study_report_builds_every_section_and_quotes_the_tables(study):
+    pdf = study["tmp"] / "report.pdf"
+    rc = study_report.main(["--scenes", *study["scenes"], "--ranking-tables", *study["rank"],
+                            "--static-tables", *study["static"], "--findings", *study["findings"],
+                            "--figures", *study["figures"], "--fe", str(study["tmp"] / "nope.json"),
+                            "--reduction", str(study["tmp"] / "nope2.json"), "--out", str(pdf)])
+    assert rc == 0 and pdf.stat().st_size > 10_000
+    src = (study["tmp"] / "report.typ").read_text()
+    for head in ("= Summary", "= Methods", "= Results", "== The truth's own error", "= Discussion",
+                 "= Conclusions and recommendation", "= Verification and run time", "= Provenance"):
+        assert head in src, head
+    # the rigid model's outer error in the summary is the table's
+    rows = tables.read_table(study["rank"][0])
+    rigid = next(r for r in rows if r["model"] == "rigid")
+    assert f"the rigid model's outer-gimbal error is {sci(rigid['E_outer_gimbal'])}" in src
+    # every finding of every scene is in the verdict table; missing inputs are named
+    assert src.count('#"9. ') == 1 and "Incomplete report" in src and "nope.json missing" in src
+
+
+def test_study_report_refuses_lists_of_different_lengths(study, capsys):
+    rc = study_report.main(["--scenes", *study["scenes"], "--ranking-tables", study["rank"][0],
+                            "--static-tables", *study["static"], "--findings", *study["findings"],
+                            "--figures", *study["figures"], "--fe", "x", "--reduction", "y",
+                            "--out", str(study["tmp"] / "r.pdf")])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and "1 ranking tables for 2 scenes" in err
