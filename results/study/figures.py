@@ -157,23 +157,30 @@ def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rig
             err = cs - tr
             err_r = rigid["gamma_dot"][:, k] - tr if rigid is not None else None
             ax = axes[0]
+            fr, ur = rate_unit(max(np.abs(tr).max(), np.abs(cs).max()))
+            fe, ue = rate_unit(max(np.abs(err).max(), 0.0 if err_r is None else np.abs(err_r).max()))
             if rigid is not None:
-                ax.plot(*_ms(envelope(t, rigid["gamma_dot"][:, k])), color=grey, lw=1.6, label="rigid model")
-            ax.plot(*_ms(envelope(t, tr)), color="black", lw=0.9, label="truth")
-            ax.plot(*_ms(envelope(t, cs)), color=red, lw=0.9, ls=(0, (4, 2)), label=case["model"])
-            ax.set_ylabel("rate [rad/s]")
+                ax.plot(*_ms(envelope(t, rigid["gamma_dot"][:, k]), fr), color=grey, lw=1.6,
+                        label="rigid model")
+            ax.plot(*_ms(envelope(t, tr), fr), color="black", lw=0.9, label="truth")
+            ax.plot(*_ms(envelope(t, cs), fr), color=red, lw=0.9, ls=(0, (4, 2)), label=case["model"])
+            ax.set_ylabel(f"rate [{ur}]")
             for j, (ax, win) in enumerate(zip(axes[1:], ((t[0], t[-1]), early, late))):
                 if err_r is not None:
-                    ax.plot(*_ms(envelope(t, err_r, *win)), color=grey, lw=0.9)
-                ax.plot(*_ms(envelope(t, err, *win)), color=red, lw=0.8)
+                    ax.plot(*_ms(envelope(t, err_r, *win), fe), color=grey, lw=0.9)
+                ax.plot(*_ms(envelope(t, err, *win), fe), color=red, lw=0.8)
                 ax.axhline(0.0, color="black", lw=0.5)
                 ax.set_xlim(1e3 * win[0], 1e3 * win[1])
                 ax.margins(y=0.08)
+                if j:
+                    ax.set_xticks(np.linspace(1e3 * win[0], 1e3 * win[1], 3))
             for w in (early, late):
                 axes[1].axvspan(1e3 * w[0], 1e3 * w[1], color="tab:blue", alpha=0.12, lw=0)
-            axes[1].set_ylabel("error [rad/s]")
-            for ax in axes:
-                ax.locator_params(axis="x", nbins=4)
+            axes[1].set_ylabel(f"error [{ue}]")
+            for j, ax in enumerate(axes):
+                if j < 2:
+                    ax.xaxis.set_major_locator(plt.MaxNLocator(nbins=4))
+                ax.xaxis.set_major_formatter(plt.FormatStrFormatter("%.4g"))
                 ax.yaxis.get_offset_text().set_fontsize(7)
             if k == 0:
                 for ax, name in zip(axes, ("rate, whole run", "error, whole run",
@@ -198,8 +205,17 @@ def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rig
             "windows_s": [list(early), list(late)]}
 
 
-def _ms(ty):
-    return 1e3 * ty[0], ty[1]
+def _ms(ty, scale=1.0):
+    return 1e3 * ty[0], scale * ty[1]
+
+
+def rate_unit(peak):
+    """(factor, unit) that puts a rate of magnitude ``peak`` [rad/s] in [1, 1000) units
+    (rad/s, mrad/s or urad/s, nrad/s below), so no axis needs an offset or exponent label."""
+    for factor, unit in ((1.0, "rad/s"), (1e3, "mrad/s"), (1e6, r"$\mu$rad/s"), (1e9, "nrad/s")):
+        if peak * factor >= 1.0:
+            return factor, unit
+    return 1e9, "nrad/s"
 
 
 def _series(rows, group, col):
