@@ -39,6 +39,7 @@ import numpy as np
 from results.study import findings
 from results.study.cases import (
     GROUP_LABELS,
+    LOAD_CASE_COUNT,
     LOAD_CASES,
     RANKING_TABLE_GROUPS,
     RATE_LABELS,
@@ -262,25 +263,40 @@ def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=
         return save(fig, stem)
 
 
-def plot_load_cases(rows: list[dict], stem: str) -> dict:
-    """Grouped bars: E (log) of each gimbal rate for the seven static-mode load cases."""
+def _short_load_case(case):
+    bearing, comp = case.rsplit("_", 1)
+    abbrev = {"input_motor": "IM", "output_motor": "OM", "input_resolver": "IR", "output_resolver": "OR"}
+    return f"{abbrev.get(bearing, bearing)} {comp[0]}$_{comp[1]}$"
+
+
+def plot_load_cases(rows: list[dict], stem: str, controls=()) -> dict:
+    """Grouped bars: E (log) of each gimbal rate for the seven static-mode load cases, after the
+    controls (``controls``: [(label, (4,) E)], e.g. the rigid model and the same vibration modes
+    without a static mode), separated by a vertical line.  Legend above the axes."""
     plt = _plt()
     lc = [r for r in rows if r["group"] == "load-case"]
     order = [c for c, _ in LOAD_CASES]
     lc.sort(key=lambda r: order.index(r["load_case"]) if r["load_case"] in order else len(order))
+    groups = [(label, list(E)) for label, E in controls] + \
+             [(f"{_short_load_case(r['load_case'])}\n(Fig {r['thesis_figure']})",
+               [r[c] for c in RATE_COLUMNS]) for r in lc]
     with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(7.0, 3.6), constrained_layout=True)
-        x = np.arange(len(lc))
+        fig, ax = plt.subplots(figsize=(7.0, 3.9), constrained_layout=True)
+        x = np.arange(len(groups))
         w = 0.2
         for k, b in enumerate(BODIES):
-            ax.bar(x + (k - 1.5) * w, [r[RATE_COLUMNS[k]] for r in lc], w,
-                   label=RATE_LABELS[b])
-        ax.set_xticks(x, [f"{r['load_case']}\n(Fig {r['thesis_figure']})" for r in lc], fontsize=7)
+            ax.bar(x + (k - 1.5) * w, [g[1][k] for g in groups], w, label=RATE_LABELS[b])
+        if controls:
+            ax.axvline(len(controls) - 0.5, color="black", lw=0.8)
+        ax.set_xticks(x, [g[0] for g in groups], fontsize=8)
         ax.set_yscale("log")
         ax.set_ylabel("E [-]")
-        ax.set_xlabel("load case of the outer gimbal's static mode (10 lowest modes per body)")
-        ax.legend(ncol=2)
-        ax.set_title("Error for the seven static-mode load cases")
+        ax.set_xlabel("controls | load case of the outer gimbal's static mode (10 lowest modes per body;"
+                      " IM/OM input/output motor)", fontsize=8)
+        fig.legend(*ax.get_legend_handles_labels(), loc="upper center", ncol=4, fontsize=8,
+                   frameon=False, bbox_to_anchor=(0.5, 0.935))
+        fig.get_layout_engine().set(rect=(0, 0, 1, 0.88))
+        fig.suptitle("Error for the seven static-mode load cases and their controls", fontsize=9)
         return save(fig, stem)
 
 
@@ -298,14 +314,15 @@ def pareto_front(cost, err):
     return front
 
 
-def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal") -> dict:
+def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal", rigid_E=None) -> dict:
     """Scatter of wall time [s] (log) against E (log) of one rate for every case, Pareto front,
-    and the truth's wall time as a vertical line."""
+    the truth's wall time as a vertical line and the rigid model's E (``rigid_E``, optional) as a
+    horizontal one; legend below the axes."""
     plt = _plt()
     cases = [r for r in rows if r["group"] != "truth"]
     truth = [r for r in rows if r["group"] == "truth"]
     with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(7.0, 4.4), constrained_layout=True)
+        fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
         for g in dict.fromkeys(r["group"] for r in cases):
             sel = [r for r in cases if r["group"] == g]
             c, m, _ = GROUP_STYLE.get(g, GROUP_STYLE["other"])
@@ -318,16 +335,23 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal")
             ax.step(cost[front], err[front], where="post", color="0.3", lw=1, ls="--",
                     label="Pareto front", zorder=2)
             for i in front:
-                ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=6, xytext=(3, 3),
+                ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=7.5, xytext=(4, 3),
                             textcoords="offset points")
         if truth and np.isfinite(truth[0]["wall_time_s"]):
             ax.axvline(truth[0]["wall_time_s"], color="black", lw=1,
                        label=f"truth: {truth[0]['wall_time_s']:.3g} s")
+        if rigid_E is not None and np.isfinite(rigid_E) and rigid_E > 0:
+            ax.axhline(rigid_E, color="black", lw=1, ls=":", label=f"rigid model: E = {rigid_E:.3g}")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.yaxis.set_minor_formatter(plt.FormatStrFormatter("%.2g"))
+        ax.tick_params(axis="y", which="minor", labelsize=7)
         ax.set_xlabel("wall time of the simulation [s]")
         ax.set_ylabel(f"E of {RATE_LABELS[2]} [-]")
-        ax.legend(fontsize=6, loc="best", framealpha=0.8)
+        handles, labels = ax.get_legend_handles_labels()
+        fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)
+        low = 0.02 + ((len(handles) + 1) // 2) * 8 * 1.55 / 72 / fig.get_figheight()
+        fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         ax.set_title("Run time against error (eq 3.53)")
         return save(fig, stem)
 
@@ -421,18 +445,37 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
                     "per body with one static correction mode per body, lowest-frequency and ranked "
                     "modes (analogue of Fig 4-29); grey: the thesis's Table 4.3; " + rigid_note)
     if any(r["group"] == "load-case" for r in static_rows):
-        add(plot_load_cases(static_rows, os.path.join(out_dir, "error_load_cases")),
+        controls = []
+        if E_rigid is not None:
+            controls.append(("rigid\n(control)", E_rigid))
+        ctrl = next((r for r in ranking_rows if r["model"] == f"freq-{LOAD_CASE_COUNT}"), None)
+        if ctrl is not None:
+            controls.append((f"no static\n(freq-{LOAD_CASE_COUNT})", [ctrl[c] for c in RATE_COLUMNS]))
+        names = [c[0].split(chr(10))[0] for c in controls]
+        add(plot_load_cases(static_rows, os.path.join(out_dir, "error_load_cases"), controls),
             id="error_load_cases", kind="error", model="", group="load-case",
-            thesis_figure="4-21..4-27",
-            caption="Error E of each gimbal rate with the 10 lowest modes per body and one static "
-                    "mode on the outer gimbal, for the seven load cases (Figs 4-21 to 4-27).")
+            thesis_figure="4-21..4-27", scene=scene or "", controls=names,
+            baseline=RIGID if E_rigid is not None else None,
+            caption=f"Error E of each gimbal rate{on} with the 10 lowest modes per body and one static "
+                    "mode on the outer gimbal, for the seven load cases (Figs 4-21 to 4-27)"
+                    + (", after the controls left of the line: " + (
+                        "the rigid model and " if E_rigid is not None else "")
+                       + (f"the same {LOAD_CASE_COUNT} modes without a static mode (freq-{LOAD_CASE_COUNT})"
+                          if ctrl is not None else "") if controls else "")
+                    + "." + ("" if E_rigid is not None else " Rigid-model control not available.")
+                    + ("" if ctrl is not None else f" No-static control freq-{LOAD_CASE_COUNT} not "
+                                                    "in the ranking table."))
     rows = ranking_rows + static_rows
     if any(r["group"] != "truth" and np.isfinite(r["wall_time_s"]) for r in rows):
-        add(plot_runtime_error(rows, os.path.join(out_dir, "runtime_error")),
-            id="runtime_error", kind="cost", model="", group="", thesis_figure="",
-            caption="Wall time of each simulation against the error E of the outer gimbal rate; "
+        add(plot_runtime_error(rows, os.path.join(out_dir, "runtime_error"),
+                               rigid_E=None if E_rigid is None else E_rigid[0]),
+            id="runtime_error", kind="cost", model="", group="", thesis_figure="", scene=scene or "",
+            baseline=RIGID if E_rigid is not None else None,
+            caption=f"Wall time of each simulation{on} against the error E of the outer gimbal rate; "
                     "dashed: the Pareto front (no case is both faster and more accurate); "
-                    "vertical line: the truth model's wall time.")
+                    "vertical line: the truth model's wall time"
+                    + ("; dotted: the rigid model's E." if E_rigid is not None else
+                       "; rigid-model baseline not available."))
     return entries
 
 
