@@ -12,17 +12,19 @@ import pytest
 from results.study import figures, mode_shapes, tables
 from tests.results.synthetic_study import DT, T_END, truth_rates, write_sim, write_study
 
-CASES = ("freq-5", "static-4")
+CASES = ("freq-5", "static-4")                      # rate figures drawn
+TABLED = CASES + ("freq-10", "static-10@2:output_motor_fz")   # in the tables only
 
 
 @pytest.fixture(scope="module")
 def sims(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("figs")
-    truth, cases = write_study(tmp / "sim", cases=[c for c in tables.study_cases() if c["model"] in CASES])
+    truth, tabled = write_study(tmp / "sim", cases=[c for c in tables.study_cases() if c["model"] in TABLED])
+    cases = [p for p in tabled if p.endswith(tuple(f"/{m}.h5" for m in CASES))]
     t = np.linspace(0.0, T_END, int(round(T_END / DT)) + 1)
     rigid = write_sim(tmp / "sim" / "thesis" / "rigid.h5", "rigid", t, 1.2 * truth_rates(t), n_modes=[0] * 4)
     rt, st = tmp / "errors_ranking.csv", tmp / "errors_static.csv"
-    assert tables.main(["--truth", truth, "--cases", *cases, rigid, "--ranking-table", str(rt),
+    assert tables.main(["--truth", truth, "--cases", *tabled, rigid, "--ranking-table", str(rt),
                         "--static-table", str(st)]) == 0
     return {"tmp": tmp, "truth": truth, "cases": cases, "rigid": rigid, "ranking": str(rt), "static": str(st)}
 
@@ -51,6 +53,8 @@ def test_rate_figures_have_rigid_baseline_and_zoom(sims):
         assert f["envelope"] is False and "first 2 ms" in f["caption"]
     err = {f["id"]: f for f in m["figures"] if f["kind"] == "error"}
     assert err["error_ranking"]["baseline"] == "rigid" and err["error_static"]["baseline"] == "rigid"
+    assert err["error_load_cases"]["controls"] == ["rigid", "no static"]
+    assert "without a static mode (freq-10)" in err["error_load_cases"]["caption"]
 
 
 def test_rigid_among_cases_is_the_baseline(sims, tmp_path):
