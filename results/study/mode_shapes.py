@@ -263,7 +263,9 @@ def read_statics(path):
         order = json.loads(g.attrs.get("load_cases", "[]")) or sorted(g)
         return [{"load_case": c, "mode": g[c]["mode"][()],
                  "frequency_hz": float(g[c].attrs["frequency_hz"]),
-                 "residual_fraction": float(g[c].attrs["residual_fraction"])} for c in order if c in g]
+                 "residual_fraction": float(g[c].attrs["residual_fraction"]),
+                 "n_kept": int(g[c].attrs.get("n_kept", g.attrs.get("n_kept", 0))),
+                 "kept_ranking": str(g.attrs.get("kept_ranking", ""))} for c in order if c in g]
 
 
 def main(argv=None) -> int:
@@ -319,16 +321,20 @@ def main(argv=None) -> int:
                              f"size; grey: undeformed outline; dots: bearings (IM/IR input motor/"
                              f"resolver, OM/OR output motor/resolver)."}]
     if args.static_png and statics:
+        n_kept, ranking = statics[0]["n_kept"], statics[0]["kept_ranking"]
+        kept = (f", mass-orthogonal to the {n_kept} kept vibration modes"
+                + (f" ({ranking} ranking)" if ranking else "") if n_kept else "")
         plot_static_modes(mesh.points, triangles, statics, label.capitalize(), args.static_png, bearings,
                           DEFAULT_LOAD_CASE)
         entries.append({"id": f"static_modes_body{body}", "kind": "static_modes", "png": args.static_png,
                         "body": body, "modes": [s["load_case"] for s in statics],
                         "caption": f"Static correction modes of the {label} (body {body}): the residual "
                                    f"attachment mode of each load case (unit force or moment at the red "
-                                   f"bearing, the kept vibration modes removed), with its Rayleigh "
-                                   f"frequency and residual fraction; {DEFAULT_LOAD_CASE} is the default "
-                                   f"load case of the static-N models. Colours and scaling as in the "
-                                   f"vibration mode shapes."})
+                                   f"bearing{kept}), with its Rayleigh frequency and residual fraction"
+                                   + (f"; {DEFAULT_LOAD_CASE} (marked default) is the load case of the "
+                                      f"static-N models" if any(s["load_case"] == DEFAULT_LOAD_CASE
+                                                                for s in statics) else "")
+                                   + ". Colours and scaling as in the vibration mode shapes."})
     write_vtu(mesh.points, mesh.cells, disp, freqs, args.vtu)
     if args.manifest:
         base = os.path.dirname(os.path.abspath(args.manifest))
