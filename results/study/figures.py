@@ -145,9 +145,11 @@ def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rig
     plt = _plt()
     red, grey = "tab:red", "0.6"
     with plt.rc_context({**STYLE, "font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8,
-                         "xtick.labelsize": 7.5, "ytick.labelsize": 7.5, "axes.grid": True}):
+                         "xtick.labelsize": 8, "ytick.labelsize": 8, "axes.grid": True}):
         fig = plt.figure(figsize=(7.0, 8.8), constrained_layout=True)
-        top, *rows = fig.subfigures(5, 1, hspace=0.0, height_ratios=[0.32, 1, 1, 1, 1.08])
+        heading = textwrap.fill(title or f"Gimbal rates: truth vs {case['model']}", 105)
+        lines = heading.count("\n") + 1
+        top, *rows = fig.subfigures(5, 1, hspace=0.0, height_ratios=[0.15 + 0.11 * lines, 1, 1, 1, 1.08])
         for k, (sub, b) in enumerate(zip(rows, BODIES)):
             head = f"{RATE_LABELS[b]}:   E = {_fmt_e(E[k])}"
             if E_r is not None:
@@ -182,7 +184,7 @@ def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rig
                 if j < 2:
                     ax.xaxis.set_major_locator(plt.MaxNLocator(nbins=4))
                 ax.xaxis.set_major_formatter(plt.FormatStrFormatter("%.4g"))
-                ax.yaxis.get_offset_text().set_fontsize(7)
+                ax.yaxis.get_offset_text().set_fontsize(8)
             if k == 0:
                 for ax, name in zip(axes, ("rate, whole run", "error, whole run",
                                            f"error, first {_ms_label(early)}",
@@ -191,15 +193,15 @@ def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rig
             if k == 3:
                 for ax in axes:
                     ax.set_xlabel("time t [ms]")
-        handles = [plt.Line2D([], [], color="black", lw=0.9, label="truth (100 modes per body)"),
+        handles = [plt.Line2D([], [], color="black", lw=0.9, label="truth (100 modes/body)"),
                    plt.Line2D([], [], color=red, lw=0.9, ls=(0, (4, 2)),
-                              label=f"{case['model']} (error = model - truth)")]
+                              label="reduced model; error = reduced - truth")]
         if rigid is not None:
-            handles.append(plt.Line2D([], [], color=grey, lw=1.6, label="rigid model (baseline)"))
+            handles.append(plt.Line2D([], [], color=grey, lw=1.6, label="rigid model"))
         handles.append(plt.matplotlib.patches.Patch(color="tab:blue", alpha=0.12, label="zoom windows"))
-        top.suptitle(textwrap.fill(title or f"Gimbal rates: truth vs {case['model']}", 100), fontsize=9)
-        top.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=7.5, frameon=False,
-                   handlelength=2.5, columnspacing=1.5)
+        top.suptitle(heading, fontsize=9)
+        top.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False,
+                   handlelength=2.2, columnspacing=1.2)
         paths = save(fig, stem)
     return {**paths, "E": [float(e) for e in E],
             "E_rigid": None if E_r is None else [float(e) for e in E_r],
@@ -335,7 +337,7 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
             ax.step(cost[front], err[front], where="post", color="0.3", lw=1, ls="--",
                     label="Pareto front", zorder=2)
             for i in front:
-                ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=7.5, xytext=(4, 3),
+                ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=9, xytext=(4, 3),
                             textcoords="offset points")
         if truth and np.isfinite(truth[0]["wall_time_s"]):
             ax.axvline(truth[0]["wall_time_s"], color="black", lw=1,
@@ -345,12 +347,12 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.yaxis.set_minor_formatter(plt.FormatStrFormatter("%.2g"))
-        ax.tick_params(axis="y", which="minor", labelsize=7)
+        ax.tick_params(axis="y", which="minor", labelsize=9)
         ax.set_xlabel("wall time of the simulation [s]")
         ax.set_ylabel(f"E of {RATE_LABELS[2]} [-]")
         handles, labels = ax.get_legend_handles_labels()
-        fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)
-        low = 0.02 + ((len(handles) + 1) // 2) * 8 * 1.55 / 72 / fig.get_figheight()
+        fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=9, frameon=False)
+        low = 0.02 + ((len(handles) + 1) // 2) * 9 * 1.55 / 72 / fig.get_figheight()
         fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         ax.set_title("Run time against error (eq 3.53)")
         return save(fig, stem)

@@ -163,7 +163,7 @@ def _triad(ax, origin, length):
     for k, name in enumerate("xyz"):
         e = np.eye(3)[k] * length
         ax.plot(*np.c_[origin, origin + e], color="0.3", lw=0.8, zorder=4)
-        ax.text(*(origin + 1.35 * e), name, fontsize=FONT - 1, color="0.3", ha="center", va="center",
+        ax.text(*(origin + 1.35 * e), name, fontsize=FONT, color="0.3", ha="center", va="center",
                 zorder=4)
 
 
