@@ -39,6 +39,7 @@ import numpy as np
 from results.study import findings
 from results.study.cases import (
     GROUP_LABELS,
+    LOAD_CASE_COUNT,
     LOAD_CASES,
     RANKING_TABLE_GROUPS,
     RATE_LABELS,
@@ -59,6 +60,9 @@ GROUP_STYLE = {"freq": ("tab:blue", "o", "-"), "xmx": ("tab:orange", "s", "-"),
                "load-case": ("tab:pink", "X", ""), "other": ("tab:gray", ".", ""),
                "truth": ("black", "*", "")}
 PNG_DPI = 150
+RIGID = "rigid"        # the baseline model: no elastic modes
+ZOOM_S = 2e-3           # zoom windows: the first and the last 2 ms of a run
+ENVELOPE_BINS = 1000    # columns of a min/max envelope (~ pixels of a panel at 600 dpi)
 
 
 def _plt():
@@ -85,28 +89,136 @@ def save(fig, stem) -> dict:
     return paths
 
 
-def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None) -> dict:
-    """Truth vs reduced gimbal rates: 2x2 panels, t [ms] vs gamma_dot_n [rad/s], E per panel.
+def envelope(t, y, t0=None, t1=None, bins=ENVELOPE_BINS):
+    """Min/max envelope of y(t) on [t0, t1] for plotting: at most ``bins`` columns, each drawn
+    by its smallest and largest sample in time order, so no peak is lost; windows with at
+    most 2*bins samples are returned unchanged.  t (T,) ascending, y (T,); returns (t, y)."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    t0 = t[0] if t0 is None else t0
+    t1 = t[-1] if t1 is None else t1
+    lo, hi = np.searchsorted(t, t0, "left"), np.searchsorted(t, t1, "right")
+    t, y = t[lo:hi], y[lo:hi]
+    if t.size <= 2 * bins:
+        return t, y
+    col = np.minimum(((t - t[0]) / (t[-1] - t[0]) * bins).astype(int), bins - 1)
+    order = np.lexsort((y, col))              # by column, then by value
+    first = np.r_[0, np.flatnonzero(np.diff(col[order])) + 1]
+    last = np.r_[first[1:] - 1, order.size - 1]
+    keep = np.unique(np.r_[order[first], order[last]])   # min and max of every column, time order
+    return t[keep], y[keep]
 
-    truth, case: dicts of ``read_sim`` (t (T,) s, gamma_dot (T, 4) rad/s) on one grid."""
+
+def zoom_windows(t, zoom_s=ZOOM_S):
+    """((t0, t1) early, (t0, t1) late) [s]: the first and the last ``zoom_s`` of the run
+    (a fifth of the run each if it is shorter than 5 zoom_s)."""
+    t0, t1 = float(t[0]), float(t[-1])
+    w = min(zoom_s, (t1 - t0) / 5.0)
+    return (t0, t0 + w), (t1 - w, t1)
+
+
+def _fmt_e(e):
+    return f"{e:.3g}" if e >= 1e-3 else f"{e:.2e}"
+
+
+def _ms_label(w):
+    ms = 1e3 * (w[1] - w[0])
+    return f"{ms:.3g} ms"
+
+
+def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rigid: dict | None = None,
+               zoom_s: float = ZOOM_S) -> dict:
+    """Truth vs reduced (vs rigid) gimbal rates and their errors against time, 4 rows x 4 columns.
+
+    Row n: gamma_dot_n over the run (truth, reduced, rigid baseline), the error e_n = reduced -
+    truth [rad/s] over the run (rigid - truth in grey behind), and e_n zoomed on the first and the
+    last ``zoom_s`` (shaded in the second panel).  E (eq 3.53) of the model and of the rigid model
+    are in each row's heading, outside the axes.  Long runs are drawn as min/max envelopes
+    (``envelope``).  truth, case, rigid: dicts of ``read_sim`` on one grid; returns
+    {"pdf", "png", "E", "E_rigid", "windows_s"}."""
     check_same_grid(truth["t"], case["t"], case.get("path", case.get("model", "case")))
-    E = error_measure(truth["t"], truth["gamma_dot"], case["gamma_dot"])
+    if rigid is not None:
+        check_same_grid(truth["t"], rigid["t"], rigid.get("path", "rigid"))
+    t = truth["t"]
+    E = error_measure(t, truth["gamma_dot"], case["gamma_dot"])
+    E_r = error_measure(t, truth["gamma_dot"], rigid["gamma_dot"]) if rigid is not None else None
+    early, late = zoom_windows(t, zoom_s)
     plt = _plt()
-    with plt.rc_context(STYLE):
-        fig, axes = plt.subplots(2, 2, figsize=(7.0, 4.8), sharex=True, constrained_layout=True)
-        t_ms = 1e3 * truth["t"]
-        for k, (ax, b) in enumerate(zip(axes.flat, BODIES)):
-            ax.plot(t_ms, truth["gamma_dot"][:, k], color="black", lw=1.0, label="truth (100 modes/body)")
-            ax.plot(1e3 * case["t"], case["gamma_dot"][:, k], color="tab:red", lw=1.0, ls="--",
-                    label=f"reduced: {case['model']}")
-            ax.set_ylabel(f"{RATE_LABELS[b]} [rad/s]")
-            ax.text(0.02, 0.95, f"E = {E[k]:.3g}", transform=ax.transAxes, va="top", fontsize=8,
-                    bbox={"boxstyle": "round", "fc": "white", "ec": "0.7", "alpha": 0.9})
-            if k >= 2:
-                ax.set_xlabel("time t [ms]")
-        axes.flat[0].legend(loc="best", fontsize=7)
-        fig.suptitle(textwrap.fill(title or f"Gimbal rates: truth vs {case['model']}", 90), fontsize=9)
-        return save(fig, stem)
+    red, grey = "tab:red", "0.6"
+    with plt.rc_context({**STYLE, "font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8,
+                         "xtick.labelsize": 8, "ytick.labelsize": 8, "axes.grid": True}):
+        fig = plt.figure(figsize=(7.0, 8.8), constrained_layout=True)
+        heading = textwrap.fill(title or f"Gimbal rates: truth vs {case['model']}", 105)
+        lines = heading.count("\n") + 1
+        top, *rows = fig.subfigures(5, 1, hspace=0.0, height_ratios=[0.15 + 0.11 * lines, 1, 1, 1, 1.08])
+        for k, (sub, b) in enumerate(zip(rows, BODIES)):
+            head = f"{RATE_LABELS[b]}:   E = {_fmt_e(E[k])}"
+            if E_r is not None:
+                head += f"   (rigid model: E = {_fmt_e(E_r[k])})"
+            sub.suptitle(head, x=0.01, ha="left", fontsize=8.5, fontweight="bold")
+            axes = sub.subplots(1, 4, gridspec_kw={"width_ratios": [1.25, 1.25, 1, 1]})
+            tr, cs = truth["gamma_dot"][:, k], case["gamma_dot"][:, k]
+            err = cs - tr
+            err_r = rigid["gamma_dot"][:, k] - tr if rigid is not None else None
+            ax = axes[0]
+            fr, ur = rate_unit(max(np.abs(tr).max(), np.abs(cs).max()))
+            fe, ue = rate_unit(max(np.abs(err).max(), 0.0 if err_r is None else np.abs(err_r).max()))
+            if rigid is not None:
+                ax.plot(*_ms(envelope(t, rigid["gamma_dot"][:, k]), fr), color=grey, lw=1.6,
+                        label="rigid model")
+            ax.plot(*_ms(envelope(t, tr), fr), color="black", lw=0.9, label="truth")
+            ax.plot(*_ms(envelope(t, cs), fr), color=red, lw=0.9, ls=(0, (4, 2)), label=case["model"])
+            ax.set_ylabel(f"rate [{ur}]")
+            for j, (ax, win) in enumerate(zip(axes[1:], ((t[0], t[-1]), early, late))):
+                if err_r is not None:
+                    ax.plot(*_ms(envelope(t, err_r, *win), fe), color=grey, lw=0.9)
+                ax.plot(*_ms(envelope(t, err, *win), fe), color=red, lw=0.8)
+                ax.axhline(0.0, color="black", lw=0.5)
+                ax.set_xlim(1e3 * win[0], 1e3 * win[1])
+                ax.margins(y=0.08)
+                if j:
+                    ax.set_xticks(np.linspace(1e3 * win[0], 1e3 * win[1], 3))
+            for w in (early, late):
+                axes[1].axvspan(1e3 * w[0], 1e3 * w[1], color="tab:blue", alpha=0.12, lw=0)
+            axes[1].set_ylabel(f"error [{ue}]")
+            for j, ax in enumerate(axes):
+                if j < 2:
+                    ax.xaxis.set_major_locator(plt.MaxNLocator(nbins=4))
+                ax.xaxis.set_major_formatter(plt.FormatStrFormatter("%.4g"))
+                ax.yaxis.get_offset_text().set_fontsize(8)
+            if k == 0:
+                for ax, name in zip(axes, ("rate, whole run", "error, whole run",
+                                           f"error, first {_ms_label(early)}",
+                                           f"error, last {_ms_label(late)}")):
+                    ax.set_title(name, fontsize=8)
+            if k == 3:
+                for ax in axes:
+                    ax.set_xlabel("time t [ms]")
+        handles = [plt.Line2D([], [], color="black", lw=0.9, label="truth (100 modes/body)"),
+                   plt.Line2D([], [], color=red, lw=0.9, ls=(0, (4, 2)),
+                              label="reduced model; error = reduced - truth")]
+        if rigid is not None:
+            handles.append(plt.Line2D([], [], color=grey, lw=1.6, label="rigid model"))
+        handles.append(plt.matplotlib.patches.Patch(color="tab:blue", alpha=0.12, label="zoom windows"))
+        top.suptitle(heading, fontsize=9)
+        top.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False,
+                   handlelength=2.2, columnspacing=1.2)
+        paths = save(fig, stem)
+    return {**paths, "E": [float(e) for e in E],
+            "E_rigid": None if E_r is None else [float(e) for e in E_r],
+            "windows_s": [list(early), list(late)]}
+
+
+def _ms(ty, scale=1.0):
+    return 1e3 * ty[0], scale * ty[1]
+
+
+def rate_unit(peak):
+    """(factor, unit) that puts a rate of magnitude ``peak`` [rad/s] in [1, 1000) units
+    (rad/s, mrad/s or urad/s, nrad/s below), so no axis needs an offset or exponent label."""
+    for factor, unit in ((1.0, "rad/s"), (1e3, "mrad/s"), (1e6, r"$\mu$rad/s"), (1e9, "nrad/s")):
+        if peak * factor >= 1.0:
+            return factor, unit
+    return 1e9, "nrad/s"
 
 
 def _series(rows, group, col):
@@ -114,13 +226,16 @@ def _series(rows, group, col):
     return np.array([p[0] for p in pts], float), np.array([p[1] for p in pts], float)
 
 
-def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=None) -> dict:
+def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=None,
+                        rigid_E=None) -> dict:
     """E (log) against vibration modes per body, one panel per gimbal rate, one line per group.
 
-    rows: table rows (``read_table``); thesis: optional {label: {count: (4,) E}} in grey."""
+    rows: table rows (``read_table``); thesis: optional {label: {count: (4,) E}} in grey;
+    rigid_E: optional (4,) E of the rigid model, a horizontal dashed line.  The legend sits
+    below the panels."""
     plt = _plt()
     with plt.rc_context(STYLE):
-        fig, axes = plt.subplots(2, 2, figsize=(7.0, 5.0), sharex=True, constrained_layout=True)
+        fig, axes = plt.subplots(2, 2, figsize=(7.0, 5.6), sharex=True, constrained_layout=True)
         for k, (ax, b) in enumerate(zip(axes.flat, BODIES)):
             col = RATE_COLUMNS[k]
             for g in groups:
@@ -133,35 +248,57 @@ def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=
                 xs = sorted(data)
                 ax.plot(xs, [data[n][k] for n in xs], color="0.55", marker="os"[j % 2], ms=3,
                         ls=":", lw=0.8, label=f"thesis: {label}")
+            if rigid_E is not None and np.isfinite(rigid_E[k]) and rigid_E[k] > 0:
+                ax.axhline(rigid_E[k], color="black", ls="--", lw=1.0,
+                           label="ours: rigid model (no elastic modes)")
             ax.set_yscale("log")
             ax.set_ylabel(f"E of {RATE_LABELS[b]} [-]")
             if k >= 2:
                 ax.set_xlabel("vibration modes per body")
-        if axes.flat[0].get_legend_handles_labels()[0]:
-            axes.flat[0].legend(fontsize=6, loc="best")
+        handles, labels = axes.flat[0].get_legend_handles_labels()
+        if handles:
+            fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False,
+                       bbox_to_anchor=(0.5, 0.0))
+            low = 0.025 + 0.032 * ((len(handles) + 1) // 2)      # legend rows at 8 pt in 5.6 in
+            fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         fig.suptitle(title)
         return save(fig, stem)
 
 
-def plot_load_cases(rows: list[dict], stem: str) -> dict:
-    """Grouped bars: E (log) of each gimbal rate for the seven static-mode load cases."""
+def _short_load_case(case):
+    bearing, comp = case.rsplit("_", 1)
+    abbrev = {"input_motor": "IM", "output_motor": "OM", "input_resolver": "IR", "output_resolver": "OR"}
+    return f"{abbrev.get(bearing, bearing)} {comp[0]}$_{comp[1]}$"
+
+
+def plot_load_cases(rows: list[dict], stem: str, controls=()) -> dict:
+    """Grouped bars: E (log) of each gimbal rate for the seven static-mode load cases, after the
+    controls (``controls``: [(label, (4,) E)], e.g. the rigid model and the same vibration modes
+    without a static mode), separated by a vertical line.  Legend above the axes."""
     plt = _plt()
     lc = [r for r in rows if r["group"] == "load-case"]
     order = [c for c, _ in LOAD_CASES]
     lc.sort(key=lambda r: order.index(r["load_case"]) if r["load_case"] in order else len(order))
+    groups = [(label, list(E)) for label, E in controls] + \
+             [(f"{_short_load_case(r['load_case'])}\n(Fig {r['thesis_figure']})",
+               [r[c] for c in RATE_COLUMNS]) for r in lc]
     with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(7.0, 3.6), constrained_layout=True)
-        x = np.arange(len(lc))
+        fig, ax = plt.subplots(figsize=(7.0, 3.9), constrained_layout=True)
+        x = np.arange(len(groups))
         w = 0.2
         for k, b in enumerate(BODIES):
-            ax.bar(x + (k - 1.5) * w, [r[RATE_COLUMNS[k]] for r in lc], w,
-                   label=RATE_LABELS[b])
-        ax.set_xticks(x, [f"{r['load_case']}\n(Fig {r['thesis_figure']})" for r in lc], fontsize=7)
+            ax.bar(x + (k - 1.5) * w, [g[1][k] for g in groups], w, label=RATE_LABELS[b])
+        if controls:
+            ax.axvline(len(controls) - 0.5, color="black", lw=0.8)
+        ax.set_xticks(x, [g[0] for g in groups], fontsize=8)
         ax.set_yscale("log")
         ax.set_ylabel("E [-]")
-        ax.set_xlabel("load case of the outer gimbal's static mode (10 lowest modes per body)")
-        ax.legend(ncol=2)
-        ax.set_title("Error for the seven static-mode load cases")
+        ax.set_xlabel("controls | load case of the outer gimbal's static mode (10 lowest modes per body;"
+                      " IM/OM input/output motor)", fontsize=8)
+        fig.legend(*ax.get_legend_handles_labels(), loc="upper center", ncol=4, fontsize=8,
+                   frameon=False, bbox_to_anchor=(0.5, 0.935))
+        fig.get_layout_engine().set(rect=(0, 0, 1, 0.88))
+        fig.suptitle("Error for the seven static-mode load cases and their controls", fontsize=9)
         return save(fig, stem)
 
 
@@ -179,14 +316,15 @@ def pareto_front(cost, err):
     return front
 
 
-def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal") -> dict:
+def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal", rigid_E=None) -> dict:
     """Scatter of wall time [s] (log) against E (log) of one rate for every case, Pareto front,
-    and the truth's wall time as a vertical line."""
+    the truth's wall time as a vertical line and the rigid model's E (``rigid_E``, optional) as a
+    horizontal one; legend below the axes."""
     plt = _plt()
     cases = [r for r in rows if r["group"] != "truth"]
     truth = [r for r in rows if r["group"] == "truth"]
     with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(7.0, 4.4), constrained_layout=True)
+        fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
         for g in dict.fromkeys(r["group"] for r in cases):
             sel = [r for r in cases if r["group"] == g]
             c, m, _ = GROUP_STYLE.get(g, GROUP_STYLE["other"])
@@ -199,23 +337,44 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal")
             ax.step(cost[front], err[front], where="post", color="0.3", lw=1, ls="--",
                     label="Pareto front", zorder=2)
             for i in front:
-                ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=6, xytext=(3, 3),
+                ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=9, xytext=(4, 3),
                             textcoords="offset points")
         if truth and np.isfinite(truth[0]["wall_time_s"]):
             ax.axvline(truth[0]["wall_time_s"], color="black", lw=1,
                        label=f"truth: {truth[0]['wall_time_s']:.3g} s")
+        if rigid_E is not None and np.isfinite(rigid_E) and rigid_E > 0:
+            ax.axhline(rigid_E, color="black", lw=1, ls=":", label=f"rigid model: E = {rigid_E:.3g}")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.yaxis.set_minor_formatter(plt.FormatStrFormatter("%.2g"))
+        ax.tick_params(axis="y", which="minor", labelsize=9)
         ax.set_xlabel("wall time of the simulation [s]")
         ax.set_ylabel(f"E of {RATE_LABELS[2]} [-]")
-        ax.legend(fontsize=6, loc="best", framealpha=0.8)
+        handles, labels = ax.get_legend_handles_labels()
+        fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=9, frameon=False)
+        low = 0.02 + ((len(handles) + 1) // 2) * 9 * 1.55 / 72 / fig.get_figheight()
+        fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         ax.set_title("Run time against error (eq 3.53)")
         return save(fig, stem)
 
 
+def _rigid_E(rows, rigid, truth):
+    """(4,) E of the rigid model: from a table row of model ``rigid``, else from its simulation."""
+    for r in rows:
+        if r["model"] == RIGID:
+            return [r[c] for c in RATE_COLUMNS]
+    if rigid is not None and truth is not None:
+        return [float(e) for e in error_measure(truth["t"], truth["gamma_dot"], rigid["gamma_dot"])]
+    return None
+
+
 def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases=(),
-                 thesis=None) -> list[dict]:
-    """Every figure whose inputs are given; returns the manifest entries (paths relative to out_dir)."""
+                 thesis=None, rigid=None, scene=None, zoom_s=ZOOM_S) -> list[dict]:
+    """Every figure whose inputs are given; returns the manifest entries (paths relative to out_dir).
+
+    rigid: the rigid model's simulation (``read_sim``), drawn as a baseline in every rate figure
+    (None: taken from ``cases`` if one is model ``rigid``; absent: no baseline, said in the
+    captions).  scene: the scene's name for the titles (default: the truth's ``scene`` attribute)."""
     thesis = findings.THESIS if thesis is None else thesis
     entries = []
 
@@ -223,56 +382,111 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
         entries.append({**meta, **{k: os.path.relpath(v, out_dir) for k, v in paths.items()}})
 
     ranking_rows, static_rows = ranking_rows or [], static_rows or []
+    if rigid is None:
+        rigid = next((c for c in cases if c["model"] == RIGID), None)
+    if scene is None and truth is not None:
+        scene = truth["attrs"].get("scene") or None
+    on = f" ({scene} scene)" if scene else ""
+    E_rigid = _rigid_E(ranking_rows + static_rows, rigid, truth)
     if truth is not None:
         order = {c["model"]: i for i, c in enumerate(study_cases())}
+        t = truth["t"]
+        dt = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
+        thinned = t.size > 2 * ENVELOPE_BINS
         for case in sorted(cases, key=lambda c: order.get(c["model"], len(order))):
             d = describe_model(case["model"])
             fig = f" (thesis Fig {d['thesis_figure']})" if d["thesis_figure"] else ""
-            paths = plot_rates(truth, case, os.path.join(out_dir, f"rates_{safe_name(case['model'])}"),
-                               f"Truth vs {d['title']}")
-            add(paths, id=f"rates_{safe_name(case['model'])}", kind="rates", model=case["model"],
-                group=d["group"], thesis_figure=d["thesis_figure"],
-                caption=f"Gimbal rates of the truth model (solid) and of model {case['model']}, "
-                        f"{d['title']} (dashed){fig}; E per rate from eq 3.53.")
+            base = rigid if rigid is not None and case["model"] != RIGID else None
+            stem = f"rates_{safe_name(case['model'])}"
+            out = plot_rates(truth, case, os.path.join(out_dir, stem),
+                             f"Truth vs {d['title']}{on}", rigid=base, zoom_s=zoom_s)
+            early, late = out["windows_s"]
+            if case["model"] == RIGID:
+                baseline = "This is the rigid model itself."
+            elif base is not None:
+                baseline = ("Grey: the rigid model (no elastic modes) as a baseline, its E in the row "
+                            "headings.")
+            else:
+                baseline = "Rigid-model baseline not available (no simulation of model rigid given)."
+            add({"pdf": out["pdf"], "png": out["png"]}, id=stem, kind="rates", model=case["model"],
+                group=d["group"], thesis_figure=d["thesis_figure"], scene=scene or "",
+                E=dict(zip(RATE_COLUMNS, out["E"])),
+                E_rigid=None if out["E_rigid"] is None else dict(zip(RATE_COLUMNS, out["E_rigid"])),
+                baseline=RIGID if base is not None else None,
+                zoom_windows_ms=[[1e3 * a for a in early], [1e3 * a for a in late]],
+                envelope=thinned,
+                caption=f"Gimbal rates{on} of the truth model (black) and of model {case['model']}, "
+                        f"{d['title']} (red dashed){fig}, and the error model - truth against time: "
+                        f"whole run, first {_ms_label(early)} and last {_ms_label(late)} (shaded in the "
+                        f"whole-run panel). {baseline} E per rate from eq 3.53 in the row headings."
+                        + (f" {t.size} samples ({dt:.2g} s apart) drawn as min/max envelopes of "
+                           f"{ENVELOPE_BINS} columns per panel (no peak dropped)." if thinned else ""))
+    rigid_note = ("black dashed: the rigid model (no elastic modes)." if E_rigid is not None else
+                  "rigid-model baseline not available (no rigid simulation or table row).")
     if any(r["group"] in RANKING_TABLE_GROUPS for r in ranking_rows):
         th = {"freq (Table 4.2)": thesis["freq"], "XMX/XMGMX (Table 4.2)": thesis["ranked"]}
         add(plot_error_vs_modes(ranking_rows, RANKING_TABLE_GROUPS,
                                 os.path.join(out_dir, "error_ranking"),
-                                "Error against mode count: lowest-frequency vs ranked modes", th),
+                                f"Error against mode count{on}: lowest-frequency vs ranked modes", th,
+                                E_rigid),
             id="error_ranking", kind="error", model="", group="", thesis_figure="4-28",
+            scene=scene or "", baseline=RIGID if E_rigid is not None else None,
             caption="Error E (eq 3.53) of each gimbal rate against the number of vibration modes "
                     "per body, lowest-frequency, XMX- and XMGMX-ranked modes (analogue of Fig 4-28); "
-                    "grey: the thesis's Table 4.2.")
+                    "grey: the thesis's Table 4.2; " + rigid_note)
     if any(r["group"].startswith("static-") for r in static_rows):
         th = {"1 static + lowest (Table 4.3)": thesis["static-freq"],
               "1 static + ranked (Table 4.3)": thesis["static-ranked"]}
         add(plot_error_vs_modes(static_rows, ("static-freq", "static-xmx", "static-xmgmx"),
                                 os.path.join(out_dir, "error_static"),
-                                "Error against mode count with one static mode per body", th),
+                                f"Error against mode count with one static mode per body{on}", th,
+                                E_rigid),
             id="error_static", kind="error", model="", group="", thesis_figure="4-29",
+            scene=scene or "", baseline=RIGID if E_rigid is not None else None,
             caption="Error E (eq 3.53) of each gimbal rate against the number of vibration modes "
                     "per body with one static correction mode per body, lowest-frequency and ranked "
-                    "modes (analogue of Fig 4-29); grey: the thesis's Table 4.3.")
+                    "modes (analogue of Fig 4-29); grey: the thesis's Table 4.3; " + rigid_note)
     if any(r["group"] == "load-case" for r in static_rows):
-        add(plot_load_cases(static_rows, os.path.join(out_dir, "error_load_cases")),
+        controls = []
+        if E_rigid is not None:
+            controls.append(("rigid\n(control)", E_rigid))
+        ctrl = next((r for r in ranking_rows if r["model"] == f"freq-{LOAD_CASE_COUNT}"), None)
+        if ctrl is not None:
+            controls.append((f"no static\n(freq-{LOAD_CASE_COUNT})", [ctrl[c] for c in RATE_COLUMNS]))
+        names = [c[0].split(chr(10))[0] for c in controls]
+        add(plot_load_cases(static_rows, os.path.join(out_dir, "error_load_cases"), controls),
             id="error_load_cases", kind="error", model="", group="load-case",
-            thesis_figure="4-21..4-27",
-            caption="Error E of each gimbal rate with the 10 lowest modes per body and one static "
-                    "mode on the outer gimbal, for the seven load cases (Figs 4-21 to 4-27).")
+            thesis_figure="4-21..4-27", scene=scene or "", controls=names,
+            baseline=RIGID if E_rigid is not None else None,
+            caption=f"Error E of each gimbal rate{on} with the 10 lowest modes per body and one static "
+                    "mode on the outer gimbal, for the seven load cases (Figs 4-21 to 4-27)"
+                    + (", after the controls left of the line: " + (
+                        "the rigid model and " if E_rigid is not None else "")
+                       + (f"the same {LOAD_CASE_COUNT} modes without a static mode (freq-{LOAD_CASE_COUNT})"
+                          if ctrl is not None else "") if controls else "")
+                    + "." + ("" if E_rigid is not None else " Rigid-model control not available.")
+                    + ("" if ctrl is not None else f" No-static control freq-{LOAD_CASE_COUNT} not "
+                                                    "in the ranking table."))
     rows = ranking_rows + static_rows
     if any(r["group"] != "truth" and np.isfinite(r["wall_time_s"]) for r in rows):
-        add(plot_runtime_error(rows, os.path.join(out_dir, "runtime_error")),
-            id="runtime_error", kind="cost", model="", group="", thesis_figure="",
-            caption="Wall time of each simulation against the error E of the outer gimbal rate; "
+        add(plot_runtime_error(rows, os.path.join(out_dir, "runtime_error"),
+                               rigid_E=None if E_rigid is None else E_rigid[0]),
+            id="runtime_error", kind="cost", model="", group="", thesis_figure="", scene=scene or "",
+            baseline=RIGID if E_rigid is not None else None,
+            caption=f"Wall time of each simulation{on} against the error E of the outer gimbal rate; "
                     "dashed: the Pareto front (no case is both faster and more accurate); "
-                    "vertical line: the truth model's wall time.")
+                    "vertical line: the truth model's wall time"
+                    + ("; dotted: the rigid model's E." if E_rigid is not None else
+                       "; rigid-model baseline not available."))
     return entries
 
 
-def write_manifest(out_dir, entries):
+def write_manifest(out_dir, entries, scene=None, rigid=None, notes=()):
+    """``<out_dir>/figures.json``: {description, scene, rigid (path or null), notes, figures}."""
     path = os.path.join(out_dir, "figures.json")
     write_json(path, {"description": "Figures of the results stage (results/study/figures.py); paths "
-                                     "relative to this file.", "figures": entries})
+                                     "relative to this file.", "scene": scene or "",
+                      "rigid": rigid, "notes": list(notes), "figures": entries})
     return path
 
 
@@ -280,25 +494,50 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m results.study.figures",
                                      description="Figures of the study (PDF + PNG) and their manifest.")
     parser.add_argument("--truth", help="truth simulation file (for the rate figures)")
-    parser.add_argument("--cases", nargs="*", default=[], help="reduced-model simulation files")
+    parser.add_argument("--cases", nargs="*", default=[],
+                        help="reduced-model simulation files (one rate figure each; a file of model "
+                             "'rigid' among them is also the baseline)")
+    parser.add_argument("--rigid", help="simulation file of model 'rigid', the baseline of every rate "
+                                        "figure (default: the case of model 'rigid', if any; a "
+                                        "missing file is skipped and noted in the manifest)")
     parser.add_argument("--ranking-table", help="results/tables/errors_ranking.csv")
     parser.add_argument("--static-table", help="results/tables/errors_static.csv")
+    parser.add_argument("--scene", help="scene name for titles and captions (default: the truth's)")
+    parser.add_argument("--zoom-ms", type=float, default=1e3 * ZOOM_S,
+                        help=f"width of the early and late zoom windows [ms] (default {1e3 * ZOOM_S:g})")
     parser.add_argument("--out-dir", required=True, help="folder of the figures and figures.json")
     args = parser.parse_args(argv)
+    notes = []
     try:
         truth = read_sim(args.truth) if args.truth else None
         cases = [read_sim(p) for p in args.cases
                  if not args.truth or os.path.abspath(p) != os.path.abspath(args.truth)]
         if cases and truth is None:
             raise ErrorsInputError("--cases needs --truth")
+        rigid = None
+        if args.rigid and os.path.exists(args.rigid):
+            rigid = next((c for c in cases if os.path.abspath(c["path"]) == os.path.abspath(args.rigid)),
+                         None) or read_sim(args.rigid)
+        elif args.rigid:
+            notes.append(f"rigid baseline {args.rigid} missing: figures drawn without it")
         rank = read_table(args.ranking_table) if args.ranking_table else []
         stat = read_table(args.static_table) if args.static_table else []
+        if args.zoom_ms <= 0:
+            raise ErrorsInputError(f"--zoom-ms must be positive, got {args.zoom_ms}")
     except (ErrorsInputError, OSError) as exc:
         print(f"results.study.figures: error: {exc}", file=sys.stderr)
         return 2
-    entries = make_figures(args.out_dir, rank, stat, truth, cases)
-    path = write_manifest(args.out_dir, entries)
-    print(f"results.study.figures: {len(entries)} figures -> {args.out_dir} ({path})")
+    if rigid is None:
+        rigid = next((c for c in cases if c["model"] == RIGID), None)
+    if rigid is None and truth is not None:
+        notes.append("no simulation of model rigid: rate figures without the rigid baseline")
+    entries = make_figures(args.out_dir, rank, stat, truth, cases, rigid=rigid, scene=args.scene,
+                           zoom_s=1e-3 * args.zoom_ms)
+    scene = args.scene or (truth["attrs"].get("scene") if truth is not None else None)
+    path = write_manifest(args.out_dir, entries, scene,
+                          os.path.relpath(rigid["path"], args.out_dir) if rigid is not None else None, notes)
+    print(f"results.study.figures: {len(entries)} figures -> {args.out_dir} ({path})"
+          + "".join(f"; {n}" for n in notes))
     return 0
 
 

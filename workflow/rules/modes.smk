@@ -39,11 +39,16 @@ rule modes_benchmark:
 
 
 rule mode_shapes_body:
+    """Print-ready mode shapes (the lowest and the best XMX-ranked modes) and the static correction
+    modes of one body, with their captions in a small manifest (results.study.mode_shapes)."""
     input:
         "results/modes/body{n}.h5",
         mesh="results/mesh/body{n}.msh",
+        reduction="results/reduction/body{n}.h5",
     output:
         png="results/figures/mode_shapes_body{n}.png",
+        static_png="results/figures/static_modes_body{n}.png",
+        manifest="results/figures/mode_shapes_body{n}.json",
         vtu="results/modes/shapes/body{n}.vtu",
     params:
         code=code_hash("results.study.mode_shapes"),
@@ -52,8 +57,9 @@ rule mode_shapes_body:
     benchmark:
         "results/benchmarks/rules/mode_shapes_body{n}.tsv"
     shell:
-        "{PY} -m results.study.mode_shapes --body-file {input[0]} --mesh {input.mesh} --png {output.png} "
-        "--vtu {output.vtu} > {log} 2>&1"
+        "MPLBACKEND=Agg {PY} -m results.study.mode_shapes --body-file {input[0]} --mesh {input.mesh} "
+        "--reduction {input.reduction} --png {output.png} --static-png {output.static_png} "
+        "--manifest {output.manifest} --vtu {output.vtu} > {log} 2>&1"
 
 
 rule mode_shapes:

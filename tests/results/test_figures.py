@@ -1,0 +1,157 @@
+"""results.study.figures (rate figures with the rigid baseline and zoom windows, envelopes of long
+runs, the manifest) and results.study.mode_shapes (print figures of a small synthetic body)."""
+from __future__ import annotations
+
+import json
+
+import h5py
+import meshio
+import numpy as np
+import pytest
+
+from results.study import figures, mode_shapes, tables
+from tests.results.synthetic_study import DT, T_END, truth_rates, write_sim, write_study
+
+CASES = ("freq-5", "static-4")                      # rate figures drawn
+TABLED = CASES + ("freq-10", "static-10@2:output_motor_fz")   # in the tables only
+
+
+@pytest.fixture(scope="module")
+def sims(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("figs")
+    truth, tabled = write_study(tmp / "sim", cases=[c for c in tables.study_cases() if c["model"] in TABLED])
+    cases = [p for p in tabled if p.endswith(tuple(f"/{m}.h5" for m in CASES))]
+    t = np.linspace(0.0, T_END, int(round(T_END / DT)) + 1)
+    rigid = write_sim(tmp / "sim" / "thesis" / "rigid.h5", "rigid", t, 1.2 * truth_rates(t), n_modes=[0] * 4)
+    rt, st = tmp / "errors_ranking.csv", tmp / "errors_static.csv"
+    assert tables.main(["--truth", truth, "--cases", *tabled, rigid, "--ranking-table", str(rt),
+                        "--static-table", str(st)]) == 0
+    return {"tmp": tmp, "truth": truth, "cases": cases, "rigid": rigid, "ranking": str(rt), "static": str(st)}
+
+
+def _manifest(d):
+    return json.loads((d / "figures.json").read_text())
+
+
+def test_rate_figures_have_rigid_baseline_and_zoom(sims):
+    d = sims["tmp"] / "with_rigid"
+    assert figures.main(["--truth", sims["truth"], "--cases", *sims["cases"], "--rigid", sims["rigid"],
+                         "--ranking-table", sims["ranking"], "--static-table", sims["static"],
+                         "--out-dir", str(d)]) == 0
+    m = _manifest(d)
+    assert m["scene"] == "thesis" and m["rigid"].endswith("rigid.h5") and m["notes"] == []
+    rates = [f for f in m["figures"] if f["kind"] == "rates"]
+    assert sorted(f["model"] for f in rates) == sorted(CASES)
+    for f in m["figures"]:
+        assert (d / f["pdf"]).read_bytes()[:5] == b"%PDF-" and (d / f["png"]).exists() and f["caption"]
+    for f in rates:
+        assert f["baseline"] == "rigid" and "rigid model" in f["caption"]
+        # synthetic rates: E = a^2 exactly; the rigid case has a = 0.2 on every rate
+        assert np.allclose(list(f["E_rigid"].values()), 0.04, rtol=1e-9)
+        assert f["zoom_windows_ms"][0] == pytest.approx([0.0, 2.0])
+        assert f["zoom_windows_ms"][1] == pytest.approx([1e3 * T_END - 2.0, 1e3 * T_END])
+        assert f["envelope"] is False and "first 2 ms" in f["caption"]
+    err = {f["id"]: f for f in m["figures"] if f["kind"] == "error"}
+    assert err["error_ranking"]["baseline"] == "rigid" and err["error_static"]["baseline"] == "rigid"
+    assert err["error_load_cases"]["controls"] == ["rigid", "no static"]
+    assert "without a static mode (freq-10)" in err["error_load_cases"]["caption"]
+
+
+def test_rigid_among_cases_is_the_baseline(sims, tmp_path):
+    assert figures.main(["--truth", sims["truth"], "--cases", sims["cases"][0], sims["rigid"],
+                         "--out-dir", str(tmp_path)]) == 0
+    rates = {f["model"]: f for f in _manifest(tmp_path)["figures"]}
+    assert rates[CASES[0]]["baseline"] == "rigid"
+    assert rates["rigid"]["baseline"] is None and "rigid model itself" in rates["rigid"]["caption"]
+
+
+def test_missing_rigid_is_skipped_and_stated(sims, tmp_path):
+    assert figures.main(["--truth", sims["truth"], "--cases", sims["cases"][0], "--rigid",
+                         str(tmp_path / "absent.h5"), "--out-dir", str(tmp_path)]) == 0
+    m = _manifest(tmp_path)
+    assert m["rigid"] is None and any("missing" in n for n in m["notes"])
+    (f,) = m["figures"]
+    assert f["baseline"] is None and f["E_rigid"] is None and "not available" in f["caption"]
+
+
+def test_envelope_keeps_every_peak():
+    rng = np.random.default_rng(1)
+    t = np.linspace(0.0, 1.0, 100_001)
+    y = rng.normal(size=t.size)
+    y[[17, 50_000, 99_999]] = [40.0, -55.0, 30.0]          # isolated spikes
+    te, ye = figures.envelope(t, y, bins=500)
+    assert te.size <= 1000 and np.all(np.diff(te) > 0)
+    assert {40.0, -55.0, 30.0} <= set(ye.tolist())
+    col = np.minimum((t * 500).astype(int), 499)
+    colmax = np.full(500, -np.inf)
+    np.maximum.at(colmax, col, y)
+    assert np.all(np.isin(colmax, ye))                       # every column's maximum is drawn
+    ts, ys = figures.envelope(t[:100], y[:100], bins=500)    # short: unchanged
+    assert np.array_equal(ys, y[:100])
+    tw, _ = figures.envelope(t, y, 0.25, 0.5, bins=100)
+    assert tw[0] >= 0.25 and tw[-1] <= 0.5
+
+
+def test_long_run_is_drawn_as_envelope(tmp_path):
+    t = np.linspace(0.0, 1.0, 100_001)
+    r = truth_rates(t)
+    truth = write_sim(tmp_path / "truth.h5", "truth", t, r, scene="long", n_modes=[100] * 4)
+    case = write_sim(tmp_path / "freq-10.h5", "freq-10", t, 1.1 * r, scene="long")
+    assert figures.main(["--truth", truth, "--cases", case, "--out-dir", str(tmp_path / "f")]) == 0
+    (f,) = _manifest(tmp_path / "f")["figures"]
+    assert f["envelope"] is True and f["scene"] == "long" and "envelopes" in f["caption"]
+    assert f["zoom_windows_ms"][1] == pytest.approx([998.0, 1000.0])
+
+
+def test_select_modes():
+    assert mode_shapes.select_modes(100) == [(0, "lowest"), (1, "lowest"), (2, "lowest"), (3, "lowest")]
+    sel = mode_shapes.select_modes(100, [1, 2, 0, 15, 7, 20], first=4, ranked=2)
+    assert sel[4:] == [(15, "XMX rank 4"), (7, "XMX rank 5")]
+
+
+def _ring_body(tmp_path):
+    """A shell ring (x-z plane) of 48 x 2 quads split into triangles, 6 DOF per node."""
+    a = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+    pts = np.array([[np.cos(q), y, np.sin(q)] for y in (-0.2, 0.2) for q in a])
+    n = len(a)
+    tris = [c for i in range(n) for c in ([i, (i + 1) % n, n + i], [(i + 1) % n, n + (i + 1) % n, n + i])]
+    meshio.write(tmp_path / "ring.msh", meshio.Mesh(pts, [("triangle", np.array(tris))]), file_format="gmsh22")
+    coords = np.repeat(pts, 6, axis=0)
+    comp = np.tile(np.arange(6), len(pts))
+    rng = np.random.default_rng(0)
+    k = np.arange(1, 9)
+    q = np.arctan2(coords[:, 2], coords[:, 0])
+    modes = np.cos(np.outer(q, k)) * (comp < 3)[:, None] + 1e-3 * rng.normal(size=(len(q), 8))
+    body = tmp_path / "body2.h5"
+    with h5py.File(body, "w") as f:
+        f["modes"], f["dof_coords"], f["dof_component"] = modes, coords, comp
+        f["frequencies_hz"] = 1000.0 * k
+        f["bearing_points"] = [[1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1]]
+        f.attrs["name"], f.attrs["body"] = "outer_gimbal", 2
+    red = tmp_path / "red2.h5"
+    with h5py.File(red, "w") as f:
+        f["rank_xmx"] = [1, 2, 0, 6, 5, 3, 4, 7]
+        s = f.create_group("static_modes")
+        s.attrs["load_cases"] = json.dumps(["output_motor_fz", "input_motor_my"])
+        for j, case in enumerate(("output_motor_fz", "input_motor_my")):
+            c = s.create_group(case)
+            c["mode"] = modes[:, 5 + j]
+            c.attrs["frequency_hz"], c.attrs["residual_fraction"] = 3e4, 0.01
+    return body, red
+
+
+def test_mode_shape_figures_and_captions(tmp_path):
+    body, red = _ring_body(tmp_path)
+    out = tmp_path / "fig"
+    assert mode_shapes.main(["--body-file", str(body), "--mesh", str(tmp_path / "ring.msh"),
+                             "--png", str(out / "m.png"), "--vtu", str(tmp_path / "m.vtu"),
+                             "--reduction", str(red), "--static-png", str(out / "s.png"),
+                             "--manifest", str(out / "m.json")]) == 0
+    m = json.loads((out / "m.json").read_text())["figures"]
+    assert [f["kind"] for f in m] == ["mode_shapes", "static_modes"]
+    assert m[0]["modes"] == [1, 2, 3, 4, 7, 6] and m[1]["modes"] == ["output_motor_fz", "input_motor_my"]
+    for f in m:
+        assert (out / f["png"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and "bearing" in f["caption"]
+    import matplotlib.image as mpimg
+    h, w = mpimg.imread(out / "m.png").shape[:2]
+    assert w == 7 * mode_shapes.PNG_DPI                        # A4 text width at print resolution
