@@ -58,7 +58,13 @@ GROUP_STYLE = {"freq": ("tab:blue", "o", "-"), "xmx": ("tab:orange", "s", "-"),
                "xmgmx": ("tab:green", "^", "--"), "static-freq": ("tab:purple", "D", "-"),
                "static-xmx": ("tab:red", "v", "-"), "static-xmgmx": ("tab:brown", "P", "--"),
                "load-case": ("tab:pink", "X", ""), "other": ("tab:gray", ".", ""),
-               "truth": ("black", "*", "")}
+               "truth": ("black", "*", ""), "rigid": ("black", "_", "--"),
+               "load": ("tab:olive", "h", "-"), "global": ("tab:cyan", "p", "-"),
+               "truth-check": ("0.4", "*", "")}
+# Groups drawn as lines against modes per body: the rigid model is the dashed baseline and the
+# truth check a single point at 100, so neither is a line; global-N (N in total) is drawn at N/4
+LINE_GROUPS = tuple(g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check"))
+PER_BODY_DIVISOR = {"global": 4}
 PNG_DPI = 150
 RIGID = "rigid"        # the baseline model: no elastic modes
 ZOOM_S = 2e-3           # zoom windows: the first and the last 2 ms of a run
@@ -222,7 +228,9 @@ def rate_unit(peak):
 
 
 def _series(rows, group, col):
-    pts = sorted((r["count"], r[col]) for r in rows if r["group"] == group and r["count"] is not None)
+    """(modes per body (k,), E (k,)) of a group; global-N counts N in total, drawn at N/4."""
+    d = PER_BODY_DIVISOR.get(group, 1)
+    pts = sorted((r["count"] / d, r[col]) for r in rows if r["group"] == group and r["count"] is not None)
     return np.array([p[0] for p in pts], float), np.array([p[1] for p in pts], float)
 
 
@@ -425,14 +433,15 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
                   "rigid-model baseline not available (no rigid simulation or table row).")
     if any(r["group"] in RANKING_TABLE_GROUPS for r in ranking_rows):
         th = {"freq (Table 4.2)": thesis["freq"], "XMX/XMGMX (Table 4.2)": thesis["ranked"]}
-        add(plot_error_vs_modes(ranking_rows, RANKING_TABLE_GROUPS,
+        add(plot_error_vs_modes(ranking_rows, LINE_GROUPS,
                                 os.path.join(out_dir, "error_ranking"),
                                 f"Error against mode count{on}: lowest-frequency vs ranked modes", th,
                                 E_rigid),
             id="error_ranking", kind="error", model="", group="", thesis_figure="4-28",
             scene=scene or "", baseline=RIGID if E_rigid is not None else None,
             caption="Error E (eq 3.53) of each gimbal rate against the number of vibration modes "
-                    "per body, lowest-frequency, XMX- and XMGMX-ranked modes (analogue of Fig 4-28); "
+                    "per body, lowest-frequency, XMX- and XMGMX-ranked modes (analogue of Fig 4-28), "
+                    "and the scene-aware selections (load-N per body; global-N pooled, drawn at N/4); "
                     "grey: the thesis's Table 4.2; " + rigid_note)
     if any(r["group"].startswith("static-") for r in static_rows):
         th = {"1 static + lowest (Table 4.3)": thesis["static-freq"],

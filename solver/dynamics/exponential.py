@@ -624,6 +624,19 @@ class ExponentialAdams:
             etaC, etadC = advance(self.basis, self.weights, eta, etad, cC, h, 1.0)
             finite = np.all(np.isfinite(gP)) and np.all(np.isfinite(etaC)) and np.all(np.isfinite(etadC))
             err = self.norm(self.basis, (etaC, etadC), (etaP, etadP)) if finite else np.inf
+            if finite and not fixed and q == 1 and m >= 2:
+                # The first step has one node: its predictor holds g(0), so from rest under a
+                # forcing that starts at zero (scene smooth) the predictor is exactly the rest
+                # state and the estimate is 100 % at every step size.  Instead: one more
+                # evaluation at the midpoint, the quadratic through g(0), g(h/2), g(h), and the
+                # difference quadratic - linear as the estimate (the higher order is kept).
+                eM, edM = dense_advance(self.basis, self.weights, eta, etad, cC, (m // 2,), m, tick)
+                gM, _, _, _ = self._evaluate(t + 0.5 * h, eM[0], edM[0])
+                cQ = poly_coefficients([1.0, 0.5] + nodes, np.vstack([gP[None, :], gM[None, :], G]))
+                etaQ, etadQ = advance(self.basis, self.weights, eta, etad, cQ, h, 1.0)
+                finite = np.all(np.isfinite(etaQ)) and np.all(np.isfinite(etadQ))
+                err = self.norm(self.basis, (etaQ, etadQ), (etaC, etadC)) if finite else np.inf
+                cC, etaC, etadC = cQ, etaQ, etadQ
             if not fixed and not err <= self.tol:
                 self.stats.rejected += 1
                 self.rejections_in_basis += 1

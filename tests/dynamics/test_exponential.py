@@ -245,6 +245,8 @@ def test_exact_linear_step_agrees_with_solve_ivp(zeta):
 @pytest.mark.parametrize("scene_name, chain_name", [
     ("thesis", "FULL"),              # measured E: 2.5e-9 at the default tol, 6.5e-15 at tol/100
     ("damped", "FULL"),              # 2.4e-10, 2.2e-14
+    ("smooth", "FULL"),              # from rest, forcing from zero: the first step's estimate
+                                     # (one node) was 100 % at any step before the midpoint start
     ("thesis", "STIFF_REDUCED"),     # 1.1e-7 (fails), 3.2e-10
 ])
 def test_moving_case_matches_converged_dop853(scene_name, chain_name):
@@ -265,7 +267,8 @@ def test_moving_case_matches_converged_dop853(scene_name, chain_name):
     # the exponential integrator steps where an explicit method cannot
     assert loose.stats["largest_step"] * prob.omega_max > integrators.RK4_STABILITY
     assert E_loose <= 1e-8, (E_loose, loose.steps, loose.stats)
-    assert E_tight <= 0.1 * E_loose, (E_tight, E_loose)
+    # 10x smaller, unless both sit at the comparison's round-off floor (smooth: 3.7e-15)
+    assert E_tight <= max(0.1 * E_loose, 1e-13), (E_tight, E_loose)
 
 
 def test_free_scene_with_large_rates_relinearises_and_matches_dop853():
