@@ -55,6 +55,11 @@ TRUTH = "truth"
 # t = 0), and the thesis forcing over 1 s.  They separate what the thesis scene cannot: whether a
 # method's ranking survives damping of the start-up ringing, its absence, and a longer window.
 STUDY_SCENES = ("thesis", "damped", "smooth", "long")
+# Rate figures (truth against one case, every rate): on the thesis scene every thesis case (its
+# Figures 4-2..4-27); on the other scenes the baseline and one model per family (a figure costs
+# ~3 s; all cases of all scenes would be most of the main job).  Every case is in every table.
+KEY_MODELS = ("rigid", "freq-10", "freq-25", "xmx-10", "xmgmx-10", "static-8",
+              "static-10@2:output_motor_fz", "load-10", "global-100")
 MODE_COUNTS = (5, 10, 15, 20, 25)             # Figs 4-2..4-11, Table 4.2
 STATIC_COUNTS = (2, 4, 6, 8)                  # Figs 4-13..4-20, Table 4.3
 CONTROL_COUNTS = STATIC_COUNTS                # freq-N without the static mode: static-N's control
@@ -141,6 +146,13 @@ def study_cases(rankings=RANKINGS, static_rankings=RANKINGS, extended=True) -> l
 def _case(model, group, ranking, count, static, load_case, figure, title):
     return {"model": model, "group": group, "ranking": ranking, "count": count,
             "static": static, "load_case": load_case, "thesis_figure": figure, "title": title}
+
+
+def rate_figure_models(scene) -> list[str]:
+    """The cases whose rate figures a scene's report shows (``KEY_MODELS`` comment)."""
+    if scene == "thesis":
+        return ["rigid"] + study_models(extended=False)
+    return list(KEY_MODELS)
 
 
 def study_models(include_truth=False, **kwargs) -> list[str]:

@@ -71,6 +71,7 @@ DEFAULTS = {
     "exponential": "results/verification/exponential.json",
     "exponential_bench": "results/benchmarks/exponential.json",
     "fe_full": "results/verification/fe.json",
+    "coupled_modes": "results/study/thesis/coupled_modes.json",
     "out": "results/report/report.pdf",
 }
 MAKES = {"ranking_table": "python -m results.study.tables", "static_table": "python -m results.study.tables",
@@ -82,10 +83,11 @@ MAKES = {"ranking_table": "python -m results.study.tables", "static_table": "pyt
          "scaling": "snakemake scaling", "selection": "snakemake selection",
          "integrators": "snakemake results/benchmarks/integrator_tables.json",
          "dynamics": "snakemake verify", "exponential": "snakemake verify",
-         "exponential_bench": "snakemake bench", "fe_full": "snakemake verify"}
+         "exponential_bench": "snakemake bench", "fe_full": "snakemake verify",
+         "coupled_modes": "snakemake study (results.study.run_scene --coupled-modes)"}
 # Lists of files (the rule hands over each file, never a folder)
 LIST_DEFAULTS = {
-    "mode_shapes": [f"results/figures/mode_shapes_body{b}.png" for b in (2, 3, 4, 5)],
+    "mode_shapes": [f"results/figures/mode_shapes_body{b}.json" for b in (2, 3, 4, 5)],
     "bench_figures": ["results/figures/bench/pareto.png", "results/figures/bench/scaling.png",
                       "results/figures/bench/global_ranking.png", "results/figures/stability/rk4_limit.png",
                       "results/figures/stability/energy_drift.png"],
@@ -180,13 +182,13 @@ def gather(paths: dict) -> dict:
         if os.path.exists(pdf):
             figs.append({**e, "pdf": pdf})
     ctx["figures"] = figs
-    ctx["mode_shapes"] = [f for f in p["mode_shapes"] if os.path.exists(f)]
+    ctx["mode_shapes"] = _mode_shape_figures(p["mode_shapes"])
     ctx["stability"] = load("stability", _json)
     ctx["pareto_rows"] = load("pareto", _csv_rows) or []
     ctx["scaling"] = load("scaling", _json)
     ctx["selection_rows"] = load("selection", _csv_rows) or []
     ctx["integrators"] = load("integrators", _json)
-    for key in ("dynamics", "exponential", "exponential_bench", "fe_full"):
+    for key in ("dynamics", "exponential", "exponential_bench", "fe_full", "coupled_modes"):
         ctx[key] = load(key, _json)
     ctx["bench_figures"] = [(key, path, cap) for key, rel, cap in BENCH_FIGURES
                             for path in p["bench_figures"]
@@ -194,6 +196,25 @@ def gather(paths: dict) -> dict:
     ctx["versions"] = _versions()
     ctx["date"] = time.strftime("%Y-%m-%d %H:%M:%S %Z")
     return ctx
+
+
+def _mode_shape_figures(files):
+    """[(png, caption)] of the mode-shape manifests (results.study.mode_shapes --manifest: the
+    lowest and best-ranked modes, and the static modes, of one body each); a plain PNG is taken
+    with a generic caption."""
+    out = []
+    for f in files:
+        if not os.path.exists(f):
+            continue
+        if f.endswith(".json"):
+            base = os.path.dirname(os.path.abspath(f))
+            for e in _json(f).get("figures", []):
+                png = os.path.join(base, e["png"])
+                if os.path.exists(png):
+                    out.append((png, e.get("caption", "")))
+        else:
+            out.append((f, "Supported mode shapes of one body."))
+    return out
 
 
 def _versions():
@@ -368,10 +389,9 @@ def _model_section(ctx, root):
     else:
         out.append(note(ctx["missing"].get("fe", "fe.json")))
     if ctx["mode_shapes"]:
-        cells = ", ".join(f'image("/{os.path.relpath(p, root)}", width: 100%)' for p in ctx["mode_shapes"])
-        out.append(f"#figure(grid(columns: 2, gutter: 6pt, {cells}), caption: [Lowest supported mode "
-                   f"shapes of the bodies ({s(', '.join(os.path.basename(p) for p in ctx['mode_shapes']))}"
-                   f"; displacement exaggerated).]) <fig-mode-shapes>\n\n")
+        # one body per figure at the full text width (the figures are drawn for it: 8 pt text)
+        for png, caption in ctx["mode_shapes"]:
+            out.append(figure(png, s(caption), root, width="100%"))
     else:
         out.append(note(f"mode-shape plots {s(', '.join(os.path.relpath(f, ROOT) for f in ctx['paths']['mode_shapes']))} "
                         f"missing (made by python -m results.study.mode_shapes)"))
@@ -472,8 +492,30 @@ def _group_counts(rows, group):
     return sorted({r["count"] for r in rows if r["group"] == group and r["count"] is not None})
 
 
+N_COUPLED_ROWS = 16
+
+
+def _coupled_section(ctx):
+    """The truth chain's coupled modes at the scene's initial state (joints free): what rings."""
+    cm = ctx.get("coupled_modes")
+    out = ["== The coupled chain's modes\n\n"]
+    if not cm:
+        return out[0] + note(ctx["missing"].get("coupled_modes", "coupled_modes.json"))
+    f, body, share = cm["frequencies_hz"], cm["body"], cm["share"]
+    rows = [[s(k + 1), s(f"{f[k]:.1f}"), s(body[k]), s(f"{100 * share[k]:.0f} %")]
+            for k in range(min(N_COUPLED_ROWS, len(f)))]
+    out.append(f"The truth model linearised at the scene's initial state, joints free "
+               f"({s(len(f))} coupled elastic modes, {s(f'{f[0]:.0f}')} to {s(f'{f[-1]:.4g}')} Hz). "
+               "A step in the case acceleration sets these modes ringing; every reduced model must "
+               "reproduce the ones the gimbal rates see.\n\n")
+    out.append(table(["mode", "frequency [Hz]", "body with the largest share", "share of modal mass"],
+                     rows, f"The {s(len(rows))} lowest coupled modes of the truth chain.",
+                     "tab-coupled", size="7.5pt"))
+    return "".join(out)
+
+
 def _results_section(ctx, root):
-    out = ["= Results\n\n== Error tables\n\n"]
+    out = ["= Results\n\n", _coupled_section(ctx), "== Error tables\n\n"]
     rr, sr = ctx["ranking_rows"], ctx["static_rows"]
     if rr:
         base = [r for r in rr if r["group"] in ("rigid", "truth-check")]
@@ -760,7 +802,7 @@ def compile_pdf(source: str, out_pdf: str, root: str) -> str:
 def report_root(ctx, out_pdf):
     """Common folder of the report and every figure (Typst's project root)."""
     paths = [os.path.dirname(os.path.abspath(out_pdf))] + [f["pdf"] for f in ctx["figures"]] + \
-        list(ctx["mode_shapes"]) + [path for _, path, _ in ctx.get("bench_figures", [])]
+        [png for png, _ in ctx["mode_shapes"]] + [path for _, path, _ in ctx.get("bench_figures", [])]
     return os.path.commonpath([os.path.abspath(p) for p in paths])
 
 

@@ -10,7 +10,8 @@ second each with the exponential integrator, while a workflow job costs ~1 s of 
 start and compiled-kernel loading.  Each model goes through exactly the two stages the
 per-model rules run (``reduction.models`` writes the reduced-model file, here into a
 temporary folder; ``solver.dynamics.simulate`` integrates it and writes
-``{out-dir}/{model}.h5``, the simulation-file contract of ``solver.dynamics.simfile``),
+``{out-dir}/{model}.h5``, the simulation-file contract of ``solver.dynamics.simfile``; with
+``--coupled-modes`` also the truth's coupled natural modes, ``coupled_mode_table``),
 called in process with the same arguments, so a study file equals the file
 ``snakemake results/sim/{scene}/{model}.h5`` makes.
 
@@ -26,8 +27,31 @@ import sys
 import tempfile
 import time
 
+import numpy as np
+
 from reduction import models as reduction_models
-from solver.dynamics import simulate
+from solver.dynamics import chainfile, linearized, scenes, simulate
+from workflow.provenance import write_json
+
+BODY_LABELS = ("outer gimbal", "middle gimbal", "inner gimbal", "stable platform")
+
+
+def coupled_mode_table(model_file, scene_file) -> dict:
+    """The coupled chain's natural modes at the scene's initial state (``linearized.coupled_modes``:
+    joints free), with the body each mode lives in: frequencies_hz (m,) ascending, body (m,) the
+    label of the body holding the largest share of the mode's modal mass (the elastic mass block
+    of a body is its modal mass matrix, identity for mass-normalised modes), share (m,) that share."""
+    scene = scenes.load_scene(scene_file)
+    chain, _ = chainfile.read_chain(model_file, scene.damping_ratio)
+    y0, _ = scenes.initial_state(scene, chain.n_coordinates)
+    omega, shapes = linearized.coupled_modes(chain, y0)
+    weights = np.array([np.sum(shapes[sl] ** 2, axis=0) for sl in chain.slices])      # (4, m)
+    share = weights / np.maximum(weights.sum(axis=0), 1e-300)
+    dominant = np.argmax(share, axis=0)
+    return {"scene": scene.name, "model": "truth", "units": "Hz",
+            "frequencies_hz": (omega / (2 * np.pi)).tolist(),
+            "body": [BODY_LABELS[k] for k in dominant],
+            "share": share[dominant, np.arange(dominant.size)].tolist()}
 
 
 def model_file_name(model: str) -> str:
@@ -36,9 +60,10 @@ def model_file_name(model: str) -> str:
 
 
 def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrator_args=(),
-              log=print):
+              log=print, coupled_modes=None):
     """Reduce and simulate every model of ``models`` on ``scene`` (a scene file); writes
-    {out_dir}/{model}.h5.  Returns (status, failed model or None)."""
+    {out_dir}/{model}.h5, and the truth's coupled-mode table to ``coupled_modes`` (JSON) if
+    given.  Returns (status, failed model or None)."""
     n = len(models)
     t_start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="run_scene_") as tmp:
@@ -58,6 +83,8 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
                                     *integrator_args])
             if rc:
                 return rc, model
+            if model == "truth" and coupled_modes:
+                write_json(coupled_modes, coupled_mode_table(model_file, scene))
             os.remove(model_file)
             elapsed = time.perf_counter() - t_start
             left = elapsed / k * (n - k)
@@ -74,6 +101,7 @@ def main(argv=None) -> int:
     ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE", help="reduction files 2..5")
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global- models)")
     ap.add_argument("--out-dir", required=True, help="folder of the simulation files")
+    ap.add_argument("--coupled-modes", help="JSON: the truth's coupled modes at the initial state")
     ap.add_argument("--integrator", default=None, help="simulate's --integrator (default its own)")
     ap.add_argument("--tol", default=None, help="simulate's --tol (exponential)")
     args = ap.parse_args(argv)
@@ -99,7 +127,7 @@ def main(argv=None) -> int:
         integrator_args += ["--tol", args.tol]
     t0 = time.perf_counter()
     rc, failed = run_scene(args.scene, args.models, args.bodies, args.reductions, args.load_ranking,
-                           args.out_dir, integrator_args)
+                           args.out_dir, integrator_args, coupled_modes=args.coupled_modes)
     if rc:
         print(f"run_scene: model {failed!r} failed (status {rc}); see the message above", file=sys.stderr)
         return rc

@@ -30,6 +30,7 @@ import numpy as np
 import yaml
 
 from results.study.cases import GROUP_LABELS, TRUTH
+from results.study.findings import THESIS
 from results.study.report import ROOT, _versions, compile_pdf, figure, note, s, sci, table
 from results.study.tables import RATE_COLUMNS, read_table
 
@@ -255,7 +256,7 @@ def methods_section(ctx) -> str:
     return "".join(out)
 
 
-KEY_MODELS = ("rigid", "freq-10", "freq-25", "xmx-10", "xmgmx-10", "static-6", "static-8",
+TABLE_MODELS = ("rigid", "freq-10", "freq-25", "xmx-10", "xmgmx-10", "static-6", "static-8",
               "load-10", "load-25", "global-40", "global-100")
 
 
@@ -264,7 +265,7 @@ def results_section(ctx, an, root) -> str:
     for sc in ctx["scenes"]:
         by = {r["model"]: r for r in sc["rows"]}
         rows = [[s(m), s(by[m]["n_elastic"])] + [sci(by[m][c]) for c in RATE_COLUMNS] +
-                [sci(by[m].get("attitude_max_arcsec"))] for m in KEY_MODELS if m in by]
+                [sci(by[m].get("attitude_max_arcsec"))] for m in TABLE_MODELS if m in by]
         if rows:
             out.append(table(["model", "elastic coord.", "E outer", "E middle", "E inner",
                               "E platform", "attitude [arcsec]"], rows,
@@ -273,6 +274,7 @@ def results_section(ctx, an, root) -> str:
                              f"(every case: the scene's PDF).", f"tab-key-{sc['name']}", size="7.5pt"))
         else:
             out.append(note(f"scene {s(sc['name'])}: no error table"))
+    out.append(thesis_tables(ctx))
     out.append("== The truth's own error\n\n")
     rows = []
     for sc in ctx["scenes"]:
@@ -300,6 +302,44 @@ def results_section(ctx, an, root) -> str:
         if not err:
             out.append(note(f"scene {s(sc['name'])}: no error figure"))
     return "".join(out)
+
+
+# thesis Tables 4.2 / 4.3 (findings.THESIS) against our cases on the thesis scene: (label, key, model
+# of our case at count n); "ranked" is the thesis's one ranking, shown against our XMX and XMGMX
+THESIS_ROWS = (("freq", "freq", "freq-{n}"), ("ranked (ours: XMX)", "ranked", "xmx-{n}"),
+               ("ranked (ours: XMGMX)", "ranked", "xmgmx-{n}"),
+               ("1 static + lowest", "static-freq", "static-{n}"),
+               ("1 static + ranked (ours: XMX)", "static-ranked", "static-xmx-{n}"))
+
+
+def thesis_tables(ctx) -> str:
+    """The thesis's Tables 4.2 and 4.3 beside ours (outer and middle rates, thesis scene)."""
+    sc = next((sc for sc in ctx["scenes"] if sc["name"] == "thesis"), None)
+    if sc is None or not sc["rows"]:
+        return note("no thesis-scene table: the thesis's Tables 4.2 and 4.3 are not compared")
+    by = {r["model"]: r for r in sc["rows"]}
+    rows, ratios = [], []
+    for label, key, pattern in THESIS_ROWS:
+        for n, E in sorted(THESIS[key].items()):
+            ours = by.get(pattern.format(n=n))
+            if ours and ours[RATE_COLUMNS[0]] > 0:
+                ratios.append(E[0] / ours[RATE_COLUMNS[0]])
+            rows.append([s(label), s(n), sci(E[0]), sci(ours[RATE_COLUMNS[0]]) if ours else "--",
+                         sci(E[1]), sci(ours[RATE_COLUMNS[1]]) if ours else "--"])
+    rigid = by.get("rigid")
+    if rigid:
+        rows.append([s("rigid (not in the thesis)"), s(0), "--", sci(rigid[RATE_COLUMNS[0]]), "--",
+                     sci(rigid[RATE_COLUMNS[1]])])
+    return ("== The thesis's Tables 4.2 and 4.3 beside ours\n\n" +
+            table(["case", "modes per body", "E outer (thesis)", "E outer (ours)", "E middle (thesis)",
+                   "E middle (ours)"], rows,
+                  "Thesis Tables 4.2 (frequency and ranked modes) and 4.3 (one static mode per body) "
+                  "against our thesis scene, outer and middle gimbal rates. "
+                  + (f"On the outer rate the thesis's E is {min(ratios):.3g} to {max(ratios):.3g} "
+                     "times ours: its bodies and bearing model differ from ours (docs/reduction.md), "
+                     "and it reports a low-frequency response of its reduced models that varies "
+                     "strongly with the mode count (its Section 4.3)." if ratios else ""),
+                  "tab-thesis-side", size="7pt"))
 
 
 def discussion_section(ctx, an) -> str:

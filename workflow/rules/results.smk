@@ -23,7 +23,8 @@ rule study_scene:
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         load_ranking="results/reduction/load/{scene}.h5",
     output:
-        [f"results/study/{{scene}}/sim/{m}.h5" for m in SCENE_MODELS],
+        sims=[f"results/study/{{scene}}/sim/{m}.h5" for m in SCENE_MODELS],
+        coupled="results/study/{scene}/coupled_modes.json",
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
@@ -40,7 +41,8 @@ rule study_scene:
     shell:
         "OMP_NUM_THREADS=1 {PY} -m results.study.run_scene --scene {input.scene} --models {params.models} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
-        "--out-dir {params.out_dir} --integrator {params.integrator} {params.options} > {log} 2>&1"
+        "--out-dir {params.out_dir} --coupled-modes {output.coupled} --integrator {params.integrator} "
+        "{params.options} > {log} 2>&1"
 
 
 rule study:
@@ -53,8 +55,10 @@ rule error_tables:
         truth="results/study/{scene}/sim/truth.h5",
         cases=lambda wildcards: study_sims(wildcards.scene)[1:],
     output:
-        ranking="results/tables/{scene}/errors_ranking.csv",
-        static="results/tables/{scene}/errors_static.csv",
+        ranking=report("results/tables/{scene}/errors_ranking.csv", category="Tables",
+                       subcategory="{scene}", caption="../report/table.rst"),
+        static=report("results/tables/{scene}/errors_static.csv", category="Tables",
+                      subcategory="{scene}", caption="../report/table.rst"),
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
@@ -74,7 +78,8 @@ rule findings:
         static="results/tables/{scene}/errors_static.csv",
         reduction="results/verification/reduction.json",
     output:
-        csv="results/tables/{scene}/findings.csv",
+        csv=report("results/tables/{scene}/findings.csv", category="Findings", subcategory="{scene}",
+                   caption="../report/findings.rst"),
         json="results/tables/{scene}/findings.json",
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
@@ -93,7 +98,8 @@ rule findings:
 rule study_figures:
     input:
         truth="results/study/{scene}/sim/truth.h5",
-        cases=lambda wildcards: study_sims(wildcards.scene)[1:],
+        cases=lambda wildcards: expand("results/study/{scene}/sim/{model}.h5", scene=wildcards.scene,
+                                       model=_cases.rate_figure_models(wildcards.scene)),
         ranking="results/tables/{scene}/errors_ranking.csv",
         static="results/tables/{scene}/errors_static.csv",
     output:
@@ -138,7 +144,7 @@ def optional_report_inputs(wildcards):
 rule report_scene:
     input:
         scene="config/scenes/{scene}.yaml",
-        mode_shapes=rules.mode_shapes.input,
+        mode_shapes=expand("results/figures/mode_shapes_body{n}.json", n=BODIES),
         truth="results/study/{scene}/sim/truth.h5",
         ranking="results/tables/{scene}/errors_ranking.csv",
         static="results/tables/{scene}/errors_static.csv",
@@ -147,6 +153,7 @@ rule report_scene:
         fe="results/verification/fe_fast.json",
         modes="results/benchmarks/modes.json",
         reduction="results/verification/reduction.json",
+        coupled="results/study/{scene}/coupled_modes.json",
     output:
         report("results/report/{scene}.pdf", category="Reports", subcategory="{scene}",
                caption="../report/scene_report.rst"),
@@ -166,7 +173,7 @@ rule report_scene:
         "--findings {input.findings} --figures {input.figures} --fe {input.fe} "
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
         "--config {CONFIG} --scene {input.scene} --mode-shapes {input.mode_shapes} "
-        "{params.optional} --bench-figures {params.bench_figures} "
+        "--coupled-modes {input.coupled} {params.optional} --bench-figures {params.bench_figures} "
         "--out {output} > {log} 2>&1"
 
 
