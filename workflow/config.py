@@ -359,7 +359,8 @@ def check_inputs(config: dict, check: str, body: int | str | None = None) -> dic
     if check == "convergence":                   # three mesh levels of one body
         return {"body": _without(body_inputs(config, body), "modes.count"),
                 "refinement_ratio": value(config, "mesh.refinement_ratio"),
-                "count": value(config, "verification.convergence_modes")}
+                "count": value(config, "verification.convergence_modes"),
+                "reported": value(config, "modes.count")}     # every study mode's deviation reported
     if check == "mpi":                           # the modal stage of body 2 (mode count from its body file)
         return _without(body_inputs(config, 2), "modes.count")
     if check == "body-file":                     # residuals and orthonormality from the body file alone

@@ -243,8 +243,12 @@ def supported_frequencies(config: dict, body: int, size: float, count: int, work
     return payload["frequencies_hz"]
 
 
-def check_convergence(config: dict, body: int, count: int | None = None, levels=None, workdir=None) -> dict:
-    """Three-level mesh study of the first ``count`` supported frequencies of a body.
+def check_convergence(config: dict, body: int, count: int | None = None, levels=None, workdir=None,
+                      report_count: int | None = None) -> dict:
+    """Three-level mesh study of the first ``count`` supported frequencies of a body; with
+    ``report_count`` (e.g. all 100 modes of the study) the first ``report_count`` are computed
+    and their deviations reported per mode (``max_deviation_per_mode``), the verdict still on
+    the first ``count``.
 
     Levels are the default size times ratio^level (ratio = mesh.refinement_ratio).
     Rings: coarse (2h), default (h), fine (h/2). The platform's default is
@@ -258,7 +262,10 @@ def check_convergence(config: dict, body: int, count: int | None = None, levels=
         levels = (-1, 0, 1) if params["shape"] == "ring" else (0, 1, 2)
     count = count or int(cfgmod.value(config, "verification.convergence_modes"))
     sizes = [mesh_size(config, params, level) for level in levels]
-    freqs = [supported_frequencies(config, body, s, count, workdir) for s in sizes]
+    n = max(count, int(report_count or 0))
+    all_freqs = [np.asarray(supported_frequencies(config, body, s, n, workdir)) for s in sizes]
+    per_mode = [np.abs(f / all_freqs[-1] - 1) for f in all_freqs]       # (levels, n)
+    freqs = [f[:count] for f in all_freqs]
     finest = freqs[-1]
     diff = [float(np.max(np.abs(f / finest - 1))) for f in freqs]
     two_finest = diff[-2]
@@ -267,7 +274,10 @@ def check_convergence(config: dict, body: int, count: int | None = None, levels=
     passed = two_finest < 0.005 and coarsest_within == default_index
     return _result(f"{params['name']} mesh convergence, first {count} supported modes", two_finest, 0.005, passed,
                    mesh_sizes=sizes, frequencies_hz=freqs, max_deviation_from_finest=diff,
-                   default_is_coarsest_within_1_percent=coarsest_within == default_index)
+                   default_is_coarsest_within_1_percent=coarsest_within == default_index,
+                   reported_modes=n, frequencies_all_hz=[f.tolist() for f in all_freqs],
+                   deviation_per_mode=[d.tolist() for d in per_mode],
+                   max_deviation_all_modes=[float(d.max()) for d in per_mode])
 
 
 def _body_and_attrs(path) -> dict:

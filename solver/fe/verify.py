@@ -32,7 +32,9 @@ def run_check(name: str, config: dict, args) -> dict:
     if name == "platform":
         return v.check_platform_model(config)
     if name == "convergence":
-        return v.check_convergence(config, int(args.body))
+        # the verdict on the first verification.convergence_modes, all modes.count reported
+        return v.check_convergence(config, int(args.body),
+                                   report_count=int(cfgmod.value(config, "modes.count")))
     if name == "body-file":
         return v.check_body_file(args.body_file)
     if name == "hughes":

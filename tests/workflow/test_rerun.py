@@ -212,8 +212,8 @@ def expected_readers(path):
             return {f"verify_convergence[{n}]" for n in ALL} | {"verify_check[connection]"}
     if section == "modes":
         count = {f"modes_body[{n}]" for n in ALL} | {"coarse_body_all_modes"}
-        if key == "count":
-            return count
+        if key == "count":      # the convergence check reports every study mode's deviation
+            return count | {f"verify_convergence[{n}]" for n in ALL}
         return count | {f"verify_convergence[{n}]" for n in ALL} | {"verify_mpi"}
     if section == "verification":
         if key == "convergence_modes":
