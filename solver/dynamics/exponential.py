@@ -10,7 +10,7 @@ The equations (``docs/exponential.md`` has the derivation).  Linearise at a
 configuration y_r: M0 = M(y_r), K = diag(0_4, Omega^2), modal damping
 C = diag(0_4, 2 zeta Omega).  The coupled modes Phi (n, n) solve K Phi = M0 Phi Lambda
 with Phi^T M0 Phi = I: four joint modes (Lambda = 0, Phi_r = [L^-T; 0], M0_gg = L L^T)
-and the elastic ones (``linearized.free_joint_modes``).  Write y = y_r + Phi eta,
+and the elastic ones (``linearized.free_joint_basis``).  Write y = y_r + Phi eta,
 y_r holding the linearisation angles and zero elastic coordinates.  With
 a(t, y, y') the full nonlinear accelerations (the project's right-hand side),
 
@@ -58,7 +58,7 @@ import numpy as np
 import scipy.linalg
 
 from solver.dynamics.kernels import exponential as kernels
-from solver.dynamics.linearized import free_joints, free_joint_modes
+from solver.dynamics.linearized import free_joint_basis, free_joint_frequencies
 
 N_JOINTS = 4
 DEFAULT_TOL = 5e-6         # local error per step, relative (ErrorNorm); docs/exponential.md Sec. 5
@@ -83,10 +83,8 @@ class ExponentialError(RuntimeError):
 def coupled_frequencies_at(M, stiffness):
     """Elastic coupled frequencies [rad/s] (ascending, (n - 4,)) of the chain with mass matrix
     M (n, n) and stiffness diagonal (n,): eigenvalues only of the Schur-complement pencil
-    (``linearized.free_joints``, as ``linearized.free_joint_modes``)."""
-    _, S = free_joints(np.asarray(M, float))
-    lam = scipy.linalg.eigh(np.diag(np.asarray(stiffness, float)[N_JOINTS:]), S, eigvals_only=True)
-    return np.sqrt(np.maximum(lam, 0.0))
+    (``linearized.free_joint_frequencies``: the scaled standard problem of the basis)."""
+    return free_joint_frequencies(M, np.asarray(stiffness, float)[N_JOINTS:])
 
 
 def phi_functions(z, order):
@@ -180,12 +178,18 @@ class ModalBasis:
     """The chain linearised at y_r (module docstring).
 
     y_ref (n,): linearisation angles, elastic coordinates zero; phi (n, n) columns =
-    modes (4 joint modes first), phi^T M0 phi = I; M0 (n, n) the frozen mass matrix
-    (phi^-1 = phi^T M0 is applied as two products, never formed: forming it is an n^3
-    product per basis, its two matrix-vector products cost ~2 n^2 per evaluation);
+    modes (4 joint modes first), phi^T M0 phi = I; M0 (n, n) the frozen mass matrix;
     omega (n,) [rad/s] (0 for the joint modes); bank: the elastic modes' oscillators
     (``DiagonalBank`` undamped, ``CoupledBank`` damped); t [s] when it was built;
-    damping_matrix (m, m) [1/s] Ct = phi_e^T C phi_e of the elastic modes (None undamped)."""
+    damping_matrix (m, m) [1/s] Ct = phi_e^T C phi_e of the elastic modes (None undamped).
+
+    The transforms use the block structure of phi (``linearized.free_joint_basis``):
+    phi = [[Lt, J X], [0, X]] (Lt = L^-T, M0_gg = L L^T; J (4, m) the joints' motion per
+    unit modal motion; X (m, m)), and phi^-1 = phi^T M0 = [[L^-1 M0[:4]], [0, Y^T]] with
+    Y = S X = X^-T (J^T M0_gg = -M0_qg cancels the joint columns of the elastic rows).
+    So a physical state of (eta, eta') costs one (m, m) x (m, 2) product and a
+    projection one (m, m) matrix-vector product, against four n^2 products with phi and
+    M0 (docs/exponential.md Sec. 8)."""
     y_ref: np.ndarray
     phi: np.ndarray
     M0: np.ndarray
@@ -193,6 +197,11 @@ class ModalBasis:
     bank: object
     t: float
     damping_matrix: np.ndarray = None
+    X: np.ndarray = None            # (m, m) elastic block of phi
+    YT: np.ndarray = None           # (m, m) Y^T = X^-1 (C-contiguous)
+    J: np.ndarray = None            # (4, m)
+    Lt: np.ndarray = None           # (4, 4) L^-T
+    Lg: np.ndarray = None           # (4, n) L^-1 M0[:4]
 
     @property
     def omega2(self):
@@ -211,12 +220,25 @@ class ModalBasis:
         return self.project(y - self.y_ref), self.project(yd)
 
     def project(self, v):
-        """phi^-1 v = phi^T (M0 v) (n,) of a physical vector v (n,)."""
-        return self.phi.T @ (self.M0 @ v)
+        """phi^-1 v = phi^T (M0 v) (n,) of a physical vector v (n,) (class docstring)."""
+        j = N_JOINTS
+        out = np.empty(v.shape[0])
+        out[:j] = self.Lg @ v
+        out[j:] = self.YT @ v[j:]
+        return out
 
     def to_physical(self, eta, etad):
-        """(y, y') (n,) of a modal state."""
-        return self.y_ref + self.phi @ eta, self.phi @ etad
+        """(y, y') (n,) of a modal state: one product of X with both (class docstring)."""
+        j = N_JOINTS
+        n = eta.shape[0]
+        Z = np.empty((2, n - j))
+        Z[0], Z[1] = eta[j:], etad[j:]
+        Q = Z @ self.X.T                                  # (2, m)
+        y, yd = np.empty(n), np.empty(n)
+        y[j:], yd[j:] = Q[0], Q[1]
+        y[:j] = self.y_ref[:j] + self.Lt @ eta[:j] + self.J @ Q[0]
+        yd[:j] = self.Lt @ etad[:j] + self.J @ Q[1]
+        return y, yd
 
 
 def linearise(mass_matrix, stiffness, damping, y, t=0.0):
@@ -238,13 +260,18 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
     y_ref = np.zeros(n)
     y_ref[:N_JOINTS] = y[:N_JOINTS]
     L = np.linalg.cholesky(Mgg)
-    joint = np.zeros((n, N_JOINTS))
-    joint[:N_JOINTS] = scipy.linalg.solve_triangular(L, np.eye(N_JOINTS), lower=True).T  # L^-T
-    if n > N_JOINTS:
-        om, shapes = free_joint_modes(M0, np.asarray(stiffness, float)[N_JOINTS:])
-        phi = np.hstack([joint, shapes])
+    Linv = scipy.linalg.solve_triangular(L, np.eye(N_JOINTS), lower=True)
+    Lt = np.ascontiguousarray(Linv.T)                                          # L^-T
+    j = N_JOINTS
+    if n > j:
+        om, J, X, Y = free_joint_basis(M0, np.asarray(stiffness, float)[j:])
     else:
-        om, phi = np.zeros(0), joint
+        om, J, X, Y = np.zeros(0), np.zeros((j, 0)), np.zeros((0, 0)), np.zeros((0, 0))
+    JX = J @ X
+    phi = np.zeros((n, n))
+    phi[:j, :j] = Lt
+    phi[:j, j:] = JX
+    phi[j:, j:] = X
     omega = np.concatenate([np.zeros(N_JOINTS), om])
     c = np.asarray(damping, float)
     Ct = None
@@ -254,13 +281,14 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
                                f"(omega {om[i]:.4g} rad/s): not an oscillator")
     if np.any(c != 0):
         # C phi_r = 0 exactly (joints carry no damping): only the elastic block
-        Ct = phi[:, N_JOINTS:].T @ (c[:, None] * phi[:, N_JOINTS:])
+        Ct = X.T @ (c[j:, None] * X)            # phi_e = [J X; X], c zero on the joints
         Ct = 0.5 * (Ct + Ct.T)
         bank = CoupledBank(om, Ct, t)
     else:
         bank = DiagonalBank(om, np.zeros_like(om))
-    return ModalBasis(y_ref=y_ref, phi=phi, M0=M0, omega=omega,
-                      bank=bank, t=float(t), damping_matrix=Ct)
+    return ModalBasis(y_ref=y_ref, phi=phi, M0=M0, omega=omega, bank=bank, t=float(t),
+                      damping_matrix=Ct, X=np.ascontiguousarray(X),
+                      YT=np.ascontiguousarray(Y.T), J=J, Lt=Lt, Lg=Linv @ M0[:j])
 
 
 class StepWeights:
