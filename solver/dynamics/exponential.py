@@ -87,6 +87,9 @@ def coupled_frequencies_at(M, stiffness):
     return free_joint_frequencies(M, np.asarray(stiffness, float)[N_JOINTS:])
 
 
+_INV_FACTORIALS = np.array([1.0 / math.factorial(k) for k in range(SERIES_TERMS + 16)])
+
+
 def phi_functions(z, order):
     """phi_0 .. phi_order at z: (order + 1, n) complex, z (n,) complex.
 
@@ -95,6 +98,10 @@ def phi_functions(z, order):
     step there), the Taylor series phi_j(z) = sum_m z^m / (m + j)! below."""
     z = np.atleast_1d(np.asarray(z, dtype=complex))
     out = np.empty((order + 1, z.size), dtype=complex)
+    if z.ndim == 1 and SERIES_TERMS + order < _INV_FACTORIALS.size:     # compiled, same arithmetic
+        kernels.phi_table(np.ascontiguousarray(z), int(order), SERIES_RADIUS, SERIES_TERMS,
+                          _INV_FACTORIALS, out)
+        return out
     out[0] = np.exp(z)
     big = np.abs(z) >= SERIES_RADIUS
     if big.any():
@@ -369,6 +376,12 @@ def dense_advance(basis, weights, eta, etad, coef, offsets, m, tick):
     kk = coef.shape[0]
     j = N_JOINTS
     bank = basis.bank
+    if isinstance(bank, DiagonalBank):
+        eta_out = np.empty((len(offsets), eta.size))
+        etad_out = np.empty_like(eta_out)
+        kernels.dense_diagonal(eta, etad, np.ascontiguousarray(coef, dtype=float), E, W, wpos, wvel,
+                               H, bank.mu, bank.delta, eta_out, etad_out)
+        return eta_out, etad_out
     xi0 = bank.to_xi(eta[j:], etad[j:])
     xi = E * xi0[None, :] + np.einsum("okm,km->om", W[:, :kk], bank.forcing(coef[:, j:]))
     eta_out = np.empty((len(offsets), eta.size))
