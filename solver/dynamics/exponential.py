@@ -52,7 +52,7 @@ Units: in, lbf, s, rad as everywhere (``solver.dynamics.multibody``).
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
@@ -73,6 +73,7 @@ GROW_SAFETY = 0.5          # double the step when the error estimate allows err 
 MAX_REJECTIONS_IN_BASIS = 3
 PROBE_DRIFT = 1e-5         # [rad] drift at which the first basis measures its frequency sensitivity
 PHASE_LIMIT = 1.0          # re-linearise when the estimated phase error exceeds PHASE_LIMIT * tol
+FREQUENCY_UPDATE_DRIFT = 0.1   # a phase error at a drift <= this x drift: new frequencies, same shapes (Sec. 6)
 RATE_FLOOR = 1e-3          # a gimbal rate's error scale is at least this fraction of the largest
 
 
@@ -209,6 +210,7 @@ class ModalBasis:
     J: np.ndarray = None            # (4, m)
     Lt: np.ndarray = None           # (4, 4) L^-T
     Lg: np.ndarray = None           # (4, n) L^-1 M0[:4]
+    omega_ref: np.ndarray = None    # (n,) [rad/s] the eigenfrequencies at y_ref (omega may be updated)
 
     @property
     def omega2(self):
@@ -233,6 +235,27 @@ class ModalBasis:
         out[:j] = self.Lg @ v
         out[j:] = self.YT @ v[j:]
         return out
+
+    def rayleigh_frequencies(self, M):
+        """The elastic frequencies [rad/s] (m,) of these shapes with the mass matrix M (n, n)
+        of another configuration: the Rayleigh quotients omega_i^2 / (x_i^T S(M) x_i) of the
+        pencil (K, S(M)) at the shapes X (x_i^T K x_i = omega_i^2, x_i^T S x_i = 1 at y_ref),
+        S(M) = M_qq - M_qg M_gg^-1 M_gq: one (m, m) product, no eigenproblem.  To first order
+        in M - M0 they are the diagonal of phi^-1 M^-1 K phi, the frequencies the modes
+        actually oscillate at while the shapes are kept (docs/exponential.md Sec. 6)."""
+        j = N_JOINTS
+        X = self.X
+        L = np.linalg.cholesky(M[:j, :j])
+        R = scipy.linalg.solve_triangular(L, M[:j, j:] @ X, lower=True)       # (4, m)
+        d = np.einsum("km,km->m", X, M[j:, j:] @ X) - np.einsum("km,km->m", R, R)
+        return self.omega_ref[j:] / np.sqrt(d)
+
+    def with_frequencies(self, om):
+        """The same basis (shapes, y_ref, M0) with the elastic frequencies om (m,) [rad/s]:
+        the modal equations eta'' + Lambda' eta = g' with g' = phi^-1 a + Lambda' eta stay an
+        identity for any diagonal Lambda' (undamped bank only)."""
+        omega = np.concatenate([np.zeros(N_JOINTS), om])
+        return replace(self, omega=omega, bank=DiagonalBank(om, np.zeros_like(om)))
 
     def to_physical(self, eta, etad):
         """(y, y') (n,) of a modal state: one product of X with both (class docstring)."""
@@ -295,7 +318,7 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
         bank = DiagonalBank(om, np.zeros_like(om))
     return ModalBasis(y_ref=y_ref, phi=phi, M0=M0, omega=omega, bank=bank, t=float(t),
                       damping_matrix=Ct, X=np.ascontiguousarray(X),
-                      YT=np.ascontiguousarray(Y.T), J=J, Lt=Lt, Lg=Linv @ M0[:j])
+                      YT=np.ascontiguousarray(Y.T), J=J, Lt=Lt, Lg=Linv @ M0[:j], omega_ref=omega)
 
 
 class StepWeights:
@@ -524,6 +547,7 @@ class ExponentialStats:
     bases: list = field(default_factory=list)     # times [s] of every basis
     coupled_omega_max: float = 0.0                # [rad/s] highest coupled frequency, first basis
     phase_relinearisations: int = 0               # bases renewed for the phase error, not drift
+    frequency_updates: int = 0                    # phase errors met by new frequencies, same shapes
 
 
 def check_options(tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
@@ -712,12 +736,13 @@ class ExponentialAdams:
             i += m
             since_change += 1
             drift = float(np.abs(y1[:N_JOINTS] - self.basis.y_ref[:N_JOINTS]).max())
+            pdrift = float(np.abs(y1[:N_JOINTS] - self.phase_ref).max())
             phase_err = 0.0
             if not fixed and self.relinearise and self.phase.size:
                 if not self.probed and drift >= PROBE_DRIFT:
                     self._phase_probe(y1, drift)
-                phase_err = self._phase_error(etaC, etadC, h, drift_prev, drift)
-            drift_prev = drift
+                phase_err = self._phase_error(etaC, etadC, h, drift_prev, pdrift)
+            drift_prev = pdrift
             if i < i_end:
                 if fixed:
                     due = every_ticks is not None and i - basis_tick >= every_ticks
@@ -725,7 +750,13 @@ class ExponentialAdams:
                     due = self.relinearise and (drift > self.drift
                                                 or phase_err > PHASE_LIMIT * self.tol)
                     if due and drift <= self.drift:
-                        self.stats.phase_relinearisations += 1
+                        if (drift <= FREQUENCY_UPDATE_DRIFT * self.drift
+                                and self.basis.damping_matrix is None):
+                            self._update_frequencies(y1)
+                            drift_prev = 0.0
+                            due = False
+                        else:
+                            self.stats.phase_relinearisations += 1
                 if due:
                     self._relinearise(t + h, eta, etad)
                     eta, etad = self.basis.to_modal(y1, yd1)
@@ -799,25 +830,40 @@ class ExponentialAdams:
         one (the first basis measures it with a probe, ``_phase_probe``)."""
         m = self.basis.omega.size - N_JOINTS
         self.phase = np.zeros(m)
+        self.phase_ref = self.basis.y_ref[:N_JOINTS].copy()
         self.probed = old is not None or m == 0       # a rigid chain has no phase to lose
         if old is None:
             self.kappa = np.zeros(m)
             return
         dg = float(np.abs(self.basis.y_ref[:N_JOINTS] - old.y_ref[:N_JOINTS]).max())
-        w_old, w_new = old.omega[N_JOINTS:], self.basis.omega[N_JOINTS:]
+        w_old, w_new = old.omega_ref[N_JOINTS:], self.basis.omega_ref[N_JOINTS:]
         if dg > 0:
             self.kappa = np.maximum(np.abs(w_new - w_old) / (w_old * dg), 0.5 * self.kappa)
 
     def _phase_probe(self, y, drift):
         """The first basis's frequency sensitivity: the coupled frequencies at the current
         configuration (eigenvalues only), compared with the basis's, per radian of drift."""
-        p = self.problem
         t0 = time.perf_counter()
-        om = coupled_frequencies_at(p.mass_matrix(y), p.stiffness_diagonal)
+        om = self.basis.rayleigh_frequencies(self.problem.mass_matrix(y))
         self.stats.basis_time += time.perf_counter() - t0
-        w = self.basis.omega[N_JOINTS:]
+        w = self.basis.omega_ref[N_JOINTS:]
         self.kappa = np.abs(om - w) / (w * drift)
         self.probed = True
+
+    def _update_frequencies(self, y):
+        """Meet the phase error of the frozen shapes with their frequencies at y (n,) (the
+        Rayleigh quotients, ``ModalBasis.rayleigh_frequencies``) instead of a new basis:
+        the shapes, y_ref and the modal state stay, the weights and the history's g follow
+        the new Lambda, the phase restarts from y (docs/exponential.md Sec. 6)."""
+        t0 = time.perf_counter()
+        om = self.basis.rayleigh_frequencies(self.problem.mass_matrix(y))
+        self.basis = self.basis.with_frequencies(om)
+        self.weights = StepWeights(self.basis, self.order)
+        self.phase = np.zeros_like(self.phase)
+        self.phase_ref = np.asarray(y[:N_JOINTS], float).copy()
+        self._carry_history()
+        self.stats.frequency_updates += 1
+        self.stats.basis_time += time.perf_counter() - t0
 
     def _phase_error(self, eta, etad, h, drift0, drift1):
         """Add the phase that every elastic mode gains in a step of h [s] while the gimbals

@@ -78,17 +78,19 @@ def dense_diagonal(eta, etad, coef, E, W, wpos, wvel, H, mu, delta, out_eta, out
     kk = coef.shape[0]
     m = mu.shape[0]
     k = E.shape[0]
+    xi = np.empty(m, dtype=np.complex128)
     for i in range(m):
         c = N_JOINTS + i
-        xi = (etad[c] - np.conj(mu[i]) * eta[c]) / delta[i]
-        for o in range(k):
+        xi[i] = (etad[c] - np.conj(mu[i]) * eta[c]) / delta[i]
+    for o in range(k):                  # row by row: W[o], E[o] and the outputs read in order
+        for i in range(m):
+            c = N_JOINTS + i
             f = 0.0j
             for r in range(kk):
                 f += W[o, r, i] * coef[r, c]
-            acc = E[o, i] * xi + f / delta[i]
+            acc = E[o, i] * xi[i] + f / delta[i]
             out_eta[o, c] = 2.0 * acc.real
             out_etad[o, c] = 2.0 * (mu[i] * acc).real
-    for o in range(k):
         for a in range(N_JOINTS):
             p = eta[a] + H[o] * etad[a]
             v = etad[a]
