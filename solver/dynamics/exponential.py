@@ -214,9 +214,8 @@ class ModalBasis:
     Lg: np.ndarray = None           # (4, n) L^-1 M0[:4]
     omega_ref: np.ndarray = None    # (n,) [rad/s] the eigenfrequencies at y_ref (omega may be updated)
 
-    @property
-    def omega2(self):
-        return self.omega ** 2
+    def __post_init__(self):
+        self.omega2 = self.omega ** 2       # (n,) Lambda, read on every evaluation and error norm
 
     def linear_terms(self, eta, etad):
         """Lambda eta + Ct eta' (n,): what the left side of the modal equations holds
