@@ -73,7 +73,7 @@ GROW_SAFETY = 0.5          # double the step when the error estimate allows err 
 MAX_REJECTIONS_IN_BASIS = 3
 PROBE_DRIFT = 1e-5         # [rad] drift at which the first basis measures its frequency sensitivity
 PHASE_LIMIT = 1.0          # re-linearise when the estimated phase error exceeds PHASE_LIMIT * tol
-FREQUENCY_UPDATE_DRIFT = 0.1   # a phase error at a drift <= this x drift: new frequencies, same shapes (Sec. 6)
+FREQUENCY_UPDATE_DRIFT = 0.02  # a phase error at a drift <= this x drift: new frequencies, same shapes (Sec. 6)
 FREQUENCY_UPDATE_MIN_MODES = 200   # ... if the chain has this many elastic modes (else a new basis is cheaper)
 RATE_FLOOR = 1e-3          # a gimbal rate's error scale is at least this fraction of the largest
 
