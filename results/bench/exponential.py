@@ -356,10 +356,13 @@ def profile_split(end_to_end_s, problem_setup_s, basis_s, evaluations, per_evalu
             "per_evaluation_s": float(per_evaluation_s)}
 
 
-def profile_limits(profile, n_coordinates, bases, steps, samples, top=()):
+def profile_limits(profile, n_coordinates, bases, steps, samples, top=(), frequency_updates=0):
     """{part: sentence}: what limits each figure of the profile (from its numbers).
-    top: cProfile rows [{function, tottime_s, calls}] of the rest, largest first."""
+    top: cProfile rows [{function, tottime_s, calls}] of the rest, largest first;
+    frequency_updates: the run's phase errors met by new frequencies (no eigenproblem)."""
     per_basis = profile["basis_setup_s"] / max(bases, 1)
+    updates = (f" (with the frequency probe and {frequency_updates} frequency updates: Rayleigh "
+               f"quotients, one (m, m) product each)" if frequency_updates else "")
     rest_top = "; ".join(f"{r['function']} {format_seconds(r['tottime_s'])} in {r['calls']} calls"
                          for r in top[:4])
     return {
@@ -368,7 +371,7 @@ def profile_limits(profile, n_coordinates, bases, steps, samples, top=()):
                             f"(read {format_seconds(profile.get('read_s'))}, problem "
                             f"{format_seconds(profile.get('problem_s'))})"),
         "basis_setup_s": (f"{plural(bases, 'coupled modal basis', 'coupled modal bases')} at "
-                          f"{format_seconds(per_basis)} each: M(y) and "
+                          f"{format_seconds(per_basis)} each{updates}: M(y) and "
                           f"a dense symmetric eigenproblem of size n = {n_coordinates} (O(n^3)); its "
                           f"count is set by the gimbal drift (re-linearisation)"),
         "rhs_evaluations_s": (f"{profile['evaluations']} evaluations x "
@@ -616,6 +619,9 @@ def rhs_cost(prob, run, repeats=7, batch_seconds=0.05):
 PROFILE_PARTS = {("chainfile.py", "read_chain"): "problem set-up",
                  ("simulate.py", "scene_problem"): "problem set-up",
                  ("exponential.py", "linearise"): "basis set-up",
+                 # the probe and the frequency updates count into Run.stats basis_time_s too
+                 ("exponential.py", "_phase_probe"): "basis set-up",
+                 ("exponential.py", "_update_frequencies"): "basis set-up",
                  ("compiled.py", "rhs"): "right-hand sides", ("problem.py", "rhs"): "right-hand sides"}
 
 
@@ -669,7 +675,7 @@ def thesis_profile(case, prob, run, model_file, scene, duration, options, repeat
     split.update(read_s=case["read_median_s"], problem_s=case["problem_median_s"])
     wall, top = cprofile_run(model_file, scene, duration, options)
     limits = profile_limits(split, case["n_coordinates"], case["relinearisations"] + 1, case["steps"],
-                            run.t.size, top)
+                            run.t.size, top, run.stats.get("frequency_updates") or 0)
     return {**split, "limits": limits, "cprofile_end_to_end_s": wall, "cprofile_top": top,
             "note": "medians of the thesis case's runs; rhs cost measured at states of its last run; "
                     "cProfile slows the run (its own wall time is given), so only its ranking is used"}

@@ -10,7 +10,7 @@ The equations (``docs/exponential.md`` has the derivation).  Linearise at a
 configuration y_r: M0 = M(y_r), K = diag(0_4, Omega^2), modal damping
 C = diag(0_4, 2 zeta Omega).  The coupled modes Phi (n, n) solve K Phi = M0 Phi Lambda
 with Phi^T M0 Phi = I: four joint modes (Lambda = 0, Phi_r = [L^-T; 0], M0_gg = L L^T)
-and the elastic ones (``linearized.free_joint_modes``).  Write y = y_r + Phi eta,
+and the elastic ones (``linearized.free_joint_basis``).  Write y = y_r + Phi eta,
 y_r holding the linearisation angles and zero elastic coordinates.  With
 a(t, y, y') the full nonlinear accelerations (the project's right-hand side),
 
@@ -52,13 +52,13 @@ Units: in, lbf, s, rad as everywhere (``solver.dynamics.multibody``).
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
 
 from solver.dynamics.kernels import exponential as kernels
-from solver.dynamics.linearized import free_joints, free_joint_modes
+from solver.dynamics.linearized import free_joint_basis, free_joint_frequencies
 
 N_JOINTS = 4
 DEFAULT_TOL = 5e-6         # local error per step, relative (ErrorNorm); docs/exponential.md Sec. 5
@@ -73,6 +73,8 @@ GROW_SAFETY = 0.5          # double the step when the error estimate allows err 
 MAX_REJECTIONS_IN_BASIS = 3
 PROBE_DRIFT = 1e-5         # [rad] drift at which the first basis measures its frequency sensitivity
 PHASE_LIMIT = 1.0          # re-linearise when the estimated phase error exceeds PHASE_LIMIT * tol
+FREQUENCY_UPDATE_DRIFT = 0.02  # a phase error at a drift <= this x drift: new frequencies, same shapes (Sec. 6)
+FREQUENCY_UPDATE_MIN_MODES = 200   # ... if the chain has this many elastic modes (else a new basis is cheaper)
 RATE_FLOOR = 1e-3          # a gimbal rate's error scale is at least this fraction of the largest
 
 
@@ -83,10 +85,11 @@ class ExponentialError(RuntimeError):
 def coupled_frequencies_at(M, stiffness):
     """Elastic coupled frequencies [rad/s] (ascending, (n - 4,)) of the chain with mass matrix
     M (n, n) and stiffness diagonal (n,): eigenvalues only of the Schur-complement pencil
-    (``linearized.free_joints``, as ``linearized.free_joint_modes``)."""
-    _, S = free_joints(np.asarray(M, float))
-    lam = scipy.linalg.eigh(np.diag(np.asarray(stiffness, float)[N_JOINTS:]), S, eigvals_only=True)
-    return np.sqrt(np.maximum(lam, 0.0))
+    (``linearized.free_joint_frequencies``: the scaled standard problem of the basis)."""
+    return free_joint_frequencies(M, np.asarray(stiffness, float)[N_JOINTS:])
+
+
+_INV_FACTORIALS = np.array([1.0 / math.factorial(k) for k in range(SERIES_TERMS + 16)])
 
 
 def phi_functions(z, order):
@@ -97,6 +100,10 @@ def phi_functions(z, order):
     step there), the Taylor series phi_j(z) = sum_m z^m / (m + j)! below."""
     z = np.atleast_1d(np.asarray(z, dtype=complex))
     out = np.empty((order + 1, z.size), dtype=complex)
+    if z.ndim == 1 and SERIES_TERMS + order < _INV_FACTORIALS.size:     # compiled, same arithmetic
+        kernels.phi_table(np.ascontiguousarray(z), int(order), SERIES_RADIUS, SERIES_TERMS,
+                          _INV_FACTORIALS, out)
+        return out
     out[0] = np.exp(z)
     big = np.abs(z) >= SERIES_RADIUS
     if big.any():
@@ -180,12 +187,19 @@ class ModalBasis:
     """The chain linearised at y_r (module docstring).
 
     y_ref (n,): linearisation angles, elastic coordinates zero; phi (n, n) columns =
-    modes (4 joint modes first), phi^T M0 phi = I; M0 (n, n) the frozen mass matrix
-    (phi^-1 = phi^T M0 is applied as two products, never formed: forming it is an n^3
-    product per basis, its two matrix-vector products cost ~2 n^2 per evaluation);
+    modes (4 joint modes first), phi^T M0 phi = I; M0 (n, n) the frozen mass matrix;
     omega (n,) [rad/s] (0 for the joint modes); bank: the elastic modes' oscillators
     (``DiagonalBank`` undamped, ``CoupledBank`` damped); t [s] when it was built;
-    damping_matrix (m, m) [1/s] Ct = phi_e^T C phi_e of the elastic modes (None undamped)."""
+    damping_matrix (m, m) [1/s] Ct = phi_e^T C phi_e of the elastic modes (None undamped).
+
+    The transforms use the block structure of phi (``linearized.free_joint_basis``):
+    phi = [[Lt, J X], [0, X]] (Lt = L^-T, M0_gg = L L^T; J (4, m) the joints' motion per
+    unit modal motion; X (m, m)), and phi^-1 = phi^T M0 = [[L^-1 M0[:4]], [0, Y^T]] with
+    Y = S X = X^-T = K X Lambda^-1 (J^T M0_gg = -M0_qg cancels the joint columns of the elastic
+    rows; the last form lets the projection reuse X).
+    So a physical state of (eta, eta') costs one (m, m) x (m, 2) product and a
+    projection one (m, m) matrix-vector product, against four n^2 products with phi and
+    M0 (docs/exponential.md Sec. 8)."""
     y_ref: np.ndarray
     phi: np.ndarray
     M0: np.ndarray
@@ -193,10 +207,16 @@ class ModalBasis:
     bank: object
     t: float
     damping_matrix: np.ndarray = None
+    X: np.ndarray = None            # (m, m) elastic block of phi
+    YT: np.ndarray = None           # (m, m) Y^T = X^-1 (C-contiguous); None: Y = K X Lambda^-1
+    Ky: np.ndarray = None           # (m,) stiffness Omega^2 of the elastic coordinates (YT None)
+    J: np.ndarray = None            # (4, m)
+    Lt: np.ndarray = None           # (4, 4) L^-T
+    Lg: np.ndarray = None           # (4, n) L^-1 M0[:4]
+    omega_ref: np.ndarray = None    # (n,) [rad/s] the eigenfrequencies at y_ref (omega may be updated)
 
-    @property
-    def omega2(self):
-        return self.omega ** 2
+    def __post_init__(self):
+        self.omega2 = self.omega ** 2       # (n,) Lambda, read on every evaluation and error norm
 
     def linear_terms(self, eta, etad):
         """Lambda eta + Ct eta' (n,): what the left side of the modal equations holds
@@ -211,12 +231,49 @@ class ModalBasis:
         return self.project(y - self.y_ref), self.project(yd)
 
     def project(self, v):
-        """phi^-1 v = phi^T (M0 v) (n,) of a physical vector v (n,)."""
-        return self.phi.T @ (self.M0 @ v)
+        """phi^-1 v = phi^T (M0 v) (n,) of a physical vector v (n,) (class docstring)."""
+        j = N_JOINTS
+        out = np.empty(v.shape[0])
+        out[:j] = self.Lg @ v
+        if self.YT is None:         # Y^T v = Lambda^-1 X^T (K v): the same matrix X as to_physical
+            out[j:] = (self.X.T @ (self.Ky * v[j:])) / self.omega_ref[j:] ** 2
+        else:
+            out[j:] = self.YT @ v[j:]
+        return out
+
+    def rayleigh_frequencies(self, M):
+        """The elastic frequencies [rad/s] (m,) of these shapes with the mass matrix M (n, n)
+        of another configuration: the Rayleigh quotients omega_i^2 / (x_i^T S(M) x_i) of the
+        pencil (K, S(M)) at the shapes X (x_i^T K x_i = omega_i^2, x_i^T S x_i = 1 at y_ref),
+        S(M) = M_qq - M_qg M_gg^-1 M_gq: one (m, m) product, no eigenproblem.  To first order
+        in M - M0 they are the diagonal of phi^-1 M^-1 K phi, the frequencies the modes
+        actually oscillate at while the shapes are kept (docs/exponential.md Sec. 6)."""
+        j = N_JOINTS
+        X = self.X
+        L = np.linalg.cholesky(M[:j, :j])
+        R = scipy.linalg.solve_triangular(L, M[:j, j:] @ X, lower=True)       # (4, m)
+        d = np.einsum("km,km->m", X, M[j:, j:] @ X) - np.einsum("km,km->m", R, R)
+        return self.omega_ref[j:] / np.sqrt(d)
+
+    def with_frequencies(self, om):
+        """The same basis (shapes, y_ref, M0) with the elastic frequencies om (m,) [rad/s]:
+        the modal equations eta'' + Lambda' eta = g' with g' = phi^-1 a + Lambda' eta stay an
+        identity for any diagonal Lambda' (undamped bank only)."""
+        omega = np.concatenate([np.zeros(N_JOINTS), om])
+        return replace(self, omega=omega, bank=DiagonalBank(om, np.zeros_like(om)))
 
     def to_physical(self, eta, etad):
-        """(y, y') (n,) of a modal state."""
-        return self.y_ref + self.phi @ eta, self.phi @ etad
+        """(y, y') (n,) of a modal state: one product of X with both (class docstring)."""
+        j = N_JOINTS
+        n = eta.shape[0]
+        Z = np.empty((2, n - j))
+        Z[0], Z[1] = eta[j:], etad[j:]
+        Q = Z @ self.X.T                                  # (2, m)
+        y, yd = np.empty(n), np.empty(n)
+        y[j:], yd[j:] = Q[0], Q[1]
+        y[:j] = self.y_ref[:j] + self.Lt @ eta[:j] + self.J @ Q[0]
+        yd[:j] = self.Lt @ etad[:j] + self.J @ Q[1]
+        return y, yd
 
 
 def linearise(mass_matrix, stiffness, damping, y, t=0.0):
@@ -238,13 +295,22 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
     y_ref = np.zeros(n)
     y_ref[:N_JOINTS] = y[:N_JOINTS]
     L = np.linalg.cholesky(Mgg)
-    joint = np.zeros((n, N_JOINTS))
-    joint[:N_JOINTS] = scipy.linalg.solve_triangular(L, np.eye(N_JOINTS), lower=True).T  # L^-T
-    if n > N_JOINTS:
-        om, shapes = free_joint_modes(M0, np.asarray(stiffness, float)[N_JOINTS:])
-        phi = np.hstack([joint, shapes])
+    Linv = scipy.linalg.solve_triangular(L, np.eye(N_JOINTS), lower=True)
+    Lt = np.ascontiguousarray(Linv.T)                                          # L^-T
+    j = N_JOINTS
+    k = np.asarray(stiffness, float)[j:]
+    if n > j:
+        om, J, X, Y = free_joint_basis(M0, k)
     else:
-        om, phi = np.zeros(0), joint
+        om, J, X, Y = np.zeros(0), np.zeros((j, 0)), np.zeros((0, 0)), np.zeros((0, 0))
+    JX = J @ X
+    # every elastic coordinate stiff: Y = S X = K X Lambda^-1 (the eigen-equation), so the
+    # projection reuses X (one matrix in cache for both transforms: 2.3x faster measured)
+    stiff = n > j and bool(np.all(k > 0))
+    phi = np.zeros((n, n))
+    phi[:j, :j] = Lt
+    phi[:j, j:] = JX
+    phi[j:, j:] = X
     omega = np.concatenate([np.zeros(N_JOINTS), om])
     c = np.asarray(damping, float)
     Ct = None
@@ -254,13 +320,15 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
                                f"(omega {om[i]:.4g} rad/s): not an oscillator")
     if np.any(c != 0):
         # C phi_r = 0 exactly (joints carry no damping): only the elastic block
-        Ct = phi[:, N_JOINTS:].T @ (c[:, None] * phi[:, N_JOINTS:])
+        Ct = X.T @ (c[j:, None] * X)            # phi_e = [J X; X], c zero on the joints
         Ct = 0.5 * (Ct + Ct.T)
         bank = CoupledBank(om, Ct, t)
     else:
         bank = DiagonalBank(om, np.zeros_like(om))
-    return ModalBasis(y_ref=y_ref, phi=phi, M0=M0, omega=omega,
-                      bank=bank, t=float(t), damping_matrix=Ct)
+    return ModalBasis(y_ref=y_ref, phi=phi, M0=M0, omega=omega, bank=bank, t=float(t),
+                      damping_matrix=Ct, X=np.ascontiguousarray(X),
+                      YT=None if stiff else np.ascontiguousarray(Y.T), Ky=k if stiff else None,
+                      J=J, Lt=Lt, Lg=Linv @ M0[:j], omega_ref=omega)
 
 
 class StepWeights:
@@ -341,6 +409,12 @@ def dense_advance(basis, weights, eta, etad, coef, offsets, m, tick):
     kk = coef.shape[0]
     j = N_JOINTS
     bank = basis.bank
+    if isinstance(bank, DiagonalBank):
+        eta_out = np.empty((len(offsets), eta.size))
+        etad_out = np.empty_like(eta_out)
+        kernels.dense_diagonal(eta, etad, np.ascontiguousarray(coef, dtype=float), E, W, wpos, wvel,
+                               H, bank.mu, bank.delta, eta_out, etad_out)
+        return eta_out, etad_out
     xi0 = bank.to_xi(eta[j:], etad[j:])
     xi = E * xi0[None, :] + np.einsum("okm,km->om", W[:, :kk], bank.forcing(coef[:, j:]))
     eta_out = np.empty((len(offsets), eta.size))
@@ -483,6 +557,7 @@ class ExponentialStats:
     bases: list = field(default_factory=list)     # times [s] of every basis
     coupled_omega_max: float = 0.0                # [rad/s] highest coupled frequency, first basis
     phase_relinearisations: int = 0               # bases renewed for the phase error, not drift
+    frequency_updates: int = 0                    # phase errors met by new frequencies, same shapes
 
 
 def check_options(tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
@@ -684,12 +759,13 @@ class ExponentialAdams:
             i += m
             since_change += 1
             drift = float(np.abs(y1[:N_JOINTS] - self.basis.y_ref[:N_JOINTS]).max())
+            pdrift = float(np.abs(y1[:N_JOINTS] - self.phase_ref).max())
             phase_err = 0.0
             if not fixed and self.relinearise and self.phase.size:
                 if not self.probed and drift >= PROBE_DRIFT:
                     self._phase_probe(y1, drift)
-                phase_err = self._phase_error(etaC, etadC, h, drift_prev, drift)
-            drift_prev = drift
+                phase_err = self._phase_error(etaC, etadC, h, drift_prev, pdrift)
+            drift_prev = pdrift
             if i < i_end:
                 if fixed:
                     due = every_ticks is not None and i - basis_tick >= every_ticks
@@ -697,7 +773,14 @@ class ExponentialAdams:
                     due = self.relinearise and (drift > self.drift
                                                 or phase_err > PHASE_LIMIT * self.tol)
                     if due and drift <= self.drift:
-                        self.stats.phase_relinearisations += 1
+                        if (drift <= FREQUENCY_UPDATE_DRIFT * self.drift
+                                and self.basis.damping_matrix is None
+                                and self.phase.size >= FREQUENCY_UPDATE_MIN_MODES):
+                            self._update_frequencies(y1)
+                            drift_prev = 0.0
+                            due = False
+                        else:
+                            self.stats.phase_relinearisations += 1
                 if due:
                     self._relinearise(t + h, eta, etad)
                     eta, etad = self.basis.to_modal(y1, yd1)
@@ -771,25 +854,40 @@ class ExponentialAdams:
         one (the first basis measures it with a probe, ``_phase_probe``)."""
         m = self.basis.omega.size - N_JOINTS
         self.phase = np.zeros(m)
+        self.phase_ref = self.basis.y_ref[:N_JOINTS].copy()
         self.probed = old is not None or m == 0       # a rigid chain has no phase to lose
         if old is None:
             self.kappa = np.zeros(m)
             return
         dg = float(np.abs(self.basis.y_ref[:N_JOINTS] - old.y_ref[:N_JOINTS]).max())
-        w_old, w_new = old.omega[N_JOINTS:], self.basis.omega[N_JOINTS:]
+        w_old, w_new = old.omega_ref[N_JOINTS:], self.basis.omega_ref[N_JOINTS:]
         if dg > 0:
             self.kappa = np.maximum(np.abs(w_new - w_old) / (w_old * dg), 0.5 * self.kappa)
 
     def _phase_probe(self, y, drift):
         """The first basis's frequency sensitivity: the coupled frequencies at the current
         configuration (eigenvalues only), compared with the basis's, per radian of drift."""
-        p = self.problem
         t0 = time.perf_counter()
-        om = coupled_frequencies_at(p.mass_matrix(y), p.stiffness_diagonal)
+        om = self.basis.rayleigh_frequencies(self.problem.mass_matrix(y))
         self.stats.basis_time += time.perf_counter() - t0
-        w = self.basis.omega[N_JOINTS:]
+        w = self.basis.omega_ref[N_JOINTS:]
         self.kappa = np.abs(om - w) / (w * drift)
         self.probed = True
+
+    def _update_frequencies(self, y):
+        """Meet the phase error of the frozen shapes with their frequencies at y (n,) (the
+        Rayleigh quotients, ``ModalBasis.rayleigh_frequencies``) instead of a new basis:
+        the shapes, y_ref and the modal state stay, the weights and the history's g follow
+        the new Lambda, the phase restarts from y (docs/exponential.md Sec. 6)."""
+        t0 = time.perf_counter()
+        om = self.basis.rayleigh_frequencies(self.problem.mass_matrix(y))
+        self.basis = self.basis.with_frequencies(om)
+        self.weights = StepWeights(self.basis, self.order)
+        self.phase = np.zeros_like(self.phase)
+        self.phase_ref = np.asarray(y[:N_JOINTS], float).copy()
+        self._carry_history()
+        self.stats.frequency_updates += 1
+        self.stats.basis_time += time.perf_counter() - t0
 
     def _phase_error(self, eta, etad, h, drift0, drift1):
         """Add the phase that every elastic mode gains in a step of h [s] while the gimbals

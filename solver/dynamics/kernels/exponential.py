@@ -44,3 +44,58 @@ def advance_diagonal(eta, etad, coef, theta_pow, E, W, wpos, wvel, mu, delta, H,
             v += wvel[r] * theta_pow[r] * coef[r, a]
         out_eta[a] = p
         out_etad[a] = v
+
+
+@numba.njit(**JIT)
+def phi_table(z, order, radius, terms, inv_fact, out):
+    """Fill out (order + 1, n) complex with phi_0 .. phi_order at z (n,) complex: the same
+    arithmetic as ``exponential.phi_functions`` (the recurrence phi_{j+1} = (phi_j - 1/j!) / z
+    for |z| >= radius, the Taylor series sum_m z^m / (m + j)! with `terms` terms below), one
+    loop over the points instead of NumPy passes over masked arrays.  inv_fact (>= terms +
+    order + 1,) = 1 / k!."""
+    for i in range(z.shape[0]):
+        zi = z[i]
+        e = np.exp(zi)
+        out[0, i] = e
+        if abs(zi) >= radius:
+            prev = e
+            for j in range(order):
+                prev = (prev - inv_fact[j]) / zi
+                out[j + 1, i] = prev
+        else:
+            for j in range(1, order + 1):
+                acc = inv_fact[terms + j] + 0.0j
+                for m in range(terms - 1, -1, -1):
+                    acc = acc * zi + inv_fact[m + j]
+                out[j, i] = acc
+
+
+@numba.njit(**JIT)
+def dense_diagonal(eta, etad, coef, E, W, wpos, wvel, H, mu, delta, out_eta, out_etad):
+    """``advance_diagonal`` to k points inside one step at once (the dense outputs): fill
+    out_eta, out_etad (k, n).  E (k, m), W (k, >= kk, m) with the powers theta^r already
+    folded in, wpos, wvel (k, >= kk) likewise, H (k,) [s]; coef (kk, n) real."""
+    kk = coef.shape[0]
+    m = mu.shape[0]
+    k = E.shape[0]
+    xi = np.empty(m, dtype=np.complex128)
+    for i in range(m):
+        c = N_JOINTS + i
+        xi[i] = (etad[c] - np.conj(mu[i]) * eta[c]) / delta[i]
+    for o in range(k):                  # row by row: W[o], E[o] and the outputs read in order
+        for i in range(m):
+            c = N_JOINTS + i
+            f = 0.0j
+            for r in range(kk):
+                f += W[o, r, i] * coef[r, c]
+            acc = E[o, i] * xi[i] + f / delta[i]
+            out_eta[o, c] = 2.0 * acc.real
+            out_etad[o, c] = 2.0 * (mu[i] * acc).real
+        for a in range(N_JOINTS):
+            p = eta[a] + H[o] * etad[a]
+            v = etad[a]
+            for r in range(kk):
+                p += wpos[o, r] * coef[r, a]
+                v += wvel[o, r] * coef[r, a]
+            out_eta[o, a] = p
+            out_etad[o, a] = v
