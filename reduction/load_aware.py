@@ -428,6 +428,11 @@ def forward_selection(evaluate, candidates, max_size, min_gain=0.005):
 SEARCH_SAMPLES = 501
 
 
+# The a-priori curves (the estimates the file records for every count) on at most this many
+# samples: the thesis scene's whole grid; the 1 s scene's every 5th sample (its curves took 87 s).
+CURVE_SAMPLES = 2001
+
+
 def search_stride(duration, output_interval, samples=SEARCH_SAMPLES):
     """The default search stride: >= 3, and at most ``samples`` search samples."""
     n = int(round(duration / output_interval)) + 1
@@ -605,6 +610,9 @@ def rank_scene(model, rankings, pool_size=DEFAULT_POOL, n_curve=N_CURVE, search=
                              (search or {}).get("stride", 3), log)
     log(f"per-body (equal counts) ranking in {time.perf_counter() - t0:.1f} s")
     t0 = time.perf_counter()
+    # the a-priori curves on the full output grid up to CURVE_SAMPLES samples, decimated beyond
+    full = model
+    model = decimated(model, max(1, int(math.ceil(len(model["t"]) / CURVE_SAMPLES))))
     pooled_E = np.array([estimate_error(model, order[:N]) for N in range(1, n_pool + 1)])
     J = np.concatenate([[np.max(estimate_error(model, []))], pooled_E.max(axis=1)])
     curves = {"load": estimate_curves(model, per_body, n_curve)}
@@ -619,6 +627,7 @@ def rank_scene(model, rankings, pool_size=DEFAULT_POOL, n_curve=N_CURVE, search=
         model, np.lexsort((np.arange(off[-1]), -part["score"].max(axis=0)))[:N])
         for N in range(1, len(J))])
     bodies = body_curves(model, per_body, n_curve)
+    model = full
     log(f"a-priori curves in {time.perf_counter() - t0:.1f} s")
     additive_load = np.array([additive_estimate(
         part["score"], kept_from_counts(off, per_body, [N] * 4)) for N in range(1, n_curve + 1)])
