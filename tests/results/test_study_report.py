@@ -36,6 +36,14 @@ def test_analyse_scene_counts_what_beats_the_rigid_model_and_the_cheapest_per_ta
     # E <= 1e-2: load-25 and global-100 both have 100 coordinates; the smaller max E wins
     assert a["cheapest"][1e-2][0] == "global-100"
     assert a["cheapest"][1e-4] is None
+    assert a["freq_monotone"] is False                 # freq-5..25 are not all in ROWS
+
+
+def test_freq_monotone_needs_every_count_falling():
+    rows = [row(f"freq-{n}", (1.0 / n, 0, 0, 0), 4 * n, "freq") for n in (5, 10, 15, 20, 25)]
+    assert study_report.analyse_scene(rows)["freq_monotone"] is True
+    rows[2] = row("freq-15", (0.5, 0, 0, 0), 60, "freq")
+    assert study_report.analyse_scene(rows)["freq_monotone"] is False
 
 
 def test_analyse_scene_without_rigid_model_leaves_the_baseline_empty():
