@@ -75,7 +75,7 @@ import sys
 
 import numpy as np
 
-from results.study.cases import LOAD_CASE_COUNT, LOAD_CASES
+from results.study.cases import LOAD_CASE_COUNT, LOAD_CASES, TRUTH_CHECK
 from results.study.tables import RATE_COLUMNS, read_table
 from workflow.provenance import write_json, write_text
 
@@ -178,6 +178,8 @@ def classify(model: str) -> tuple[str, object]:
     the load case for the load-case group, 0 for rigid, the name for ``other``."""
     if model in ("truth", "rigid"):
         return model, (100 if model == "truth" else 0)
+    if model == TRUTH_CHECK:              # the truth's own error, not a reduced case
+        return "truth-check", 100
     for pattern, make in _NAME:
         m = pattern.fullmatch(model)
         if m:
@@ -216,7 +218,7 @@ class Study:
     def group(self, group) -> dict:
         return {k: c["E"] for (g, k), c in self.index.items() if g == group}
 
-    def cases(self, exclude=("truth",)):
+    def cases(self, exclude=("truth", "truth-check")):
         return [c for c in self.rows if c["group"] not in exclude]
 
 

@@ -29,7 +29,7 @@ import time
 import numpy as np
 import yaml
 
-from results.study.cases import GROUP_LABELS, MODE_COUNTS, TRUTH
+from results.study.cases import GROUP_LABELS, MODE_COUNTS, TRUTH, TRUTH_CHECK
 from results.study.findings import THESIS
 from results.study.report import ROOT, _versions, compile_pdf, figure, note, s, sci, table
 from results.study.tables import RATE_COLUMNS, read_table
@@ -39,7 +39,6 @@ RATE_NAMES = {"outer": "outer gimbal", "middle": "middle gimbal", "inner": "inne
               "platform": "stable platform"}
 # accuracy needs of the recommendation: E (eq. 3.53) on every gimbal rate at most this
 TARGETS = (1e-1, 1e-2, 1e-3, 1e-4)
-TRUTH_CHECK = "static-100"                 # the truth + residual flexibility (cases.py)
 SYMBOL = {"reproduced": "✓", "partly reproduced": "◐", "not reproduced": "✗", "not evaluated": "–"}
 OPTIONAL = {"dynamics": "snakemake verify", "exponential": "snakemake verify",
             "exponential_bench": "snakemake bench", "fe_full": "snakemake verify",
