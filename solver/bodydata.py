@@ -200,11 +200,19 @@ def check_body(body, expect_config_hash=None, mass_normalisation_tol=1e-6):
                             f"diag(lambda)| / lambda_max = {mismatch:.1e}, worst at mode {worst}): "
                             f"corrupt or stale body file, {remedy(where)}")
     if expect_config_hash is not None:
-        found = body["attrs"].get("config_hash")
-        if str(found) != str(expect_config_hash):
-            raise BodyFileError(f"{where}: made from another configuration (attribute config_hash "
-                                f"{found!r}, the current configuration gives {expect_config_hash!r}): "
-                                f"{remedy(where)}")
+        check_config_hash(body, expect_config_hash)
+
+
+def check_config_hash(body, expect_config_hash):
+    """BodyFileError (one line naming the file and the target to rerun) unless the body file's
+    ``config_hash`` attribute is ``expect_config_hash`` (the current configuration's hash of
+    what the body's stages read: ``workflow.config.inputs_hash(body_inputs(config, n))``)."""
+    where = body.get("path", "body")
+    found = body["attrs"].get("config_hash")
+    if str(found) != str(expect_config_hash):
+        raise BodyFileError(f"{where}: made from another configuration (attribute config_hash "
+                            f"{found!r}, the current configuration gives {expect_config_hash!r}): "
+                            f"{remedy(where)}")
 
 
 # ---------------------------------------------------------------- the writer's layout

@@ -30,6 +30,7 @@ the same formula as ``multibody.make_body`` (2 zeta Omega per mode).
 """
 from __future__ import annotations
 
+import json
 import os
 
 import h5py
@@ -122,6 +123,31 @@ def read_chain(path, damping_ratio=0.0):
     except ValueError as exc:
         raise ChainFileError(f"{where}: {exc}") from None
     return chain, info
+
+
+def check_body_hashes(path, info, expected):
+    """ChainFileError (one line naming the file and what to rerun) unless the reduced model was
+    made from body files with the config hashes ``expected`` ({body: hash}: what the current
+    configuration gives, ``workflow.config.inputs_hash(body_inputs(config, n))``).  The file
+    records them in its attribute ``body_config_hashes`` (JSON list, bodies 2..5)."""
+    where = str(path)
+    stored = info.get("body_config_hashes")
+    if stored is None:
+        raise ChainFileError(f"{where}: attribute body_config_hashes missing (made before the body "
+                             f"files' hashes were recorded, so its configuration is unknown): rerun its "
+                             f"target: snakemake --cores 2 --forcerun {where}")
+    try:
+        found = dict(zip(BODIES, json.loads(stored)))
+    except (TypeError, ValueError):
+        raise ChainFileError(f"{where}: attribute body_config_hashes unreadable ({stored!r}): rerun its "
+                             f"target: snakemake --cores 2 --forcerun {where}") from None
+    stale = [b for b in BODIES if str(found.get(b)) != str(expected[b])]
+    if stale:
+        targets = " ".join(f"results/modes/body{b}.h5" for b in stale)
+        raise ChainFileError(f"{where}: made from body file(s) of another configuration (bodies "
+                             f"{', '.join(map(str, stale))}: config_hash {found.get(stale[0])!r}, the "
+                             f"current configuration gives {expected[stale[0]]!r}): rerun snakemake "
+                             f"--cores 2 {targets} {where}")
 
 
 def _body(number, data, damping_ratio, where):
