@@ -60,6 +60,7 @@ from solver.dynamics import exponential
 
 RK4_STABILITY = 2.785          # h * omega_max at RK4's stability limit (real-axis bound)
 RK4_DEFAULT_FRACTION = 0.5
+MAX_OUTPUT_BYTES = 16 * 2**30   # a run's output arrays (integrate refuses more before allocating)
 METHODS = ("exponential", "rk4", "dop853", "generalized-alpha")
 # options that belong to one method only (``integrate`` refuses them with another)
 METHOD_OPTIONS = {"fraction": ("rk4",), "rtol": ("dop853",), "atol": ("dop853",),
@@ -307,6 +308,12 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, growth_factor=
         raise ValueError(f"duration must be finite and >= 0, got {t_end}")
     if not (np.isfinite(output_dt) and output_dt > 0):
         raise ValueError(f"output interval must be finite and > 0, got {output_dt}")
+    samples = t_end / output_dt + 1
+    n_y = np.size(problem.y0 if y0 is None else y0)
+    if samples * (2 * n_y + 6) * 8 > MAX_OUTPUT_BYTES:
+        raise ValueError(f"{t_end:g} s every {output_dt:g} s is {samples:.3g} output samples "
+                         f"(~{samples * (2 * n_y + 6) * 8 / 2**30:.3g} GiB): above the "
+                         f"{MAX_OUTPUT_BYTES / 2**30:g} GiB the outputs may take; a longer output interval")
     n_out = max(int(round(t_end / output_dt)), 1) if t_end > 0 else 0
     dt_out = t_end / n_out if n_out else output_dt
     t_out = np.linspace(0.0, t_end, n_out + 1)
