@@ -240,6 +240,11 @@ def load_load_ranking(path, rankings=None):
     out = {} if rankings is None else rankings
     try:
         with h5py.File(path, "r") as f:
+            missing = [k for k in [f"body{b}/{LOAD_KEY}" for b in BODIES] + ["pooled/body", "pooled/mode"]
+                       if k not in f]
+            if missing:
+                raise ModelError(f"load-aware ranking {path}: dataset(s) {', '.join(missing)} missing "
+                                 f"(stale or incomplete): " + RANKING_REMEDY.format(path=path))
             for b in BODIES:
                 out.setdefault(b, {})[LOAD_KEY] = f[f"body{b}/{LOAD_KEY}"][()]
             out[POOLED_KEY] = {"body": f["pooled/body"][()], "mode": f["pooled/mode"][()],
@@ -266,6 +271,8 @@ def load_body_file(path):
     (``solver.bodydata.read_body_file``).  Kept in process for the next model (a study reduces
     ~50 models from the same four files, ``results.study.run_scene``), keyed by the file's path,
     size and modification time, so a rewritten file is read again; callers treat it as read-only."""
+    if not os.path.isfile(path):
+        return read_body_file(path)         # raises its one-line BodyFileError
     st = os.stat(path)
     key = (os.path.abspath(path), st.st_size, st.st_mtime_ns)
     data = _BODY_CACHE.get(key)
