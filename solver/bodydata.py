@@ -84,9 +84,11 @@ def _read_csr(group, where):
         return sp.csr_matrix((group["data"][...], group["indices"][...], group["indptr"][...]),
                              shape=shape)
     except KeyError as exc:
-        raise BodyFileError(f"{where}: sparse group {group.name!r} lacks {exc}") from None
+        raise BodyFileError(f"{where}: sparse dataset {group.name.lstrip('/')!r} lacks {exc} "
+                            f"(stale or corrupt body file): {remedy(where)}") from None
     except ValueError as exc:
-        raise BodyFileError(f"{where}: sparse group {group.name!r} is inconsistent ({exc})") from None
+        raise BodyFileError(f"{where}: sparse dataset {group.name.lstrip('/')!r} is inconsistent ({exc}): "
+                            f"{remedy(where)}") from None
 
 
 def read_body_file(path, expect_config_hash=None, mass_normalisation_tol=1e-6, check=True):
@@ -172,11 +174,12 @@ def check_body(body, expect_config_hash=None, mass_normalisation_tol=1e-6):
                                 f"{remedy(where)}")
     comp = np.asarray(body["dof_component"])
     if comp.min() < 0 or comp.max() > 5:
-        raise BodyFileError(f"{where}: dof_component outside 0..5")
+        raise BodyFileError(f"{where}: dataset dof_component outside 0..5: corrupt body file, {remedy(where)}")
     X = rigid_modes(body["dof_coords"], comp)
     scale = max(np.max(np.abs(X)), 1.0)
     if np.max(np.abs(X - body["rigid_modes"])) > 1e-8 * scale:
-        raise BodyFileError(f"{where}: rigid_modes do not match dof_coords/dof_component")
+        raise BodyFileError(f"{where}: dataset rigid_modes does not match dof_coords/dof_component: "
+                            f"corrupt body file, {remedy(where)}")
     Mphi = body["M"] @ modes
     mass = np.einsum("ij,ij->j", modes, Mphi)
     if np.max(np.abs(mass - 1.0)) > mass_normalisation_tol:

@@ -150,6 +150,11 @@ def check_body_hashes(path, info, expected):
                              f"--cores 2 {targets} {where}")
 
 
+def _remedy(where):
+    path = where.rsplit(": ", 1)[0]
+    return f"corrupt or stale reduced-model file, rerun its target: snakemake --cores 2 --forcerun {path}"
+
+
 def _body(number, data, damping_ratio, where):
     """multibody.Body of one group, after the shape and value checks."""
     omega2 = np.asarray(data["omega2"], float)
@@ -159,12 +164,13 @@ def _body(number, data, damping_ratio, where):
     shapes.update({key: (3, D) for key in INSIDE_DATASETS if data[key] is not None})
     for key, shape in shapes.items():
         if np.shape(data[key]) != shape:
-            raise ChainFileError(f"{where}/{key} has shape {np.shape(data[key])}, expected {shape}")
+            raise ChainFileError(f"{where}/{key} has shape {np.shape(data[key])}, expected {shape}: "
+                                 f"{_remedy(where)}")
     for key in ("rigid_mass", "momentum", "inertia_gradient", "coriolis", "omega2", *INSIDE_DATASETS):
         if data[key] is not None and not np.all(np.isfinite(data[key])):
-            raise ChainFileError(f"{where}/{key} holds non-finite values")
+            raise ChainFileError(f"{where}/{key} holds non-finite values: {_remedy(where)}")
     if np.any(omega2 < 0):
-        raise ChainFileError(f"{where}/omega2 holds negative modal stiffness")
+        raise ChainFileError(f"{where}/omega2 holds negative modal stiffness: {_remedy(where)}")
     labels = tuple(s.decode() if isinstance(s, bytes) else str(s) for s in data["labels"])
     integrals = {key: data[key] for key in ("rigid_mass", "momentum", "inertia_gradient", "coriolis",
                                             *INSIDE_DATASETS) if data[key] is not None}

@@ -132,6 +132,9 @@ def refused(capsys):
         for text in (culprit if isinstance(culprit, tuple) else (culprit,)):
             assert text in lines[0], f"{text!r} not in {lines[0]!r}"
         assert snapshot(*watched) == before, "a watched folder changed"
+        if os.environ.get("ROBUSTNESS_LOG"):            # the messages, for a review of their wording
+            with open(os.environ["ROBUSTNESS_LOG"], "a") as log:
+                log.write(f"{os.environ.get('PYTEST_CURRENT_TEST', '').split(' ')[0]}\t{lines[0]}\n")
         return lines[0]
     return check
 
