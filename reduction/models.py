@@ -38,7 +38,6 @@ counts above what was computed and malformed load cases raise ModelError with
 a one-line message, before anything is integrated.
 """
 
-import argparse
 import hashlib
 import json
 import os
@@ -52,8 +51,10 @@ import numpy as np
 
 from reduction import modal_integrals
 from reduction.static_modes import load_case_vector, static_correction_modes
-from solver.bodydata import BODIES, BEARING_NAMES, read_body_file
+from solver.bodydata import BODIES, BEARING_NAMES, check_config_hash, read_body_file
 from solver.dynamics import chainfile, multibody, scenes
+from workflow import cli
+from workflow import config as cfgmod
 from workflow.provenance import versions
 
 TRUTH_MODES = 100
@@ -239,6 +240,11 @@ def load_load_ranking(path, rankings=None):
     out = {} if rankings is None else rankings
     try:
         with h5py.File(path, "r") as f:
+            missing = [k for k in [f"body{b}/{LOAD_KEY}" for b in BODIES] + ["pooled/body", "pooled/mode"]
+                       if k not in f]
+            if missing:
+                raise ModelError(f"load-aware ranking {path}: dataset(s) {', '.join(missing)} missing "
+                                 f"(stale or incomplete): " + RANKING_REMEDY.format(path=path))
             for b in BODIES:
                 out.setdefault(b, {})[LOAD_KEY] = f[f"body{b}/{LOAD_KEY}"][()]
             out[POOLED_KEY] = {"body": f["pooled/body"][()], "mode": f["pooled/mode"][()],
@@ -246,7 +252,13 @@ def load_load_ranking(path, rankings=None):
                                "body_config_hashes": str(f.attrs.get("body_config_hashes", ""))}
     except (OSError, KeyError) as exc:
         raise ModelError(f"load-aware ranking {path} unreadable or incomplete "
-                         f"({exc.__class__.__name__}: {' '.join(str(exc).split())})") from None
+                         f"({exc.__class__.__name__}: {' '.join(str(exc).split())}): "
+                         + RANKING_REMEDY.format(path=path)) from None
+    for b in BODIES:
+        order = np.asarray(out[b][LOAD_KEY])
+        if order.ndim != 1 or not np.issubdtype(order.dtype, np.integer):
+            raise ModelError(f"load-aware ranking {path}: dataset body{b}/{LOAD_KEY} is not a 1-D "
+                             f"array of mode indices: " + RANKING_REMEDY.format(path=path))
     return out
 
 
@@ -259,6 +271,8 @@ def load_body_file(path):
     (``solver.bodydata.read_body_file``).  Kept in process for the next model (a study reduces
     ~50 models from the same four files, ``results.study.run_scene``), keyed by the file's path,
     size and modification time, so a rewritten file is read again; callers treat it as read-only."""
+    if not os.path.isfile(path):
+        return read_body_file(path)         # raises its one-line BodyFileError
     st = os.stat(path)
     key = (os.path.abspath(path), st.st_size, st.st_mtime_ns)
     data = _BODY_CACHE.get(key)
@@ -269,19 +283,68 @@ def load_body_file(path):
     return data
 
 
-def read_rankings(paths):
-    """{body: {rank_frequency, rank_xmx, rank_xmgmx}} from the reduction files {body: path}."""
-    out = {}
-    for b, path in paths.items():
-        if not os.path.exists(path):
-            raise FileNotFoundError(f"ranking file {path} missing (run the reduction stage first)")
-        try:
-            with h5py.File(path, "r") as f:
-                out[b] = {k: f[k][()] for k in RANKING_KEYS.values()}
-        except (OSError, KeyError) as exc:
-            raise ModelError(f"ranking file {path} unreadable or incomplete ({exc.__class__.__name__}: "
-                             f"{' '.join(str(exc).split())}): delete it and rerun the reduction stage") from None
+RANKING_REMEDY = "rerun its target: snakemake --cores 2 --forcerun {path}"
+
+
+def _ranking_error(path, what):
+    return ModelError(f"ranking file {path}: {what}: " + RANKING_REMEDY.format(path=path))
+
+
+def read_reduction_rankings(path, body=None):
+    """The rankings {rank_frequency, rank_xmx, rank_xmgmx} of one reduction file, checked:
+    the file exists and is HDF5, the three datasets are present, 1-D, of one length D, each a
+    permutation of 0..D-1; with ``body`` (its body file's dict) D is the body's mode count and
+    the file's config_hash attribute the body file's (a reduction file of another body file is
+    refused).  ModelError (one line naming the file, the dataset and the target to rerun)."""
+    path = str(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"ranking file {path} missing (make it: snakemake --cores 2 {path})")
+    try:
+        with h5py.File(path, "r") as f:
+            missing = [k for k in RANKING_KEYS.values() if k not in f]
+            if missing:
+                raise _ranking_error(path, f"dataset(s) {', '.join(missing)} missing (stale or incomplete)")
+            out = {k: f[k][()] for k in RANKING_KEYS.values()}
+            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+    except ModelError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise _ranking_error(path, f"not a readable HDF5 file ({exc.__class__.__name__}; corrupt or "
+                                   f"truncated)") from None
+    sizes = set()
+    for key, order in out.items():
+        order = np.asarray(order)
+        if order.ndim != 1 or not (np.issubdtype(order.dtype, np.integer) or
+                                   (np.issubdtype(order.dtype, np.floating) and np.all(np.isfinite(order))
+                                    and np.all(order == np.round(order)))):
+            raise _ranking_error(path, f"dataset {key} is not a 1-D array of mode indices "
+                                       f"(shape {order.shape}, {order.dtype})")
+        order = order.astype(int)
+        if np.unique(order).size != order.size or (order.size and (order.min() < 0 or
+                                                                   order.max() >= order.size)):
+            raise _ranking_error(path, f"dataset {key} is not a permutation of 0..{order.size - 1}")
+        out[key] = order
+        sizes.add(order.size)
+    if len(sizes) > 1:
+        raise _ranking_error(path, f"datasets {', '.join(RANKING_KEYS.values())} differ in length "
+                                   f"({sorted(sizes)})")
+    if body is not None:
+        D = int(np.asarray(body["eigenvalues"]).size)
+        if sizes and sizes.pop() != D:
+            raise _ranking_error(path, f"ranks {out['rank_frequency'].size} modes, its body file "
+                                       f"{body.get('path', '')} has {D} (stale)")
+        mine, theirs = attrs.get("config_hash"), body["attrs"].get("config_hash")
+        if mine is not None and str(mine) != str(theirs):
+            raise _ranking_error(path, f"made from another body file (attribute config_hash {mine!r}, "
+                                       f"body file {body.get('path', '')} has {theirs!r}; stale)")
     return out
+
+
+def read_rankings(paths, body_data=None):
+    """{body: {rank_frequency, rank_xmx, rank_xmgmx}} from the reduction files {body: path},
+    each read by ``read_reduction_rankings`` (against its body file's dict in ``body_data``)."""
+    return {b: read_reduction_rankings(path, None if body_data is None else body_data.get(b))
+            for b, path in paths.items()}
 
 
 def load_rankings(reduction_dir, bodies=BODIES):
@@ -354,21 +417,32 @@ def check_load_ranking(path, rankings, body_data):
                          f"hashes differ): rerun python -m reduction.load_aware")
 
 
-def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None):
+def expected_body_hashes(config):
+    """{body: config_hash} the current configuration gives each body file (the modal stage
+    writes ``workflow.config.inputs_hash(body_inputs(config, n))``)."""
+    return {b: cfgmod.inputs_hash(cfgmod.body_inputs(config, b)) for b in BODIES}
+
+
+def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None, config=None):
     """(Chain, ModelSpec, attrs) of model ``name`` on ``scene`` (undamped: damping is the
     scene's, applied when the model file is read).
 
     body_files: {body: path} of the modal stage's files; reduction_files: {body: path} of
     the reduction stage's files (needed by xmx-, xmgmx-, load- and global- models);
-    load_ranking: the scene's load-aware ranking file (load- and global- models)."""
+    load_ranking: the scene's load-aware ranking file (load- and global- models); config: the
+    current configuration (validated dict): each body file's config_hash must be the one it
+    gives (``expected_body_hashes``), else BodyFileError naming the file and its target."""
     body_data = {b: load_body_file(body_files[b]) for b in BODIES}
+    if config is not None:
+        for b, expected in expected_body_hashes(config).items():
+            check_config_hash(body_data[b], expected)
     if not needs_load_ranking(name):
         load_ranking = None         # given but not read by this model
     if needs_reduction_rankings(name):
         if not reduction_files:
             raise ModelError(f"model {name!r} ranks modes by the reduction stage: pass its files "
                              f"(--reductions)")
-        rankings = read_rankings(reduction_files)
+        rankings = read_rankings(reduction_files, body_data)
     else:       # truth, rigid, freq-*, static-*: no reduction stage needed
         rankings = frequency_rankings(body_data)
     ranking_hashes = []
@@ -382,24 +456,20 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     chain = build_chain(spec, body_data)
     attrs = {"model": spec.name, "scene": scene.name,
              "config_hash": model_config_hash(spec, body_data, scene, ranking_hashes),
-             "n_modes": np.array(chain.n_modes), "units": "in, lbf, s"}
+             "n_modes": np.array(chain.n_modes), "units": "in, lbf, s",
+             "body_config_hashes": json.dumps([str(body_data[b]["attrs"].get("config_hash", ""))
+                                               for b in BODIES])}
     if load_ranking is not None:
         attrs["load_ranking"] = os.path.abspath(load_ranking)
         attrs["load_ranking_scene"] = rankings[POOLED_KEY]["scene"]
     return chain, spec, attrs
 
 
-class _Parser(argparse.ArgumentParser):
-    """Argument errors as one line (no usage block), exit status 2."""
-
-    def error(self, message):
-        self.exit(2, f"reduction.models: {message} (see --help)\n")
-
-
 def main(argv=None):
-    ap = _Parser(prog="python -m reduction.models",
-                 description="Reduce the chain to one model on one scene: the reduced-model file "
-                             "(solver/dynamics/chainfile.py, docs/models.md) a simulation reads.")
+    ap = cli.OneLineParser(prog="reduction.models",
+                           description="Reduce the chain to one model on one scene: the reduced-model "
+                                       "file (solver/dynamics/chainfile.py, docs/models.md) a "
+                                       "simulation reads.")
     ap.add_argument("--model", required=True, help="model name (grammar: reduction/models.py)")
     ap.add_argument("--scene", required=True, help="scene file (config/scenes/NAME.yaml) or name")
     ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE",
@@ -407,21 +477,33 @@ def main(argv=None):
     ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE",
                     help="the reduction stage's files of bodies 2..5 (xmx-, xmgmx-, load-, global-)")
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global-)")
+    ap.add_argument("--config", help="the current configuration file: every body file's config_hash "
+                                     "must be the one it gives (a body file of another config is refused)")
     ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
-    args = ap.parse_args(argv)
+    try:
+        args = ap.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, ap))
+    except SystemExit as exc:       # the one-line message is printed; in process, return the status
+        return exc.code
     t0 = time.perf_counter()
     try:
+        cli.check_writable(args.out)
         scene = scenes.load_scene(args.scene)
+        config = cfgmod.load_config(args.config) if args.config else None
         chain, spec, attrs = reduce_model(
             args.model, scene, dict(zip(BODIES, args.bodies)),
-            dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking)
+            dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,
+            config=config)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"reduction.models: {exc}", file=sys.stderr)
+        print(f"reduction.models: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     attrs.update({f"version_{k}": str(v) for k, v in versions().items()})
     attrs["wall_time_s"] = time.perf_counter() - t0
     attrs["created"] = time.strftime("%Y-%m-%dT%H:%M:%S")
-    chainfile.write_chain(args.out, chain, spec.kept, spec.static, attrs)
+    try:
+        chainfile.write_chain(args.out, chain, spec.kept, spec.static, attrs)
+    except OSError as exc:
+        print(f"reduction.models: {cli.write_failure(args.out, exc)}", file=sys.stderr)
+        return 2
     print(f"reduction.models: {args.out}: model {spec.name} on scene {scene.name}, "
           f"{sum(chain.n_modes)} elastic coordinates {chain.n_modes} in {attrs['wall_time_s']:.2f} s")
     return 0

@@ -69,6 +69,10 @@ def rigid_modes(dof_coords, dof_component):
 
 
 
+def remedy(path):
+    """What a bad body file's message tells the user to do: rerun the file's own target."""
+    return f"rerun its target: snakemake --cores 2 --forcerun {path}"
+
 DENSE_DATASETS = ("frequencies_hz", "eigenvalues", "modes", "rigid_modes", "dof_coords",
                   "dof_component", "bearing_points", "bearing_modes")
 SPARSE_DATASETS = ("M", "K", "T", "bearing_operator")
@@ -80,9 +84,11 @@ def _read_csr(group, where):
         return sp.csr_matrix((group["data"][...], group["indices"][...], group["indptr"][...]),
                              shape=shape)
     except KeyError as exc:
-        raise BodyFileError(f"{where}: sparse group {group.name!r} lacks {exc}") from None
+        raise BodyFileError(f"{where}: sparse dataset {group.name.lstrip('/')!r} lacks {exc} "
+                            f"(stale or corrupt body file): {remedy(where)}") from None
     except ValueError as exc:
-        raise BodyFileError(f"{where}: sparse group {group.name!r} is inconsistent ({exc})") from None
+        raise BodyFileError(f"{where}: sparse dataset {group.name.lstrip('/')!r} is inconsistent ({exc}): "
+                            f"{remedy(where)}") from None
 
 
 def read_body_file(path, expect_config_hash=None, mass_normalisation_tol=1e-6, check=True):
@@ -95,13 +101,14 @@ def read_body_file(path, expect_config_hash=None, mass_normalisation_tol=1e-6, c
     """
     where = str(path)
     if not os.path.isfile(where):
-        raise BodyFileError(f"{where}: body file not found (run the modal stage: snakemake results/modes/bodyN.h5)")
+        raise BodyFileError(f"{where}: body file not found (make it: snakemake --cores 2 {where})")
     try:
         with h5py.File(where, "r") as f:
             missing = [k for k in DENSE_DATASETS + SPARSE_DATASETS if k not in f]
             if missing:
                 raise BodyFileError(
-                    f"{where}: missing {', '.join(missing)} (stale or incomplete body file: delete it and rerun)")
+                    f"{where}: dataset(s) {', '.join(missing)} missing (stale or incomplete body file): "
+                    f"{remedy(where)}")
             body = {k: f[k][...] for k in DENSE_DATASETS}
             for k in SPARSE_DATASETS:
                 body[k] = _read_csr(f[k], where)
@@ -112,10 +119,10 @@ def read_body_file(path, expect_config_hash=None, mass_normalisation_tol=1e-6, c
     except BodyFileError:
         raise
     except OSError:
-        raise BodyFileError(f"{where}: not a readable HDF5 file (corrupt or truncated): delete it and "
-                            f"rerun the modal stage") from None
+        raise BodyFileError(f"{where}: not a readable HDF5 file (corrupt or truncated): "
+                            f"{remedy(where)}") from None
     except (KeyError, ValueError, TypeError) as exc:
-        raise BodyFileError(f"{where}: cannot read body file ({exc})") from None
+        raise BodyFileError(f"{where}: cannot read body file ({exc}): {remedy(where)}") from None
     body["path"] = where
     body["number"] = int(body["attrs"].get("body", 0))
     if check:
@@ -138,36 +145,77 @@ def check_body(body, expect_config_hash=None, mass_normalisation_tol=1e-6):
         "bearing_operator": (24, ndof)}
     for key, shape in expected.items():
         if tuple(body[key].shape) != shape:
-            raise BodyFileError(f"{where}: {key} has shape {tuple(body[key].shape)}, "
-                                f"expected {shape} (stale body file?)")
+            raise BodyFileError(f"{where}: dataset {key} has shape {tuple(body[key].shape)}, "
+                                f"expected {shape} (stale or corrupt body file): {remedy(where)}")
     if D == 0:
         raise BodyFileError(f"{where}: no modes")
     lam = np.asarray(body["eigenvalues"], float)
-    if not np.all(np.isfinite(lam)) or np.any(lam <= 0):
-        raise BodyFileError(f"{where}: eigenvalues must be finite and positive")
-    if np.any(np.diff(lam) < -1e-9 * lam.max()):
-        raise BodyFileError(f"{where}: eigenvalues are not ascending")
+    bad = np.flatnonzero(~np.isfinite(lam) | (lam <= 0))
+    if bad.size:
+        raise BodyFileError(f"{where}: dataset eigenvalues must be finite and positive "
+                            f"(entry {int(bad[0])} is {lam[bad[0]]!r}): corrupt body file, {remedy(where)}")
+    down = np.flatnonzero(np.diff(lam) < -1e-9 * lam.max())
+    if down.size:
+        raise BodyFileError(f"{where}: dataset eigenvalues is not ascending (entry {int(down[0]) + 1} "
+                            f"< entry {int(down[0])}): corrupt body file, {remedy(where)}")
+    freq = np.asarray(body["frequencies_hz"], float)
+    if not np.allclose(freq, np.sqrt(lam) / (2 * np.pi), rtol=1e-9, atol=0.0):
+        raise BodyFileError(f"{where}: dataset frequencies_hz does not match eigenvalues "
+                            f"(sqrt(lambda) / 2 pi): corrupt body file, {remedy(where)}")
     if not np.all(np.isfinite(modes)):
-        raise BodyFileError(f"{where}: modes contain non-finite values")
+        raise BodyFileError(f"{where}: dataset modes contains non-finite values: corrupt body file, {remedy(where)}")
     for key in ("M", "K", "T", "bearing_operator"):
         if not np.all(np.isfinite(body[key].data)):
-            raise BodyFileError(f"{where}: {key} contains non-finite values")
+            raise BodyFileError(f"{where}: dataset {key} contains non-finite values: corrupt body file, "
+                                f"{remedy(where)}")
+    for key in ("dof_coords", "rigid_modes"):
+        if not np.all(np.isfinite(np.asarray(body[key], float))):
+            raise BodyFileError(f"{where}: dataset {key} contains non-finite values: corrupt body file, "
+                                f"{remedy(where)}")
     comp = np.asarray(body["dof_component"])
     if comp.min() < 0 or comp.max() > 5:
-        raise BodyFileError(f"{where}: dof_component outside 0..5")
+        raise BodyFileError(f"{where}: dataset dof_component outside 0..5: corrupt body file, {remedy(where)}")
     X = rigid_modes(body["dof_coords"], comp)
     scale = max(np.max(np.abs(X)), 1.0)
     if np.max(np.abs(X - body["rigid_modes"])) > 1e-8 * scale:
-        raise BodyFileError(f"{where}: rigid_modes do not match dof_coords/dof_component")
-    mass = np.einsum("ij,ij->j", modes, body["M"] @ modes)
+        raise BodyFileError(f"{where}: dataset rigid_modes does not match dof_coords/dof_component: "
+                            f"corrupt body file, {remedy(where)}")
+    Mphi = body["M"] @ modes
+    mass = np.einsum("ij,ij->j", modes, Mphi)
     if np.max(np.abs(mass - 1.0)) > mass_normalisation_tol:
-        raise BodyFileError(f"{where}: modes are not mass-normalised with M "
-                            f"(max |phi^T M phi - 1| = {np.max(np.abs(mass - 1.0)):.1e}; stale?)")
+        raise BodyFileError(f"{where}: dataset modes is not mass-normalised with M "
+                            f"(max |phi^T M phi - 1| = {np.max(np.abs(mass - 1.0)):.1e}): corrupt or "
+                            f"stale body file, {remedy(where)}")
+    # M-orthonormality of every mode pair, and the eigenpairs: phi^T K phi = diag(lambda).
+    # A corrupted mode or eigenvalue (one entry changed, a column scaled, a NaN sorted
+    # away) breaks one of them; the modal stage makes both hold to ~1e-14.
+    gram = modes.T @ Mphi
+    off = np.max(np.abs(gram - np.eye(D)))
+    if off > mass_normalisation_tol:
+        raise BodyFileError(f"{where}: dataset modes is not M-orthonormal "
+                            f"(max |Phi^T M Phi - I| = {off:.1e} > {mass_normalisation_tol:g}): "
+                            f"corrupt or stale body file, {remedy(where)}")
+    stiffness = modes.T @ (body["K"] @ modes)
+    mismatch = np.max(np.abs(stiffness - np.diag(lam))) / lam.max()
+    if mismatch > mass_normalisation_tol:
+        worst = int(np.argmax(np.abs(np.diag(stiffness) - lam)))
+        raise BodyFileError(f"{where}: datasets eigenvalues and modes disagree (max |Phi^T K Phi - "
+                            f"diag(lambda)| / lambda_max = {mismatch:.1e}, worst at mode {worst}): "
+                            f"corrupt or stale body file, {remedy(where)}")
     if expect_config_hash is not None:
-        found = body["attrs"].get("config_hash")
-        if str(found) != str(expect_config_hash):
-            raise BodyFileError(f"{where}: stale body file (config_hash {found!r}, "
-                                f"expected {expect_config_hash!r})")
+        check_config_hash(body, expect_config_hash)
+
+
+def check_config_hash(body, expect_config_hash):
+    """BodyFileError (one line naming the file and the target to rerun) unless the body file's
+    ``config_hash`` attribute is ``expect_config_hash`` (the current configuration's hash of
+    what the body's stages read: ``workflow.config.inputs_hash(body_inputs(config, n))``)."""
+    where = body.get("path", "body")
+    found = body["attrs"].get("config_hash")
+    if str(found) != str(expect_config_hash):
+        raise BodyFileError(f"{where}: made from another configuration (attribute config_hash "
+                            f"{found!r}, the current configuration gives {expect_config_hash!r}): "
+                            f"{remedy(where)}")
 
 
 # ---------------------------------------------------------------- the writer's layout

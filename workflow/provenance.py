@@ -55,18 +55,71 @@ def git_revision() -> str:
         return "unknown"
 
 
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:          # another user's process: alive
+        return True
+    except OSError:
+        return True
+    return True
+
+
+def remove_stale_parts(path: str | Path) -> list[Path]:
+    """Remove the temporary files ``.{name}.part{pid}`` of ``path`` left by writers that died
+    (killed during a write: their pid no longer runs); a live writer's file is left alone.
+    Returns the removed paths.  Called by ``atomic_path`` on every write of ``path``, so the
+    next run of the rule that makes ``path`` cleans up after an interrupted one."""
+    path = Path(path)
+    removed = []
+    if not path.parent.is_dir():
+        return removed
+    prefix = f".{path.name}.part"
+    for sibling in path.parent.iterdir():
+        name = sibling.name
+        if not name.startswith(prefix) or not name[len(prefix):].isdigit():
+            continue
+        pid = int(name[len(prefix):])
+        if pid != os.getpid() and not _pid_alive(pid):
+            try:
+                sibling.unlink()
+                removed.append(sibling)
+            except FileNotFoundError:
+                pass
+    return removed
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | Path):
-    """Yield a temporary path beside ``path``; rename it into place on success."""
+    """Yield a temporary path beside ``path``; rename it into place on success.  Stale
+    temporary files of ``path`` from writers that died are removed first
+    (``remove_stale_parts``); on any failure (a full disk included) the temporary file is
+    removed and ``path`` is left as it was, with any folder made for it."""
     path = Path(path)
+    made = []                                   # folders created here, innermost first
+    folder = path.parent.absolute()
+    while not folder.exists():
+        made.append(folder)
+        folder = folder.parent
     path.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_parts(path)
     tmp = path.with_name(f".{path.name}.part{os.getpid()}")
+    done = False
     try:
         yield tmp
         os.replace(tmp, path)
+        done = True
     finally:
         if tmp.exists():
             tmp.unlink()
+        if not done:
+            for folder in made:
+                try:
+                    folder.rmdir()              # only if still empty
+                except OSError:
+                    break
 
 
 @contextlib.contextmanager

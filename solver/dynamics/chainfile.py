@@ -30,6 +30,7 @@ the same formula as ``multibody.make_body`` (2 zeta Omega per mode).
 """
 from __future__ import annotations
 
+import json
 import os
 
 import h5py
@@ -124,6 +125,36 @@ def read_chain(path, damping_ratio=0.0):
     return chain, info
 
 
+def check_body_hashes(path, info, expected):
+    """ChainFileError (one line naming the file and what to rerun) unless the reduced model was
+    made from body files with the config hashes ``expected`` ({body: hash}: what the current
+    configuration gives, ``workflow.config.inputs_hash(body_inputs(config, n))``).  The file
+    records them in its attribute ``body_config_hashes`` (JSON list, bodies 2..5)."""
+    where = str(path)
+    stored = info.get("body_config_hashes")
+    if stored is None:
+        raise ChainFileError(f"{where}: attribute body_config_hashes missing (made before the body "
+                             f"files' hashes were recorded, so its configuration is unknown): rerun its "
+                             f"target: snakemake --cores 2 --forcerun {where}")
+    try:
+        found = dict(zip(BODIES, json.loads(stored)))
+    except (TypeError, ValueError):
+        raise ChainFileError(f"{where}: attribute body_config_hashes unreadable ({stored!r}): rerun its "
+                             f"target: snakemake --cores 2 --forcerun {where}") from None
+    stale = [b for b in BODIES if str(found.get(b)) != str(expected[b])]
+    if stale:
+        targets = " ".join(f"results/modes/body{b}.h5" for b in stale)
+        raise ChainFileError(f"{where}: made from body file(s) of another configuration (bodies "
+                             f"{', '.join(map(str, stale))}: config_hash {found.get(stale[0])!r}, the "
+                             f"current configuration gives {expected[stale[0]]!r}): rerun snakemake "
+                             f"--cores 2 {targets} {where}")
+
+
+def _remedy(where):
+    path = where.rsplit(": ", 1)[0]
+    return f"corrupt or stale reduced-model file, rerun its target: snakemake --cores 2 --forcerun {path}"
+
+
 def _body(number, data, damping_ratio, where):
     """multibody.Body of one group, after the shape and value checks."""
     omega2 = np.asarray(data["omega2"], float)
@@ -133,12 +164,13 @@ def _body(number, data, damping_ratio, where):
     shapes.update({key: (3, D) for key in INSIDE_DATASETS if data[key] is not None})
     for key, shape in shapes.items():
         if np.shape(data[key]) != shape:
-            raise ChainFileError(f"{where}/{key} has shape {np.shape(data[key])}, expected {shape}")
+            raise ChainFileError(f"{where}/{key} has shape {np.shape(data[key])}, expected {shape}: "
+                                 f"{_remedy(where)}")
     for key in ("rigid_mass", "momentum", "inertia_gradient", "coriolis", "omega2", *INSIDE_DATASETS):
         if data[key] is not None and not np.all(np.isfinite(data[key])):
-            raise ChainFileError(f"{where}/{key} holds non-finite values")
+            raise ChainFileError(f"{where}/{key} holds non-finite values: {_remedy(where)}")
     if np.any(omega2 < 0):
-        raise ChainFileError(f"{where}/omega2 holds negative modal stiffness")
+        raise ChainFileError(f"{where}/omega2 holds negative modal stiffness: {_remedy(where)}")
     labels = tuple(s.decode() if isinstance(s, bytes) else str(s) for s in data["labels"])
     integrals = {key: data[key] for key in ("rigid_mass", "momentum", "inertia_gradient", "coriolis",
                                             *INSIDE_DATASETS) if data[key] is not None}

@@ -60,6 +60,7 @@ from solver.dynamics import exponential
 
 RK4_STABILITY = 2.785          # h * omega_max at RK4's stability limit (real-axis bound)
 RK4_DEFAULT_FRACTION = 0.5
+MAX_OUTPUT_BYTES = 16 * 2**30   # a run's output arrays (integrate refuses more before allocating)
 METHODS = ("exponential", "rk4", "dop853", "generalized-alpha")
 # options that belong to one method only (``integrate`` refuses them with another)
 METHOD_OPTIONS = {"fraction": ("rk4",), "rtol": ("dop853",), "atol": ("dop853",),
@@ -80,6 +81,73 @@ class StepTooLargeError(ValueError):
 def rk4_stability_limit(omega_max):
     """Largest stable RK4 step [s] for a model whose highest kept frequency is omega_max [rad/s]."""
     return np.inf if omega_max <= 0 else RK4_STABILITY / float(omega_max)
+
+
+def rk4_amplification(z):
+    """RK4's amplification factor R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24 (z = h lambda)."""
+    return 1 + z * (1 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0)))
+
+
+def rk4_ray_radius(direction):
+    """Where the ray r * direction (r > 0; direction complex, |direction| = 1, Re <= 0) first
+    leaves RK4's stability region |R(z)| <= 1: the stable h |lambda| of an eigenvalue lambda in
+    that direction, at most ``RK4_STABILITY`` (the project's undamped bound, 2.785; the
+    region reaches 2 sqrt 2 on the imaginary axis).  A damped mode of ratio zeta has
+    direction -zeta + i sqrt(1 - zeta^2): its bound dips to 2.62 at zeta = 0.5, and an
+    overdamped one (zeta > 1) has real eigenvalues omega (zeta +- sqrt(zeta^2 - 1)), the
+    larger bounding the step at 2.785 / (omega (zeta + sqrt(zeta^2 - 1))).
+    Vectorised over ``direction``; first crossing by a scan then bisection."""
+    d = np.atleast_1d(np.asarray(direction, complex))
+    r = np.linspace(0.0, 3.0, 3001)[1:]
+    bad = np.abs(rk4_amplification(np.outer(d, r))) > 1.0 + 1e-12
+    first = np.where(bad.any(axis=1), bad.argmax(axis=1), r.size)
+    lo = np.where(first > 0, r[np.maximum(first - 1, 0)], 0.0)
+    hi = np.where(first < r.size, r[np.minimum(first, r.size - 1)], 3.0)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        out = np.abs(rk4_amplification(mid * d)) > 1.0 + 1e-12
+        hi = np.where(out, mid, hi)
+        lo = np.where(out, lo, mid)
+    return np.minimum(lo, RK4_STABILITY)
+
+
+def rk4_damped_limit(eigenvalues):
+    """Largest stable RK4 step [s] for a linear system with these eigenvalues [1/s] (complex):
+    min over lambda != 0 of ``rk4_ray_radius(lambda / |lambda|) / |lambda|`` (inf if none).
+    An eigenvalue with a positive real part (an unstable system) has no stable step: 0."""
+    lam = np.asarray(eigenvalues, complex).ravel()
+    size = np.abs(lam)
+    lam = lam[size > 0]
+    if lam.size == 0:
+        return np.inf
+    if np.any(lam.real > 1e-9 * np.abs(lam)):
+        return 0.0
+    # one representative per conjugate pair (the region is symmetric about the real axis)
+    lam = lam[lam.imag >= 0]
+    return float(np.min(rk4_ray_radius(lam / np.abs(lam)) / np.abs(lam)))
+
+
+def rk4_limit(problem):
+    """The RK4 stability limit [s] of a problem: ``rk4_stability_limit(problem.omega_max)``,
+    and with modal damping the smaller ``rk4_damped_limit`` of its damped linearised chain
+    (``problem.damped_spectrum``): damping tilts the eigenvalues off the imaginary axis,
+    where RK4's region is narrower (2.62 / omega at an effective zeta of 0.5)."""
+    limit = rk4_stability_limit(problem.omega_max)
+    damping = getattr(problem, "damping_diagonal", None)
+    if damping is not None and np.any(np.asarray(damping) > 0) and hasattr(problem, "damped_spectrum"):
+        limit = min(limit, rk4_damped_limit(problem.damped_spectrum))
+    return limit
+
+
+def rk4_limit_reason(problem):
+    """A phrase for messages: what sets ``rk4_limit(problem)``."""
+    undamped = rk4_stability_limit(problem.omega_max)
+    limit = rk4_limit(problem)
+    text = f"2.785/omega_max = {undamped:.3e} s (coupled omega_max = {problem.omega_max:.4g} rad/s)"
+    if limit < undamped * (1 - 1e-9):
+        text = (f"{limit:.3e} s with the modal damping (the damped coupled modes; undamped it "
+                f"would be {text})")
+    return text
 
 
 def rk4_step(rhs, t, y, yd, h):
@@ -240,6 +308,12 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, growth_factor=
         raise ValueError(f"duration must be finite and >= 0, got {t_end}")
     if not (np.isfinite(output_dt) and output_dt > 0):
         raise ValueError(f"output interval must be finite and > 0, got {output_dt}")
+    samples = t_end / output_dt + 1
+    n_y = np.size(problem.y0 if y0 is None else y0)
+    if samples * (2 * n_y + 6) * 8 > MAX_OUTPUT_BYTES:
+        raise ValueError(f"{t_end:g} s every {output_dt:g} s is {samples:.3g} output samples "
+                         f"(~{samples * (2 * n_y + 6) * 8 / 2**30:.3g} GiB): above the "
+                         f"{MAX_OUTPUT_BYTES / 2**30:g} GiB the outputs may take; a longer output interval")
     n_out = max(int(round(t_end / output_dt)), 1) if t_end > 0 else 0
     dt_out = t_end / n_out if n_out else output_dt
     t_out = np.linspace(0.0, t_end, n_out + 1)
@@ -321,7 +395,7 @@ def _rk4(problem, out, step, fraction, growth_factor, whole_run):
     """Classical RK4 at a fixed step (module docstring); (h, steps, stats)."""
     t_out, dt_out, model = out.t, out.dt, out.model
     y, yd = out.Y[0].copy(), out.V[0].copy()
-    limit = rk4_stability_limit(problem.omega_max)
+    limit = rk4_limit(problem)
     if step is None:
         frac = RK4_DEFAULT_FRACTION if fraction is None else fraction
         h_req = frac * limit if np.isfinite(limit) else dt_out
@@ -331,8 +405,8 @@ def _rk4(problem, out, step, fraction, growth_factor, whole_run):
         raise StepTooLargeError(f"rk4 step must be > 0, got {h_req}")
     if h_req > limit * (1 + 1e-12):
         raise StepTooLargeError(
-            f"rk4 step {h_req:.3e} s exceeds the stability limit 2.785/omega_max = "
-            f"{limit:.3e} s (omega_max = {problem.omega_max:.4g} rad/s) of model {model!r}")
+            f"rk4 step {h_req:.3e} s exceeds the stability limit {rk4_limit_reason(problem)} "
+            f"of model {model!r}")
     n_sub = max(int(np.ceil(dt_out / h_req - 1e-9)), 1)
     h = dt_out / n_sub
     steps = 0

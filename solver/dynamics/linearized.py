@@ -158,3 +158,49 @@ def coupled_omega_max(chain, y0=None, offsets=COUPLED_SAMPLE_OFFSETS, lock_angle
         y[list(idx)] = 0.0
         samples.append(y)
     return max(float(coupled_frequencies(chain, y)[-1]) for y in samples)
+
+
+def coupled_damped_eigenvalues(chain, y):
+    """Eigenvalues (2m,) complex [1/s] of the chain linearised at configuration y with its
+    modal damping: S x'' + C x' + K x = 0 on the elastic coordinates (the joints eliminated
+    as in ``free_joints``: they carry neither stiffness nor damping, so their equations only
+    shed inertia), C = diag(2 zeta Omega) (``chain.damping_diagonal``), from the companion
+    matrix [[0, I], [-S^-1 K, -S^-1 C]].  A mode of frequency omega and effective damping
+    ratio zeta_e gives lambda = omega (-zeta_e +- i sqrt(1 - zeta_e^2)); zeta_e exceeds the
+    scene's zeta when the joints shed inertia (S smaller than the modal mass)."""
+    m = sum(chain.n_modes)
+    if m == 0:
+        return np.zeros(0, complex)
+    _, S = free_joints(mass_matrix_fast(chain, y))
+    k = chain.stiffness_diagonal()[4:]
+    c = chain.damping_diagonal()[4:]
+    A = np.zeros((2 * m, 2 * m))
+    A[:m, m:] = np.eye(m)
+    A[m:, :m] = -np.linalg.solve(S, np.diag(k))
+    A[m:, m:] = -np.linalg.solve(S, np.diag(c))
+    return scipy.linalg.eigvals(A, check_finite=False)
+
+
+def sample_configurations(y0, offsets=COUPLED_SAMPLE_OFFSETS, lock_angles=LOCK_ANGLES):
+    """The configurations ``coupled_omega_max`` samples: y0 with its gimbal angles offset by
+    each of ``offsets``, and y0 with the angles of each of ``lock_angles`` set to zero."""
+    y0 = np.asarray(y0, float)
+    samples = []
+    for off in offsets:
+        y = y0.copy()
+        y[:4] += np.asarray(off, float)
+        samples.append(y)
+    for idx in lock_angles:
+        y = y0.copy()
+        y[list(idx)] = 0.0
+        samples.append(y)
+    return samples
+
+
+def coupled_damped_spectrum(chain, y0=None):
+    """``coupled_damped_eigenvalues`` at every configuration ``coupled_omega_max`` samples,
+    concatenated: what bounds an explicit integrator's step on a damped chain."""
+    if sum(chain.n_modes) == 0:
+        return np.zeros(0, complex)
+    y0 = np.zeros(chain.n_coordinates) if y0 is None else np.asarray(y0, float)
+    return np.concatenate([coupled_damped_eigenvalues(chain, y) for y in sample_configurations(y0)])

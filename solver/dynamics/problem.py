@@ -77,6 +77,15 @@ class Problem:
             self._omega_max = linearized.coupled_omega_max(self.chain, self.y0)
         return self._omega_max
 
+    @property
+    def damped_spectrum(self):
+        """Eigenvalues [1/s] (complex) of the chain linearised with its modal damping at the
+        configurations ``omega_max`` samples (``linearized.coupled_damped_spectrum``), computed
+        on first use: the RK4 bound of a damped chain (``integrators.rk4_limit``)."""
+        if getattr(self, "_damped_spectrum", None) is None:
+            self._damped_spectrum = linearized.coupled_damped_spectrum(self.chain, self.y0)
+        return self._damped_spectrum
+
     @omega_max.setter
     def omega_max(self, value):
         self._omega_max = float(value)

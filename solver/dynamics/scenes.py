@@ -168,6 +168,16 @@ def parse_scene(raw, origin="scene"):
         raise SceneError(f"{origin}: duration must be >= 0 s, got {vals['duration']}")
     if vals["output_interval"] <= 0:
         raise SceneError(f"{origin}: output_interval must be > 0 s, got {vals['output_interval']}")
+    duration, interval = vals["duration"], vals["output_interval"]
+    if duration > 0 and interval > duration * (1 + 1e-12):
+        raise SceneError(f"{origin}: output_interval {interval:g} s is longer than the duration "
+                         f"{duration:g} s (only the two end samples would be kept): shorten it")
+    if duration > 0:
+        samples = duration / interval
+        if abs(samples - round(samples)) > 1e-9 * max(samples, 1.0):
+            raise SceneError(f"{origin}: output_interval {interval:g} s does not divide the duration "
+                             f"{duration:g} s ({samples:.6g} intervals): choose one that does "
+                             f"(e.g. {duration / max(round(samples), 1):.6g} s)")
     if vals["damping_ratio"] < 0:
         raise SceneError(f"{origin}: damping_ratio must be >= 0, got {vals['damping_ratio']}")
     if any(f < 0 for f in case["angular_acceleration_frequency"]):

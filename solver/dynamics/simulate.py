@@ -28,8 +28,11 @@ import time
 
 import numpy as np
 
+from solver.bodydata import BODIES
 from solver.dynamics import chainfile, exponential, integrators, multibody, scenes, simfile
 from solver.dynamics.problem import Problem
+from workflow import cli
+from workflow import config as cfgmod
 from workflow.provenance import versions
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -94,33 +97,86 @@ def platform_attitude(chain, run):
     return multibody.platform_attitude(chain, y)
 
 
-def positive_number(name):
-    """argparse type: a positive finite float; a negative value is read as a value, then refused."""
-    def parse(text):
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not (np.isfinite(value) and value > 0):
-            raise argparse.ArgumentTypeError(f"{name} must be a positive number, got {text!r}")
-        return value
-    return parse
+positive_number = cli.positive_number        # (argparse type; kept for callers of this module)
+
+# Guards before the work (an explicit option lifts each): integration steps, output samples and
+# the memory the outputs take.  The 15 ms thesis scene takes ~60 exponential steps or ~1e5 RK4
+# steps and 1,501 samples; the long scene (1 s) 10,001 samples.
+MAX_STEPS = 20_000_000
+MAX_SAMPLES = 1_000_000
+MAX_OUTPUT_GIB = 4.0
 
 
-class _Parser(argparse.ArgumentParser):
-    """Argument errors as one line (no usage block), exit status 2."""
+def estimated_steps(scene, integrator, step, options, prob):
+    """(steps, step [s]) a fixed-step run will take, or (None, None) when the step is chosen by
+    error control (exponential without --step, dop853).  RK4 without --step: its fraction of
+    the stability limit (``integrators.rk4_limit``, computed here: ~7 small eigenproblems)."""
+    if scene.duration <= 0:
+        return 0, step
+    if integrator == "rk4":
+        h = step if step is not None else \
+            options.get("fraction", integrators.RK4_DEFAULT_FRACTION) * integrators.rk4_limit(prob)
+    elif integrator == "generalized-alpha":
+        h = step if step is not None else scene.output_interval
+    elif integrator == "exponential" and step is not None:
+        h = step
+    else:
+        return None, None
+    if not (np.isfinite(h) and h > 0):
+        return None, None
+    # the fixed-step methods take whole steps per output interval
+    per_interval = max(int(np.ceil(scene.output_interval / h - 1e-9)), 1)
+    return per_interval * max(int(round(scene.duration / scene.output_interval)), 1), h
 
-    def error(self, message):
-        self.exit(2, f"simulate: {message} (see --help)\n")
+
+def rhs_cost(prob, calls=20):
+    """Seconds per right-hand-side evaluation of a problem (median of ``calls``)."""
+    times = []
+    for _ in range(calls):
+        t0 = time.perf_counter()
+        prob.rhs(0.0, prob.y0, prob.yd0)
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times))
+
+
+def check_size(scene, chain, integrator, step, options, prob, max_steps, max_samples, model_file):
+    """ValueError (one line, naming the scene, the limit and the option that lifts it) before
+    the work if the run would take more than ``max_steps`` steps, write more than
+    ``max_samples`` output samples or hold more than MAX_OUTPUT_GIB of outputs."""
+    samples = int(round(scene.duration / scene.output_interval)) + 1 if scene.duration > 0 else 1
+    gib = samples * (2 * chain.n_coordinates + 16) * 8 / 2 ** 30
+    if samples > max_samples:
+        raise ValueError(f"scene {scene.name}: {samples:.3g} output samples ({scene.duration:g} s every "
+                         f"{scene.output_interval:g} s, ~{gib:.3g} GiB) exceed the limit {max_samples:.3g} "
+                         f"(--max-samples N lifts it; or a longer output_interval)")
+    if gib > MAX_OUTPUT_GIB and samples <= max_samples and max_samples == MAX_SAMPLES:
+        raise ValueError(f"scene {scene.name}: the outputs would take ~{gib:.3g} GiB (limit "
+                         f"{MAX_OUTPUT_GIB:g} GiB; --max-samples N lifts it)")
+    steps, h = estimated_steps(scene, integrator, step, options, prob)
+    if steps is not None and steps > max_steps:
+        evaluations = {"rk4": 4, "generalized-alpha": 3, "exponential": 2}.get(integrator, 4)
+        seconds = steps * evaluations * rhs_cost(prob)
+        raise ValueError(f"{integrator} at step {h:.3g} s on scene {scene.name} ({scene.duration:g} s) "
+                         f"takes ~{steps:.3g} steps (~{_duration_text(seconds)} for model file "
+                         f"{model_file}), above the limit {max_steps:.3g} steps (--max-steps N lifts it; "
+                         f"or a longer --step)")
+    return steps, h
+
+
+def _duration_text(seconds):
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
 
 
 def _scene_stem(arg):
     return os.path.splitext(os.path.basename(str(arg)))[0]
 
 
-def main(argv=None):
-    ap = _Parser(
-        prog="python -m solver.dynamics.simulate",
+def build_parser():
+    ap = cli.OneLineParser(
+        prog="simulate",
         description="Simulate the elastic gimbal chain: one scene, one reduced-model file "
                     "(docs/dynamics.md; the file is made by python -m reduction.models or by "
                     "snakemake results/models/SCENE/MODEL.h5).")
@@ -128,6 +184,8 @@ def main(argv=None):
     ap.add_argument("--model-file", help="reduced-model file (default results/models/SCENE/MODEL.h5)")
     ap.add_argument("--model", help="model name, to find the default model file and output")
     ap.add_argument("--out", help="simulation file to write (default results/sim/SCENE/MODEL.h5)")
+    ap.add_argument("--config", help="the current configuration file: the reduced model's body "
+                                     "files must have been made from it (their config hashes)")
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
                     help=f"default {DEFAULT_INTEGRATOR} (docs/exponential.md); dop853 at rtol "
                          f"1e-10 is the converged reference, rk4 the thesis's method")
@@ -140,20 +198,49 @@ def main(argv=None):
     ap.add_argument("--drift", type=positive_number("--drift"), default=None,
                     help=f"exponential: gimbal-angle drift [rad] that triggers a new basis "
                          f"(default {exponential.DEFAULT_DRIFT:g})")
-    ap.add_argument("--order", type=int, default=None,
+    ap.add_argument("--order", type=cli.positive_int("--order"), default=None,
                     help=f"exponential: Adams order (default {exponential.DEFAULT_ORDER})")
     ap.add_argument("--fraction", type=positive_number("--fraction"), default=None,
-                    help=f"rk4 step as a fraction of 2.785/omega_max (default "
-                         f"{integrators.RK4_DEFAULT_FRACTION})")
-    ap.add_argument("--rho-inf", type=float, default=None,
-                    help="generalized-alpha spectral radius (default 0.9)")
+                    help=f"rk4 step as a fraction of its stability limit (default "
+                         f"{integrators.RK4_DEFAULT_FRACTION}; at most 1)")
+    ap.add_argument("--rho-inf", type=_unit_interval, default=None,
+                    help="generalized-alpha spectral radius in [0, 1] (default 0.9)")
     ap.add_argument("--rtol", type=positive_number("--rtol"), default=None,
                     help="dop853 relative tolerance (default 1e-10)")
     ap.add_argument("--atol", type=positive_number("--atol"), default=None,
                     help="dop853 absolute tolerance (default 1e-14)")
+    ap.add_argument("--max-steps", type=cli.positive_int("--max-steps"), default=MAX_STEPS,
+                    help=f"refuse a fixed-step run estimated above this many steps (default {MAX_STEPS:g})")
+    ap.add_argument("--max-samples", type=cli.positive_int("--max-samples"), default=MAX_SAMPLES,
+                    help=f"refuse a scene with more output samples (default {MAX_SAMPLES:g}, and "
+                         f"{MAX_OUTPUT_GIB:g} GiB of outputs)")
     ap.add_argument("--store-modal", action="store_true", help="also store q(t), q'(t)")
+    return ap
+
+
+def _unit_interval(text):
     try:
-        args = ap.parse_args(argv)
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--rho-inf must be a number, got {text!r}") from None
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"--rho-inf must lie in [0, 1], got {text!r}")
+    return value
+
+
+def _check_conflicts(args):
+    """ValueError (one line) for options that contradict each other."""
+    if args.step is not None and args.fraction is not None:
+        raise ValueError("give --step or --fraction (the rk4 step as a fraction of its stability "
+                         "limit), not both")
+    if args.fraction is not None and args.fraction > 1:
+        raise ValueError(f"--fraction {args.fraction:g} is beyond the rk4 stability limit (at most 1)")
+
+
+def main(argv=None):
+    ap = build_parser()
+    try:
+        args = ap.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, ap))
         if args.model_file is None and args.model is None:
             ap.error("give --model-file FILE or --model NAME")
     except SystemExit as exc:       # the one-line message is printed; in process, return the status
@@ -161,31 +248,38 @@ def main(argv=None):
     stem = _scene_stem(args.scene)
     model_file = args.model_file or os.path.join(ROOT, "results", "models", stem, f"{args.model}.h5")
     try:
+        _check_conflicts(args)
         scene = scenes.load_scene(args.scene)
+        if args.out is not None:
+            cli.check_writable(args.out)
         chain, info = chainfile.read_chain(model_file, scene.damping_ratio)
         model = str(info.get("model", ""))
         if args.model is not None and args.model != model:
             raise ValueError(f"{model_file} holds model {model!r}, not {args.model!r}")
+        out = args.out or os.path.join(ROOT, "results", "sim", stem, f"{model}.h5")
+        cli.check_writable(out)
+        if args.config is not None:
+            chainfile.check_body_hashes(model_file, info, expected_body_hashes(args.config))
         if args.integrator is None:
             args.integrator = DEFAULT_INTEGRATOR
         options = integrator_options(args)
         integrators.check_options(args.integrator, args.step, options)
         prob = scene_problem(chain, scene)
+        check_size(scene, chain, args.integrator, args.step, options, prob, args.max_steps,
+                   args.max_samples, model_file)
         if args.integrator == "rk4" and args.step is not None:
-            limit = integrators.rk4_stability_limit(prob.omega_max)
+            limit = integrators.rk4_limit(prob)
             if args.step > limit:
                 raise integrators.StepTooLargeError(
-                    f"rk4 step {args.step:.3e} s exceeds the stability limit {limit:.3e} s "
-                    f"(coupled omega_max = {prob.omega_max:.4g} rad/s) of model {model!r}")
+                    f"rk4 step {args.step:.3e} s exceeds the stability limit "
+                    f"{integrators.rk4_limit_reason(prob)} of model {model!r}")
         options = {"integrator": args.integrator, "step": args.step, **options}
         chash = config_hash(scene, str(info.get("config_hash", "")), options)
-        out = args.out or os.path.join(ROOT, "results", "sim", stem, f"{model}.h5")
-        _check_writable(out)
         t0 = time.perf_counter()
         run, prob = run_scene(chain, scene, model_name=model, problem=prob, **options)
         wall = time.perf_counter() - t0
     except (ValueError, FileNotFoundError, integrators.DivergenceError) as exc:
-        print(f"simulate: {exc}", file=sys.stderr)
+        print(f"simulate: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     # the coupled chain's highest frequency at the initial state: the exponential integrator's
     # first basis has it; the others computed it for the RK4 bound (Problem.omega_max)
@@ -197,12 +291,16 @@ def main(argv=None):
              "stability_limit": integrators.rk4_stability_limit(omega_max),
              "n_modes": np.array(chain.n_modes), "units": "in, lbf, s, rad",
              "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    for key in ("load_ranking", "load_ranking_scene"):
+    for key in ("load_ranking", "load_ranking_scene", "body_config_hashes"):
         if key in info:
             attrs[key] = info[key]
     attrs.update({f"version_{k}": str(v) for k, v in versions().items()})
-    simfile.write_sim(out, run, energy_history(prob, run), attrs, args.store_modal,
-                      platform_attitude(chain, run))
+    try:
+        simfile.write_sim(out, run, energy_history(prob, run), attrs, args.store_modal,
+                          platform_attitude(chain, run))
+    except OSError as exc:
+        print(f"simulate: {cli.write_failure(out, exc)}", file=sys.stderr)
+        return 2
     what = (f"(mean step {scene.duration / max(run.steps, 1):.3e} s)" if run.method == "dop853"
             else f"of {run.step:.3e} s")
     print(f"simulate: {out}: {run.steps} {run.method} steps {what} in {wall:.2f} s "
@@ -211,18 +309,16 @@ def main(argv=None):
     return 0
 
 
+def expected_body_hashes(config_path):
+    """{body: config_hash} the configuration file ``config_path`` gives the body files."""
+    config = cfgmod.load_config(config_path)
+    return {b: cfgmod.inputs_hash(cfgmod.body_inputs(config, b)) for b in BODIES}
+
+
 def _check_writable(path):
-    """ValueError (one line) before the integration if ``path`` could not be written: its
-    folder, or the nearest existing folder above it, must be writable.  Nothing is created
-    here (the folder appears only with the file, so a failed run leaves nothing behind)."""
-    folder = os.path.dirname(os.path.abspath(path))
-    existing = folder
-    while not os.path.isdir(existing):
-        if os.path.exists(existing):
-            raise ValueError(f"cannot create the output folder {folder}: {existing} is a file")
-        existing = os.path.dirname(existing)
-    if not os.access(existing, os.W_OK):
-        raise ValueError(f"output folder {existing} is not writable")
+    """ValueError (one line) before the integration if ``path`` could not be written
+    (``workflow.cli.check_writable``)."""
+    cli.check_writable(path)
 
 
 if __name__ == "__main__":

@@ -23,9 +23,9 @@ runs on distributed PETSc objects, so the stage runs unchanged under
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -36,9 +36,11 @@ import scipy.sparse as sp
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from geometry.gimbal import bearing_points, eccentric_mass_point
+from geometry.gimbal import GeometryError, bearing_points, eccentric_mass_point
+from geometry.mesh import MAX_DOFS, check_size
 from solver.fe import bearings, eigen, forms as fe
 from solver.bodydata import BEARING_NAMES, BODY_KEYS, CSR_KEYS, rigid_modes, write_csr
+from workflow import cli
 from workflow import config as cfgmod
 from workflow.provenance import atomic_h5, versions
 
@@ -339,33 +341,49 @@ def read_mesh_size(path: str | Path) -> float:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = cli.OneLineParser(prog="solver.fe.modes", description=__doc__.split("\n")[0])
     parser.add_argument("--body", required=True, help="body number 2..5")
     parser.add_argument("--mesh", required=True, help="gmsh .msh file of the body")
     parser.add_argument("--mesh-meta", default=None,
                         help="the mesh's metadata (geometry.mesh --meta): the mesh size recorded (default: config)")
     parser.add_argument("--out", required=True, help="output body file (.h5)")
     parser.add_argument("--config", default=str(cfgmod.DEFAULT_CONFIG))
-    parser.add_argument("--count", type=int, default=None, help="number of modes (default: config)")
+    parser.add_argument("--count", type=cli.positive_int("--count"), default=None,
+                        help="number of modes (default: config)")
+    parser.add_argument("--max-dofs", type=cli.positive_int("--max-dofs"), default=MAX_DOFS,
+                        help=f"refuse a mesh whose model is estimated above this many DOFs "
+                             f"(default {MAX_DOFS:,}; geometry.mesh)")
     parser.add_argument("--all-modes", action="store_true",
                         help="every finite supported mode by a dense solve (coarse meshes only)")
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, parser))
+    except SystemExit as exc:
+        return exc.code
     comm = MPI.COMM_WORLD
     started = time.perf_counter()
     try:
         config = cfgmod.load_config(args.config)
         body_number = cfgmod.BODY_NUMBERS[cfgmod.body_name(args.body)]
         mesh_size = read_mesh_size(args.mesh_meta) if args.mesh_meta else None
+        if not os.path.isfile(args.mesh):
+            raise FileNotFoundError(f"mesh '{args.mesh}' not found (make it: snakemake --cores 2 {args.mesh})")
+        check_size(cfgmod.body_inputs(config, body_number, mesh_size)["mesh"], args.max_dofs,
+                   f"mesh size of {args.mesh_meta or 'the config'}")
+        cli.check_writable(args.out)
         payload = compute_body(body_number, config, args.mesh, args.count, comm,
                                log=print if comm.rank == 0 else (lambda *a, **k: None), all_modes=args.all_modes,
                                mesh_size=mesh_size)
-    except (ValueError, FileNotFoundError, eigen.EigenSolveError) as exc:
+    except (ValueError, FileNotFoundError, eigen.EigenSolveError, GeometryError) as exc:
         if comm.rank == 0:
-            print(f"error: {exc}", file=sys.stderr)
+            print(f"error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
     if comm.rank == 0:
         inputs = cfgmod.body_inputs(config, body_number, mesh_size)
-        write_body_file(args.out, payload, cfgmod.inputs_hash(inputs), time.perf_counter() - started)
+        try:
+            write_body_file(args.out, payload, cfgmod.inputs_hash(inputs), time.perf_counter() - started)
+        except OSError as exc:
+            print(f"error: {cli.write_failure(args.out, exc)}", file=sys.stderr)
+            return 1
         print(f"wrote {args.out}")
     return 0
 

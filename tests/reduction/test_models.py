@@ -83,7 +83,10 @@ def _raw(**change):
     ({"initial_angles": {"value": [0.0, 0.0], "unit": "rad"}}, "expected 4 values"),
     ({"wind": {"value": 1.0}}, "unknown key"),
     ({"output_interval": {"value": 0.0, "unit": "s"}}, "output_interval must be > 0"),
-    ({"duration": {"value": 1.0, "unit": "ms"}}, "unit must be 's'"),
+    # a consistent unit (ms) is converted since the units work; one of another dimension is refused
+    ({"duration": {"value": 1.0, "unit": "in"}}, "is a length, expected a time"),
+    ({"output_interval": {"value": 0.02, "unit": "s"}}, "longer than the duration"),
+    ({"output_interval": {"value": 4e-4, "unit": "s"}}, "does not divide the duration"),
 ])
 def test_scene_errors(change, message):
     with pytest.raises(scenes.SceneError, match=message):

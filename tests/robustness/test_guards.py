@@ -1,0 +1,97 @@
+"""Guards before the work: integration steps, output samples and mesh size above a stated limit
+are refused at once in one line (naming the culprit and the option that lifts the limit); the
+option lifts it."""
+import time
+
+import pytest
+
+from geometry import mesh
+from solver.dynamics import scenes, simulate
+from solver.fe import modes
+from workflow import config as cfgmod
+
+from .conftest import write_scene
+
+MODEL = ("models", "scene", "xmx-2.h5")
+
+
+def sim(work, scene, extra=()):
+    return ["--scene", scene, "--model-file", work.joinpath(*MODEL), "--out", work / "out" / "s.h5", *extra]
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "generalized-alpha", "exponential"])
+def test_tiny_step_on_the_15_ms_scene_refused_at_once(integrator, work, refused):
+    scene = write_scene(work / "window.yaml", duration=0.015, output_interval=1e-5)
+    t0 = time.perf_counter()
+    message = refused(simulate.main, sim(work, scene, ["--integrator", integrator, "--step", "1e-12"]),
+                      ("steps", "--max-steps", "window"), work / "out")
+    assert time.perf_counter() - t0 < 10
+    assert "1.5e+10" in message
+
+
+def test_duration_of_a_million_seconds_refused(work, refused):
+    scene = write_scene(work / "forever.yaml", duration=1e6, output_interval=1e-5)
+    refused(simulate.main, sim(work, scene), ("samples", "--max-samples", "forever"), work / "out")
+
+
+def test_output_interval_of_a_nanosecond_refused(work, refused):
+    scene = write_scene(work / "dense.yaml", duration=0.015, output_interval=1e-9)
+    refused(simulate.main, sim(work, scene), ("samples", "--max-samples"), work / "out")
+
+
+def test_max_samples_lowered_refuses(work, refused):
+    refused(simulate.main, sim(work, work / "scene.yaml", ["--max-samples", "50"]),
+            ("101", "--max-samples"), work / "out")
+
+
+def test_max_steps_lowered_refuses_rk4(work, refused):
+    refused(simulate.main, sim(work, work / "scene.yaml", ["--integrator", "rk4", "--max-steps", "10"]),
+            ("steps", "--max-steps"), work / "out")
+
+
+def test_the_option_lifts_the_step_limit(work):
+    """With --max-steps raised, the 1e-12 step passes the guard (check_size returns the estimate)."""
+    from solver.dynamics import chainfile
+    scene = scenes.load_scene(str(write_scene(work / "window.yaml", duration=0.015, output_interval=1e-5)))
+    chain, _ = chainfile.read_chain(work.joinpath(*MODEL), scene.damping_ratio)
+    prob = simulate.scene_problem(chain, scene)
+    steps, h = simulate.check_size(scene, chain, "rk4", 1e-12, {}, prob, 10**11, simulate.MAX_SAMPLES, "m")
+    assert steps == pytest.approx(1.5e10, rel=1e-6) and h == 1e-12
+
+
+def big_mesh_config(tmp_path, size):
+    raw = cfgmod.read_config_file(cfgmod.DEFAULT_CONFIG)
+    raw["mesh"]["ring_size"]["value"] = size
+    path = tmp_path / "big.yaml"
+    import yaml
+    path.write_text(yaml.safe_dump(raw))
+    return path
+
+
+def test_mesh_ring_size_0_01_refused_before_gmsh(work, refused, tmp_path):
+    config = big_mesh_config(tmp_path, 0.01)
+    t0 = time.perf_counter()
+    refused(mesh.main, ["--body", "2", "--out", work / "out" / "b.msh", "--meta", work / "out" / "b.json",
+                        "--config", config], ("outer_gimbal", "DOFs", "--max-dofs", "mesh.ring_size"),
+            work / "out")
+    assert time.perf_counter() - t0 < 5
+
+
+def test_mesh_platform_size_refused(work, refused):
+    refused(mesh.main, ["--body", "5", "--out", work / "out" / "b.msh", "--size", "0.05"],
+            ("stable_platform", "DOFs", "--size"), work / "out")
+
+
+def test_modes_refuses_a_fine_mesh_before_assembly(work, refused, tmp_path):
+    meta = tmp_path / "b.json"
+    meta.write_text('{"mesh_size": 0.01}')
+    msh = tmp_path / "b.msh"
+    msh.write_text("")
+    refused(modes.main, ["--body", "3", "--mesh", msh, "--mesh-meta", meta, "--out", work / "out" / "b.h5"],
+            ("middle_gimbal", "DOFs", "--max-dofs"), work / "out")
+
+
+def test_modes_missing_mesh(work, refused):
+    msh = work / "out" / "none.msh"
+    refused(modes.main, ["--body", "3", "--mesh", msh, "--out", work / "out" / "b.h5"],
+            (str(msh), "not found"), work / "out")
