@@ -60,7 +60,7 @@ def model_file_name(model: str) -> str:
 
 
 def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrator_args=(),
-              log=print, coupled_modes=None):
+              log=print, coupled_modes=None, config=None):
     """Reduce and simulate every model of ``models`` on ``scene`` (a scene file); writes
     {out_dir}/{model}.h5, and the truth's coupled-mode table to ``coupled_modes`` (JSON) if
     given.  Returns (status, failed model or None)."""
@@ -76,11 +76,12 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
                 args += ["--reductions", *map(str, reductions)]
             if load_ranking:
                 args += ["--load-ranking", str(load_ranking)]
-            rc = reduction_models.main(args)
+            checked = ["--config", str(config)] if config else []   # body files vs the config
+            rc = reduction_models.main(args + checked)
             if rc == 0:
                 rc = simulate.main(["--scene", str(scene), "--model-file", model_file, "--out",
                                     os.path.join(out_dir, model_file_name(model)),
-                                    *integrator_args])
+                                    *checked, *integrator_args])
             if rc:
                 return rc, model
             if model == "truth" and coupled_modes:
@@ -102,6 +103,8 @@ def main(argv=None) -> int:
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global- models)")
     ap.add_argument("--out-dir", required=True, help="folder of the simulation files")
     ap.add_argument("--coupled-modes", help="JSON: the truth's coupled modes at the initial state")
+    ap.add_argument("--config", help="the current configuration file: body files from another one "
+                                     "are refused (reduction.models / simulate --config)")
     ap.add_argument("--integrator", default=None, help="simulate's --integrator (default its own)")
     ap.add_argument("--tol", default=None, help="simulate's --tol (exponential)")
     args = ap.parse_args(argv)
@@ -127,7 +130,8 @@ def main(argv=None) -> int:
         integrator_args += ["--tol", args.tol]
     t0 = time.perf_counter()
     rc, failed = run_scene(args.scene, args.models, args.bodies, args.reductions, args.load_ranking,
-                           args.out_dir, integrator_args, coupled_modes=args.coupled_modes)
+                           args.out_dir, integrator_args, coupled_modes=args.coupled_modes,
+                           config=args.config)
     if rc:
         print(f"run_scene: model {failed!r} failed (status {rc}); see the message above", file=sys.stderr)
         return rc
