@@ -196,8 +196,8 @@ def _args(tmp_path, *extra, truth=None):
     (["--reference", "thesis"], "SCENE=FILE"),
     (["--reference", "thesis=x.h5", "long=y.h5", "--scenes", "thesis"], "not benchmarked"),
     (["--reference", "long=y.h5"], "thesis=FILE is required"),
-    (["--reference", "thesis=x.h5", "--tol", "-1"], "--tol must be a positive number"),
-    (["--reference", "thesis=x.h5", "--tol", "nan"], "--tol must be a positive number"),
+    (["--reference", "thesis=x.h5", "--tol", "-1"], "--tol must be a positive finite number"),
+    (["--reference", "thesis=x.h5", "--tol", "nan"], "--tol must be a positive finite number"),
     (["--reference", "thesis=x.h5", "--scenes", "nowhere"], "invalid choice"),
     (["--reference", "thesis=x.h5"], "missing.h5: reduced-model file not found"),
 ])

@@ -102,3 +102,18 @@ def test_study_report_refuses_lists_of_different_lengths(study, capsys):
                             "--out", str(study["tmp"] / "r.pdf")])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1 and "1 ranking tables for 2 scenes" in err
+
+
+def test_truth_error_takes_the_larger_of_residual_flexibility_and_the_larger_basis():
+    an = {"thesis": study_report.analyse_scene(ROWS)}
+    basis = {"larger_basis": "freq-200",
+             "scenes": {"thesis": {"E": [7e-4, 2e-5, 3e-6, 2e-5], "E_max": 7e-4},
+                        "smooth": {"E": [1e-8, 0, 0, 0], "E_max": 1e-8}}}
+    assert study_report.truth_referee(an, basis) == {"thesis": 7e-4}
+    assert study_report.truth_referee(an, None) == {"thesis": 2e-8}
+    ctx = {"scenes": [{"name": "thesis"}], "truth_basis": basis, "dates": {}, "missing": {}}
+    text = study_report.truth_error_section(ctx, an)
+    assert "far more than the residual flexibility" in text and sci(1e-8) in text
+    # a larger basis that agrees with the residual flexibility: no such sentence
+    basis["scenes"]["thesis"]["E_max"] = 5e-8
+    assert "far more" not in study_report.truth_error_section(ctx, an)

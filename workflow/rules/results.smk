@@ -194,6 +194,7 @@ rule study_report:
         scenes=expand("config/scenes/{scene}.yaml", scene=STUDY_SCENES),
         fe="results/verification/fe_fast.json",
         reduction="results/verification/reduction.json",
+        truth_basis="results/verification/truth_basis.json",
     output:
         report("results/report/report.pdf", category="Reports", caption="../report/study_report.rst"),
     params:
@@ -206,4 +207,5 @@ rule study_report:
     shell:
         "{PY} -m results.study.study_report --scenes {input.scenes} --ranking-tables {input.rankings} "
         "--static-tables {input.statics} --findings {input.findings} --figures {input.figures} "
-        "--fe {input.fe} --reduction {input.reduction} {params.optional} --out {output} > {log} 2>&1"
+        "--fe {input.fe} --reduction {input.reduction} --truth-basis {input.truth_basis} {params.optional} "
+        "--out {output} > {log} 2>&1"
