@@ -121,7 +121,7 @@ def changed_value(path, value):
 
 def full(n):
     """Readers of a body's resolved inputs beyond its mesh (workflow.config.body_inputs(n))."""
-    out = {f"modes_body[{n}]", f"verify_convergence[{n}]"}
+    out = {f"modes_body[{n}]", f"verify_convergence[{n}]", f"modes_body_large[{n}]"}
     if n == 4:   # the coarse body of the Hughes identities: body 4 at 0.5 in
         out |= {"coarse_body_all_modes", "verify_check[hughes]"}
     if n == 2:   # the connection study and the MPI check use body 2
@@ -211,7 +211,9 @@ def expected_readers(path):
         if key == "refinement_ratio":
             return {f"verify_convergence[{n}]" for n in ALL} | {"verify_check[connection]"}
     if section == "modes":
-        count = {f"modes_body[{n}]" for n in ALL} | {"coarse_body_all_modes"}
+        # modes_body_large (200 modes, the truth's larger basis) hashes the body's inputs too
+        count = {f"modes_body[{n}]" for n in ALL} | {"coarse_body_all_modes"} | \
+            {f"modes_body_large[{n}]" for n in ALL}
         if key == "count":      # the convergence check reports every study mode's deviation
             return count | {f"verify_convergence[{n}]" for n in ALL}
         return count | {f"verify_convergence[{n}]" for n in ALL} | {"verify_mpi"}
@@ -229,8 +231,8 @@ def expected_readers(path):
 def test_each_config_leaf_reruns_exactly_its_readers(workflow):
     config = workflow.globals["config"]
     instances = rule_instances(workflow)
-    per_body = {f"{rule}[{n}]" for rule in ("mesh_body", "modes_body", "verify_convergence", "verify_body")
-                for n in BODIES}
+    per_body = {f"{rule}[{n}]" for rule in ("mesh_body", "modes_body", "verify_convergence", "verify_body",
+                                            "modes_body_large") for n in BODIES}
     per_check = {f"verify_check[{c}]" for c in workflow.globals["GLOBAL_CHECKS"]}
     assert {label for label, _, _ in instances} == (per_body | per_check | WHOLE_CONFIG
                                                      | {"verify_mpi", "coarse_mesh", "coarse_body_all_modes"})

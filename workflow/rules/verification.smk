@@ -142,14 +142,14 @@ rule modes_body_large:
     params:
         code=code_hash("solver.fe.modes"),
         cfg=body_hash(),
-        count=LARGE_BASIS_MODES,
+        modes=LARGE_BASIS_MODES,
     log:
         "logs/verification/truth_basis_body{n}.log",
     benchmark:
         "results/benchmarks/rules/modes_body_large{n}.tsv"
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.fe.modes --body {wildcards.n} --mesh {input.mesh} "
-        "--mesh-meta {input.meta} --count {params.count} --out {output} --config {CONFIG} > {log} 2>&1"
+        "--mesh-meta {input.meta} --count {params.modes} --out {output} --config {CONFIG} > {log} 2>&1"
 
 
 rule truth_basis:
