@@ -3,6 +3,7 @@
 Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
 
     model   := "truth" | "rigid" | family "-" counts statics | pooled "-" N statics
+             | "tol-" EPS          EPS a positive number, e.g. 1e-4 (no statics)
     family  := "freq" | "xmx" | "xmgmx" | "load"              vibration modes only
              | "static" | "static-freq" | "static-xmx" | "static-xmgmx" | "static-load"
     pooled  := "global" | "static-global"     N modes in total, pooled over the bodies
@@ -29,6 +30,18 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
   the bodies (``pooled/body``, ``pooled/mode`` of the same file).
   ``load-*`` and ``global-*`` need the scene's ranking file (``needs_load_ranking``,
   ``load_load_ranking``; ``simulate --load-ranking``).
+* ``tol-EPS`` (e.g. ``tol-1e-4``, ``tol-0.001``): accuracy on request.  The smallest
+  pooled set ``global-N`` whose a-priori estimate of eq. 3.53 (the frozen linear chain of
+  ``reduction.load_aware``: ``estimate/global`` of the scene's ranking file for N = 1..pool,
+  ``estimate/rigid`` for N = 0, and beyond the pool the same estimator evaluated on the
+  file's ``linear/*`` chain) is <= EPS on every one of the four gimbal rates
+  (``tolerance_choice``).  Refused with a one-line ModelError when no N up to the computed
+  modes meets EPS (the message gives the smallest estimate reached), or when the scene
+  moves the gimbals too far for the frozen chain (the ranking file's ``angle_excursion_rad``
+  above ``load_aware.FROZEN_ANGLE`` or ``rate_over_lowest_frequency`` above
+  ``FROZEN_RATE``): the estimate would be a promise it cannot keep.  No static modes
+  (``@``) are taken.  The choice (N, the estimate per rate, EPS, where the estimate came
+  from) is recorded in the reduced-model file's attributes ``tol_*``.
 * ``@body:case`` puts static modes on the listed bodies only, e.g.
   ``static-10@2:output_motor_fz`` (outer gimbal only) or
   ``freq-6@2:output_motor_fz+output_motor_my@3:output_motor_fz``.
@@ -62,6 +75,9 @@ FAMILIES = ("freq", "xmx", "xmgmx")
 RANKING_KEYS = {"freq": "rank_frequency", "xmx": "rank_xmx", "xmgmx": "rank_xmgmx"}
 LOAD_FAMILY, LOAD_KEY = "load", "rank_load"          # per-body load-aware ranking
 GLOBAL_FAMILY, POOLED_KEY = "global", "pooled"       # pooled ranking: rankings["pooled"]
+TOL_FAMILY = "tol"                                   # tol-EPS: smallest global-N with estimate <= EPS
+_TOL_RE = re.compile(r"tol-((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)")
+TOL_COARSE = 8          # beyond the stored estimates: scan N in steps of 8, then refine the bracket
 BEARINGS = BEARING_NAMES
 DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_motor_fz",
                      5: "input_motor_fx"}
@@ -123,6 +139,8 @@ def parse_model(name, rankings):
     if not isinstance(name, str) or not name:
         raise ModelError(f"model name must be a non-empty string, got {name!r}")
     base, _, _ = name.partition("@")
+    if base.startswith(TOL_FAMILY + "-"):
+        return _tol_spec(name, rankings)
     statics = _statics(name, name) if "@" in name else {}
     available = {}
     for b in BODIES:
@@ -200,13 +218,137 @@ def _pooled_kept(name, text, rankings, available):
     return {b: np.sort(mode[:n][body[:n] == b]) for b in BODIES}
 
 
+def parse_tolerance(name):
+    """EPS of a ``tol-EPS`` name (float > 0), or None if the name is not a tol- name;
+    ModelError for a malformed one."""
+    base = str(name).partition("@")[0]
+    if not base.startswith(TOL_FAMILY + "-"):
+        return None
+    m = _TOL_RE.fullmatch(base)
+    if "@" in str(name):
+        raise ModelError(f"model {name!r}: tol-EPS takes no static modes (@body:case)")
+    if not m:
+        raise ModelError(f"model {name!r}: tol-EPS needs a positive number EPS, e.g. tol-1e-4")
+    eps = float(m.group(1))
+    if not np.isfinite(eps) or eps <= 0:
+        raise ModelError(f"model {name!r}: the tolerance must be positive and finite, got {eps}")
+    return eps
+
+
+def frozen_chain_valid(pooled):
+    """(ok, reason): whether the scene's frozen-linear-chain estimate holds, from the ranking
+    file's attributes (the same test as ``reduction.load_aware``'s warning)."""
+    from reduction.load_aware import FROZEN_ANGLE, FROZEN_RATE
+    exc = np.asarray(pooled.get("angle_excursion", np.zeros(4)), float)
+    rate = float(pooled.get("rate_over_lowest_frequency", 0.0))
+    if exc.size and np.max(exc) > FROZEN_ANGLE:
+        return False, (f"the gimbals move {np.max(exc):.2e} rad > {FROZEN_ANGLE:g} rad "
+                       f"(load_aware.FROZEN_ANGLE)")
+    if rate > FROZEN_RATE:
+        return False, (f"rate / lowest modal frequency {rate:.1e} > {FROZEN_RATE:g} "
+                       f"(load_aware.FROZEN_RATE)")
+    return True, ""
+
+
+_TOL_CACHE = {}
+
+
+def _extended_estimate(pooled, N):
+    """A-priori E (4,) of the pooled top N beyond the stored curve: ``load_aware.estimate_error``
+    on the ranking file's frozen linear chain, on the grid the stored curves use."""
+    from reduction import load_aware
+    key = (pooled.get("path_key"), int(N))
+    if key in _TOL_CACHE:
+        return _TOL_CACHE[key]
+    lin_key = ("linear", pooled.get("path_key"))
+    model = _TOL_CACHE.get(lin_key)
+    if model is None:
+        if not pooled.get("path"):
+            raise ModelError("tol-EPS: the ranking's frozen linear chain is not available")
+        model = load_aware.read_linear_model(pooled["path"])
+        stride = max(1, int(np.ceil(len(model["t"]) / load_aware.CURVE_SAMPLES)))
+        model = _TOL_CACHE[lin_key] = load_aware.decimated(model, stride)
+    off = np.asarray(model["offsets"], int)
+    order = off[np.asarray(pooled["body"], int) - 2] + np.asarray(pooled["mode"], int)
+    E = _TOL_CACHE[key] = np.asarray(load_aware.estimate_error(model, order[:N]), float)
+    return E
+
+
+def tolerance_choice(eps, pooled, total, extend=None):
+    """(N, E (4,), source): the smallest pooled count N (0..total) whose a-priori estimate is
+    <= eps on every gimbal rate.  pooled: rankings["pooled"] with ``estimate`` (P, 4) of
+    N = 1..P and ``rigid_estimate`` (4,) of N = 0; beyond P, extend(N) -> E (4,) (None: stop
+    at P), scanned in steps of TOL_COARSE, then every N of the bracket that met eps.
+    ModelError (one line) if the frozen chain is flagged invalid or no N meets eps."""
+    ok, why = frozen_chain_valid(pooled)
+    if not ok:
+        raise ModelError(f"tol-{eps:g}: refused on scene {pooled.get('scene', '?')!r}: {why}; "
+                         f"the frozen-linear-chain estimate cannot promise E <= {eps:g} "
+                         f"(choose a global-N and check it against the truth)")
+    est = pooled.get("estimate")
+    if est is None:
+        raise ModelError(f"tol-{eps:g}: the ranking file holds no a-priori estimates "
+                         f"(estimate/global): rerun python -m reduction.load_aware")
+    est = np.asarray(est, float).reshape(-1, 4)
+    curve = [np.asarray(pooled.get("rigid_estimate", np.full(4, np.inf)), float)] + list(est)
+    best = min(float(np.max(c)) for c in curve)
+    for N, E in enumerate(curve[:total + 1]):
+        if np.max(E) <= eps:
+            return N, E, "ranking file estimate/global" if N else "ranking file estimate/rigid"
+    P = len(curve) - 1
+    if extend is not None and P < total:
+        lo = P
+        for hi in list(range(P + TOL_COARSE, total, TOL_COARSE)) + [total]:
+            E_hi = extend(hi)
+            best = min(best, float(np.max(E_hi)))
+            if np.max(E_hi) <= eps:
+                for N in range(lo + 1, hi):
+                    E = extend(N)
+                    if np.max(E) <= eps:
+                        return N, E, "frozen linear chain of the ranking file (N > pool)"
+                return hi, E_hi, "frozen linear chain of the ranking file (N > pool)"
+            lo = hi
+    reached = P if extend is None else total
+    raise ModelError(f"tol-{eps:g}: no pooled set of up to {reached} modes meets E <= {eps:g} "
+                     f"on every gimbal rate (smallest estimate reached {best:.3e})")
+
+
+def _tol_spec(name, rankings):
+    """ModelSpec of ``tol-EPS``: global-N with N from ``tolerance_choice``; the choice is in
+    ``spec.choice``-like attributes returned by ``tolerance_attrs``."""
+    eps = parse_tolerance(name)
+    pooled = rankings.get(POOLED_KEY)
+    if pooled is None:
+        raise ModelError(f"model {name!r}: no pooled load-aware ranking loaded (python -m "
+                         f"reduction.load_aware; simulate --load-ranking PATH)")
+    available = {b: len(np.asarray(rankings[b]["rank_frequency"])) for b in BODIES}
+    total = sum(available.values())
+    N, E, source = tolerance_choice(eps, pooled, total,
+                                    extend=(lambda n: _extended_estimate(pooled, n))
+                                    if pooled.get("path") else None)
+    kept = _pooled_kept(name, str(N), rankings, available)
+    _TOL_CHOICES[name] = {"tol_eps": eps, "tol_N": int(N), "tol_estimate": np.asarray(E, float),
+                          "tol_estimate_max": float(np.max(E)), "tol_estimate_source": source,
+                          "tol_equivalent_model": f"global-{N}"}
+    return ModelSpec(name=name, kept=kept, static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
+
+
+_TOL_CHOICES = {}
+
+
+def tolerance_attrs(name):
+    """The last choice made for a tol- name (for the reduced-model file's attributes)."""
+    return dict(_TOL_CHOICES.get(name, {}))
+
+
 def needs_reduction_rankings(name):
     """True if the model's mode selection reads the reduction stage's rankings: xmx-*,
     xmgmx-*, and load-* / global-* (whose ranking file is checked against them).  truth,
     rigid, freq-* and static(-freq)-* select by frequency from the body files alone
     (``frequency_rankings``), so their simulations do not wait for the reduction stage."""
     base = str(name).partition("@")[0]
-    return re.fullmatch(r"(static-)?(xmx|xmgmx|load|global)-[0-9,]+", base) is not None
+    return re.fullmatch(r"(static-)?(xmx|xmgmx|load|global)-[0-9,]+", base) is not None or \
+        base.startswith(TOL_FAMILY + "-")
 
 
 def frequency_rankings(body_data):
@@ -225,9 +367,10 @@ def restrict_to_bodies(spec, bodies):
 
 
 def needs_load_ranking(name):
-    """True if the model name uses the scene's load-aware ranking (load-*, global-*)."""
+    """True if the model name uses the scene's load-aware ranking (load-*, global-*, tol-*)."""
     base = str(name).partition("@")[0]
-    return re.fullmatch(r"(static-)?(load|global)-[0-9,]+", base) is not None
+    return re.fullmatch(r"(static-)?(load|global)-[0-9,]+", base) is not None or \
+        base.startswith(TOL_FAMILY + "-")
 
 
 def load_load_ranking(path, rankings=None):
@@ -249,7 +392,18 @@ def load_load_ranking(path, rankings=None):
                 out.setdefault(b, {})[LOAD_KEY] = f[f"body{b}/{LOAD_KEY}"][()]
             out[POOLED_KEY] = {"body": f["pooled/body"][()], "mode": f["pooled/mode"][()],
                                "scene": str(f.attrs.get("scene", "")),
-                               "body_config_hashes": str(f.attrs.get("body_config_hashes", ""))}
+                               "body_config_hashes": str(f.attrs.get("body_config_hashes", "")),
+                               "path": os.path.abspath(path),
+                               "path_key": (os.path.abspath(path), os.stat(path).st_mtime_ns)}
+            # what tol-EPS reads: the a-priori estimates and the frozen chain's validity
+            if "estimate/global" in f:
+                out[POOLED_KEY]["estimate"] = f["estimate/global"][()]
+            if "estimate/rigid" in f:
+                out[POOLED_KEY]["rigid_estimate"] = f["estimate/rigid"][()]
+            for key, attr in (("angle_excursion", "angle_excursion_rad"),
+                              ("rate_over_lowest_frequency", "rate_over_lowest_frequency")):
+                if attr in f.attrs:
+                    out[POOLED_KEY][key] = f.attrs[attr]
     except (OSError, KeyError) as exc:
         raise ModelError(f"load-aware ranking {path} unreadable or incomplete "
                          f"({exc.__class__.__name__}: {' '.join(str(exc).split())}): "
@@ -459,6 +613,9 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
              "n_modes": np.array(chain.n_modes), "units": "in, lbf, s",
              "body_config_hashes": json.dumps([str(body_data[b]["attrs"].get("config_hash", ""))
                                                for b in BODIES])}
+    if spec.ranking == TOL_FAMILY:
+        attrs.update(tolerance_attrs(name))
+        attrs["tol_coordinates"] = int(sum(chain.n_modes))
     if load_ranking is not None:
         attrs["load_ranking"] = os.path.abspath(load_ranking)
         attrs["load_ranking_scene"] = rankings[POOLED_KEY]["scene"]
@@ -504,6 +661,9 @@ def main(argv=None):
     except OSError as exc:
         print(f"reduction.models: {cli.write_failure(args.out, exc)}", file=sys.stderr)
         return 2
+    if "tol_N" in attrs:
+        print(f"reduction.models: {spec.name}: global-{attrs['tol_N']} (a-priori max E "
+              f"{attrs['tol_estimate_max']:.3e} <= {attrs['tol_eps']:g}; {attrs['tol_estimate_source']})")
     print(f"reduction.models: {args.out}: model {spec.name} on scene {scene.name}, "
           f"{sum(chain.n_modes)} elastic coordinates {chain.n_modes} in {attrs['wall_time_s']:.2f} s")
     return 0
