@@ -20,8 +20,8 @@ the manifest), which the report reads:
   (Fig 4-29), thesis Table 4.3 in grey;
 * ``error_load_cases``: E per gimbal rate for the seven static-mode load cases
   (Figs 4-21..4-27 in one chart);
-* ``runtime_error``: wall time [s] against the outer-gimbal E for every case,
-  with the Pareto front and the truth's wall time.
+* ``runtime_error``: model size (elastic coordinates) against the outer-gimbal E for every
+  case, with the Pareto front and the truth's size (run times: the benchmark's medians).
 
 Missing inputs (no table, no simulation file) skip the figures that need them;
 the manifest lists what was made.
@@ -324,21 +324,27 @@ def pareto_front(cost, err):
     return front
 
 
+def _size(r):
+    """A case's size: its elastic coordinates (NaN if unknown)."""
+    return float(r["n_elastic"]) if r.get("n_elastic") not in (None, "") else float("nan")
+
+
 def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal", rigid_E=None) -> dict:
-    """Scatter of wall time [s] (log) against E (log) of one rate for every case, Pareto front,
-    the truth's wall time as a vertical line and the rigid model's E (``rigid_E``, optional) as a
-    horizontal one; legend below the axes."""
+    """Scatter of each case's size (elastic coordinates) against E (log) of one rate, the Pareto
+    front, the truth's size as a vertical line and the rigid model's E (``rigid_E``, optional) as
+    a horizontal one; legend below the axes.  (Sizes, not the study's single-run wall times: run
+    times come from the benchmark's medians, ``snakemake bench``.)"""
     plt = _plt()
-    cases = [r for r in rows if r["group"] != "truth"]
+    cases = [r for r in rows if r["group"] != "truth" and np.isfinite(_size(r))]
     truth = [r for r in rows if r["group"] == "truth"]
     with plt.rc_context(STYLE):
         fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
         for g in dict.fromkeys(r["group"] for r in cases):
             sel = [r for r in cases if r["group"] == g]
             c, m, _ = GROUP_STYLE.get(g, GROUP_STYLE["other"])
-            ax.scatter([r["wall_time_s"] for r in sel], [r[col] for r in sel], color=c, marker=m,
+            ax.scatter([_size(r) for r in sel], [r[col] for r in sel], color=c, marker=m,
                        label=GROUP_LABELS.get(g, g), zorder=3)
-        cost = np.array([r["wall_time_s"] for r in cases])
+        cost = np.array([_size(r) for r in cases])
         err = np.array([r[col] for r in cases])
         front = pareto_front(cost, err)
         if front:
@@ -347,22 +353,21 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
             for i in front:
                 ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=9, xytext=(4, 3),
                             textcoords="offset points")
-        if truth and np.isfinite(truth[0]["wall_time_s"]):
-            ax.axvline(truth[0]["wall_time_s"], color="black", lw=1,
-                       label=f"truth: {truth[0]['wall_time_s']:.3g} s")
+        if truth and np.isfinite(_size(truth[0])):
+            ax.axvline(_size(truth[0]), color="black", lw=1,
+                       label=f"truth: {_size(truth[0]):.0f} coordinates")
         if rigid_E is not None and np.isfinite(rigid_E) and rigid_E > 0:
             ax.axhline(rigid_E, color="black", lw=1, ls=":", label=f"rigid model: E = {rigid_E:.3g}")
-        ax.set_xscale("log")
         ax.set_yscale("log")
         ax.yaxis.set_minor_formatter(plt.FormatStrFormatter("%.2g"))
         ax.tick_params(axis="y", which="minor", labelsize=9)
-        ax.set_xlabel("wall time of the simulation [s]")
+        ax.set_xlabel("elastic coordinates of the model")
         ax.set_ylabel(f"E of {RATE_LABELS[2]} [-]")
         handles, labels = ax.get_legend_handles_labels()
         fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=9, frameon=False)
         low = 0.02 + ((len(handles) + 1) // 2) * 9 * 1.55 / 72 / fig.get_figheight()
         fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
-        ax.set_title("Run time against error (eq 3.53)")
+        ax.set_title("Model size against error (eq 3.53)")
         return save(fig, stem)
 
 
@@ -477,14 +482,15 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
                     + ("" if ctrl is not None else f" No-static control freq-{LOAD_CASE_COUNT} not "
                                                     "in the ranking table."))
     rows = ranking_rows + static_rows
-    if any(r["group"] != "truth" and np.isfinite(r["wall_time_s"]) for r in rows):
+    if any(r["group"] != "truth" and np.isfinite(_size(r)) for r in rows):
         add(plot_runtime_error(rows, os.path.join(out_dir, "runtime_error"),
                                rigid_E=None if E_rigid is None else E_rigid[0]),
             id="runtime_error", kind="cost", model="", group="", thesis_figure="", scene=scene or "",
             baseline=RIGID if E_rigid is not None else None,
-            caption=f"Wall time of each simulation{on} against the error E of the outer gimbal rate; "
-                    "dashed: the Pareto front (no case is both faster and more accurate); "
-                    "vertical line: the truth model's wall time"
+            caption=f"Size of each case (elastic coordinates){on} against the error E of the outer "
+                    "gimbal rate; dashed: the Pareto front (no case is both smaller and more "
+                    "accurate); vertical line: the truth model's size. Run times: the benchmark's "
+                    "medians (snakemake bench), not single runs"
                     + ("; dotted: the rigid model's E." if E_rigid is not None else
                        "; rigid-model baseline not available."))
     return entries
