@@ -4,9 +4,19 @@
 import importlib
 import os
 import sys
+
+import snakemake
 from pathlib import Path
 
 sys.path.insert(0, str(Path(workflow.basedir)))
+# First: is this the project's Snakemake and interpreter (the rules run {PY} = sys.executable)?
+# Debian's /usr/bin/snakemake or a python without Numba/Typst stops here in one line saying how to
+# run the workflow (workflow/environment.py, standard library only), before anything is imported.
+_environment_problem = importlib.import_module("workflow.environment").problem(snakemake.__version__)
+if _environment_problem:
+    sys.stderr.write(f"{_environment_problem}\n")
+    sys.stderr.flush()
+    os._exit(1)
 cfgmod = importlib.import_module("workflow.config")  # not "import workflow...": Snakemake owns that name
 
 # the file the stages read; pass another with --configfile (not --config key=value)
