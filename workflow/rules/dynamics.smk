@@ -1,7 +1,6 @@
 # Stage 4: the flexible multibody simulation of the gimbal chain, any scene and reduced model.
-
-def scene_physics_hash(wildcards):
-    return scenes_mod.load_scene(scene_file(wildcards)).config_hash()
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 
 
 rule load_ranking:
@@ -21,14 +20,6 @@ rule load_ranking:
     shell:
         "OMP_NUM_THREADS=1 {PY} -m reduction.load_aware --scene {params.scene} --bodies {input.bodies} "
         "--reductions {input.reductions} --out {output} > {log} 2>&1"
-
-
-def integrator_options(wildcards):
-    """The command-line options of the configured integrator (simulation.tolerance is the
-    exponential integrator's; rk4 runs at its default, half its stability limit)."""
-    if cfgmod.value(config, "simulation.integrator") == "exponential":
-        return f"--tol {cfgmod.value(config, 'simulation.tolerance')!r}"
-    return ""
 
 
 rule simulate:
@@ -74,12 +65,6 @@ rule dynamics_verification:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.verify_dynamics --bodies {input.bodies} "
         "--reductions {input.reductions} --verification {output.verification} "
         "--benchmark {output.benchmark} > {log} 2>&1"
-
-
-def scene_simulations(scene):
-    """The simulations a scene's results use (its needs.models)."""
-    models = scenes_mod.load_scene(os.path.join("config", "scenes", f"{scene}.yaml")).models
-    return [f"results/sim/{scene}/{m}.h5" for m in models]
 
 
 rule scene:

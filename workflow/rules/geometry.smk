@@ -1,4 +1,6 @@
 # Stage 1: gmsh meshes of the three rings (shell mid-surfaces) and the platform (solid).
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 
 
 rule mesh_body:

@@ -1,4 +1,6 @@
 # Stage 2: shell/solid models and the 100 lowest supported modes of every body.
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 
 
 rule modes_body:
@@ -42,7 +44,7 @@ rule mode_shapes_body:
     """Print-ready mode shapes (the lowest and the best XMX-ranked modes) and the static correction
     modes of one body, with their captions in a small manifest (results.study.mode_shapes)."""
     input:
-        "results/modes/body{n}.h5",
+        body="results/modes/body{n}.h5",
         mesh="results/mesh/body{n}.msh",
         reduction="results/reduction/body{n}.h5",
     output:
@@ -57,7 +59,7 @@ rule mode_shapes_body:
     benchmark:
         "results/benchmarks/rules/mode_shapes_body{n}.tsv"
     shell:
-        "MPLBACKEND=Agg {PY} -m results.study.mode_shapes --body-file {input[0]} --mesh {input.mesh} "
+        "MPLBACKEND=Agg {PY} -m results.study.mode_shapes --body-file {input.body} --mesh {input.mesh} "
         "--reduction {input.reduction} --png {output.png} --static-png {output.static_png} "
         "--manifest {output.manifest} --vtu {output.vtu} > {log} 2>&1"
 

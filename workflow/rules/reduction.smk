@@ -1,5 +1,7 @@
 # Stage 3: momentum coefficients, Hughes-identity rankings and static correction modes.
 # (reduction/load_aware.py is the scene-dependent ranking, dynamics.smk)
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG, COARSE_SIZE from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 # the coarse mesh of the discrete Hughes identities (every supported mode, dense solve)
 COARSE_SIZE = 0.5
 

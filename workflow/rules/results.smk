@@ -4,14 +4,12 @@
 #   snakemake --cores 2 report    the study PDF and one PDF per scene
 # The study's heavy checks and timing repeats are not inputs of the reports: the reports read their
 # last results (bench, verify) if present and print their date, or say how to make them.
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 _cases = importlib.import_module("results.study.cases")
 STUDY_SCENES = list(_cases.STUDY_SCENES)
 STUDY_MODELS = _cases.study_models()
 SCENE_MODELS = ["truth"] + STUDY_MODELS
-
-
-def study_sims(scene):
-    return expand("results/study/{scene}/sim/{model}.h5", scene=scene, model=SCENE_MODELS)
 
 
 rule study_scene:
@@ -55,10 +53,18 @@ rule error_tables:
         truth="results/study/{scene}/sim/truth.h5",
         cases=lambda wildcards: study_sims(wildcards.scene)[1:],
     output:
-        ranking=report("results/tables/{scene}/errors_ranking.csv", category="Tables",
-                       subcategory="{scene}", caption="../report/table.rst"),
-        static=report("results/tables/{scene}/errors_static.csv", category="Tables",
-                      subcategory="{scene}", caption="../report/table.rst"),
+        ranking=report(
+            "results/tables/{scene}/errors_ranking.csv",
+            category="Tables",
+            subcategory="{scene}",
+            caption="../report/table.rst",
+        ),
+        static=report(
+            "results/tables/{scene}/errors_static.csv",
+            category="Tables",
+            subcategory="{scene}",
+            caption="../report/table.rst",
+        ),
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
@@ -78,8 +84,12 @@ rule findings:
         static="results/tables/{scene}/errors_static.csv",
         reduction="results/verification/reduction.json",
     output:
-        csv=report("results/tables/{scene}/findings.csv", category="Findings", subcategory="{scene}",
-                   caption="../report/findings.rst"),
+        csv=report(
+            "results/tables/{scene}/findings.csv",
+            category="Findings",
+            subcategory="{scene}",
+            caption="../report/findings.rst",
+        ),
         json="results/tables/{scene}/findings.json",
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
@@ -98,8 +108,11 @@ rule findings:
 rule study_figures:
     input:
         truth="results/study/{scene}/sim/truth.h5",
-        cases=lambda wildcards: expand("results/study/{scene}/sim/{model}.h5", scene=wildcards.scene,
-                                       model=_cases.rate_figure_models(wildcards.scene)),
+        cases=lambda wildcards: expand(
+            "results/study/{scene}/sim/{model}.h5",
+            scene=wildcards.scene,
+            model=_cases.rate_figure_models(wildcards.scene),
+        ),
         ranking="results/tables/{scene}/errors_ranking.csv",
         static="results/tables/{scene}/errors_static.csv",
     output:
@@ -132,13 +145,13 @@ REPORT_OPTIONAL = {
     "exponential_bench": "results/benchmarks/exponential.json",
     "fe_full": "results/verification/fe.json",
 }
-REPORT_BENCH_FIGURES = ["results/figures/bench/pareto.png", "results/figures/bench/scaling.png",
-                        "results/figures/bench/global_ranking.png", "results/figures/stability/rk4_limit.png",
-                        "results/figures/stability/energy_drift.png"]
-
-
-def optional_report_inputs(wildcards):
-    return " ".join(f"--{k.replace('_', '-')} {v}" for k, v in REPORT_OPTIONAL.items())
+REPORT_BENCH_FIGURES = [
+    "results/figures/bench/pareto.png",
+    "results/figures/bench/scaling.png",
+    "results/figures/bench/global_ranking.png",
+    "results/figures/stability/rk4_limit.png",
+    "results/figures/stability/energy_drift.png",
+]
 
 
 rule report_scene:
@@ -155,13 +168,17 @@ rule report_scene:
         reduction="results/verification/reduction.json",
         coupled="results/study/{scene}/coupled_modes.json",
     output:
-        report("results/report/{scene}.pdf", category="Reports", subcategory="{scene}",
-               caption="../report/scene_report.rst"),
+        report(
+            "results/report/{scene}.pdf",
+            category="Reports",
+            subcategory="{scene}",
+            caption="../report/scene_report.rst",
+        ),
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.report"),
-        cfg=config_hash(),   # the report prints the config's values (the file given by --configfile)
+        cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
         optional=optional_report_inputs,
         bench_figures=" ".join(REPORT_BENCH_FIGURES),
     log:
@@ -195,7 +212,11 @@ rule study_report:
         fe="results/verification/fe_fast.json",
         reduction="results/verification/reduction.json",
     output:
-        report("results/report/report.pdf", category="Reports", caption="../report/study_report.rst"),
+        report(
+            "results/report/report.pdf",
+            category="Reports",
+            caption="../report/study_report.rst",
+        ),
     params:
         code=code_hash("results.study.study_report"),
         optional=optional_report_inputs,

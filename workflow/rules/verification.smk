@@ -2,6 +2,8 @@
 # (results/verification/parts/*.json), combined into results/verification/fe.json.
 # Each rule reruns when the code of solver.fe.verify changes or a config value its check reads
 # (workflow.config.check_inputs).
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 VERIFY_CODE = code_hash("solver.fe.verify")
 GLOBAL_CHECKS = ["ring", "plate", "solid-ring", "platform", "hughes", "connection"]
 
@@ -45,7 +47,7 @@ rule verify_body:
         spectra="results/verification/parts/spectra_body{n}.json",
     params:
         code=VERIFY_CODE,
-        cfg=check_hash("spectra"),   # the body-file check reads no config
+        cfg=check_hash("spectra"),  # the body-file check reads no config
     log:
         "logs/verification/body{n}.log",
     benchmark:
@@ -88,7 +90,7 @@ rule verify_fe:
         summary="results/verification/fe.md",
     params:
         code=VERIFY_CODE,
-        cfg=config_hash(),   # fe.json records the hash of the whole config
+        cfg=config_hash(),  # fe.json records the hash of the whole config
     log:
         "logs/verification/fe.log",
     benchmark:
