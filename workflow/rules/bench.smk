@@ -39,7 +39,7 @@ LONG_REFERENCE = []
 
 rule stability:
     input:
-        "config/scenes/free_10s.yaml",
+        scene_path("free_10s"),
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
     output:
@@ -230,7 +230,7 @@ rule integrator_tables:
     params:
         code=code_hash("results.bench.integrator_tables"),
         physics=lambda wildcards: scenes_mod.load_scene(
-            "config/scenes/thesis.yaml"
+            scene_path("thesis")
         ).config_hash(),
         tol=cfgmod.value(config, "simulation.tolerance"),
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),

@@ -4,11 +4,19 @@
 import importlib
 import os
 import sys
-
-import snakemake
 from pathlib import Path
 
+import snakemake
+
 sys.path.insert(0, str(Path(workflow.basedir)))
+# the jobs run `python -m <stage>` in the working directory, which is not the project's with
+# --directory: the project's packages go on their PYTHONPATH too (set here, not required of the
+# user, so no `envvars:` directive)
+os.environ.update(
+    PYTHONPATH=os.pathsep.join(
+        [str(Path(workflow.basedir))] + [p for p in [os.environ.get("PYTHONPATH")] if p]
+    )
+)
 # First: is this the project's Snakemake and interpreter (the rules run {PY} = sys.executable)?
 # Debian's /usr/bin/snakemake or a python without Numba/Typst stops here in one line saying how to
 # run the workflow (workflow/environment.py, standard library only), before anything is imported.
@@ -101,8 +109,17 @@ scenes_mod = importlib.import_module("solver.dynamics.scenes")
 
 
 # models.smk
+def scene_path(name):
+    """A scene's file: config/scenes/{name}.yaml of the working directory if it has one (the project's
+    own, a deployment's or .test's), else the workflow's, so a run with --directory finds the scenes.
+    """
+    local = os.path.join("config", "scenes", f"{name}.yaml")
+    shipped = os.path.join(workflow.basedir, local)
+    return local if os.path.exists(local) or not os.path.exists(shipped) else shipped
+
+
 def scene_file(wildcards):
-    return os.path.join("config", "scenes", f"{wildcards.scene}.yaml")
+    return scene_path(wildcards.scene)
 
 
 def model_inputs(wildcards):
@@ -149,9 +166,7 @@ def integrator_options(wildcards):
 
 def scene_simulations(scene):
     """The simulations a scene's results use (its needs.models)."""
-    models = scenes_mod.load_scene(
-        os.path.join("config", "scenes", f"{scene}.yaml")
-    ).models
+    models = scenes_mod.load_scene(scene_path(scene)).models
     return [f"results/sim/{scene}/{m}.h5" for m in models]
 
 

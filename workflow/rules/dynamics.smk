@@ -5,7 +5,7 @@
 
 rule load_ranking:
     input:
-        scene="config/scenes/{scene}.yaml",
+        scene=scene_file,
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
     output:

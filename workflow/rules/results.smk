@@ -16,7 +16,7 @@ rule study_scene:
     """Every study model of one scene, reduced and simulated in one process (results.study.run_scene:
     the two stages of a per-model simulation, called in process; ~50 models in ~0.5 min)."""
     input:
-        scene="config/scenes/{scene}.yaml",
+        scene=scene_file,
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         load_ranking="results/reduction/load/{scene}.h5",
@@ -156,7 +156,7 @@ REPORT_BENCH_FIGURES = [
 
 rule report_scene:
     input:
-        scene="config/scenes/{scene}.yaml",
+        scene=scene_file,
         mode_shapes=expand("results/figures/mode_shapes_body{n}.json", n=BODIES),
         truth="results/study/{scene}/sim/truth.h5",
         ranking="results/tables/{scene}/errors_ranking.csv",
@@ -208,7 +208,7 @@ rule study_report:
         statics=expand("results/tables/{scene}/errors_static.csv", scene=STUDY_SCENES),
         findings=expand("results/tables/{scene}/findings.json", scene=STUDY_SCENES),
         figures=expand("results/figures/study/{scene}/figures.json", scene=STUDY_SCENES),
-        scenes=expand("config/scenes/{scene}.yaml", scene=STUDY_SCENES),
+        scenes=[scene_path(s) for s in STUDY_SCENES],
         fe="results/verification/fe_fast.json",
         reduction="results/verification/reduction.json",
     output:
