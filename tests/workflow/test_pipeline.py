@@ -4,6 +4,7 @@ modal solutions, reductions, four reduced models and simulations, mode shapes, t
 and the thin-ring check). The study's error tables are not in it: the study's 51 models need 100 modes
 per body and its scenes take minutes (`snakemake --cores 2 all` on the real configuration).
 """
+import json
 import shutil
 import subprocess
 import sys
@@ -41,12 +42,16 @@ def test_the_test_configuration_runs_end_to_end_with_directory(test_run):
     for n in BODIES:
         with h5py.File(test_run / f"results/modes/body{n}.h5", "r") as f:
             assert f["eigenvalues"].shape == (12,)   # modes.count of .test/config/config.yaml
-        assert (test_run / f"results/reduction/body{n}.h5").is_file()
+        with h5py.File(test_run / f"results/reduction/body{n}.h5", "r") as f:
+            # provenance like a body file's (issue 16): versions, git revision, config hash
+            assert json.loads(f.attrs["versions"])["git"] and f.attrs["config_hash"]
+            assert json.loads(f.attrs["body_versions"])["dolfinx"]
         assert (test_run / f"results/figures/mode_shapes_body{n}.png").is_file()
         assert (test_run / f"logs/modes/body{n}.log").is_file()   # logs in the working directory
     for model in models:
         with h5py.File(test_run / f"results/sim/short/{model}.h5", "r") as f:
             assert f.attrs["scene"] == "short" and f["t"][-1] == pytest.approx(0.003)
+            assert f.attrs["version_git"] and f.attrs["version_numba"] and f.attrs["config_hash"]
     # nothing is written beside the workflow
     assert not (ROOT / "results" / "sim" / "short").exists()
 
