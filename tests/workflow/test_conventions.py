@@ -51,3 +51,18 @@ def test_snakefmt_leaves_every_snakefile_unchanged():
     run = subprocess.run([snakefmt, "--check", *map(str, SNAKEFILES)], cwd=ROOT, capture_output=True, text=True,
                          timeout=300)
     assert run.returncode == 0, (run.stdout + run.stderr)[-3000:]
+
+
+def test_every_job_states_its_memory_and_runtime():
+    """Issue 16: mem_mb and runtime on every rule that runs a job (from its benchmark records,
+    workflow/rules/common.smk), so a cluster gets what each job needs."""
+    from snakemake.api import SnakemakeApi
+    from snakemake.settings.types import ConfigSettings, OutputSettings, ResourceSettings
+
+    with SnakemakeApi(OutputSettings(quiet=True)) as api:
+        workflow = api.workflow(resource_settings=ResourceSettings(cores=1), config_settings=ConfigSettings(),
+                                snakefile=ROOT / "Snakefile", workdir=ROOT)._workflow
+        missing = [rule.name for rule in workflow.rules if rule.shellcmd
+                   and not {"mem_mb", "runtime"} <= set(rule.resources)]
+        assert not missing, missing
+        assert workflow.get_rule("modes_body").resources["tasks"] == 1   # MPI only in the Slurm profile

@@ -48,6 +48,10 @@ rule stability:
         drift="results/figures/stability/energy_drift.png",
     params:
         code=code_hash("results.bench.stability"),
+    resources:
+        # no record: estimate, 2 GB and 1 h (bisections and 10 s energy-drift runs per integrator)
+        mem_mb=2000,
+        runtime=60,
     log:
         "logs/bench/stability.log",
     benchmark:
@@ -65,6 +69,10 @@ rule scaling:
         figure="results/figures/bench/scaling.png",
     params:
         code=code_hash("results.bench.scaling"),
+    resources:
+        # no record: estimate, 2 GB (up to 8000 coordinates, dense baseline) and 1 h
+        mem_mb=2000,
+        runtime=60,
     log:
         "logs/bench/scaling.log",
     benchmark:
@@ -92,6 +100,10 @@ rule pareto:
     params:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
         code=code_hash("results.bench.pareto"),
+    resources:
+        # no record: ~2 min per model and ~5 min for the truth (comment above): 13 min, so 30 min
+        mem_mb=mem_mb(780.5),
+        runtime=30,
     log:
         "logs/bench/pareto.log",
     benchmark:
@@ -117,6 +129,10 @@ rule selection:
         figure="results/figures/bench/global_ranking.png",
     params:
         code=code_hash("results.bench.selection"),
+    resources:
+        # no record: reads simulation files (as error_tables, error_tables_long.tsv 2.7 s, 159.3 MB)
+        mem_mb=mem_mb(159.3),
+        runtime=runtime_min(2.7),
     log:
         "logs/bench/selection.log",
     benchmark:
@@ -134,6 +150,13 @@ rule reference_simulation:
         model="results/models/{scene}/truth.h5",
     output:
         "results/reference/{scene}/truth.h5",
+    resources:
+        # records: reference/stress_rates_100.tsv 367.8 s, reference/stress_lock.tsv 248.8 MB (max of
+        # 6); the long scene has no record: ~1 h of DOP853 (LONG_REFERENCE above), so 2 h
+        mem_mb=mem_mb(248.8),
+        runtime=lambda wildcards: (
+            120 if wildcards.scene == "long" else runtime_min(367.8)
+        ),
     log:
         "logs/reference/{scene}.log",
     benchmark:
@@ -163,6 +186,10 @@ rule exponential_bench:
         references=reference_arguments,
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
         code=code_hash("results.bench.exponential"),
+    resources:
+        # no record: ~3 + 2.5 + 1 min (comment above EXPONENTIAL_MODELS), so 15 min; memory as simulate
+        mem_mb=mem_mb(780.5),
+        runtime=15,
     log:
         "logs/bench/exponential.log",
     benchmark:
@@ -201,6 +228,10 @@ rule exponential_accuracy:
         references=reference_arguments,
         tol=cfgmod.value(config, "simulation.tolerance"),
         code=code_hash("results.bench.exponential_accuracy"),
+    resources:
+        # no record: one exponential run per accuracy scene (seconds each): as simulate
+        mem_mb=mem_mb(780.5),
+        runtime=runtime_min(301.6),
     log:
         "logs/bench/exponential_accuracy.log",
     benchmark:
@@ -234,6 +265,10 @@ rule integrator_tables:
         ).config_hash(),
         tol=cfgmod.value(config, "simulation.tolerance"),
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
+    resources:
+        # no record: the RK4 runs ~2.5 min (comment above), so 10 min; memory as simulate
+        mem_mb=mem_mb(780.5),
+        runtime=10,
     log:
         "logs/results/integrator_tables.log",
     benchmark:

@@ -17,6 +17,10 @@ os.environ.update(
         [str(Path(workflow.basedir))] + [p for p in [os.environ.get("PYTHONPATH")] if p]
     )
 )
+# On Slurm (workflow/profiles/slurm) every job runs under srun, and the stages import DOLFINx, whose
+# Open MPI cannot start when Slurm's MPI default is "none": PMIx (Debian's Open MPI 4 and Slurm have
+# it) unless the user set another (a Slurm without PMIx: SLURM_MPI_TYPE=pmi2). srun alone reads it.
+os.environ.setdefault("SLURM_MPI_TYPE", "pmix")
 # First: is this the project's Snakemake and interpreter (the rules run {PY} = sys.executable)?
 # Debian's /usr/bin/snakemake or a python without Numba/Typst stops here in one line saying how to
 # run the workflow (workflow/environment.py, standard library only), before anything is imported.
@@ -186,3 +190,39 @@ def study_sims(scene):
 
 def optional_report_inputs(wildcards):
     return " ".join(f"--{k.replace('_', '-')} {v}" for k, v in REPORT_OPTIONAL.items())
+
+
+# ---- Cluster resources (issue 16): every rule that runs a job states mem_mb and runtime from its
+# measured benchmark records (results/benchmarks/rules/*.tsv: max_rss [MB], s), with a margin: memory
+# 1.5 x the largest peak + 200 MB (at least 500 MB), runtime 2 x the longest run (at least 5 min). The
+# largest record and its file are quoted beside each rule; a rule without records says so and where
+# its estimate comes from.
+def mem_mb(peak_mb):
+    """Memory to request [MB] for a measured peak resident size [MB]."""
+    return max(500, int(-(-(1.5 * peak_mb + 200) // 100) * 100))
+
+
+def runtime_min(seconds):
+    """Wall time to request [min] for a measured run time [s]."""
+    return max(5, int(-(-2 * seconds // 60)))
+
+
+localrules:
+    mesh,
+    modes,
+    reduction,
+    mode_shapes,
+    modes_benchmark,
+    scene,
+    error_tables,
+    findings,
+    report_scene,
+    study_report,
+    study,
+    report,
+    verify_fe,
+    verify_fe_fast,
+    dynamics,
+    bench,
+    verify,
+    all,

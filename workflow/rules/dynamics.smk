@@ -13,6 +13,10 @@ rule load_ranking:
     params:
         code=code_hash("reduction.load_aware"),
         scene=scene_file,
+    resources:
+        # records: load_ranking_thesis.tsv 385.0 s, 738.1 MB (max of 6)
+        mem_mb=mem_mb(738.1),
+        runtime=runtime_min(385.0),
     log:
         "logs/reduction/load_{scene}.log",
     benchmark:
@@ -27,6 +31,10 @@ rule simulate:
         model="results/models/{scene}/{model}.h5",
     output:
         "results/sim/{scene}/{model}.h5",
+    resources:
+        # records: sim/thesis/truth.tsv 301.6 s, 780.5 MB (max of 121)
+        mem_mb=mem_mb(780.5),
+        runtime=runtime_min(301.6),
     log:
         "logs/sim/{scene}/{model}.log",
     benchmark:
@@ -54,6 +62,10 @@ rule dynamics_verification:
         benchmark="results/benchmarks/dynamics.json",
     params:
         code=code_hash("results.bench.verify_dynamics"),
+    resources:
+        # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
+        mem_mb=2000,
+        runtime=60,
     log:
         "logs/sim/verification.log",
     benchmark:

@@ -11,6 +11,10 @@ rule mesh_body:
         code=code_hash("geometry.mesh"),
         # what the mesh reads: the body's shape, its and (a ring) the next body's motor side, size, angles
         cfg=body_hash("mesh"),
+    resources:
+        # records: mesh_body4.tsv 1.7 s, 106.3 MB (max of 4)
+        mem_mb=mem_mb(106.3),
+        runtime=runtime_min(1.7),
     log:
         "logs/mesh/body{n}.log",
     benchmark:

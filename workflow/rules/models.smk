@@ -19,6 +19,10 @@ rule reduced_model:
         scene=scene_file,
         elastic_bodies=scene_elastic_bodies,
         rankings=ranking_options,
+    resources:
+        # records: models/thesis/static-8.tsv 5.9 s, models/thesis/static-xmx-4.tsv 431.1 MB (max of 134)
+        mem_mb=mem_mb(431.1),
+        runtime=runtime_min(5.9),
     log:
         "logs/models/{scene}/{model}.log",
     benchmark:

@@ -32,6 +32,10 @@ rule study_scene:
         options=integrator_options,
         models=" ".join(f"'{m}'" for m in SCENE_MODELS),
         out_dir="results/study/{scene}/sim",
+    resources:
+        # records: study/long.tsv 249.3 s, 1053.6 MB (max of 4 files)
+        mem_mb=mem_mb(1053.6),
+        runtime=runtime_min(249.3),
     log:
         "logs/study/{scene}.log",
     benchmark:
@@ -69,6 +73,10 @@ rule error_tables:
         scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.tables"),
+    resources:
+        # records: error_tables_long.tsv 2.7 s, 159.3 MB (max of 4)
+        mem_mb=mem_mb(159.3),
+        runtime=runtime_min(2.7),
     log:
         "logs/results/error_tables_{scene}.log",
     benchmark:
@@ -95,6 +103,10 @@ rule findings:
         scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.findings"),
+    resources:
+        # records: findings_damped.tsv 1.3 s, findings_long.tsv 71.7 MB (max of 4)
+        mem_mb=mem_mb(71.7),
+        runtime=runtime_min(1.3),
     log:
         "logs/results/findings_{scene}.log",
     benchmark:
@@ -122,6 +134,10 @@ rule study_figures:
     params:
         code=code_hash("results.study.figures"),
         out_dir="results/figures/study/{scene}",
+    resources:
+        # records: study_figures_thesis.tsv 180.3 s, 215.1 MB (max of 4)
+        mem_mb=mem_mb(215.1),
+        runtime=runtime_min(180.3),
     log:
         "logs/results/figures_{scene}.log",
     benchmark:
@@ -181,6 +197,10 @@ rule report_scene:
         cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
         optional=optional_report_inputs,
         bench_figures=" ".join(REPORT_BENCH_FIGURES),
+    resources:
+        # records: report_thesis.tsv 3.4 s, 376.1 MB (max of 4)
+        mem_mb=mem_mb(376.1),
+        runtime=runtime_min(3.4),
     log:
         "logs/results/report_{scene}.log",
     benchmark:
@@ -220,6 +240,10 @@ rule study_report:
     params:
         code=code_hash("results.study.study_report"),
         optional=optional_report_inputs,
+    resources:
+        # records: study_report.tsv 1.5 s, 142.7 MB
+        mem_mb=mem_mb(142.7),
+        runtime=runtime_min(1.5),
     log:
         "logs/results/study_report.log",
     benchmark:
