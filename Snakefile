@@ -16,6 +16,8 @@
 # `all` is the study and its reports with the fast verification subset; the reports show the last
 # results of `verify` and `bench` with their date (or say how to make them).
 configfile: "config/config.yaml"
+
+
 report: "workflow/report/workflow.rst"
 
 

@@ -33,7 +33,7 @@ from reduction import static_modes as st
 from reduction import verification as vf
 from solver.bodydata import BEARING_NAMES, read_body_file
 from reduction.errors import BodyFileError, MissingBearingError, ReductionError
-from workflow.provenance import atomic_h5, check_record
+from workflow.provenance import atomic_h5, check_record, versions
 
 FORMAT_VERSION = 1
 
@@ -187,6 +187,12 @@ def write_reduction_file(path, result, body):
         f.attrs["mass_solve_relative_residual"] = result["mass_details"]["relative_residual"]
         f.attrs["timings"] = json.dumps(result["timings"])
         f.attrs["checks"] = json.dumps(result["checks"])
+        # provenance as in a body file: this stage's versions and git revision (JSON), and the body
+        # file's own (its config_hash is copied above)
+        f.attrs["versions"] = json.dumps(versions())
+        if "versions" in attrs:
+            f.attrs["body_versions"] = attrs["versions"]
+        f.attrs["created"] = time.strftime("%Y-%m-%dT%H:%M:%S")
         for key in ("P", "H", "M_inf", "M_rigid", "MGM_inf", "eigenvalues", "frequencies_hz",
                     "rho_xmx", "rho_xmgmx", "rank_frequency", "rank_xmx", "rank_xmgmx"):
             f.create_dataset(key, data=result[key])

@@ -42,6 +42,7 @@ import os
 import sys
 import time
 
+import numba
 import numpy as np
 
 from results.bench.chain_stability import (
@@ -260,11 +261,7 @@ def _summary(obj):
 def _versions(versions):
     """workflow.provenance.versions() plus numba (the compiled right-hand side)."""
     out = versions()
-    try:
-        import numba  # optional: only its version is recorded (the NumPy right-hand side runs without it)
-        out["numba"] = numba.__version__
-    except ImportError:
-        out["numba"] = "missing (NumPy right-hand side)"
+    out["numba"] = numba.__version__     # required: the compiled right-hand side (no NumPy fallback)
     return out
 
 

@@ -50,6 +50,7 @@ no other module of the project but ``solver.dynamics.exponential`` (and its ``li
 """
 
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -349,6 +350,11 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, growth_factor=
                wall_time=wall, stats=stats, energy=energy)
 
 
+# A run longer than this prints a progress line (stderr, the job's log) this often [s]: the
+# simulated time reached and the wall time left at the mean rate so far
+PROGRESS_EVERY = 30.0
+
+
 @dataclass
 class _Outputs:
     """What the three methods share: output times t (T,), their spacing dt, the state
@@ -362,10 +368,21 @@ class _Outputs:
     method: str
     model: str
 
+    started: float = field(default_factory=time.perf_counter)
+    reported: float = None
+
     def store(self, k, y, yd, h):
-        """Watch sample k (``Monitor``), then keep it."""
+        """Watch sample k (``Monitor``), then keep it; report progress every PROGRESS_EVERY s."""
         self.monitor(self.t[k], y, yd, h, self.method)
         self.Y[k], self.V[k] = y, yd
+        now = time.perf_counter()
+        if now - (self.started if self.reported is None else self.reported) >= PROGRESS_EVERY \
+                and 0 < k < self.t.size - 1:
+            self.reported = now
+            done, elapsed = self.t[k] / self.t[-1], now - self.started
+            print(f"progress: {self.method} {self.model}: t = {self.t[k]:.4g} of {self.t[-1]:.4g} s "
+                  f"({100 * done:.0f} %), {elapsed:.0f} s elapsed, ~{elapsed * (1 - done) / done:.0f} s left",
+                  file=sys.stderr, flush=True)
 
 
 def _exponential(problem, out, step, options):

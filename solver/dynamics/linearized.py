@@ -14,20 +14,14 @@ explicit integrator's step.
 import numpy as np
 import scipy.linalg
 
-from solver.dynamics import multibody
-
-try:
-    from solver.dynamics import compiled
-except ImportError:         # Numba missing: the NumPy mass matrix (slower, same matrix)
-    compiled = None
+# Numba is required (workflow/envs/requirements.txt): no silent NumPy fallback
+from solver.dynamics import compiled
 
 
 def mass_matrix_fast(chain, y):
     """M(y) (n_y, n_y) from n_y calls of the compiled inverse dynamics without the modal
-    stiffness (``compiled.FastChain.mass_matrix``; NumPy path if Numba is missing)."""
+    stiffness (``compiled.FastChain.mass_matrix``; ``multibody.mass_matrix`` is the NumPy reference)."""
     y = np.asarray(y, float)
-    if compiled is None:
-        return multibody.mass_matrix(chain, y)
     return compiled.FastChain(chain).mass_matrix(y)
 
 

@@ -15,16 +15,15 @@ from solver.dynamics import linearized
 from solver.dynamics.multibody import (CaseMotion, accelerations, case_power, inverse_dynamics,
                                        kinetic_energy, mass_matrix, solve_mass, torque_function)
 
-try:
-    from solver.dynamics import compiled
-except ImportError:         # Numba missing: the NumPy reference path (~100x slower)
-    compiled = None
+# Numba is required (workflow/envs/requirements.txt): without it this import fails, never a
+# silent fallback to the NumPy reference path (~100x slower); make_rhs(fast=False) is that path
+from solver.dynamics import compiled
 
 
 def make_rhs(chain, case=None, torque=None, fast=True):
     """y'' = rhs(t, y, y'): the chain's accelerations, compiled (``compiled.CompiledRhs``)
-    when fast and Numba is available, else the NumPy reference ``multibody.accelerations``."""
-    if fast and compiled is not None:
+    when fast, else (on request only) the NumPy reference ``multibody.accelerations``."""
+    if fast:
         return compiled.make_rhs(chain, case, torque)
     tau = torque_function(torque)
 
@@ -56,7 +55,7 @@ class Problem:
         self.y0 = np.zeros(n) if y0 is None else np.asarray(y0, float)
         self.yd0 = np.zeros(n) if yd0 is None else np.asarray(yd0, float)
         rhs = make_rhs(chain, self.case, torque, fast=fast)
-        compiled_rhs = rhs if compiled is not None and isinstance(rhs, compiled.CompiledRhs) else None
+        compiled_rhs = rhs if isinstance(rhs, compiled.CompiledRhs) else None
         self.rhs = rhs if compiled_rhs is None else compiled_rhs.rhs     # (the plain function: cheaper per call)
         self.modal_omega_max = chain.omega_max            # largest kept modal frequency
         self._omega_max = None if omega_max is None else float(omega_max)

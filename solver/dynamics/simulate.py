@@ -26,6 +26,7 @@ import os
 import sys
 import time
 
+import numba
 import numpy as np
 
 from solver.bodydata import BODIES
@@ -295,6 +296,7 @@ def main(argv=None):
         if key in info:
             attrs[key] = info[key]
     attrs.update({f"version_{k}": str(v) for k, v in versions().items()})
+    attrs["version_numba"] = numba.__version__      # the compiled right-hand side
     try:
         simfile.write_sim(out, run, energy_history(prob, run), attrs, args.store_modal,
                           platform_attitude(chain, run))

@@ -40,4 +40,21 @@ fi
   echo "install: the environment is incomplete (dolfinx/slepc4py/gmsh/snakemake not importable)" >&2; exit 1; }
 "$venv/bin/python" -c "import numpy, sys; sys.exit(0 if numpy.__file__.startswith('/usr/lib/python3/') else 1)" || {
   echo "install: .venv shadows Debian's numpy (DOLFINx needs it): check workflow/envs/constraints.txt" >&2; exit 1; }
+# The literal `snakemake` command (README): a small launcher in $SNAKEMAKE_BINDIR (default
+# /usr/local/bin, on PATH) that runs the .venv's Snakemake of the project in the working directory
+# or above (workflow/envs/snakemake-launcher.sh). It replaces no other `snakemake` (only a file
+# carrying its marker); without write access it is skipped, and `. .venv/bin/activate` does the same.
+bindir="${SNAKEMAKE_BINDIR:-/usr/local/bin}"
+launcher="$bindir/snakemake"
+marker="gimbal-reduction-snakemake-launcher"
+if [ -e "$launcher" ] && ! grep -q "$marker" "$launcher" 2>/dev/null; then
+  echo "install: $launcher exists and is not ours: left alone (use '. .venv/bin/activate' before snakemake)"
+elif ! cmp -s "$here/snakemake-launcher.sh" "$launcher" 2>/dev/null; then
+  if [ -d "$bindir" ] && [ -w "$bindir" ]; then
+    install -m 0755 "$here/snakemake-launcher.sh" "$launcher"
+    echo "install: $launcher runs the project's .venv Snakemake"
+  else
+    echo "install: $bindir not writable: no snakemake launcher (use '. .venv/bin/activate' before snakemake)"
+  fi
+fi
 echo "install: environment ready ($venv)"

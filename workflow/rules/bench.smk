@@ -5,15 +5,28 @@
 #   snakemake --cores 2 bench
 # Pareto: one model per family at ~40-100 elastic coordinates (each costs ~2 min of repeated
 # runs; the truth, always added, ~5 min).
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 PARETO_MODELS = ["freq-10", "xmx-10", "load-10", "global-100"]
 # Load-aware and global selection against frequency / XMX / XMGMX at equal coordinate counts
-SELECTION_MODELS = (["rigid"] + [f"{f}-{n}" for f in ("freq", "xmx", "xmgmx") for n in (5, 10, 15, 20, 25)]
-                    + [f"load-{n}" for n in (5, 10, 15, 20, 25, 30, 40)]
-                    + [f"global-{n}" for n in (20, 40, 60, 80, 100, 120, 160)])
+SELECTION_MODELS = (
+    ["rigid"]
+    + [f"{f}-{n}" for f in ("freq", "xmx", "xmgmx") for n in (5, 10, 15, 20, 25)]
+    + [f"load-{n}" for n in (5, 10, 15, 20, 25, 30, 40)]
+    + [f"global-{n}" for n in (20, 40, 60, 80, 100, 120, 160)]
+)
 # Exponential integrator speed (issue 13): one reduced model per family of the study on thesis
 # (each ~50-120 ms a run). The benchmark's cost (loaded 2-core machine, 2026-11-24): the DOP853
 # comparison ~3 min (6 DOP853 runs of 25-40 s), `long` ~2.5 min (6 runs of ~25 s), the rest < 1 min.
-EXPONENTIAL_MODELS = ["freq-10", "xmx-10", "xmgmx-10", "static-8", "load-10", "global-100", "rigid"]
+EXPONENTIAL_MODELS = [
+    "freq-10",
+    "xmx-10",
+    "xmgmx-10",
+    "static-8",
+    "load-10",
+    "global-100",
+    "rigid",
+]
 # Scenes whose converged DOP853 reference the exponential benchmark judges E against. Costs of
 # one reference (truth model, rtol 1e-10, one core): thesis ~1 min, stress_rates_10 ~4 min.
 EXPONENTIAL_REFERENCE_SCENES = ["thesis", "stress_rates_10"]
@@ -26,7 +39,7 @@ LONG_REFERENCE = []
 
 rule stability:
     input:
-        "config/scenes/free_10s.yaml",
+        scene_path("free_10s"),
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
     output:
@@ -35,6 +48,10 @@ rule stability:
         drift="results/figures/stability/energy_drift.png",
     params:
         code=code_hash("results.bench.stability"),
+    resources:
+        # no record: estimate, 2 GB and 1 h (bisections and 10 s energy-drift runs per integrator)
+        mem_mb=2000,
+        runtime=60,
     log:
         "logs/bench/stability.log",
     benchmark:
@@ -52,6 +69,10 @@ rule scaling:
         figure="results/figures/bench/scaling.png",
     params:
         code=code_hash("results.bench.scaling"),
+    resources:
+        # no record: estimate, 2 GB (up to 8000 coordinates, dense baseline) and 1 h
+        mem_mb=2000,
+        runtime=60,
     log:
         "logs/bench/scaling.log",
     benchmark:
@@ -79,6 +100,10 @@ rule pareto:
     params:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
         code=code_hash("results.bench.pareto"),
+    resources:
+        # no record: ~2 min per model and ~5 min for the truth (comment above): 13 min, so 30 min
+        mem_mb=mem_mb(780.5),
+        runtime=30,
     log:
         "logs/bench/pareto.log",
     benchmark:
@@ -104,6 +129,10 @@ rule selection:
         figure="results/figures/bench/global_ranking.png",
     params:
         code=code_hash("results.bench.selection"),
+    resources:
+        # no record: reads simulation files (as error_tables, error_tables_long.tsv 2.7 s, 159.3 MB)
+        mem_mb=mem_mb(159.3),
+        runtime=runtime_min(2.7),
     log:
         "logs/bench/selection.log",
     benchmark:
@@ -121,6 +150,13 @@ rule reference_simulation:
         model="results/models/{scene}/truth.h5",
     output:
         "results/reference/{scene}/truth.h5",
+    resources:
+        # records: reference/stress_rates_100.tsv 367.8 s, reference/stress_lock.tsv 248.8 MB (max of
+        # 6); the long scene has no record: ~1 h of DOP853 (LONG_REFERENCE above), so 2 h
+        mem_mb=mem_mb(248.8),
+        runtime=lambda wildcards: (
+            120 if wildcards.scene == "long" else runtime_min(367.8)
+        ),
     log:
         "logs/reference/{scene}.log",
     benchmark:
@@ -134,16 +170,12 @@ rule reference_simulation:
         "--integrator dop853 --rtol 1e-10 --atol 1e-14 --out {output} > {log} 2>&1"
 
 
-def reference_arguments(wildcards, input):
-    """--reference SCENE=FILE of every reference file (the scene is the file's folder)."""
-    files = list(input.references) + list(input.long_reference)
-    return " ".join(f"'{os.path.basename(os.path.dirname(f))}={f}'" for f in files)
-
-
 rule exponential_bench:
     input:
         truth_model="results/models/thesis/truth.h5",
-        references=expand("results/reference/{scene}/truth.h5", scene=EXPONENTIAL_REFERENCE_SCENES),
+        references=expand(
+            "results/reference/{scene}/truth.h5", scene=EXPONENTIAL_REFERENCE_SCENES
+        ),
         long_reference=LONG_REFERENCE,
         models=expand("results/models/thesis/{model}.h5", model=EXPONENTIAL_MODELS),
     output:
@@ -154,6 +186,10 @@ rule exponential_bench:
         references=reference_arguments,
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
         code=code_hash("results.bench.exponential"),
+    resources:
+        # no record: ~3 + 2.5 + 1 min (comment above EXPONENTIAL_MODELS), so 15 min; memory as simulate
+        mem_mb=mem_mb(780.5),
+        runtime=15,
     log:
         "logs/bench/exponential.log",
     benchmark:
@@ -170,7 +206,14 @@ rule exponential_bench:
 # Scenes on which the exponential integrator's accuracy is verified against a converged DOP853
 # reference (issue 13); references cost (one core): thesis ~1 min, free ~2, damped ~1,
 # stress_lock ~1, stress_rates_10 ~4, stress_rates_100 ~10 (and long ~1 h, see LONG_REFERENCE).
-ACCURACY_SCENES = ["thesis", "free", "damped", "stress_lock", "stress_rates_10", "stress_rates_100"]
+ACCURACY_SCENES = [
+    "thesis",
+    "free",
+    "damped",
+    "stress_lock",
+    "stress_rates_10",
+    "stress_rates_100",
+]
 
 
 rule exponential_accuracy:
@@ -185,6 +228,10 @@ rule exponential_accuracy:
         references=reference_arguments,
         tol=cfgmod.value(config, "simulation.tolerance"),
         code=code_hash("results.bench.exponential_accuracy"),
+    resources:
+        # no record: one exponential run per accuracy scene (seconds each): as simulate
+        mem_mb=mem_mb(780.5),
+        runtime=runtime_min(301.6),
     log:
         "logs/bench/exponential_accuracy.log",
     benchmark:
@@ -197,7 +244,9 @@ rule exponential_accuracy:
 
 # The study's thesis table with both integrators (issue 13): the thesis's own cases (the RK4 runs are
 # ~2.5 min; the exponential integrator's ~5 s)
-INTEGRATOR_TABLE_MODELS = importlib.import_module("results.study.cases").study_models(extended=False)
+INTEGRATOR_TABLE_MODELS = importlib.import_module("results.study.cases").study_models(
+    extended=False
+)
 
 
 rule integrator_tables:
@@ -211,9 +260,15 @@ rule integrator_tables:
         csv="results/benchmarks/integrator_tables.csv",
     params:
         code=code_hash("results.bench.integrator_tables"),
-        physics=lambda wildcards: scenes_mod.load_scene("config/scenes/thesis.yaml").config_hash(),
+        physics=lambda wildcards: scenes_mod.load_scene(
+            scene_path("thesis")
+        ).config_hash(),
         tol=cfgmod.value(config, "simulation.tolerance"),
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
+    resources:
+        # no record: the RK4 runs ~2.5 min (comment above), so 10 min; memory as simulate
+        mem_mb=mem_mb(780.5),
+        runtime=10,
     log:
         "logs/results/integrator_tables.log",
     benchmark:

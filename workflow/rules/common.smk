@@ -6,15 +6,42 @@ import os
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(workflow.basedir)))
-cfgmod = importlib.import_module("workflow.config")  # not "import workflow...": Snakemake owns that name
+import snakemake
 
-# the file the stages read; pass another with --configfile (not --config key=value)
+sys.path.insert(0, str(Path(workflow.basedir)))
+# the jobs run `python -m <stage>` in the working directory, which is not the project's with
+# --directory: the project's packages go on their PYTHONPATH too (set here, not required of the
+# user, so no `envvars:` directive)
+os.environ.update(
+    PYTHONPATH=os.pathsep.join(
+        [str(Path(workflow.basedir))] + [p for p in [os.environ.get("PYTHONPATH")] if p]
+    )
+)
+# On Slurm (workflow/profiles/slurm) every job runs under srun, and the stages import DOLFINx, whose
+# Open MPI cannot start when Slurm's MPI default is "none": PMIx (Debian's Open MPI 4 and Slurm have
+# it) unless the user set another (a Slurm without PMIx: SLURM_MPI_TYPE=pmi2). srun alone reads it.
+os.environ.setdefault("SLURM_MPI_TYPE", "pmix")
+# First: is this the project's Snakemake and interpreter (the rules run {PY} = sys.executable)?
+# Debian's /usr/bin/snakemake or a python without Numba/Typst stops here in one line saying how to
+# run the workflow (workflow/environment.py, standard library only), before anything is imported.
+_environment_problem = importlib.import_module("workflow.environment").problem(
+    snakemake.__version__
+)
+if _environment_problem:
+    sys.stderr.write(f"{_environment_problem}\n")
+    sys.stderr.flush()
+    os._exit(1)
+cfgmod = importlib.import_module(
+    "workflow.config"
+)  # not "import workflow...": Snakemake owns that name
+
+# the file the stages read; pass another with --configfile (not --config key=value); used in the
+# rules' shell commands as {CONFIG} (a justified lint, see PY below)
 CONFIG = (workflow.overwrite_configfiles or ["config/config.yaml"])[-1]
 
 try:
     # Snakemake's own YAML reading keeps the last of duplicate keys: re-read each file strictly
-    for _path in (workflow.overwrite_configfiles or ["config/config.yaml"]):
+    for _path in workflow.overwrite_configfiles or ["config/config.yaml"]:
         cfgmod.read_config_file(_path)
     # the values in the units their keys are read in, as the stages read them (load_config)
     config.update(cfgmod.validate(config))
@@ -24,8 +51,22 @@ except cfgmod.ConfigError as exc:
     sys.stderr.flush()
     os._exit(1)
 
+# Justified lints (`snakemake --lint`; tests/workflow/test_conventions.py allows exactly these):
+# * "Shell command directly uses variable PY / CONFIG / COARSE_SIZE from outside of the rule" (every
+#   rule that runs a stage). PY is the interpreter running Snakemake, the one with the project's
+#   packages (checked above); CONFIG is the config file the stage reads (--configfile), whose values
+#   the stage reads are hashed in params.cfg, and COARSE_SIZE (reduction.smk) is hashed there too.
+#   Making them params or inputs would change every job's params or shell command, so Snakemake's
+#   params and code triggers would rerun every existing result once, for no change of any output;
+#   and the config file as an input would rerun every stage on any edit (params.cfg is the precise
+#   trigger). They are workflow-wide constants like a shell prefix.
+# * "Specify a conda environment or container for each rule" (every rule): the software environment
+#   is the project's .venv (workflow/envs/install.sh: Debian's DOLFINx 0.5.2, PETSc, SLEPc and gmsh
+#   with the PyPI pins of workflow/envs/requirements.txt), checked at DAG build above; conda-forge
+#   has no DOLFINx 0.5.2 built like Debian's, and no container may be fetched here.
 PY = sys.executable
 BODIES = [2, 3, 4, 5]
+
 
 wildcard_constraints:
     n="[2-5]",
@@ -38,22 +79,150 @@ def config_hash(*keys):
 
 def body_hash(part=None, body=None, mesh_size=None):
     """A params function: the hash of a body's resolved inputs (workflow.config.body_inputs, which the
-    mesh and modal stages read), or of one part of them ("mesh"); the body is the wildcard n unless given."""
+    mesh and modal stages read), or of one part of them ("mesh"); the body is the wildcard n unless given.
+    """
+
     def inputs_hash(wildcards):
         inputs = cfgmod.body_inputs(config, body or wildcards.n, mesh_size)
         return cfgmod.inputs_hash(inputs[part] if part else inputs)
+
     return inputs_hash
 
 
 def check_hash(check=None, body=None):
     """A params function: the hash of what an FE check reads (workflow.config.check_inputs); the check
     and the body are the wildcards check and n unless given."""
-    return lambda wildcards: cfgmod.inputs_hash(cfgmod.check_inputs(
-        config, check or wildcards.check, body or getattr(wildcards, "n", None)))
+    return lambda wildcards: cfgmod.inputs_hash(
+        cfgmod.check_inputs(
+            config, check or wildcards.check, body or getattr(wildcards, "n", None)
+        )
+    )
 
 
-# The code a rule runs: the hash of its stage's module (python -m X), of the project modules it
+# The code of a rule's stage: the hash of its stage's module (python -m X), of the project modules it
 # imports, transitively, and of the data files they read (workflow/imports.py); comments and
 # docstrings left out. A rule carries it as params.code, so editing a module reruns exactly the
 # rules whose stages import it, and editing a comment reruns nothing.
 code_hash = importlib.import_module("workflow.imports").code_hash
+
+
+# ---- The rule files' helpers, here so that no rule file mixes rules and functions (Snakemake's
+# lint); each is used by the rule file named above it.
+models_mod = importlib.import_module("reduction.models")
+scenes_mod = importlib.import_module("solver.dynamics.scenes")
+
+
+# models.smk
+def scene_path(name):
+    """A scene's file: config/scenes/{name}.yaml of the working directory if it has one (the project's
+    own, a deployment's or .test's), else the workflow's, so a run with --directory finds the scenes.
+    """
+    local = os.path.join("config", "scenes", f"{name}.yaml")
+    shipped = os.path.join(workflow.basedir, local)
+    return local if os.path.exists(local) or not os.path.exists(shipped) else shipped
+
+
+def scene_file(wildcards):
+    return scene_path(wildcards.scene)
+
+
+def model_inputs(wildcards):
+    """What one reduced model needs, and nothing else: every body file (mass properties),
+    the reduction files only if the model's selection reads a ranking (xmx, xmgmx, load,
+    global), and the scene's load-aware ranking for load-* and global-*.  So the DAG of
+    results/sim/thesis/freq-10.h5 is four meshes, four modal solutions, one reduced model
+    and one simulation."""
+    needed = {"bodies": [f"results/modes/body{n}.h5" for n in BODIES]}
+    if models_mod.needs_reduction_rankings(wildcards.model):
+        needed["reductions"] = [f"results/reduction/body{n}.h5" for n in BODIES]
+    if models_mod.needs_load_ranking(wildcards.model):
+        needed["load_ranking"] = f"results/reduction/load/{wildcards.scene}.h5"
+    return needed
+
+
+def ranking_options(wildcards, input):
+    """The reduction and load-ranking files of a model, as options of reduction.models."""
+    options = []
+    if "reductions" in input.keys():
+        options.append("--reductions " + " ".join(input.reductions))
+    if "load_ranking" in input.keys():
+        options.append(f"--load-ranking {input.load_ranking}")
+    return " ".join(options)
+
+
+def scene_elastic_bodies(wildcards):
+    """What a reduced model reads from its scene: the elastic bodies (needs.bodies)."""
+    return list(scenes_mod.load_scene(scene_file(wildcards)).elastic_bodies)
+
+
+# dynamics.smk
+def scene_physics_hash(wildcards):
+    return scenes_mod.load_scene(scene_file(wildcards)).config_hash()
+
+
+def integrator_options(wildcards):
+    """The command-line options of the configured integrator (simulation.tolerance is the
+    exponential integrator's; rk4 runs at its default, half its stability limit)."""
+    if cfgmod.value(config, "simulation.integrator") == "exponential":
+        return f"--tol {cfgmod.value(config, 'simulation.tolerance')!r}"
+    return ""
+
+
+def scene_simulations(scene):
+    """The simulations a scene's results use (its needs.models)."""
+    models = scenes_mod.load_scene(scene_path(scene)).models
+    return [f"results/sim/{scene}/{m}.h5" for m in models]
+
+
+# bench.smk
+def reference_arguments(wildcards, input):
+    """--reference SCENE=FILE of every reference file (the scene is the file's folder)."""
+    files = list(input.references) + list(input.long_reference)
+    return " ".join(f"'{os.path.basename(os.path.dirname(f))}={f}'" for f in files)
+
+
+# results.smk
+def study_sims(scene):
+    return expand(
+        "results/study/{scene}/sim/{model}.h5", scene=scene, model=SCENE_MODELS
+    )
+
+
+def optional_report_inputs(wildcards):
+    return " ".join(f"--{k.replace('_', '-')} {v}" for k, v in REPORT_OPTIONAL.items())
+
+
+# ---- Cluster resources (issue 16): every rule that runs a job states mem_mb and runtime from its
+# measured benchmark records (results/benchmarks/rules/*.tsv: max_rss [MB], s), with a margin: memory
+# 1.5 x the largest peak + 200 MB (at least 500 MB), runtime 2 x the longest run (at least 5 min). The
+# largest record and its file are quoted beside each rule; a rule without records says so and where
+# its estimate comes from.
+def mem_mb(peak_mb):
+    """Memory to request [MB] for a measured peak resident size [MB]."""
+    return max(500, int(-(-(1.5 * peak_mb + 200) // 100) * 100))
+
+
+def runtime_min(seconds):
+    """Wall time to request [min] for a measured run time [s]."""
+    return max(5, int(-(-2 * seconds // 60)))
+
+
+localrules:
+    mesh,
+    modes,
+    reduction,
+    mode_shapes,
+    modes_benchmark,
+    scene,
+    error_tables,
+    findings,
+    report_scene,
+    study_report,
+    study,
+    report,
+    verify_fe,
+    verify_fe_fast,
+    dynamics,
+    bench,
+    verify,
+    all,

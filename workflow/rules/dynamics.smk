@@ -1,12 +1,11 @@
 # Stage 4: the flexible multibody simulation of the gimbal chain, any scene and reduced model.
-
-def scene_physics_hash(wildcards):
-    return scenes_mod.load_scene(scene_file(wildcards)).config_hash()
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 
 
 rule load_ranking:
     input:
-        scene="config/scenes/{scene}.yaml",
+        scene=scene_file,
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
     output:
@@ -14,6 +13,10 @@ rule load_ranking:
     params:
         code=code_hash("reduction.load_aware"),
         scene=scene_file,
+    resources:
+        # records: load_ranking_thesis.tsv 385.0 s, 738.1 MB (max of 6)
+        mem_mb=mem_mb(738.1),
+        runtime=runtime_min(385.0),
     log:
         "logs/reduction/load_{scene}.log",
     benchmark:
@@ -23,19 +26,15 @@ rule load_ranking:
         "--reductions {input.reductions} --out {output} > {log} 2>&1"
 
 
-def integrator_options(wildcards):
-    """The command-line options of the configured integrator (simulation.tolerance is the
-    exponential integrator's; rk4 runs at its default, half its stability limit)."""
-    if cfgmod.value(config, "simulation.integrator") == "exponential":
-        return f"--tol {cfgmod.value(config, 'simulation.tolerance')!r}"
-    return ""
-
-
 rule simulate:
     input:
         model="results/models/{scene}/{model}.h5",
     output:
         "results/sim/{scene}/{model}.h5",
+    resources:
+        # records: sim/thesis/truth.tsv 301.6 s, 780.5 MB (max of 121)
+        mem_mb=mem_mb(780.5),
+        runtime=runtime_min(301.6),
     log:
         "logs/sim/{scene}/{model}.log",
     benchmark:
@@ -63,6 +62,10 @@ rule dynamics_verification:
         benchmark="results/benchmarks/dynamics.json",
     params:
         code=code_hash("results.bench.verify_dynamics"),
+    resources:
+        # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
+        mem_mb=2000,
+        runtime=60,
     log:
         "logs/sim/verification.log",
     benchmark:
@@ -74,12 +77,6 @@ rule dynamics_verification:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.verify_dynamics --bodies {input.bodies} "
         "--reductions {input.reductions} --verification {output.verification} "
         "--benchmark {output.benchmark} > {log} 2>&1"
-
-
-def scene_simulations(scene):
-    """The simulations a scene's results use (its needs.models)."""
-    models = scenes_mod.load_scene(os.path.join("config", "scenes", f"{scene}.yaml")).models
-    return [f"results/sim/{scene}/{m}.h5" for m in models]
 
 
 rule scene:

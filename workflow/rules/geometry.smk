@@ -1,4 +1,6 @@
 # Stage 1: gmsh meshes of the three rings (shell mid-surfaces) and the platform (solid).
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 
 
 rule mesh_body:
@@ -9,6 +11,10 @@ rule mesh_body:
         code=code_hash("geometry.mesh"),
         # what the mesh reads: the body's shape, its and (a ring) the next body's motor side, size, angles
         cfg=body_hash("mesh"),
+    resources:
+        # records: mesh_body4.tsv 1.7 s, 106.3 MB (max of 4)
+        mem_mb=mem_mb(106.3),
+        runtime=runtime_min(1.7),
     log:
         "logs/mesh/body{n}.log",
     benchmark:

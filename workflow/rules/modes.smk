@@ -1,4 +1,6 @@
 # Stage 2: shell/solid models and the 100 lowest supported modes of every body.
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 
 
 rule modes_body:
@@ -11,12 +13,20 @@ rule modes_body:
         code=code_hash("solver.fe.modes"),
         # workflow.config.body_inputs: what the stage reads (and the body file's config_hash)
         cfg=body_hash(),
+    resources:
+        # records: modes_body5.tsv 21.6 s, 420.5 MB (max of 4, one rank); two ranks on a cluster
+        # (workflow/profiles/slurm: mpi="srun", tasks=2), each at most the serial peak: 2 x mem
+        mem_mb=2 * mem_mb(420.5),
+        runtime=runtime_min(21.6),
+        # the MPI launcher: none locally (one process, as always); "srun" in the Slurm profile
+        mpi="",
+        tasks=1,
     log:
         "logs/modes/body{n}.log",
     benchmark:
         "results/benchmarks/rules/modes_body{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.fe.modes --body {wildcards.n} --mesh {input.mesh} "
+        "OMP_NUM_THREADS=1 {resources.mpi} {PY} -m solver.fe.modes --body {wildcards.n} --mesh {input.mesh} "
         "--mesh-meta {input.meta} --out {output} --config {CONFIG} > {log} 2>&1"
 
 
@@ -32,6 +42,10 @@ rule modes_benchmark:
         "results/benchmarks/modes.json",
     params:
         code=code_hash("results.bench.summary"),
+    resources:
+        # no record: reads four body files' attributes (seconds, as verify_fe_fast)
+        mem_mb=mem_mb(193.8),
+        runtime=runtime_min(4.1),
     log:
         "logs/modes/benchmark.log",
     shell:
@@ -42,7 +56,7 @@ rule mode_shapes_body:
     """Print-ready mode shapes (the lowest and the best XMX-ranked modes) and the static correction
     modes of one body, with their captions in a small manifest (results.study.mode_shapes)."""
     input:
-        "results/modes/body{n}.h5",
+        body="results/modes/body{n}.h5",
         mesh="results/mesh/body{n}.msh",
         reduction="results/reduction/body{n}.h5",
     output:
@@ -52,12 +66,16 @@ rule mode_shapes_body:
         vtu="results/modes/shapes/body{n}.vtu",
     params:
         code=code_hash("results.study.mode_shapes"),
+    resources:
+        # records: mode_shapes_body3.tsv 6.6 s, mode_shapes_body2.tsv 171.2 MB (max of 8)
+        mem_mb=mem_mb(171.2),
+        runtime=runtime_min(6.6),
     log:
         "logs/modes/shapes_body{n}.log",
     benchmark:
         "results/benchmarks/rules/mode_shapes_body{n}.tsv"
     shell:
-        "MPLBACKEND=Agg {PY} -m results.study.mode_shapes --body-file {input[0]} --mesh {input.mesh} "
+        "MPLBACKEND=Agg {PY} -m results.study.mode_shapes --body-file {input.body} --mesh {input.mesh} "
         "--reduction {input.reduction} --png {output.png} --static-png {output.static_png} "
         "--manifest {output.manifest} --vtu {output.vtu} > {log} 2>&1"
 

@@ -1,5 +1,7 @@
 # Stage 3: momentum coefficients, Hughes-identity rankings and static correction modes.
 # (reduction/load_aware.py is the scene-dependent ranking, dynamics.smk)
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG, COARSE_SIZE from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 # the coarse mesh of the discrete Hughes identities (every supported mode, dense solve)
 COARSE_SIZE = 0.5
 
@@ -11,6 +13,10 @@ rule reduction_body:
         "results/reduction/body{n}.h5",
     params:
         code=code_hash("reduction.stage"),
+    resources:
+        # records: reduction_body5.tsv 5.0 s, 376.5 MB (max of 4)
+        mem_mb=mem_mb(376.5),
+        runtime=runtime_min(5.0),
     log:
         "logs/reduction/body{n}.log",
     benchmark:
@@ -34,6 +40,10 @@ rule coarse_body_all_modes:
     params:
         code=code_hash("solver.fe.modes"),
         cfg=body_hash(body=4, mesh_size=COARSE_SIZE),
+    resources:
+        # records: coarse_body_all_modes.tsv 73.0 s, 995.1 MB (max of 2)
+        mem_mb=mem_mb(995.1),
+        runtime=runtime_min(73.0),
     log:
         "logs/reduction/coarse_body4.log",
     benchmark:
@@ -50,6 +60,10 @@ rule coarse_mesh:
     params:
         code=code_hash("geometry.mesh"),
         cfg=body_hash("mesh", body=4, mesh_size=COARSE_SIZE),
+    resources:
+        # records: coarse_mesh.tsv 1.6 s, 106.3 MB
+        mem_mb=mem_mb(106.3),
+        runtime=runtime_min(1.6),
     log:
         "logs/reduction/coarse_mesh4.log",
     benchmark:
@@ -70,6 +84,10 @@ rule reduction_report:
         benchmark="results/benchmarks/reduction.json",
     params:
         code=code_hash("reduction.report"),
+    resources:
+        # records: reduction_report.tsv 31.0 s, 601.1 MB (max of 2)
+        mem_mb=mem_mb(601.1),
+        runtime=runtime_min(31.0),
     log:
         "logs/reduction/report.log",
     benchmark:

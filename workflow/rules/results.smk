@@ -4,21 +4,19 @@
 #   snakemake --cores 2 report    the study PDF and one PDF per scene
 # The study's heavy checks and timing repeats are not inputs of the reports: the reports read their
 # last results (bench, verify) if present and print their date, or say how to make them.
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 _cases = importlib.import_module("results.study.cases")
 STUDY_SCENES = list(_cases.STUDY_SCENES)
 STUDY_MODELS = _cases.study_models()
 SCENE_MODELS = ["truth"] + STUDY_MODELS
 
 
-def study_sims(scene):
-    return expand("results/study/{scene}/sim/{model}.h5", scene=scene, model=SCENE_MODELS)
-
-
 rule study_scene:
     """Every study model of one scene, reduced and simulated in one process (results.study.run_scene:
     the two stages of a per-model simulation, called in process; ~50 models in ~0.5 min)."""
     input:
-        scene="config/scenes/{scene}.yaml",
+        scene=scene_file,
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         load_ranking="results/reduction/load/{scene}.h5",
@@ -34,6 +32,10 @@ rule study_scene:
         options=integrator_options,
         models=" ".join(f"'{m}'" for m in SCENE_MODELS),
         out_dir="results/study/{scene}/sim",
+    resources:
+        # records: study/long.tsv 249.3 s, 1053.6 MB (max of 4 files)
+        mem_mb=mem_mb(1053.6),
+        runtime=runtime_min(249.3),
     log:
         "logs/study/{scene}.log",
     benchmark:
@@ -55,14 +57,26 @@ rule error_tables:
         truth="results/study/{scene}/sim/truth.h5",
         cases=lambda wildcards: study_sims(wildcards.scene)[1:],
     output:
-        ranking=report("results/tables/{scene}/errors_ranking.csv", category="Tables",
-                       subcategory="{scene}", caption="../report/table.rst"),
-        static=report("results/tables/{scene}/errors_static.csv", category="Tables",
-                      subcategory="{scene}", caption="../report/table.rst"),
+        ranking=report(
+            "results/tables/{scene}/errors_ranking.csv",
+            category="Tables",
+            subcategory="{scene}",
+            caption="../report/table.rst",
+        ),
+        static=report(
+            "results/tables/{scene}/errors_static.csv",
+            category="Tables",
+            subcategory="{scene}",
+            caption="../report/table.rst",
+        ),
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.tables"),
+    resources:
+        # records: error_tables_long.tsv 2.7 s, 159.3 MB (max of 4)
+        mem_mb=mem_mb(159.3),
+        runtime=runtime_min(2.7),
     log:
         "logs/results/error_tables_{scene}.log",
     benchmark:
@@ -78,13 +92,21 @@ rule findings:
         static="results/tables/{scene}/errors_static.csv",
         reduction="results/verification/reduction.json",
     output:
-        csv=report("results/tables/{scene}/findings.csv", category="Findings", subcategory="{scene}",
-                   caption="../report/findings.rst"),
+        csv=report(
+            "results/tables/{scene}/findings.csv",
+            category="Findings",
+            subcategory="{scene}",
+            caption="../report/findings.rst",
+        ),
         json="results/tables/{scene}/findings.json",
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.findings"),
+    resources:
+        # records: findings_damped.tsv 1.3 s, findings_long.tsv 71.7 MB (max of 4)
+        mem_mb=mem_mb(71.7),
+        runtime=runtime_min(1.3),
     log:
         "logs/results/findings_{scene}.log",
     benchmark:
@@ -98,8 +120,11 @@ rule findings:
 rule study_figures:
     input:
         truth="results/study/{scene}/sim/truth.h5",
-        cases=lambda wildcards: expand("results/study/{scene}/sim/{model}.h5", scene=wildcards.scene,
-                                       model=_cases.rate_figure_models(wildcards.scene)),
+        cases=lambda wildcards: expand(
+            "results/study/{scene}/sim/{model}.h5",
+            scene=wildcards.scene,
+            model=_cases.rate_figure_models(wildcards.scene),
+        ),
         ranking="results/tables/{scene}/errors_ranking.csv",
         static="results/tables/{scene}/errors_static.csv",
     output:
@@ -109,6 +134,10 @@ rule study_figures:
     params:
         code=code_hash("results.study.figures"),
         out_dir="results/figures/study/{scene}",
+    resources:
+        # records: study_figures_thesis.tsv 180.3 s, 215.1 MB (max of 4)
+        mem_mb=mem_mb(215.1),
+        runtime=runtime_min(180.3),
     log:
         "logs/results/figures_{scene}.log",
     benchmark:
@@ -132,18 +161,18 @@ REPORT_OPTIONAL = {
     "exponential_bench": "results/benchmarks/exponential.json",
     "fe_full": "results/verification/fe.json",
 }
-REPORT_BENCH_FIGURES = ["results/figures/bench/pareto.png", "results/figures/bench/scaling.png",
-                        "results/figures/bench/global_ranking.png", "results/figures/stability/rk4_limit.png",
-                        "results/figures/stability/energy_drift.png"]
-
-
-def optional_report_inputs(wildcards):
-    return " ".join(f"--{k.replace('_', '-')} {v}" for k, v in REPORT_OPTIONAL.items())
+REPORT_BENCH_FIGURES = [
+    "results/figures/bench/pareto.png",
+    "results/figures/bench/scaling.png",
+    "results/figures/bench/global_ranking.png",
+    "results/figures/stability/rk4_limit.png",
+    "results/figures/stability/energy_drift.png",
+]
 
 
 rule report_scene:
     input:
-        scene="config/scenes/{scene}.yaml",
+        scene=scene_file,
         mode_shapes=expand("results/figures/mode_shapes_body{n}.json", n=BODIES),
         truth="results/study/{scene}/sim/truth.h5",
         ranking="results/tables/{scene}/errors_ranking.csv",
@@ -155,15 +184,23 @@ rule report_scene:
         reduction="results/verification/reduction.json",
         coupled="results/study/{scene}/coupled_modes.json",
     output:
-        report("results/report/{scene}.pdf", category="Reports", subcategory="{scene}",
-               caption="../report/scene_report.rst"),
+        report(
+            "results/report/{scene}.pdf",
+            category="Reports",
+            subcategory="{scene}",
+            caption="../report/scene_report.rst",
+        ),
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
         code=code_hash("results.study.report"),
-        cfg=config_hash(),   # the report prints the config's values (the file given by --configfile)
+        cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
         optional=optional_report_inputs,
         bench_figures=" ".join(REPORT_BENCH_FIGURES),
+    resources:
+        # records: report_thesis.tsv 3.4 s, 376.1 MB (max of 4)
+        mem_mb=mem_mb(376.1),
+        runtime=runtime_min(3.4),
     log:
         "logs/results/report_{scene}.log",
     benchmark:
@@ -191,15 +228,23 @@ rule study_report:
         statics=expand("results/tables/{scene}/errors_static.csv", scene=STUDY_SCENES),
         findings=expand("results/tables/{scene}/findings.json", scene=STUDY_SCENES),
         figures=expand("results/figures/study/{scene}/figures.json", scene=STUDY_SCENES),
-        scenes=expand("config/scenes/{scene}.yaml", scene=STUDY_SCENES),
+        scenes=[scene_path(s) for s in STUDY_SCENES],
         fe="results/verification/fe_fast.json",
         reduction="results/verification/reduction.json",
         truth_basis="results/verification/truth_basis.json",
     output:
-        report("results/report/report.pdf", category="Reports", caption="../report/study_report.rst"),
+        report(
+            "results/report/report.pdf",
+            category="Reports",
+            caption="../report/study_report.rst",
+        ),
     params:
         code=code_hash("results.study.study_report"),
         optional=optional_report_inputs,
+    resources:
+        # records: study_report.tsv 1.5 s, 142.7 MB
+        mem_mb=mem_mb(142.7),
+        runtime=runtime_min(1.5),
     log:
         "logs/results/study_report.log",
     benchmark:

@@ -2,8 +2,20 @@
 # (results/verification/parts/*.json), combined into results/verification/fe.json.
 # Each rule reruns when the code of solver.fe.verify changes or a config value its check reads
 # (workflow.config.check_inputs).
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# the rule; no rule names a conda environment or container (the project's .venv).
 VERIFY_CODE = code_hash("solver.fe.verify")
 GLOBAL_CHECKS = ["ring", "plate", "solid-ring", "platform", "hughes", "connection"]
+# (s, max_rss MB) of each check's largest benchmark record (results/benchmarks/rules/verify_{check}.tsv);
+# plate has no record: taken as platform's (both a plate or solid reference solve of similar size)
+VERIFY_CHECK_RECORDS = {
+    "ring": (3.4, 232.8),
+    "hughes": (62.1, 995.8),
+    "connection": (58.0, 1546.2),
+    "platform": (17.2, 486.2),
+    "plate": (17.2, 486.2),
+    "solid-ring": (287.9, 4909.9),
+}
 
 
 rule verify_check:
@@ -14,6 +26,10 @@ rule verify_check:
     params:
         code=VERIFY_CODE,
         cfg=check_hash(),
+    resources:
+        # per check (VERIFY_CHECK_RECORDS above)
+        mem_mb=lambda wildcards: mem_mb(VERIFY_CHECK_RECORDS[wildcards.check][1]),
+        runtime=lambda wildcards: runtime_min(VERIFY_CHECK_RECORDS[wildcards.check][0]),
     log:
         "logs/verification/{check}.log",
     benchmark:
@@ -28,6 +44,12 @@ rule verify_convergence:
     params:
         code=VERIFY_CODE,
         cfg=check_hash("convergence"),
+    resources:
+        # records: verify_convergence_body2.tsv 24.1 s, verify_convergence_body3.tsv 402.9 MB; no
+        # record of body 4 (a ring: as bodies 2, 3) nor body 5: the finest level needs 7.0 GB (issue 16,
+        # measured; taken to be the platform, the largest mesh), its time unknown: 1 h assumed
+        mem_mb=lambda wildcards: mem_mb(7000.0 if wildcards.n == "5" else 402.9),
+        runtime=lambda wildcards: 60 if wildcards.n == "5" else runtime_min(24.1),
     log:
         "logs/verification/convergence_body{n}.log",
     benchmark:
@@ -45,7 +67,11 @@ rule verify_body:
         spectra="results/verification/parts/spectra_body{n}.json",
     params:
         code=VERIFY_CODE,
-        cfg=check_hash("spectra"),   # the body-file check reads no config
+        cfg=check_hash("spectra"),  # the body-file check reads no config
+    resources:
+        # records: verify_body5.tsv 10.5 s, 406.3 MB (max of 4)
+        mem_mb=mem_mb(406.3),
+        runtime=runtime_min(10.5),
     log:
         "logs/verification/body{n}.log",
     benchmark:
@@ -66,6 +92,10 @@ rule verify_mpi:
         # it runs the modal stage (python -m solver.fe.modes) under mpirun
         code=code_hash("solver.fe.verify", "solver.fe.modes"),
         cfg=check_hash("mpi"),
+    resources:
+        # no record: the modal stage of body 2 under mpirun -n 2, as modes_body on two ranks
+        mem_mb=2 * mem_mb(420.5),
+        runtime=runtime_min(21.6),
     threads: 2
     log:
         "logs/verification/mpi.log",
@@ -88,7 +118,11 @@ rule verify_fe:
         summary="results/verification/fe.md",
     params:
         code=VERIFY_CODE,
-        cfg=config_hash(),   # fe.json records the hash of the whole config
+        cfg=config_hash(),  # fe.json records the hash of the whole config
+    resources:
+        # no record: combines JSON files, as verify_fe_fast (verify_fe_fast.tsv 4.1 s, 193.8 MB)
+        mem_mb=mem_mb(193.8),
+        runtime=runtime_min(4.1),
     log:
         "logs/verification/fe.log",
     benchmark:
@@ -116,6 +150,10 @@ rule verify_fe_fast:
     params:
         code=VERIFY_CODE,
         cfg=config_hash(),
+    resources:
+        # records: verify_fe_fast.tsv 4.1 s, 193.8 MB
+        mem_mb=mem_mb(193.8),
+        runtime=runtime_min(4.1),
     log:
         "logs/verification/fe_fast.log",
     benchmark:

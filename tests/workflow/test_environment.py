@@ -1,0 +1,63 @@
+"""Issue 16: the literal `snakemake` command, and a Snakemake without the project's packages stopping
+at once in one line (workflow/environment.py, checked first in workflow/rules/common.smk)."""
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from workflow import environment
+
+ROOT = Path(__file__).resolve().parents[2]
+LAUNCHER = ROOT / "workflow" / "envs" / "snakemake-launcher.sh"
+
+
+def test_the_pinned_snakemake_with_every_package_passes():
+    assert environment.problem(environment.pinned("snakemake")) is None
+
+
+def test_debians_snakemake_without_the_packages_gets_one_line_saying_how_to_run_it():
+    line = environment.problem("7.21.0", find_spec=lambda module: None)
+    assert "\n" not in line
+    assert line.startswith("environment error: Snakemake 7.21.0 (the project pins 8.20.5); no numba, typst")
+    assert ". .venv/bin/activate" in line and ".venv/bin/python -m snakemake --cores 2 all" in line
+
+
+def _hide(tmp_path, *modules):
+    """A PYTHONPATH whose sitecustomize makes ``modules`` unimportable (as on an interpreter without them)."""
+    (tmp_path / "sitecustomize.py").write_text(
+        "import sys\n" + "".join(f"sys.modules[{m!r}] = None\n" for m in modules))
+    return {**os.environ, "PYTHONPATH": str(tmp_path)}
+
+
+def test_a_python_without_numba_and_typst_stops_the_dag_build_in_one_line(tmp_path):
+    run = subprocess.run([sys.executable, "-m", "snakemake", "--dry-run", "--cores", "2", "all"], cwd=ROOT,
+                         env=_hide(tmp_path, "numba", "typst"), capture_output=True, text=True, timeout=120)
+    assert run.returncode == 1
+    lines = [line for line in (run.stdout + run.stderr).splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("environment error: no numba, typst for "), lines
+
+
+def test_a_missing_numba_is_an_error_not_a_numpy_fallback(tmp_path):
+    code = "import solver.dynamics.problem"
+    run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=_hide(tmp_path, "numba"),
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode != 0 and "ModuleNotFoundError" in run.stderr, run.stderr[-500:]
+
+
+def test_the_launcher_runs_the_projects_snakemake(tmp_path):
+    """`snakemake` on PATH (what install.sh puts in /usr/local/bin) runs .venv's pinned Snakemake in
+    the project (and in any folder below it); outside a project, with no other snakemake, one line."""
+    bindir = tmp_path / "bin"
+    bindir.mkdir()
+    shutil.copy(LAUNCHER, bindir / "snakemake")
+    env = {**os.environ, "PATH": f"{bindir}:/usr/bin:/bin"}
+    for cwd in (ROOT, ROOT / "docs"):
+        run = subprocess.run(["snakemake", "--version"], cwd=cwd, env=env, capture_output=True, text=True,
+                             timeout=120)
+        assert run.returncode == 0 and run.stdout.strip() == environment.pinned("snakemake"), run.stderr
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    run = subprocess.run(["snakemake", "--version"], cwd=outside, env=env, capture_output=True, text=True,
+                         timeout=60)
+    assert run.returncode == 127 and len(run.stderr.strip().splitlines()) == 1, run.stderr
