@@ -181,6 +181,10 @@ rule modes_body_large:
         code=code_hash("solver.fe.modes"),
         cfg=body_hash(),
         modes=LARGE_BASIS_MODES,
+    resources:
+        # records: modes_body_large5.tsv 40.0 s, 448.8 MB (max of 4, one rank)
+        mem_mb=mem_mb(448.8),
+        runtime=runtime_min(40.0),
     log:
         "logs/verification/truth_basis_body{n}.log",
     benchmark:
@@ -198,8 +202,14 @@ rule truth_basis:
         "results/verification/truth_basis.json",
     params:
         code=code_hash("results.bench.truth_basis"),
-        physics=lambda wildcards: [scenes_mod.load_scene(f"config/scenes/{s}.yaml").config_hash()
-                                   for s in TRUTH_BASIS_SCENES],
+        physics=lambda wildcards: [
+            scenes_mod.load_scene(f"config/scenes/{s}.yaml").config_hash()
+            for s in TRUTH_BASIS_SCENES
+        ],
+    resources:
+        # records: truth_basis.tsv 40.3 s, 607.5 MB
+        mem_mb=mem_mb(607.5),
+        runtime=runtime_min(40.3),
     log:
         "logs/verification/truth_basis.log",
     benchmark:
