@@ -422,7 +422,7 @@ def finding4(st: Study, rankings=("static-xmx", "static-xmgmx")) -> dict:
 
 
 def finding5(st: Study) -> dict:
-    cases = [c for c in st.cases(exclude=("truth",))
+    cases = [c for c in st.cases(exclude=("truth", "truth-check"))
              if np.all(np.isfinite(c["E"])) and c["E"][0] > 0]
     if not cases:
         return _missing("needs reduced-model cases with finite E on all rates")
@@ -495,7 +495,7 @@ def finding6(st: Study) -> dict:
 
 def finding7(st: Study) -> dict:
     rigid = st.E("rigid", 0)
-    cases = st.cases(exclude=("truth", "rigid"))
+    cases = st.cases(exclude=("truth", "truth-check", "rigid"))
     if rigid is None or not cases:
         return _missing("needs the rigid model" if rigid is None else "needs reduced-model cases")
     per_rate = {}
@@ -515,7 +515,7 @@ def finding7(st: Study) -> dict:
 
 
 def finding8(st: Study) -> dict:
-    cases = st.cases(exclude=("truth",))
+    cases = st.cases(exclude=("truth", "truth-check"))
     rec = [n for n in RECOMMENDED if st.E("static-freq", n) is not None]
     if not rec or len(cases) < 2:
         return _missing("needs static-6 or static-8 and other cases")

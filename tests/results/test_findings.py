@@ -316,3 +316,13 @@ def test_classify_model_names():
     assert findings.classify("freq-10,10,5,5")[0] == "other"
     st = findings.Study(_rows({"global-40": 1.0, "static-10@2:input_motor_fx": 1.0, "load-5": 1.0}))
     assert [c["n_elastic"] for c in st.rows] == [40, 41, 20]
+
+
+def test_the_truth_check_is_no_case():
+    """static-100 (the truth with residual flexibility) referees the truth: it must not count as
+    a reduced case beating the rigid model (7) nor be the best case (8)."""
+    rows = _rows({"rigid": 0.04, "freq-10": 0.07, "global-100": 0.003, "static-100": 2e-8,
+                  "static-6": 0.08, "static-8": 0.075})
+    out = {f["finding"]: f for f in findings.evaluate(rows, [], None, "thesis")}
+    assert "static-100" not in out[7]["reason"] and "1/4 cases" in out[7]["reason"]
+    assert out[8]["cases"]["outer"][0] == "global-100"
