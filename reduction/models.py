@@ -38,7 +38,7 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
   (``tolerance_choice``).  Refused with a one-line ModelError when no N up to the computed
   modes meets EPS (the message gives the smallest estimate reached), or when the scene
   moves the gimbals too far for the frozen chain (the ranking file's ``angle_excursion_rad``
-  above ``load_aware.FROZEN_ANGLE`` or ``rate_over_lowest_frequency`` above
+  above ``frozen_chain.FROZEN_ANGLE`` or ``rate_over_lowest_frequency`` above
   ``FROZEN_RATE``): the estimate would be a promise it cannot keep.  No static modes
   (``@``) are taken.  The choice (N, the estimate per rate, EPS, where the estimate came
   from) is recorded in the reduced-model file's attributes ``tol_*``.
@@ -62,7 +62,7 @@ from dataclasses import dataclass
 import h5py
 import numpy as np
 
-from reduction import modal_integrals
+from reduction import frozen_chain, modal_integrals
 from reduction.static_modes import load_case_vector, static_correction_modes
 from solver.bodydata import BODIES, BEARING_NAMES, check_config_hash, read_body_file
 from solver.dynamics import chainfile, multibody, scenes
@@ -238,14 +238,13 @@ def parse_tolerance(name):
 def frozen_chain_valid(pooled):
     """(ok, reason): whether the scene's frozen-linear-chain estimate holds, from the ranking
     file's attributes (the same test as ``reduction.load_aware``'s warning)."""
-    from reduction.load_aware import FROZEN_ANGLE, FROZEN_RATE
     exc = np.asarray(pooled.get("angle_excursion", np.zeros(4)), float)
     rate = float(pooled.get("rate_over_lowest_frequency", 0.0))
-    if exc.size and np.max(exc) > FROZEN_ANGLE:
-        return False, (f"the gimbals move {np.max(exc):.2e} rad > {FROZEN_ANGLE:g} rad "
+    if exc.size and np.max(exc) > frozen_chain.FROZEN_ANGLE:
+        return False, (f"the gimbals move {np.max(exc):.2e} rad > {frozen_chain.FROZEN_ANGLE:g} rad "
                        f"(load_aware.FROZEN_ANGLE)")
-    if rate > FROZEN_RATE:
-        return False, (f"rate / lowest modal frequency {rate:.1e} > {FROZEN_RATE:g} "
+    if rate > frozen_chain.FROZEN_RATE:
+        return False, (f"rate / lowest modal frequency {rate:.1e} > {frozen_chain.FROZEN_RATE:g} "
                        f"(load_aware.FROZEN_RATE)")
     return True, ""
 
@@ -254,9 +253,8 @@ _TOL_CACHE = {}
 
 
 def _extended_estimate(pooled, N):
-    """A-priori E (4,) of the pooled top N beyond the stored curve: ``load_aware.estimate_error``
+    """A-priori E (4,) of the pooled top N beyond the stored curve: ``frozen_chain.estimate_error``
     on the ranking file's frozen linear chain, on the grid the stored curves use."""
-    from reduction import load_aware
     key = (pooled.get("path_key"), int(N))
     if key in _TOL_CACHE:
         return _TOL_CACHE[key]
@@ -265,12 +263,12 @@ def _extended_estimate(pooled, N):
     if model is None:
         if not pooled.get("path"):
             raise ModelError("tol-EPS: the ranking's frozen linear chain is not available")
-        model = load_aware.read_linear_model(pooled["path"])
-        stride = max(1, int(np.ceil(len(model["t"]) / load_aware.CURVE_SAMPLES)))
-        model = _TOL_CACHE[lin_key] = load_aware.decimated(model, stride)
+        model = frozen_chain.read_linear_model(pooled["path"])
+        stride = max(1, int(np.ceil(len(model["t"]) / frozen_chain.CURVE_SAMPLES)))
+        model = _TOL_CACHE[lin_key] = frozen_chain.decimated(model, stride)
     off = np.asarray(model["offsets"], int)
     order = off[np.asarray(pooled["body"], int) - 2] + np.asarray(pooled["mode"], int)
-    E = _TOL_CACHE[key] = np.asarray(load_aware.estimate_error(model, order[:N]), float)
+    E = _TOL_CACHE[key] = np.asarray(frozen_chain.estimate_error(model, order[:N]), float)
     return E
 
 

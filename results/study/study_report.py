@@ -21,17 +21,15 @@ input is not an error: the report says which file is missing and which target ma
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
 
 import numpy as np
-import yaml
 
 from results.study.cases import GROUP_LABELS, MODE_COUNTS, TRUTH, TRUTH_CHECK
 from results.study.findings import THESIS
-from results.study.report import ROOT, _versions, compile_pdf, figure, note, s, sci, table
+from results.study.report import ROOT, _json, _versions, _yaml, compile_pdf, figure, note, s, sci, table
 from results.study.tables import RATE_COLUMNS, read_table
 
 RATES = ("outer", "middle", "inner", "platform")
@@ -59,16 +57,6 @@ def _load(path, reader, ctx, key, makes):
         return None
     ctx["dates"][key] = time.strftime("%Y-%m-%d %H:%M", time.localtime(os.path.getmtime(path)))
     return out
-
-
-def _json(path):
-    with open(path) as f:
-        return json.load(f)
-
-
-def _yaml(path):
-    with open(path) as f:
-        return yaml.safe_load(f)
 
 
 def gather(scene_files, rankings, statics, findings, figures, fe, reduction, optional) -> dict:

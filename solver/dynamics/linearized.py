@@ -141,17 +141,9 @@ def coupled_omega_max(chain, y0=None, offsets=COUPLED_SAMPLE_OFFSETS, lock_angle
     set to zero (elastic coordinates as in y0): the RK4 stability bound's omega_max."""
     if sum(chain.n_modes) == 0:
         return 0.0
-    y0 = np.zeros(chain.n_coordinates) if y0 is None else np.asarray(y0, float)
-    samples = []
-    for off in offsets:
-        y = y0.copy()
-        y[:4] += np.asarray(off, float)
-        samples.append(y)
-    for idx in lock_angles:
-        y = y0.copy()
-        y[list(idx)] = 0.0
-        samples.append(y)
-    return max(float(coupled_frequencies(chain, y)[-1]) for y in samples)
+    y0 = np.zeros(chain.n_coordinates) if y0 is None else y0
+    return max(float(coupled_frequencies(chain, y)[-1])
+               for y in sample_configurations(y0, offsets, lock_angles))
 
 
 def coupled_damped_eigenvalues(chain, y):

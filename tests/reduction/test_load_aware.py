@@ -11,6 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
+from reduction import frozen_chain as fc
 from reduction import load_aware as la
 from results.bench import selection
 from reduction import models
@@ -27,10 +28,10 @@ def test_velocity_response_closed_forms():
     """Exact for piecewise-linear loads at any omega h (here up to 30): step and ramp."""
     t = np.linspace(0.0, 0.01, 101)
     w = np.array([0.0, 50.0, 3e5])
-    step = la.velocity_response(w, np.ones((t.size, 3)), t)
+    step = fc.velocity_response(w, np.ones((t.size, 3)), t)
     assert np.allclose(step[:, 0], t, rtol=0, atol=1e-15)
     assert np.allclose(step[:, 1:], np.sin(np.outer(t, w[1:])) / w[1:], rtol=0, atol=1e-13)
-    ramp = la.velocity_response(w, np.tile(t[:, None], 3), t)
+    ramp = fc.velocity_response(w, np.tile(t[:, None], 3), t)
     assert np.allclose(ramp[:, 0], t ** 2 / 2, rtol=0, atol=1e-15)
     assert np.allclose(ramp[:, 1:], (1 - np.cos(np.outer(t, w[1:]))) / w[1:] ** 2, rtol=0,
                        atol=1e-15)
@@ -43,14 +44,14 @@ def test_velocity_response_smooth_load_and_nonuniform_grid():
     w, nu = np.array([2e3, 4e4]), 4 * np.pi
     g = np.cos(nu * t)[:, None] * np.ones(2)
     exact = (-nu * np.sin(nu * t)[:, None] + w * np.sin(np.outer(t, w))) / (w ** 2 - nu ** 2)
-    got = la.velocity_response(w, g, t)
+    got = fc.velocity_response(w, g, t)
     assert np.max(np.abs(got - exact)) < 1e-6 * np.max(np.abs(exact))
 
 
 def test_phi_series_and_direct_formula_agree():
-    a = 1j * np.array([0.5, 0.99, 1.01, 2.0]) * la.SERIES_LIMIT
+    a = 1j * np.array([0.5, 0.99, 1.01, 2.0]) * fc.SERIES_LIMIT
     for order in (1, 2):
-        series = la._phi(a, order)                    # the first two by the series
+        series = fc._phi(a, order)                    # the first two by the series
         direct = (1 - np.exp(-a)) / a if order == 1 else (1 - np.exp(-a) * (1 + a)) / a ** 2
         assert np.allclose(series, direct, rtol=1e-12, atol=0)
 
@@ -73,7 +74,7 @@ def hand_model(decoupled=2, T=400):
     model = {"M": M, "K": K, "t": t, "rigid_rates": rigid, "loads": loads,
              "offsets": np.array([0, 1, 2, 3, 4])}
     la.check_model(model)
-    model["full"] = la.rate_response(model, np.arange(4))
+    model["full"] = fc.rate_response(model, np.arange(4))
     return model
 
 
@@ -145,7 +146,7 @@ def test_bad_linear_model_is_one_line_error():
     with pytest.raises(la.LoadAwareError, match="do not fit"):
         la.check_model(model)
     with pytest.raises(la.LoadAwareError, match="distinct indices"):
-        la.rate_response(hand_model(), [0, 0])
+        fc.rate_response(hand_model(), [0, 0])
 
 
 # ------------------------------------------------------------------ grammar
@@ -312,7 +313,7 @@ REAL_SIM = os.path.join(ROOT, "results", "sim", "thesis")
 def test_real_apriori_estimate_matches_measured_freq_10():
     from solver.dynamics.error_measure import error_measure
     from results.study.tables import read_sim
-    lin = la.read_linear_model(REAL_RANKING)
+    lin = fc.read_linear_model(REAL_RANKING)
     rk = models.load_rankings(os.path.join(ROOT, "results", "reduction"))
     spec = models.parse_model("freq-10", rk)
     keep = selection.kept_indices(spec, lin["offsets"])
