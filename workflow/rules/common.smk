@@ -31,9 +31,8 @@ if _environment_problem:
     sys.stderr.write(f"{_environment_problem}\n")
     sys.stderr.flush()
     os._exit(1)
-cfgmod = importlib.import_module(
-    "workflow.config"
-)  # not "import workflow...": Snakemake owns that name
+# not "import workflow...": Snakemake owns that name
+cfgmod = importlib.import_module("workflow.config")
 
 # the file the stages read; pass another with --configfile (not --config key=value); used in the
 # rules' shell commands as {CONFIG} (a justified lint, see PY below)
@@ -62,8 +61,9 @@ except cfgmod.ConfigError as exc:
 #   trigger). They are workflow-wide constants like a shell prefix.
 # * "Specify a conda environment or container for each rule" (every rule): the software environment
 #   is the project's .venv (workflow/envs/install.sh: Debian's DOLFINx 0.5.2, PETSc, SLEPc and gmsh
-#   with the PyPI pins of workflow/envs/requirements.txt), checked at DAG build above; conda-forge
-#   has no DOLFINx 0.5.2 built like Debian's, and no container may be fetched here.
+#   with the PyPI pins of workflow/envs/requirements.txt), checked at DAG build above. A conda
+#   environment or a container per rule would be a second software stack that nothing here
+#   verifies (and no container image can be fetched on this project's machines).
 PY = sys.executable
 BODIES = [2, 3, 4, 5]
 
