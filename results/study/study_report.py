@@ -316,7 +316,9 @@ def truth_error_section(ctx, an) -> str:
                + (f"results/verification/truth_basis.json, {s(ctx['dates'].get('truth_basis', ''))}"
                   if basis else s(ctx["missing"].get("truth_basis", "not run"))) + "). "
                "The truth can referee errors down to about: "
-               + "; ".join(f"{s(k)} {sci(v)}" for k, v in ref.items()) + ". ")
+               + "; ".join(f"{s(k)} {sci(v)}" + ("" if k in (basis or {}).get("scenes", {})
+                                                   else s(" (residual flexibility only: a lower bound)"))
+                           for k, v in ref.items()) + ". ")
     th_b = (basis or {}).get("scenes", {}).get("thesis")
     th_a = an.get("thesis")
     if th_b and th_a and th_a["truth_error"] is not None and th_b["E_max"] > 10 * np.max(th_a["truth_error"]):
