@@ -624,8 +624,8 @@ def _runtime_section(ctx, root):
                    f"benchmark of {s(ctx['status'].get('exponential_bench', ''))}: "
                    f"results/benchmarks/exponential.md.\n\n")
     else:
-        out.append(note(s(ctx["missing"].get("exponential_bench", "no benchmark")) +
-                        "; no run time is quoted from single runs."))
+        out.append(note(s(ctx["missing"].get("exponential_bench", "no benchmark") + ";") +
+                        " no run time is quoted from single runs."))
     if rows:
         body = [[s(r["model"]), s(r["n_elastic"]), sci(r["E_outer_gimbal"]), sci(r["E_middle_gimbal"]),
                  sci(r["E_inner_gimbal"]), sci(r["E_stable_platform"]),
