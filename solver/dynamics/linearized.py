@@ -35,6 +35,18 @@ def free_joints(M):
     return joint_of_mode, 0.5 * (S + S.T)
 
 
+def _pencil(M, stiffness, who):
+    """(M (n, n), stiffness (n - 4,)) as float arrays; ValueError (one line naming ``who``)
+    unless the shapes fit with n > 4."""
+    M = np.asarray(M, dtype=float)
+    k = np.asarray(stiffness, dtype=float)
+    n = M.shape[0]
+    if M.shape != (n, n) or k.shape != (n - 4,) or n < 5:
+        raise ValueError(f"{who}: M {M.shape} and stiffness {k.shape} do not match "
+                         f"(need (n, n) and (n - 4,), n > 4)")
+    return M, k
+
+
 def free_joint_modes(M, stiffness):
     """Natural modes of the linearised chain with mass matrix M (n, n) and modal stiffness
     (n - 4,) Omega^2 [(rad/s)^2] (the four joint angles have none): the joints are
@@ -45,12 +57,7 @@ def free_joint_modes(M, stiffness):
 
     Returns (omega (m,) [rad/s] ascending, shapes (n, m)), m = n - 4.  Raises ValueError
     unless M is (n, n) and stiffness (n - 4,) with n > 4."""
-    M = np.asarray(M, dtype=float)
-    k = np.asarray(stiffness, dtype=float)
-    n = M.shape[0]
-    if M.shape != (n, n) or k.shape != (n - 4,) or n < 5:
-        raise ValueError(f"coupled_modes: M {M.shape} and stiffness {k.shape} do not match "
-                         f"(need (n, n) and (n - 4,), n > 4)")
+    M, k = _pencil(M, stiffness, "coupled_modes")
     joint_of_mode, S = free_joints(M)
     lam, X = scipy.linalg.eigh(np.diag(k), S)              # X^T S X = I
     return np.sqrt(np.maximum(lam, 0.0)), np.vstack([joint_of_mode @ X, X])
@@ -71,12 +78,7 @@ def free_joint_basis(M, stiffness):
     Sec. 8).  The eigenvectors P (orthogonal) give X = Omega^-1 P diag(omega) and
     Y = Omega P diag(1 / omega), both diagonal scalings of P.  A zero stiffness (no
     scaling possible) falls back to the generalised solver."""
-    M = np.asarray(M, dtype=float)
-    k = np.asarray(stiffness, dtype=float)
-    n = M.shape[0]
-    if M.shape != (n, n) or k.shape != (n - 4,) or n < 5:
-        raise ValueError(f"free_joint_basis: M {M.shape} and stiffness {k.shape} do not match "
-                         f"(need (n, n) and (n - 4,), n > 4)")
+    M, k = _pencil(M, stiffness, "free_joint_basis")
     joint_of_mode, S = free_joints(M)
     if np.all(k > 0):
         Om = np.sqrt(k)

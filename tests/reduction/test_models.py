@@ -105,7 +105,9 @@ def write_csr(group, A):
     group.attrs["shape"] = A.shape
 
 
-def write_body(path, d):
+def write_body(path, d, number=None, config_hash="synthetic"):
+    """A body file in the contract's layout (docs/body-data.md) from a synthetic body dict
+    (``results.bench.oracle.synthetic_body``); the body number from ``d`` unless given."""
     with h5py.File(path, "w") as f:
         lam = d["eigenvalues"]
         f["frequencies_hz"] = np.sqrt(lam) / (2 * np.pi)
@@ -115,8 +117,8 @@ def write_body(path, d):
             f[k] = d[k]
         for k in ("M", "K", "T", "bearing_operator"):
             write_csr(f.create_group(k), d[k])
-        f.attrs["body"] = d["number"]
-        f.attrs["config_hash"] = "synthetic"
+        f.attrs["body"] = d["number"] if number is None else number
+        f.attrs["config_hash"] = config_hash
 
 
 @pytest.fixture(scope="module")

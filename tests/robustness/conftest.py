@@ -14,36 +14,15 @@ import shutil
 import h5py
 import numpy as np
 import pytest
-import scipy.sparse as sp
 import yaml
 
 from reduction import models
 from results.bench.oracle import synthetic_body
 from solver.bodydata import BODIES
 from solver.dynamics import scenes
+from tests.reduction.test_models import write_body
 
 D = 6            # modes per synthetic body
-
-
-def write_csr(group, A):
-    A = sp.csr_matrix(A)
-    group["data"], group["indices"], group["indptr"] = A.data, A.indices, A.indptr
-    group.attrs["shape"] = A.shape
-
-
-def write_body(path, d, number, config_hash="synthetic"):
-    """A body file in the contract's layout (docs/body-data.md) from a synthetic body dict."""
-    with h5py.File(path, "w") as f:
-        lam = d["eigenvalues"]
-        f["frequencies_hz"] = np.sqrt(lam) / (2 * np.pi)
-        f["eigenvalues"] = lam
-        for k in ("modes", "rigid_modes", "dof_coords", "dof_component", "bearing_points",
-                  "bearing_modes"):
-            f[k] = d[k]
-        for k in ("M", "K", "T", "bearing_operator"):
-            write_csr(f.create_group(k), d[k])
-        f.attrs["body"] = number
-        f.attrs["config_hash"] = config_hash
 
 
 def write_reduction(path, config_hash="synthetic"):
