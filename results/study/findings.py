@@ -105,6 +105,20 @@ THESIS = {
                       6: (1.3165, 1.4725, .0081, .0027), 8: (1.6020, 1.5996, .0020, 6.3717e-4)},
 }
 
+# Thesis Table 4.1 (Balucan 2001): the XMX/XMGMX ranking of the first 40 modes per body, most
+# important first, 1-based mode numbers in order of frequency (one ranking for both criteria, as
+# printed); rows in thesis.txt below Figure 4-6, columns outer, middle, inner gimbal, stable platform.
+THESIS_TABLE_4_1 = {
+    "outer_gimbal": (4, 3, 16, 7, 1, 2, 26, 27, 8, 5, 11, 15, 10, 17, 13, 34, 12, 19, 14, 6, 52, 24,
+                     22, 36, 44, 81, 41, 97, 57, 93, 25, 58, 61, 29, 39, 33, 37, 51, 18, 42),
+    "middle_gimbal": (4, 3, 7, 1, 15, 16, 2, 26, 24, 8, 14, 5, 11, 10, 27, 13, 12, 20, 17, 23, 49, 40,
+                      70, 36, 6, 41, 98, 92, 39, 25, 71, 55, 45, 29, 33, 64, 28, 42, 72, 83),
+    "inner_gimbal": (4, 3, 13, 7, 1, 19, 2, 25, 20, 8, 5, 11, 14, 26, 10, 12, 24, 15, 29, 17, 38, 59,
+                     74, 66, 48, 40, 28, 60, 47, 75, 31, 73, 6, 9, 63, 62, 42, 43, 32, 30),
+    "stable_platform": (1, 2, 4, 8, 3, 5, 7, 10, 6, 13, 11, 21, 23, 12, 9, 31, 24, 25, 20, 33, 17, 29,
+                        45, 16, 27, 28, 32, 40, 38, 41, 14, 39, 15, 19, 47, 18, 37, 22, 42, 48),
+}
+
 STATEMENTS = {
     1: "With fewer than about 25 modes per body, XMX/XMGMX-ranked modes give a smaller error "
        "than the lowest-frequency modes.",

@@ -21,6 +21,7 @@ input is not an error: the report says which file is missing and which target ma
 from __future__ import annotations
 
 import argparse
+import csv
 import os
 import sys
 import time
@@ -28,7 +29,7 @@ import time
 import numpy as np
 
 from results.study.cases import GROUP_LABELS, MODE_COUNTS, TRUTH, TRUTH_CHECK
-from results.study.findings import THESIS
+from results.study.findings import THESIS, THESIS_TABLE_4_1
 from results.study.report import ROOT, _json, _versions, _yaml, compile_pdf, figure, note, s, sci, table
 from results.study.tables import RATE_COLUMNS, read_table
 
@@ -59,7 +60,8 @@ def _load(path, reader, ctx, key, makes):
     return out
 
 
-def gather(scene_files, rankings, statics, findings, figures, fe, reduction, optional) -> dict:
+def gather(scene_files, rankings, statics, findings, figures, fe, reduction, optional,
+           mode_ranking=None) -> dict:
     """Everything the report shows.  The four lists are per scene, in the order of scene_files."""
     n = len(scene_files)
     for name, lst in (("ranking tables", rankings), ("static tables", statics),
@@ -83,12 +85,27 @@ def gather(scene_files, rankings, statics, findings, figures, fe, reduction, opt
         ctx["scenes"].append(sc)
     ctx["fe"] = _load(fe, _json, ctx, "fe", "snakemake all")
     ctx["reduction"] = _load(reduction, _json, ctx, "reduction", "snakemake reduction_report")
+    ctx["mode_ranking"] = _load(mode_ranking, read_mode_ranking, ctx, "mode ranking",
+                                "snakemake reduction_report") if mode_ranking else None
     for key, path in optional.items():
         ctx[key] = _load(path, _json, ctx, key, OPTIONAL.get(key, "snakemake verify")) \
             if path and path.endswith(".json") else None
     ctx["versions"] = _versions()
     ctx["date"] = time.strftime("%Y-%m-%d %H:%M:%S %Z")
     return ctx
+
+
+def read_mode_ranking(path) -> dict:
+    """results/tables/ranking.csv (reduction.report, the Table 4.1 analogue) as
+    {body name: {"xmx": (mode, ...), "xmgmx": (mode, ...)}}, 1-based mode numbers, most important
+    first."""
+    out = {}
+    with open(path, newline="") as f:
+        for row in csv.DictReader(line for line in f if not line.startswith("#")):
+            body = out.setdefault(row["name"], {"xmx": [], "xmgmx": []})
+            for key in ("xmx", "xmgmx"):
+                body[key].append(int(row[f"{key}_mode_1based"]))
+    return {name: {k: tuple(v) for k, v in body.items()} for name, body in out.items()}
 
 
 # ---------------------------------------------------------------- analysis (pure)
@@ -133,6 +150,27 @@ def analyse_scene(rows) -> dict:
             out["cheapest"][target] = (c["model"], float(np.max(_E(c))), c["n_elastic"])
         else:
             out["cheapest"][target] = None
+    return out
+
+
+def ranking_comparison(ours, thesis=THESIS_TABLE_4_1, top=20, lowest=25) -> dict:
+    """Our XMX and XMGMX rankings beside the thesis's Table 4.1, per body (pure).
+
+    Mode numbers are in order of frequency on each model's own mesh, so the same number is not
+    necessarily the same shape; what compares across models is where the ranked modes sit in
+    the spectrum.  Per body and ranking ("thesis", "xmx", "xmgmx"): ``low``, how many of the
+    ``top`` most important modes are among the ``lowest`` lowest-frequency modes; ``highest``,
+    the highest mode number among them; ``shared``, how many of them the thesis's top also
+    holds (as mode numbers)."""
+    out = {}
+    for body, modes in thesis.items():
+        if body not in ours:
+            continue
+        lists = {"thesis": tuple(modes[:top]), "xmx": tuple(ours[body]["xmx"][:top]),
+                 "xmgmx": tuple(ours[body]["xmgmx"][:top])}
+        ref = set(lists["thesis"])
+        out[body] = {k: {"modes": v, "low": sum(m <= lowest for m in v), "highest": max(v),
+                         "shared": len(ref & set(v))} for k, v in lists.items()}
     return out
 
 
@@ -265,6 +303,7 @@ def results_section(ctx, an, root) -> str:
         else:
             out.append(note(f"scene {s(sc['name'])}: no error table"))
     out.append(thesis_tables(ctx))
+    out.append(thesis_ranking_table(ctx))
     out.append(truth_error_section(ctx, an))
     out.append("== Error against the number of modes\n\n")
     for sc in ctx["scenes"]:
@@ -373,6 +412,37 @@ def thesis_tables(ctx) -> str:
                      "and it reports a low-frequency response of its reduced models that varies "
                      "strongly with the mode count (its Section 4.3)." if ratios else ""),
                   "tab-thesis-side", size="7pt"))
+
+
+def thesis_ranking_table(ctx, top=20, lowest=25) -> str:
+    """Thesis Table 4.1 (its first 20 rows) beside our XMX and XMGMX rankings of the same bodies."""
+    ours = ctx.get("mode_ranking")
+    if not ours:
+        return note("no mode ranking (results/tables/ranking.csv): Table 4.1 is not compared")
+    cmp_ = ranking_comparison(ours, top=top, lowest=lowest)
+    bodies = list(cmp_)
+    short = {"outer_gimbal": "outer", "middle_gimbal": "middle", "inner_gimbal": "inner",
+             "stable_platform": "platform"}
+    header = ["rank"] + [f"{short.get(b, b)} {k}" for b in bodies for k in ("thesis", "XMX", "XMGMX")]
+    rows = [[s(i + 1)] + [s(cmp_[b][k]["modes"][i]) for b in bodies for k in ("thesis", "xmx", "xmgmx")]
+            for i in range(top)]
+    for key, label in (("low", f"in the {lowest} lowest"), ("highest", "highest mode"),
+                       ("shared", "shared with thesis")):
+        rows.append([s(label)] + [s(cmp_[b][k][key]) for b in bodies for k in ("thesis", "xmx", "xmgmx")])
+    low = {k: sum(cmp_[b][k]["low"] for b in bodies) for k in ("thesis", "xmx", "xmgmx")}
+    shared = {k: sum(cmp_[b][k]["shared"] for b in bodies) for k in ("xmx", "xmgmx")}
+    n = top * len(bodies)
+    return ("== The thesis's Table 4.1 beside ours\n\n" +
+            table(header, rows,
+                  f"Thesis Table 4.1 (one ranking for XMX and XMGMX, its first {top} of 40 rows) beside "
+                  f"our XMX and XMGMX rankings (results/tables/ranking.csv), 1-based mode numbers in "
+                  f"order of frequency, most important first. Of the {n} top-{top} modes, "
+                  f"{low['thesis']} (thesis), {low['xmx']} (XMX) and {low['xmgmx']} (XMGMX) are among "
+                  f"each body's {lowest} lowest; {shared['xmx']} (XMX) and {shared['xmgmx']} (XMGMX) "
+                  f"mode numbers are also in the thesis's top {top}. Mode numbers on different meshes "
+                  f"and bearing models need not be the same shapes: the comparison is where in the "
+                  f"spectrum the important modes sit.", "tab-thesis-ranking",
+                  columns=f"(auto,) + (1fr,) * {len(header) - 1}", size="6.5pt"))
 
 
 def discussion_section(ctx, an) -> str:
@@ -550,13 +620,16 @@ def main(argv=None) -> int:
     ap.add_argument("--figures", nargs="+", required=True, help="figure manifests (figures.json)")
     ap.add_argument("--fe", required=True, help="results/verification/fe_fast.json")
     ap.add_argument("--reduction", required=True)
+    ap.add_argument("--mode-ranking", default=None,
+                    help="results/tables/ranking.csv (the Table 4.1 analogue, reduction_report)")
     for key in OPTIONAL:
         ap.add_argument("--" + key.replace("_", "-"), default=None, help=f"read if present ({OPTIONAL[key]})")
     ap.add_argument("--out", required=True)
     args = ap.parse_args(argv)
     try:
         ctx = gather(args.scenes, args.ranking_tables, args.static_tables, args.findings, args.figures,
-                     args.fe, args.reduction, {k: getattr(args, k) for k in OPTIONAL})
+                     args.fe, args.reduction, {k: getattr(args, k) for k in OPTIONAL},
+                     mode_ranking=args.mode_ranking)
     except ValueError as exc:
         print(f"results.study.study_report: error: {exc}", file=sys.stderr)
         return 2

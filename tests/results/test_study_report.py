@@ -117,3 +117,42 @@ def test_truth_error_takes_the_larger_of_residual_flexibility_and_the_larger_bas
     # a larger basis that agrees with the residual flexibility: no such sentence
     basis["scenes"]["thesis"]["E_max"] = 5e-8
     assert "far more" not in study_report.truth_error_section(ctx, an)
+
+
+def test_thesis_table_4_1_is_40_distinct_modes_per_body_as_printed():
+    # the transcription: 40 rows, no repeated mode, every number a mode of the 100 computed
+    for body, modes in findings.THESIS_TABLE_4_1.items():
+        assert len(modes) == 40 and len(set(modes)) == 40 and all(1 <= m <= 100 for m in modes), body
+    # first and last rows of the printed table (outer, middle, inner, platform)
+    assert [m[0] for m in findings.THESIS_TABLE_4_1.values()] == [4, 4, 4, 1]
+    assert [m[-1] for m in findings.THESIS_TABLE_4_1.values()] == [42, 83, 30, 48]
+
+
+def test_ranking_comparison_counts_low_modes_highest_and_shared():
+    thesis = {"outer_gimbal": (1, 2, 30, 4)}
+    ours = {"outer_gimbal": {"xmx": (2, 1, 5, 40), "xmgmx": (1, 2, 30, 4)}}
+    c = study_report.ranking_comparison(ours, thesis, top=3, lowest=25)["outer_gimbal"]
+    assert c["thesis"] == {"modes": (1, 2, 30), "low": 2, "highest": 30, "shared": 3}
+    assert c["xmx"] == {"modes": (2, 1, 5), "low": 3, "highest": 5, "shared": 2}
+    assert c["xmgmx"]["shared"] == 3
+    # a body the thesis does not list is left out, not invented
+    assert study_report.ranking_comparison({"other": ours["outer_gimbal"]}, thesis) == {}
+
+
+def test_mode_ranking_table_is_read_and_shown_beside_the_thesis(study):
+    csv = study["tmp"] / "ranking.csv"
+    lines = ["body,name,rank_1based,xmx_mode_1based,xmgmx_mode_1based"]
+    for b, name in enumerate(findings.THESIS_TABLE_4_1, start=2):
+        lines += [f"body{b},{name},{k + 1},{k + 1},{40 - k}" for k in range(40)]
+    csv.write_text("\n".join(lines) + "\n")
+    ours = study_report.read_mode_ranking(str(csv))
+    assert ours["stable_platform"]["xmx"][:3] == (1, 2, 3) and ours["outer_gimbal"]["xmgmx"][0] == 40
+    pdf = study["tmp"] / "ranked.pdf"
+    assert study_report.main(["--scenes", *study["scenes"], "--ranking-tables", *study["rank"],
+                              "--static-tables", *study["static"], "--findings", *study["findings"],
+                              "--figures", *study["figures"], "--fe", "x", "--reduction", "y",
+                              "--mode-ranking", str(csv), "--out", str(pdf)]) == 0
+    src = (study["tmp"] / "ranked.typ").read_text()
+    # XMX keeps modes 1..20: all 80 among the 25 lowest; the thesis's top 20: 71 of 80
+    assert "== The thesis's Table 4.1 beside ours" in src
+    assert "Of the 80 top-20 modes, 71 (thesis), 80 (XMX) and" in src

@@ -231,6 +231,7 @@ rule study_report:
         scenes=[scene_path(s) for s in STUDY_SCENES],
         fe="results/verification/fe_fast.json",
         reduction="results/verification/reduction.json",
+        mode_ranking="results/tables/ranking.csv",
         truth_basis="results/verification/truth_basis.json",
     output:
         report(
@@ -252,5 +253,5 @@ rule study_report:
     shell:
         "{PY} -m results.study.study_report --scenes {input.scenes} --ranking-tables {input.rankings} "
         "--static-tables {input.statics} --findings {input.findings} --figures {input.figures} "
-        "--fe {input.fe} --reduction {input.reduction} --truth-basis {input.truth_basis} {params.optional} "
+        "--fe {input.fe} --reduction {input.reduction} --mode-ranking {input.mode_ranking} --truth-basis {input.truth_basis} {params.optional} "
         "--out {output} > {log} 2>&1"
