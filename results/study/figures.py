@@ -90,6 +90,10 @@ def save(fig, stem) -> dict:
     os.makedirs(os.path.dirname(os.path.abspath(stem)), exist_ok=True)
     paths = {"pdf": f"{stem}.pdf", "png": f"{stem}.png"}
     fig.savefig(paths["pdf"])
+    # the layout is solved once: the PDF's draw placed every axes (figure-relative, so the same at
+    # any dpi); solving it again for the PNG cost ~40 % of the figure's time
+    if fig.get_layout_engine() is not None:
+        fig.set_layout_engine("none")
     fig.savefig(paths["png"], dpi=PNG_DPI)
     plt.close(fig)
     return paths

@@ -68,14 +68,15 @@ def _planned_jobs(stdout):
 def test_one_simulation_plans_only_what_it_needs():
     """Issue 6: the DAG of results/sim/thesis/freq-10.h5 holds no other case, and no
     reduction (a frequency cutoff reads the body files only); one reduced-model file sits
-    between the body files and the simulation (issue 12)."""
+    between the body files and the simulation (issue 12); the kernels are compiled once, first."""
     run = snakemake("--dry-run", "--forceall", "results/sim/thesis/freq-10.h5")
     assert run.returncode == 0, run.stderr[-2000:]
-    assert _planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "reduced_model": 1, "simulate": 1}
+    assert _planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "reduced_model": 1, "simulate": 1,
+                                         "kernels": 1}
     run = snakemake("--dry-run", "--forceall", "results/sim/thesis/global-40.h5")
     assert run.returncode == 0, run.stderr[-2000:]
     assert _planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "reduction_body": 4,
-                                         "load_ranking": 1, "reduced_model": 1, "simulate": 1}
+                                         "load_ranking": 1, "reduced_model": 1, "simulate": 1, "kernels": 1}
 
 
 def test_a_scene_target_plans_exactly_its_declared_simulations():

@@ -156,6 +156,13 @@ def scene_elastic_bodies(wildcards):
 
 
 # dynamics.smk
+# The compiled kernels' record (made by the kernels job) is an input of every job that simulates, as ancient(),
+# so it orders them after the one compilation and its date never reruns them.  The scenes it
+# compiles on: undamped and damped (the damped paths).
+KERNELS = "results/verification/kernels.json"
+WARMUP_SCENES = ("thesis", "damped")
+
+
 def scene_physics_hash(wildcards):
     return scenes_mod.load_scene(scene_file(wildcards)).config_hash()
 

@@ -3,11 +3,37 @@
 # the rule; no rule names a conda environment or container (the project's .venv).
 
 
+rule kernels:
+    """Compile the dynamics kernels once, before the jobs that use them (solver.dynamics.warmup):
+    no body file needed, so it runs beside the FE jobs at the start of a fresh clone's run."""
+    input:
+        scenes=[scene_path(s) for s in WARMUP_SCENES],
+    output:
+        KERNELS,
+    params:
+        code=code_hash("solver.dynamics.warmup"),
+        integrator=cfgmod.value(config, "simulation.integrator"),
+        options=integrator_options,
+    resources:
+        # no record on a quiet machine: 141 s of CPU, 288 s wall on a loaded one (this session,
+        # a cold cache); ~300 MB
+        mem_mb=mem_mb(300.0),
+        runtime=runtime_min(288.0),
+    log:
+        "logs/sim/kernels.log",
+    benchmark:
+        "results/benchmarks/rules/kernels.tsv"
+    shell:
+        "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.warmup --scenes {input.scenes} "
+        "--integrator {params.integrator} {params.options} --out {output} > {log} 2>&1"
+
+
 rule load_ranking:
     input:
         scene=scene_file,
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        kernels=ancient(KERNELS),
     output:
         "results/reduction/load/{scene}.h5",
     params:
@@ -29,6 +55,7 @@ rule load_ranking:
 rule simulate:
     input:
         model="results/models/{scene}/{model}.h5",
+        kernels=ancient(KERNELS),
     output:
         "results/sim/{scene}/{model}.h5",
     resources:

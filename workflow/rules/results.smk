@@ -20,6 +20,7 @@ rule study_scene:
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         load_ranking="results/reduction/load/{scene}.h5",
+        kernels=ancient(KERNELS),
     output:
         sims=[f"results/study/{{scene}}/sim/{m}.h5" for m in SCENE_MODELS],
         coupled="results/study/{scene}/coupled_modes.json",

@@ -198,6 +198,7 @@ rule truth_basis:
     input:
         bodies=expand("results/verification/truth_basis/body{n}.h5", n=BODIES),
         scenes=expand("config/scenes/{scene}.yaml", scene=TRUTH_BASIS_SCENES),
+        kernels=ancient(KERNELS),
     output:
         "results/verification/truth_basis.json",
     params:

@@ -1,0 +1,44 @@
+"""solver.dynamics.warmup: the one compilation before the workflow's simulations runs the
+synthetic chain through the simulate command line on every scene, and says so in one line
+when it cannot."""
+import json
+import os
+
+import numpy as np
+
+from solver.dynamics import chainfile, scenes, warmup
+from solver.dynamics.synthetic import synthetic_modal_chain
+
+
+def test_warmup_simulates_the_elastic_chain_per_scene_and_the_rigid_chain_with_dop853(tmp_path):
+    thesis = os.path.join(scenes.SCENES_DIR, "thesis.yaml")
+    damped = os.path.join(scenes.SCENES_DIR, "damped.yaml")
+    out = tmp_path / "kernels.json"
+    assert warmup.main(["--scenes", thesis, damped, "--tol", "1e-6", "--out", str(out)]) == 0
+    record = json.loads(out.read_text())
+    assert [(r["scene"], r["model"]) for r in record["runs"]] == [(thesis, "elastic"), (damped, "elastic"),
+                                                                  (thesis, "rigid")]
+    assert record["runs"][0]["options"] == ["--integrator", "exponential", "--tol", "1e-6"]
+    assert record["runs"][-1]["options"] == ["--integrator", "dop853"]
+    assert record["git_revision"] and record["versions"] and record["wall_time_s"] > 0
+
+
+def test_rigid_chain_keeps_the_rigid_mass_and_drops_every_mode(tmp_path):
+    chain = synthetic_modal_chain(2, seed=0)
+    rigid = warmup.rigid_chain(chain)
+    assert [b.n_modes for b in rigid.bodies] == [0, 0, 0, 0]
+    for a, b in zip(chain.bodies, rigid.bodies):
+        assert np.array_equal(a.rigid_mass, b.rigid_mass)
+    # both are valid reduced-model files, as the simulations read them
+    path = tmp_path / "rigid.h5"
+    warmup.write_model(path, rigid, "synthetic-rigid")
+    back, info = chainfile.read_chain(path)
+    assert info["model"] == "synthetic-rigid" and back.n_coordinates == 4
+
+
+def test_a_missing_scene_stops_the_warmup_in_one_line(tmp_path, capsys):
+    out = tmp_path / "kernels.json"
+    assert warmup.main(["--scenes", str(tmp_path / "nope.yaml"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("warmup: the synthetic elastic chain failed on") and "nope.yaml" in err[-1]
+    assert not out.exists()
