@@ -463,7 +463,7 @@ def build_linear_model(scene, body_data, log=None):
     log(f"rigid run: {run['t'].size} samples in {time.perf_counter() - t0:.1f} s")
     t0 = time.perf_counter()
     loads = modal_loads(full, run["t"], run["y"], run["yd"], run["ydd"], scene.case,
-                        Progress(f"load_aware {scene.name}: modal loads", run["t"].size, "samples"))
+                        Progress("load_aware: modal loads", run["t"].size, "samples"))
     log(f"modal loads of {loads.shape[1]} modes in {time.perf_counter() - t0:.1f} s")
     y0 = np.zeros(full.n_coordinates)
     y0[:N_JOINTS] = scene.initial_angles
