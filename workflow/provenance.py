@@ -19,6 +19,8 @@ config_hash_from, git, versions} (``versions()`` holds the git revision too).  H
   when rendered);
 * PNG and PDF figures (``savefig``): PNG text chunk ``Provenance``, PDF ``/Subject``
   ``provenance {...}``; the Typst reports set the same ``/Subject`` (``typst_metadata``);
+* the state-space export's .mat and .npz (``solver.dynamics.export``): a field ``provenance``
+  (JSON text);
 * everything else (CSV, VTU; ``write_text``, ``write_sidecar``): a sidecar
   ``{file}.provenance.json`` beside it, so every CSV stays a plain table for every reader.
   (A mesh's sidecar is its metadata JSON, ``results/mesh/body{n}.json``.)
@@ -290,6 +292,13 @@ def read_provenance(path: str | Path) -> dict:
             return _from_text(re.sub(r"\\(.)", r"\1", found.group(1))) if found else {}
         if suffix == ".png":
             return _from_text(_png_text(path).get("Provenance"))
+        if suffix == ".npz":                    # the state-space export (solver.dynamics.export)
+            with np.load(path, allow_pickle=False) as z:
+                return _from_text(str(z["provenance"])) if "provenance" in z.files else {}
+        if suffix == ".mat":
+            import scipy.io  # optional heavy dependency: imported only to read a .mat export
+            text = scipy.io.loadmat(path, variable_names=["provenance"]).get("provenance")
+            return _from_text(str(text[0])) if text is not None and len(text) else {}
         if suffix == ".pdf":
             data = path.read_bytes()
             at = data.rfind(b"/Subject")

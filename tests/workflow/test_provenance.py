@@ -112,6 +112,17 @@ def test_h5_files_of_both_conventions(tmp_path):
         assert carries(path) and P.read_provenance(path)["config_hash"] == "0123abcd"
 
 
+def test_state_space_export_fields(tmp_path):
+    """The .mat and .npz of solver.dynamics.export hold the record as JSON text (field provenance)."""
+    import numpy as np
+    import scipy.io
+    ss = {"A": np.eye(2), "provenance": json.dumps(P.provenance("feed03"), sort_keys=True)}
+    scipy.io.savemat(tmp_path / "m.mat", ss, do_compression=True)
+    np.savez_compressed(tmp_path / "m.npz", **ss)
+    for name in ("m.mat", "m.npz"):
+        assert P.read_provenance(tmp_path / name)["config_hash"] == "feed03" and carries(tmp_path / name)
+
+
 def test_a_failed_write_leaves_neither_the_file_nor_its_sidecar(tmp_path):
     class Boom(Exception):
         pass
