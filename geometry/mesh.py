@@ -15,7 +15,7 @@ import sys
 from geometry.gimbal import GeometryError, mesh_body
 from workflow import cli
 from workflow import config as cfgmod
-from workflow.provenance import write_json
+from workflow.provenance import provenance, write_json
 
 
 # Size guard (before gmsh and before the modal stage's assembly): the DOFs of a body's
@@ -101,8 +101,8 @@ def main(argv=None) -> int:
         if args.meta:
             cli.check_writable(args.meta)
         meta = mesh_from_inputs(inputs, args.out)
-        if args.meta:
-            write_json(args.meta, meta)
+        if args.meta:   # the mesh's sidecar: its provenance too (config hash: the mesh's inputs)
+            write_json(args.meta, meta, provenance(cfgmod.inputs_hash(inputs)))
     except (GeometryError, cfgmod.ConfigError, ValueError) as exc:
         print(f"error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1

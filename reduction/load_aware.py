@@ -67,6 +67,7 @@ from reduction.frozen_chain import (CURVE_SAMPLES, FROZEN_ANGLE, FROZEN_RATE, N_
                                     velocity_response)
 from solver.bodydata import BODIES
 from solver.dynamics import integrators, multibody, scenes, simulate
+from workflow.progress import Progress
 from workflow.provenance import atomic_h5, versions
 FORMAT_VERSION = 1
 DEFAULT_POOL = 160          # pooled modes ranked by backward elimination (40 per body on average)
@@ -91,7 +92,7 @@ def rigid_run(rigid_chain, scene, rtol=1e-12, atol=1e-14):
     return {"t": run.t, "y": run.y, "yd": run.yd, "ydd": ydd}
 
 
-def modal_loads(chain, t, y, yd, ydd, case):
+def modal_loads(chain, t, y, yd, ydd, case, progress=None):
     """Gamma (T, sum D): the load of the scene on every mode along a rigid motion.
 
     chain: the elastic chain (all modes to be ranked); t (T,) [s]; y, yd, ydd
@@ -106,7 +107,8 @@ def modal_loads(chain, t, y, yd, ydd, case):
     modes: inertial (frame acceleration through P, H), centrifugal (M_1,i), and
     the bearing wrench F_child of the inner subtree through the inside-frame
     motion L_i (Psi, Theta).  Unit: lbf / sqrt(lbf s^2/in) = sqrt(mass) in/s^2,
-    the generalised force of a mass-normalised modal coordinate."""
+    the generalised force of a mass-normalised modal coordinate.  progress: a
+    ``workflow.progress.Progress`` advanced by one per sample (optional)."""
     t = np.asarray(t, float)
     y, yd, ydd = (np.asarray(a, float) for a in (y, yd, ydd))
     if y.shape != (t.size, N_JOINTS) or yd.shape != y.shape or ydd.shape != y.shape:
@@ -118,6 +120,8 @@ def modal_loads(chain, t, y, yd, ydd, case):
     for k in range(t.size):
         Y[:N_JOINTS], V[:N_JOINTS], A[:N_JOINTS] = y[k], yd[k], ydd[k]
         out[k] = -multibody.inverse_dynamics(chain, Y, V, A, t[k], case)[N_JOINTS:]
+        if progress is not None:
+            progress.advance()
     return out
 
 
@@ -327,7 +331,7 @@ def search_stride(duration, output_interval, samples=SEARCH_SAMPLES):
 
 
 def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, stride=3,
-                   greedy_prefix=GREEDY_STEPS, log=None):
+                   greedy_prefix=GREEDY_STEPS, log=None, estimate=estimate_error):
     """Pooled load-aware ranking of every mode of every body.
 
     score (4, Q) from ``participation_scores``.  The cost is J = max_n E_n, the
@@ -339,7 +343,8 @@ def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, s
     elimination with the prefix protected.  The other excited
     modes follow by score, the modes the scene does not excite come last.
     Returns (order (Q,) pooled indices most important first, info dict:
-    ``prefix`` (k,), ``search_cost`` (pool + 1,) J on the search grid)."""
+    ``prefix`` (k,), ``search_cost`` (pool + 1,) J on the search grid).  estimate: the
+    a-priori error function (``rank_scene`` passes it counted, for its progress)."""
     s = np.max(np.asarray(score, float), axis=0)
     excited = excited_modes(score)
     by_score = np.lexsort((np.arange(s.size), -s))
@@ -347,7 +352,7 @@ def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, s
     search = decimated(model, stride)
 
     def J(keep):
-        return float(np.max(estimate_error(search, keep)))
+        return float(np.max(estimate(search, keep)))
     top = [int(i) for i in by_score[:max(0, min(int(pool_size), by_score.size))]]
     prefix = np.zeros(0, int)
     if greedy_prefix:
@@ -366,7 +371,8 @@ def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, s
             {"prefix": prefix, "search_cost": cost, "pool": len(pool)})
 
 
-def body_rankings(model, pooled_order, score=None, n_lockstep=N_CURVE, stride=3, log=None):
+def body_rankings(model, pooled_order, score=None, n_lockstep=N_CURVE, stride=3, log=None,
+                  estimate=estimate_error):
     """Per-body load-aware rankings for equal counts per body (``load-N``).
 
     The first ``n_lockstep`` modes of every body are ordered by ``lockstep_elimination``
@@ -378,7 +384,7 @@ def body_rankings(model, pooled_order, score=None, n_lockstep=N_CURVE, stride=3,
     together with the other bodies' pooled picks: at equal counts its first 5 per
     body ring at frequencies the full chain does not have, J = 0.31 on the thesis
     scene, against 0.04 for the rigid model.)  Returns 4 arrays (D_b,) of local
-    mode indices."""
+    mode indices.  estimate: the a-priori error function (as ``pooled_ranking``)."""
     off = model["offsets"]
     split = split_by_body(pooled_order, off)
     n = min([int(n_lockstep)] + [len(p) for p in split])
@@ -387,7 +393,7 @@ def body_rankings(model, pooled_order, score=None, n_lockstep=N_CURVE, stride=3,
     search = decimated(model, stride)
 
     def J(keep):
-        return float(np.max(estimate_error(search, keep)))
+        return float(np.max(estimate(search, keep)))
     pools = [off[k] + p[:n] for k, p in enumerate(split)]
     prio = None if score is None else dict(enumerate(np.max(np.asarray(score), axis=0)))
     orders, _ = lockstep_elimination(J, pools, priority=prio, tie_rtol=TIE_RTOL, log=log)
@@ -415,21 +421,21 @@ def pooled_xmx_order(radii, offsets):
     return np.lexsort((np.arange(r.size), -r))
 
 
-def estimate_curves(model, orders, n_max=N_CURVE):
+def estimate_curves(model, orders, n_max=N_CURVE, estimate=estimate_error):
     """A-priori errors (n_max, 4) of keeping the first N = 1..n_max modes of every body's
-    order (orders: 4 arrays of local indices)."""
+    order (orders: 4 arrays of local indices); estimate: as ``pooled_ranking``."""
     D = np.diff(model["offsets"])
     out = np.full((n_max, N_JOINTS), np.nan)
     for N in range(1, n_max + 1):
         if N > D.min():
             break
-        out[N - 1] = estimate_error(model, kept_from_counts(model["offsets"], orders, [N] * 4))
+        out[N - 1] = estimate(model, kept_from_counts(model["offsets"], orders, [N] * 4))
     return out
 
 
-def body_curves(model, orders, n_max=N_CURVE):
+def body_curves(model, orders, n_max=N_CURVE, estimate=estimate_error):
     """{body: (n_max, 4)}: a-priori errors of truncating one body to its first N modes
-    (N = 1..n_max), the other bodies keeping every mode."""
+    (N = 1..n_max), the other bodies keeping every mode; estimate: as ``pooled_ranking``."""
     off = model["offsets"]
     out = {}
     for k, b in enumerate(BODIES):
@@ -437,7 +443,7 @@ def body_curves(model, orders, n_max=N_CURVE):
         others = [np.arange(off[j], off[j + 1]) for j in range(len(BODIES)) if j != k]
         for N in range(1, min(n_max, off[k + 1] - off[k]) + 1):
             keep = np.concatenate(others + [off[k] + np.asarray(orders[k], int)[:N]])
-            curve[N - 1] = estimate_error(model, keep)
+            curve[N - 1] = estimate(model, keep)
         out[b] = curve
     return out
 
@@ -456,7 +462,8 @@ def build_linear_model(scene, body_data, log=None):
     run = rigid_run(rigid, scene)
     log(f"rigid run: {run['t'].size} samples in {time.perf_counter() - t0:.1f} s")
     t0 = time.perf_counter()
-    loads = modal_loads(full, run["t"], run["y"], run["yd"], run["ydd"], scene.case)
+    loads = modal_loads(full, run["t"], run["y"], run["yd"], run["ydd"], scene.case,
+                        Progress("load_aware: modal loads", run["t"].size, "samples"))
     log(f"modal loads of {loads.shape[1]} modes in {time.perf_counter() - t0:.1f} s")
     y0 = np.zeros(full.n_coordinates)
     y0[:N_JOINTS] = scene.initial_angles
@@ -471,40 +478,111 @@ def build_linear_model(scene, body_data, log=None):
     return model, info
 
 
+# ------------------------------------------------------------- progress of rank_scene
+def evaluation_work(samples, kept):
+    """The relative cost of one a-priori evaluation (``estimate_error``): its samples times its
+    coordinates (the kept modes and the joints; the closed-form response is linear in both)."""
+    return samples * (kept + N_JOINTS)
+
+
+def elimination_work(n, protected=0, drop_fraction=0.0):
+    """Sum of (kept + joints) over ``backward_elimination``'s evaluations of a pool of n."""
+    work, size = n + N_JOINTS, n
+    while size > protected:
+        work += (size - protected) * (size - 1 + N_JOINTS)
+        k = max(1, int(drop_fraction * size))
+        size -= min(k, size - protected)
+        if k != 1:
+            work += size + N_JOINTS
+    return work
+
+
+def selection_work(candidates, steps):
+    """Sum of (kept + joints) over ``forward_selection``'s evaluations."""
+    return N_JOINTS + sum((candidates - s) * (s + 1 + N_JOINTS) for s in range(min(steps, candidates)))
+
+
+def lockstep_work(groups, n):
+    """Sum of (kept + joints) over ``lockstep_elimination``'s evaluations (groups of n)."""
+    work, sizes = groups * n + N_JOINTS, [n] * groups
+    for size in range(n, 0, -1):
+        for g in range(groups):
+            work += size * (sum(sizes) - 1 + N_JOINTS)
+            sizes[g] -= 1
+    return work
+
+
+def ranking_work(model, n_pool, n_curve=N_CURVE, stride=3, drop_fraction=1 / 16, greedy_prefix=GREEDY_STEPS,
+                 global_xmx=True):
+    """The work of ``rank_scene`` (``evaluation_work`` summed over every a-priori evaluation it
+    makes), for its progress line: the pooled ranking and the per-body ranking on the search
+    grid, the curves on the curve grid.  Exact without a greedy prefix (the default); with one,
+    an upper bound (the prefix, of a length known only after the search, is never eliminated)."""
+    off = np.asarray(model["offsets"])
+    D = np.diff(off)
+    T = len(model["t"])
+    search = len(range(0, T, stride))
+    curve = len(range(0, T, max(1, int(math.ceil(T / CURVE_SAMPLES)))))
+    pooled = elimination_work(n_pool, 0, drop_fraction) + (
+        selection_work(n_pool, greedy_prefix) if greedy_prefix else 0)
+    per_body = lockstep_work(len(D), min([int(n_curve)] + D.tolist()))
+    prefixes = sum(N + N_JOINTS for N in range(1, n_pool + 1))               # order[:N], N = 1..pool
+    nc = min(int(n_curve), int(D.min()))
+    curves = (N_JOINTS + prefixes * (3 if global_xmx else 2)
+              + 4 * sum(4 * N + N_JOINTS for N in range(1, nc + 1))            # load, freq, xmx, xmgmx
+              + sum(off[-1] - d + N + N_JOINTS for d in D for N in range(1, min(int(n_curve), d) + 1)))
+    return search * (pooled + per_body) + curve * curves + T * N_JOINTS         # + the rigid estimate
+
+
 def rank_scene(model, rankings, pool_size=DEFAULT_POOL, n_curve=N_CURVE, search=None, log=None):
-    """Everything the ranking file holds, as a dict of arrays (see ``write_ranking``)."""
+    """Everything the ranking file holds, as a dict of arrays (see ``write_ranking``).  Progress
+    (``workflow.progress``): the a-priori evaluations done, weighted by ``evaluation_work``,
+    of the whole (``ranking_work``)."""
     log = log or (lambda *_: None)
     off = model["offsets"]
     t0 = time.perf_counter()
     part = participation_scores(model)
     log(f"participation scores in {time.perf_counter() - t0:.1f} s")
+    search = dict(search or {})
+    global_xmx = all("rho_xmx" in rankings[b] for b in BODIES)
+    n_excited = int(np.sum(excited_modes(part["score"])))
+    progress = Progress("load_aware: ranking", ranking_work(
+        model, min(int(pool_size), n_excited), n_curve, search.get("stride", 3),
+        search.get("drop_fraction", 1 / 16), search.get("greedy_prefix", GREEDY_STEPS), global_xmx), None)
+    step = "pooled ranking"
+    estimate = progress.counted(
+        estimate_error, lambda m, keep: evaluation_work(len(m["t"]), np.size(keep)),
+        note=lambda: step)
     t0 = time.perf_counter()
-    order, info = pooled_ranking(model, part["score"], pool_size, log=log, **(search or {}))
+    order, info = pooled_ranking(model, part["score"], pool_size, log=log, estimate=estimate, **search)
     n_pool = info["pool"]
     log(f"pooled ranking (pool {n_pool}) in {time.perf_counter() - t0:.1f} s")
+    step = "per-body ranking"
     t0 = time.perf_counter()
-    per_body = body_rankings(model, order, part["score"], n_curve,
-                             (search or {}).get("stride", 3), log)
+    per_body = body_rankings(model, order, part["score"], n_curve, search.get("stride", 3), log,
+                             estimate=estimate)
     log(f"per-body (equal counts) ranking in {time.perf_counter() - t0:.1f} s")
+    step = "a-priori curves"
     t0 = time.perf_counter()
     # the a-priori curves on the full output grid up to CURVE_SAMPLES samples, decimated beyond
     full = model
     model = decimated(model, max(1, int(math.ceil(len(model["t"]) / CURVE_SAMPLES))))
-    pooled_E = np.array([estimate_error(model, order[:N]) for N in range(1, n_pool + 1)])
-    J = np.concatenate([[np.max(estimate_error(model, []))], pooled_E.max(axis=1)])
-    curves = {"load": estimate_curves(model, per_body, n_curve)}
+    pooled_E = np.array([estimate(model, order[:N]) for N in range(1, n_pool + 1)])
+    J = np.concatenate([[np.max(estimate(model, []))], pooled_E.max(axis=1)])
+    curves = {"load": estimate_curves(model, per_body, n_curve, estimate)}
     for fam, key in (("freq", "rank_frequency"), ("xmx", "rank_xmx"), ("xmgmx", "rank_xmgmx")):
-        curves[fam] = estimate_curves(model, [rankings[b][key] for b in BODIES], n_curve)
+        curves[fam] = estimate_curves(model, [rankings[b][key] for b in BODIES], n_curve, estimate)
     xmx_pool = None
-    if all("rho_xmx" in rankings[b] for b in BODIES):
+    if global_xmx:
         xmx_pool = pooled_xmx_order([rankings[b]["rho_xmx"] for b in BODIES], off)
-        curves["global_xmx"] = np.array([estimate_error(model, xmx_pool[:N])
+        curves["global_xmx"] = np.array([estimate(model, xmx_pool[:N])
                                          for N in range(1, len(J))])
-    curves["global_score"] = np.array([estimate_error(
+    curves["global_score"] = np.array([estimate(
         model, np.lexsort((np.arange(off[-1]), -part["score"].max(axis=0)))[:N])
         for N in range(1, len(J))])
-    bodies = body_curves(model, per_body, n_curve)
+    bodies = body_curves(model, per_body, n_curve, estimate)
     model = full
+    rigid_estimate = estimate(model, [])
     log(f"a-priori curves in {time.perf_counter() - t0:.1f} s")
     additive_load = np.array([additive_estimate(
         part["score"], kept_from_counts(off, per_body, [N] * 4)) for N in range(1, n_curve + 1)])
@@ -514,7 +592,8 @@ def rank_scene(model, rankings, pool_size=DEFAULT_POOL, n_curve=N_CURVE, search=
             "excited": excited_modes(part["score"]), "coupled_omega": part["omega"],
             "rate_share": part["rate_share"], "pooled_estimate": pooled_E, "curves": curves,
             "body_curves": bodies, "additive_load": additive_load,
-            "additive_global": additive_global, "rigid_estimate": estimate_error(model, [])}
+            "additive_global": additive_global, "rigid_estimate": rigid_estimate,
+            "work": {"planned": progress.total, "done": progress.done}}
 
 
 def write_ranking(path, result, model, attrs):

@@ -54,7 +54,7 @@ from reduction import static_modes as st
 from reduction import verification as vf
 from solver.bodydata import RIGID_MOTION_NAMES, read_body_file, rigid_modes
 from reduction.errors import BodyFileError, ReductionError
-from workflow.provenance import check_record, versions, write_csv, write_json
+from workflow.provenance import check_record, provenance as provenance_record, versions, write_csv, write_json
 
 TABLE_ROWS = 40
 SHARE_COUNTS = (5, 10, 25)
@@ -469,9 +469,10 @@ def table_rows(label, name, reduction):
     return rows
 
 
-def write_table(path, rows):
-    """The ranking CSV (``table_rows``: numbers already formatted as text or ints)."""
-    write_csv(path, rows, list(rows[0].keys()))
+def write_table(path, rows, record=None):
+    """The ranking CSV (``table_rows``: numbers already formatted as text or ints), its provenance
+    record (default ``workflow.provenance.provenance()``) in a sidecar."""
+    write_csv(path, rows, list(rows[0].keys()), record=record)
 
 
 # ----------------------------------------------------------------------------- main
@@ -572,14 +573,16 @@ def main(argv=None):
                    for p, b in [(b["path"], b) for b, _ in pairs] + [(coarse["path"], coarse)]},
         "reductions": [r["path"] for _, r in pairs],
     }
-    write_table(args.table, rows)
+    # the body and reduction files' config hashes (the body files', copied into the reductions)
+    record = provenance_record(sources=[*args.bodies, *args.reductions, args.coarse_body])
+    write_table(args.table, rows, record)
     write_json(args.verification, {
         "description": ("Reduction stage verification (docs/reduction.md). Mode numbers in "
                         "'top10' are 1-based in frequency order (thesis convention); "
                         "kept_modes_0based and *_0based fields are 0-based indices."),
         "summary": {"n_checks": len(checks), "n_passed": len(checks) - len(failed),
                     "failed": failed},
-        "checks": checks, "bodies": bodies, "provenance": provenance})
+        "checks": checks, "bodies": bodies, "provenance": provenance}, record)
     total = float(sum(b["median_s"] for b in bench.values()))
     write_json(args.benchmark, {
         "what": ("median of %d runs of reduction.stage.reduce_body per body (modal integrals, "
@@ -588,7 +591,7 @@ def main(argv=None):
         "bodies": bench, "total_median_s": total, "target_total_s": TARGET_TOTAL_S,
         "passed": total < TARGET_TOTAL_S, "omp_num_threads": os.environ.get("OMP_NUM_THREADS"),
         "report_wall_time_s": time.perf_counter() - started,
-        "versions": versions(), "provenance": provenance})
+        "versions": versions(), "provenance": provenance}, record)
     log(f"{len(checks) - len(failed)}/{len(checks)} checks passed; stage total {total:.2f} s "
         f"(median of {N_RUNS}); wrote {args.table}, {args.verification}, {args.benchmark}")
     if failed:

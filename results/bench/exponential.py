@@ -85,7 +85,7 @@ from solver.dynamics import chainfile, exponential, integrators, scenes, simulat
 from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
 from solver.dynamics.simfile import read_sim  # noqa: E402
 from workflow.config import inputs_hash  # noqa: E402
-from workflow.provenance import csv_text, versions, write_json, write_text  # noqa: E402
+from workflow.provenance import csv_text, provenance, versions, write_json, write_text  # noqa: E402
 
 PROG = "results.bench.exponential"
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -814,8 +814,10 @@ def main(argv=None) -> int:
     header = {"title": "Speed of the modal exponential integrator (issue 13)", "note": note,
               "provenance": f"Inputs hash {prov['config_hash']}, git {vers.get('git')}, "
                             f"{total:.0f} s of benchmark; made by `python -m {PROG}`."}
-    write_text(args.out_md, format_markdown(table, truth_cases, comparison, reduced, profile, limits, header))
-    write_text(args.out_csv, format_csv(rows))
+    record = provenance(prov["config_hash"])         # the inputs' hash (inputs_provenance)
+    write_text(args.out_md, format_markdown(table, truth_cases, comparison, reduced, profile, limits, header),
+               record)
+    write_text(args.out_csv, format_csv(rows), record)
     write_json(args.out_json, {
         "description": "Speed of the modal exponential integrator (issue 13, Speed): medians of "
                        f"{args.repeats} runs after a warm-up, DOP853 ratio in the same process, profile "
@@ -827,7 +829,7 @@ def main(argv=None) -> int:
         "duration_override_s": args.duration, "repeats": args.repeats, **prov,
         "environment": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
         | {"cpu_count": os.cpu_count(), "loadavg_start": load0, "loadavg_end": os.getloadavg()},
-        "total_seconds": total, "versions": vers})
+        "total_seconds": total, "versions": vers}, record)
     met = sum(r["met"] in ("yes", "goal met") for r in table)
     print(f"{PROG}: {met}/{len(table)} checks met; {total:.0f} s -> {args.out_md}, {args.out_json}, "
           f"{args.out_csv}")

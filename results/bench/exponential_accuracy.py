@@ -27,7 +27,7 @@ import numpy as np
 from solver.dynamics import chainfile, exponential, integrators, scenes
 from solver.dynamics.error_measure import error_measure
 from solver.dynamics.simulate import scene_problem
-from workflow.provenance import check_record, versions, write_json, write_text
+from workflow.provenance import check_record, provenance, versions, write_json, write_text
 
 E_BOUND = 1e-8          # issue 13: E <= 1e-8 on every rate, truth model
 TIGHT_FACTOR = 100.0    # the tight tolerance: default / TIGHT_FACTOR
@@ -133,11 +133,12 @@ def main(argv=None) -> int:
         print(f"exponential_accuracy: {name}: E {default['E_max']:.2e} ({default['steps']} steps, "
               f"{default['bases']} bases, {default['wall_s']:.2f} s); tight {tight['E_max']:.2e}",
               flush=True)
-    write_text(args.out_md, markdown(rows))
+    record = provenance(sources=[args.truth_model, *refs.values()])
+    write_text(args.out_md, markdown(rows), record)
     write_json(args.out_json, {"stage": "exponential_accuracy", "rows": rows, "checks": checks,
                                "passed": all(c["passed"] for c in checks), "E_bound": E_BOUND,
                                "inputs": [args.truth_model, *refs.values()],
-                               "wall_time_s": time.perf_counter() - start, "versions": versions()})
+                               "wall_time_s": time.perf_counter() - start, "versions": versions()}, record)
     failed = [c["name"] for c in checks if not c["passed"]]
     print(f"exponential_accuracy: {len(checks) - len(failed)}/{len(checks)} checks passed"
           + (f"; FAILED: {'; '.join(failed)}" if failed else ""))

@@ -33,7 +33,7 @@ import numpy as np
 from solver.dynamics import chainfile, exponential, integrators, scenes
 from solver.dynamics.error_measure import error_measure
 from solver.dynamics.simulate import scene_problem
-from workflow.provenance import versions, write_csv, write_json
+from workflow.provenance import provenance, versions, write_csv, write_json
 
 RK4_FRACTION = integrators.RK4_DEFAULT_FRACTION     # the workflow's rk4 setting (thesis method)
 CSV_COLUMNS = ("model", "n_elastic", "E_max_exponential", "E_max_rk4", "relative_difference",
@@ -131,10 +131,11 @@ def main(argv=None) -> int:
         print(f"integrator_tables: {exc}", file=sys.stderr)
         return 2
     rows, summary = compare(scene, truth_chain, chains, args.tol)
-    write_csv(args.out_csv, [{k: r[k] for k in CSV_COLUMNS} for r in rows], CSV_COLUMNS)
+    record = provenance(sources=[args.truth_model, *args.models])      # the model files' config hashes
+    write_csv(args.out_csv, [{k: r[k] for k in CSV_COLUMNS} for r in rows], CSV_COLUMNS, record=record)
     write_json(args.out_json, {"stage": "integrator_tables", "scene": scene.name, "rows": rows,
                                "summary": summary, "inputs": [args.truth_model, *args.models],
-                               "wall_time_s": time.perf_counter() - start, "versions": versions()})
+                               "wall_time_s": time.perf_counter() - start, "versions": versions()}, record)
     print(f"integrator_tables: {len(rows)} models; the tables differ by at most "
           f"{summary['max_relative_difference']:.2e} (relative); same order: {summary['same_order']}")
     return 0

@@ -62,7 +62,7 @@ from results.study.tables import RATE_COLUMNS  # noqa: E402
 from solver.dynamics import dense_baseline, integrators, scenes, simulate  # noqa: E402
 from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
 from solver.dynamics.simfile import read_sim  # noqa: E402
-from workflow.provenance import atomic_path, csv_text, versions, write_json, write_text  # noqa: E402
+from workflow.provenance import csv_text, provenance, savefig, versions, write_json, write_text  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 E_FLOOR = 1e-12                  # below the truth file's own convergence (E ~ 7e-12)
@@ -288,7 +288,7 @@ def _styles(rows):
     return markers, colors
 
 
-def plot(rows, path, title):
+def plot(rows, path, title, record=None):
     """Wall time [s] (log) against E (log): every row that ran, the Pareto front as a
     staircase with its points labelled; E below E_FLOOR drawn at the floor."""
     import matplotlib  # optional heavy dependency: imported only when the chart is drawn
@@ -340,8 +340,7 @@ def plot(rows, path, title):
                         loc="upper right")
         ax.add_artist(leg)
         ax.legend(handles=integ, title="integrator", fontsize=6, title_fontsize=7, loc="lower left")
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=150, format="png")
+        savefig(fig, path, record, dpi=150, format="png")       # provenance in the PNG's metadata
         plt.close(fig)
 
 
@@ -436,9 +435,10 @@ def main(argv=None) -> int:
         rows[i]["pareto"] = int(m)
     for r in rows:
         r.pop("_run", None)
-    write_text(args.out_csv, format_csv(rows))
+    record = provenance(sources=[args.truth, *args.bodies, *args.reductions])
+    write_text(args.out_csv, format_csv(rows), record)
     plot(rows, args.figure, f"Cost against accuracy, scene {scene.name} ({duration * 1e3:g} ms); "
-                            f"dashed: Pareto front")
+                            f"dashed: Pareto front", record)
     for c in comparisons:
         c.pop("_run", None)
     json_path = os.path.splitext(args.out_csv)[0] + ".json"
@@ -452,7 +452,8 @@ def main(argv=None) -> int:
                          for r in sorted((r for r in rows if r["pareto"]), key=lambda r: r["wall_time_s"])],
         "environment": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
         | {"cpu_count": os.cpu_count(), "loadavg_end": os.getloadavg()},
-        "quick": bool(args.quick), "total_seconds": time.perf_counter() - start, "versions": versions()})
+        "quick": bool(args.quick), "total_seconds": time.perf_counter() - start, "versions": versions()},
+        record)
     front = [f"{r['model']} {r['integrator']}" for r in rows if r["pareto"]]
     print(f"results.bench.pareto: {len(rows)} rows, front: {', '.join(front)}; "
           f"{time.perf_counter() - start:.0f} s -> {args.out_csv}, {json_path}, {args.figure}")

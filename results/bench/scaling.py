@@ -58,7 +58,7 @@ from results.study.figures import STYLE  # noqa: E402
 from solver.dynamics import compiled, dense_baseline, integrators, multibody  # noqa: E402
 from solver.dynamics.synthetic import (HUGHES_FRACTION, SPECTRUM, modal_frequencies,  # noqa: E402
                                        synthetic_modal_chain)
-from workflow.provenance import atomic_path, csv_text, versions, write_json, write_text  # noqa: E402
+from workflow.provenance import csv_text, provenance, savefig, versions, write_json, write_text  # noqa: E402
 
 # Coupled chain's highest frequency / largest kept modal frequency, truth model on scene
 # thesis: 6.09e6 / 3.66e6 rad/s (docs/dynamics.md Section 6).
@@ -229,7 +229,7 @@ COLORS = {"structured": "tab:blue", "structured_loop": "tab:cyan", "dense": "tab
           "columns": "tab:orange"}
 
 
-def plot(rows, fits, path):
+def plot(rows, fits, path, record=None):
     """Three panels: cost per evaluation [s] (with the fitted growth laws), speed-up
     dense / structured, cost per simulated second [s]; written to path (PNG)."""
     import matplotlib  # optional heavy dependency: imported only when the figure is drawn
@@ -274,8 +274,7 @@ def plot(rows, fits, path):
                    ylabel="wall time per simulated second [s]",
                    title="per simulated second (RK4, assumed spectrum)")
         axs[2].legend(fontsize=6)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=150, format="png")
+        savefig(fig, path, record, dpi=150, format="png")       # provenance in the PNG's metadata
         plt.close(fig)
 
 
@@ -319,8 +318,9 @@ def main(argv=None) -> int:
         print(f"results.bench.scaling: S = {row['n_elastic']}: structured {row['structured_eval_s'] * 1e6:.1f} us"
               f"{dense} [{time.perf_counter() - t0:.1f} s]", flush=True)
     fits = growth_laws(rows)
-    write_text(args.out_csv, format_csv(rows))
-    plot(rows, fits, args.figure)
+    record = provenance()          # synthetic bodies: the run's configuration file
+    write_text(args.out_csv, format_csv(rows), record)
+    plot(rows, fits, args.figure, record)
     write_json(args.out_json, {
         "description": "Cost per right-hand-side evaluation [s] against the number of elastic "
                        "coordinates S (synthetic bodies, D = S/4 modes each): structured solver "
@@ -336,7 +336,7 @@ def main(argv=None) -> int:
         "environment": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
         | {"cpu_count": os.cpu_count(), "loadavg_start": load0, "loadavg_end": os.getloadavg()},
         "quick": bool(args.quick), "total_seconds": time.perf_counter() - start,
-        "versions": versions()})
+        "versions": versions()}, record)
     summary = ", ".join(f"{m} ~S^{f['exponent']:.2f}" for m, f in fits.items())
     print(f"results.bench.scaling: {len(rows)} sizes in {time.perf_counter() - start:.1f} s; {summary}; "
           f"-> {args.out_csv}, {args.out_json}, {args.figure}")

@@ -36,7 +36,7 @@ from results.study.cases import BODY_NAMES
 from solver.bodydata import BODIES
 from solver.dynamics.error_measure import check_same_grid, error_measure
 from solver.dynamics.simfile import read_sim
-from workflow.provenance import atomic_path, csv_text, write_text
+from workflow.provenance import csv_text, provenance, savefig, write_text
 
 FAMILIES = ("freq", "xmx", "xmgmx", "load", "global")
 RATES = tuple(BODY_NAMES[b] for b in BODIES)
@@ -125,8 +125,9 @@ def read_ranking(path) -> dict:
     return out
 
 
-def plot(rows: list[dict], curves: dict, path: str) -> list[str]:
-    """The two-panel figure (PNG at ``path`` and a PDF beside it); returns the paths."""
+def plot(rows: list[dict], curves: dict, path: str, record: dict | None = None) -> list[str]:
+    """The two-panel figure (PNG at ``path`` and a PDF beside it, each with its provenance record,
+    default ``workflow.provenance.provenance()``); returns the paths."""
     import matplotlib  # optional heavy dependency: imported only when the figure is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -175,8 +176,7 @@ def plot(rows: list[dict], curves: dict, path: str) -> list[str]:
     fig.tight_layout()
     out = []
     for p in (path, os.path.splitext(path)[0] + ".pdf"):
-        with atomic_path(p) as tmp:
-            fig.savefig(tmp, format=os.path.splitext(p)[1][1:], dpi=150)
+        savefig(fig, p, record, dpi=150)                # provenance in the file's metadata
         out.append(p)
     plt.close(fig)
     return out
@@ -217,8 +217,9 @@ def main(argv=None) -> int:
     except (ValueError, FileNotFoundError) as exc:
         print(f"results.bench.selection: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
-    write_text(args.table, format_csv(rows))
-    made = plot(rows, ranking["curves"], args.figure)
+    record = provenance(sources=[args.truth, *args.cases, args.ranking])
+    write_text(args.table, format_csv(rows), record)
+    made = plot(rows, ranking["curves"], args.figure, record)
     est = [r for r in rows if r["apriori_max"] is not None]
     if est:
         ratio = np.array([r["apriori_over_measured"] for r in est])

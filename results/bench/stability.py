@@ -63,7 +63,7 @@ from results.bench.rk4_theory import (
 )
 from reduction import models
 from solver.dynamics import integrators, scenes
-from workflow.provenance import atomic_path, versions, write_json
+from workflow.provenance import provenance, savefig, versions, write_json, write_text
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -139,51 +139,51 @@ def run_energy_drift(scene, rankings, data, model=DRIFT_MODEL):
 
 
 # ============================================================== outputs
-def _write_csv(path, header, rows):
+def _write_csv(path, header, rows, record=None):
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
     w.writerows(rows)
-    with atomic_path(path) as tmp:
-        tmp.write_text(buf.getvalue())
+    write_text(path, buf.getvalue(), record)         # provenance in a sidecar
     return path
 
 
-def write_csvs(out_dir, sweep, drift, cases):
-    """rk4_limit.csv, energy_drift.csv, hard_cases.csv, gimbal_lock.csv in out_dir; list of paths."""
+def write_csvs(out_dir, sweep, drift, cases, record=None):
+    """rk4_limit.csv, energy_drift.csv, hard_cases.csv, gimbal_lock.csv in out_dir, each with its
+    provenance sidecar (record, default ``provenance()``); list of paths."""
+    record = record or provenance()
     paths = []
     cols = ("n_modes", "modal_omega_max", "omega_top", "omega_max", "omega_grid_max", "h_measured",
             "h_lo", "h_hi", "h_bound", "h_imaginary", "ratio_bound", "ratio_imaginary", "pass")
     paths.append(_write_csv(os.path.join(out_dir, "rk4_limit.csv"), ("model",) + cols,
                             [[m] + [("+".join(map(str, r[c])) if c == "n_modes" else r[c]) for c in cols]
-                             for m, r in sweep.items()]))
+                             for m, r in sweep.items()], record))
     if drift:
         methods = list(drift)
         t = drift[methods[0]]["t"]
         rows = [[f"{t[i]:.6g}"] + [f"{drift[m]['drift'][i]:.6e}" for m in methods] for i in range(t.size)]
         paths.append(_write_csv(os.path.join(out_dir, "energy_drift.csv"),
-                                ["t_s"] + [f"drift_{m}" for m in methods], rows))
+                                ["t_s"] + [f"drift_{m}" for m in methods], rows, record))
     paths.append(_write_csv(os.path.join(out_dir, "hard_cases.csv"),
                             ("case", "model", "scene", "outcome", "E_max", "message", "wall_s", "pass"),
                             [[k, r.get("model", ""), r.get("scene", ""), r["outcome"], r.get("E_max", ""),
                               r.get("message", ""), r.get("wall_s", ""), r["pass"]]
-                             for k, r in cases.items()]))
+                             for k, r in cases.items()], record))
     lock = cases.get("gimbal_lock", {}).get("conditioning")
     if lock:
         keys = ("lock_distance", "axis_alignment", "omega_top", "cond_M", "cond_joints", "cond_schur",
                 "min_eig_schur")
         paths.append(_write_csv(os.path.join(out_dir, "gimbal_lock.csv"), ("configuration",) + keys,
-                                [[r["configuration"]] + [r[k] for k in keys] for r in lock]))
+                                [[r["configuration"]] + [r[k] for k in keys] for r in lock], record))
     return paths
 
 
-def _save(fig, path):
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=150)
+def _save(fig, path, record=None):
+    savefig(fig, path, record, format="png", dpi=150)       # provenance in the PNG's metadata
     return path
 
 
-def plot_rk4_limit(sweep, path):
+def plot_rk4_limit(sweep, path, record=None):
     """Measured h* against 2.785/omega_max (left), and h*/(2.785/omega_max) per model (right)."""
     import matplotlib  # optional heavy dependency: imported only when a figure is drawn
     matplotlib.use("Agg")
@@ -218,12 +218,12 @@ def plot_rk4_limit(sweep, path):
     a2.legend(fontsize=7, loc="lower right")
     fig.suptitle("RK4 stability limit: measured (bisection) vs theory, thesis configuration")
     fig.tight_layout()
-    _save(fig, path)
+    _save(fig, path, record)
     plt.close(fig)
     return path
 
 
-def plot_energy_drift(drift, path, title=""):
+def plot_energy_drift(drift, path, title="", record=None):
     """|E(t) - E(0)| / |E(0)| against t for every integrator (log scale)."""
     import matplotlib  # optional heavy dependency: imported only when a figure is drawn
     matplotlib.use("Agg")
@@ -238,7 +238,7 @@ def plot_energy_drift(drift, path, title=""):
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    _save(fig, path)
+    _save(fig, path, record)
     plt.close(fig)
     return path
 
@@ -313,10 +313,11 @@ def main(argv=None):
     cases = run_hard_cases(rankings, data, quick=args.quick)
 
     os.makedirs(args.out_dir, exist_ok=True)
-    csvs = write_csvs(args.out_dir, sweep, drift, cases)
-    figs = [plot_rk4_limit(sweep, os.path.join(args.figures_dir, "rk4_limit.png")),
+    record = provenance(sources=[*args.bodies, *args.reductions])
+    csvs = write_csvs(args.out_dir, sweep, drift, cases, record)
+    figs = [plot_rk4_limit(sweep, os.path.join(args.figures_dir, "rk4_limit.png"), record),
             plot_energy_drift(drift, os.path.join(args.figures_dir, "energy_drift.png"),
-                              f"scene {drift_scene.name}, model {DRIFT_MODEL}: relative energy drift")]
+                              f"scene {drift_scene.name}, model {DRIFT_MODEL}: relative energy drift", record)]
     parts = {"scalar_oscillator": oscillator["pass"],
              "rk4_limit": all(r["pass"] for r in sweep.values()),
              "energy_drift": all(r["pass"] for r in drift.values()),
@@ -348,7 +349,7 @@ def main(argv=None):
                        "versions": _versions(versions), "inputs": inputs},
     }
     path = os.path.join(args.out_dir, "stability.json")
-    write_json(path, _summary(report))
+    write_json(path, _summary(report), record)
     failed = [k for k, v in parts.items() if not v]
     log(f"{path}: {'FAILED: ' + ', '.join(failed) if failed else 'all checks pass'} ({wall:.0f} s)")
     return 0 if report["pass"] else 1

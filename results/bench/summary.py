@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from workflow.provenance import read_h5_checked, versions, write_json
+from workflow.provenance import provenance, read_h5_checked, versions, write_json
 
 
 def modes_benchmark(body_files: list[str]) -> dict:
@@ -69,7 +69,7 @@ def main(argv=None) -> int:
     except (ValueError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
-    write_json(args.out, data)
+    write_json(args.out, data, provenance(sources=args.files if args.kind == "modes" else ()))
     print(json.dumps(data.get("stage_share") or {k: v["wall_time_s"] for k, v in data["bodies"].items()}))
     return 0
 

@@ -35,7 +35,7 @@ from reduction import models as reduction_models
 from solver.dynamics import simulate
 from solver.dynamics.error_measure import error_measure
 from solver.dynamics.simfile import read_sim
-from workflow.provenance import csv_text, write_json, write_text
+from workflow.provenance import csv_text, provenance, write_json, write_text
 
 SCENES = ("thesis", "damped", "smooth", "long")
 EPS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
@@ -133,9 +133,10 @@ def main(argv=None) -> int:
                "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
                "note": "measured E of eq. 3.53 against the truth (100 modes per body) simulated "
                        "with the same integrator settings; within_request: measured max E <= EPS"}
-    write_json(os.path.join(args.out_dir, "tolerance.json"), summary)
+    record = provenance(sources=[*bodies, *reductions])
+    write_json(os.path.join(args.out_dir, "tolerance.json"), summary, record)
     write_text(os.path.join(args.out_dir, "tolerance.csv"),
-               csv_text([{k: r.get(k, "") for k in COLUMNS} for r in rows], COLUMNS))
+               csv_text([{k: r.get(k, "") for k in COLUMNS} for r in rows], COLUMNS), record)
     print(f"tolerance: {len(ok)} of {len(rows)} requests built, {summary['within_request']} within "
           f"the request -> {args.out_dir}/tolerance.csv, .json")
     return 0

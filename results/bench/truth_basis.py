@@ -25,7 +25,8 @@ from reduction import models as reduction_models
 from solver.dynamics import simulate
 from solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error, error_measure
 from solver.dynamics.simfile import read_sim
-from workflow.provenance import versions, write_json
+from workflow.progress import Progress
+from workflow.provenance import provenance, versions, write_json
 
 LARGE = "freq-200"
 
@@ -41,7 +42,10 @@ def compare(truth: dict, large: dict) -> dict:
 
 
 def run(bodies, scenes, log=print) -> dict:
+    """{scene name: ``compare`` of the truth against the larger basis, wall_time_s}; progress
+    (``workflow.progress``): the simulations done of 2 per scene."""
     results = {}
+    progress = Progress("truth_basis", 2 * len(scenes), "simulations")
     with tempfile.TemporaryDirectory(prefix="truth_basis_") as tmp:
         for scene in scenes:
             name = os.path.splitext(os.path.basename(scene))[0]
@@ -57,6 +61,7 @@ def run(bodies, scenes, log=print) -> dict:
                 if rc:
                     raise RuntimeError(f"scene {name}, model {model}: failed (status {rc}), see above")
                 sims[model] = read_sim(sfile)
+                progress.advance(note=f"{name} {model}")
             results[name] = {**compare(sims["truth"], sims[LARGE]),
                              "wall_time_s": time.perf_counter() - t0}
             log(f"truth_basis: {name}: E of the truth against {LARGE}: "
@@ -78,7 +83,8 @@ def main(argv=None) -> int:
     write_json(args.out, {"description": "E (eq. 3.53) per gimbal rate (outer, middle, inner, "
                                          "platform) of the truth (100 modes per body) against "
                                          f"{LARGE} (200 per body), same meshes and integrator",
-                          "larger_basis": LARGE, "scenes": results, "versions": versions()})
+                          "larger_basis": LARGE, "scenes": results, "versions": versions()},
+               provenance(sources=args.bodies))
     print(f"truth_basis: {args.out}")
     return 0
 

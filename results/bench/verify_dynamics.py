@@ -45,7 +45,8 @@ from solver.dynamics import exponential, integrators, linearized, multibody, sce
 from solver.dynamics.problem import Problem, make_rhs
 from reduction import models
 from results.bench.oracle import Oracle, jax_available, synthetic_chain
-from workflow.provenance import check_record, versions, write_json
+from workflow.progress import Progress
+from workflow.provenance import check_record, provenance, versions, write_json
 
 CONSERVATION_MODEL = "freq-2"     # real bodies, 2 modes each: 1e5 RK4 steps in seconds
 ORDER_MODEL = "freq-2"
@@ -377,6 +378,10 @@ def exponential_checks(body_data, rankings, truth):
     return out
 
 
+# the sections of main, in order (progress: sections done of these)
+SECTIONS = ("oracle", "conservation", "rk4 order", "rigid limits", "bad input", "truth", "exponential")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m results.bench.verify_dynamics",
                                  description="Verify the dynamics on the real bodies; benchmark the truth model.")
@@ -398,12 +403,14 @@ def main(argv=None):
         print(f"verify_dynamics: {exc}", file=sys.stderr)
         return 2
     checks, timing = [], {}
+    progress = Progress("verify_dynamics", len(SECTIONS), "sections")
 
     def section(name, fn, *a):
         t0 = time.perf_counter()
         res = fn(*a)
         timing[name] = time.perf_counter() - t0
         print(f"verify_dynamics: {name}: {timing[name]:.1f} s", flush=True)
+        progress.advance(note=f"{name} took {timing[name]:.0f} s")
         return res
 
     real_small = models.build_chain(models.parse_model("freq-10", rankings), body_data)
@@ -424,11 +431,13 @@ def main(argv=None):
             vers[mod] = __import__(mod).__version__
         except Exception:  # noqa: BLE001 - optional
             pass
+    record = provenance(sources=[*args.bodies, *args.reductions])
     write_json(args.verification, {"stage": "dynamics", "checks": checks,
                                    "passed": all(c["passed"] for c in checks),
-                                   "wall_time_s": total, "section_times_s": timing, "versions": vers})
+                                   "wall_time_s": total, "section_times_s": timing, "versions": vers},
+               record)
     write_json(args.benchmark, {"stage": "dynamics", **info, "runs": bench, "repeats": args.repeats,
-                                "versions": vers})
+                                "versions": vers}, record)
     failed = [c["name"] for c in checks if not c["passed"]]
     print(f"verify_dynamics: {len(checks) - len(failed)}/{len(checks)} checks passed in {total:.0f} s"
           + (f"; FAILED: {'; '.join(failed)}" if failed else ""))

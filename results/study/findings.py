@@ -77,7 +77,7 @@ import numpy as np
 
 from results.study.cases import LOAD_CASE_COUNT, LOAD_CASES, TRUTH_CHECK
 from results.study.tables import RATE_COLUMNS, read_table
-from workflow.provenance import write_json, write_text
+from workflow.provenance import provenance, write_json, write_text
 
 RATES = ("outer", "middle", "inner", "platform")     # order of RATE_COLUMNS
 TIE = 0.10
@@ -689,7 +689,8 @@ def main(argv=None) -> int:
             reduction = json.load(f)
     items = evaluate(rank, stat, reduction, scene=scene)
     counts = {v: sum(it["verdict"] == v for it in items) for v in VERDICTS}
-    write_text(args.csv, format_csv(items))
+    record = provenance(sources=[p for p in (args.ranking_table, args.static_table, args.reduction) if p])
+    write_text(args.csv, format_csv(items), record)
     write_json(args.json, {"description": "The study's findings on one scene (six of the thesis, three "
                                           "new), each judged per rate against a control; rules in "
                                           "results/study/findings.py.",
@@ -702,7 +703,7 @@ def main(argv=None) -> int:
                                           "factor_load": FACTOR_LOAD, "factor_best": FACTOR_BEST,
                                           "static_effect": STATIC_EFFECT, "orders_ratio": ORDERS_RATIO,
                                           "second_finding_prefix": SECOND_FINDING_PREFIX},
-                           "verdict_counts": counts, "findings": items})
+                           "verdict_counts": counts, "findings": items}, record)
     print(f"results.study.findings: scene {scene}: "
           + ", ".join(f"{n} {v}" for v, n in counts.items() if n)
           + f" -> {args.csv}, {args.json}" + (f" (missing: {', '.join(missing)})" if missing else ""))

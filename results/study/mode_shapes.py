@@ -37,7 +37,8 @@ from scipy.spatial import cKDTree  # noqa: E402
 
 from reduction.static_modes import DEFAULT_LOAD_CASE  # noqa: E402
 from solver.bodydata import BEARING_NAMES  # noqa: E402
-from workflow.provenance import atomic_path, read_h5_checked, write_json  # noqa: E402
+from workflow.provenance import (atomic_path, provenance, read_h5_checked, savefig, write_json,  # noqa: E402
+                                 write_sidecar)
 
 FONT = 8                  # pt at 7.0 in; >= 7 pt when the figure is printed at 6.3 in
 FIG_WIDTH_IN = 7.0
@@ -198,8 +199,9 @@ def _footer(fig, gs, nrows, bearings, loaded_note=False):
     kax.text(0.0, 0.5, text, fontsize=FONT, va="center", ha="left", transform=kax.transAxes, wrap=True)
 
 
-def plot_modes(points, triangles, displacements, frequencies, title, path, selection, bearings):
-    """PNG (PNG_DPI) of the selected mode shapes (``select_modes``), 3 per row at A4 text width."""
+def plot_modes(points, triangles, displacements, frequencies, title, path, selection, bearings, record=None):
+    """PNG (PNG_DPI) of the selected mode shapes (``select_modes``), 3 per row at A4 text width;
+    record: its provenance (``workflow.provenance.savefig``)."""
     size = np.ptp(points, axis=0).max()
     outline = feature_edges(points, triangles)
     with plt.rc_context(RC):
@@ -210,13 +212,12 @@ def plot_modes(points, triangles, displacements, frequencies, title, path, selec
         fig.suptitle(f"{title}: vibration mode shapes (displacement scaled to "
                      f"{SCALE_TO:.0%} of the body size)", fontsize=FONT + 1)
         _footer(fig, gs, nrows, bearings)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", dpi=PNG_DPI)
+        savefig(fig, path, record, format="png", dpi=PNG_DPI)
         plt.close(fig)
 
 
-def plot_static_modes(points, triangles, statics, title, path, bearings, default=None):
-    """PNG of the static correction modes, one panel per load case.
+def plot_static_modes(points, triangles, statics, title, path, bearings, default=None, record=None):
+    """PNG of the static correction modes, one panel per load case (record: its provenance).
 
     statics: list of dicts (``load_case``, ``disp`` (n_points, 3), ``frequency_hz``,
     ``residual_fraction``)."""
@@ -235,8 +236,7 @@ def plot_static_modes(points, triangles, statics, title, path, bearings, default
         fig.suptitle(f"{title}: static correction modes, one per load case (displacement scaled to "
                      f"{SCALE_TO:.0%} of the body size)", fontsize=FONT + 1)
         _footer(fig, gs, nrows, bearings, loaded_note=True)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", dpi=PNG_DPI)
+        savefig(fig, path, record, format="png", dpi=PNG_DPI)
         plt.close(fig)
 
 
@@ -246,13 +246,15 @@ def _load_label(case):
     return f"{BEARING_ABBREV[bearing]}: {comp[1]}-{kind}"
 
 
-def write_vtu(points, cells, displacements, frequencies, path):
-    """All mode shapes as point vectors ``mode_001`` ... in one VTU file (ParaView: Warp By Vector)."""
+def write_vtu(points, cells, displacements, frequencies, path, record=None):
+    """All mode shapes as point vectors ``mode_001`` ... in one VTU file (ParaView: Warp By Vector);
+    its provenance (record, default ``provenance()``) in a sidecar ``{path}.provenance.json``."""
     data = {f"mode_{i + 1:03d}": displacements[i] for i in range(len(frequencies))}
     mesh = meshio.Mesh(points, cells, point_data=data,
                        field_data={"frequencies_hz": np.asarray(frequencies)})
     with atomic_path(path) as tmp:
         meshio.write(tmp, mesh, file_format="vtu")
+    write_sidecar(path, record)
 
 
 def read_statics(path):
@@ -306,9 +308,10 @@ def main(argv=None) -> int:
         print(f"results.study.mode_shapes: error: {exc}", file=sys.stderr)
         return 1
     triangles = surface_triangles(mesh)
+    record = provenance(sources=[args.body_file] + ([args.reduction] if args.reduction else []))
     label = str(name).replace("_", " ")
     selection = select_modes(len(freqs), rank_xmx, args.lowest, args.ranked if rank_xmx is not None else 0)
-    plot_modes(mesh.points, triangles, disp, freqs, label.capitalize(), args.png, selection, bearings)
+    plot_modes(mesh.points, triangles, disp, freqs, label.capitalize(), args.png, selection, bearings, record)
     shown = ", ".join(f"{i + 1}" for i, _ in selection)
     entries = [{"id": f"mode_shapes_body{body}", "kind": "mode_shapes", "png": args.png, "body": body,
                 "modes": [i + 1 for i, _ in selection],
@@ -325,7 +328,7 @@ def main(argv=None) -> int:
         kept = (f", mass-orthogonal to the {n_kept} kept vibration modes"
                 + (f" ({ranking} ranking)" if ranking else "") if n_kept else "")
         plot_static_modes(mesh.points, triangles, statics, label.capitalize(), args.static_png, bearings,
-                          DEFAULT_LOAD_CASE)
+                          DEFAULT_LOAD_CASE, record)
         entries.append({"id": f"static_modes_body{body}", "kind": "static_modes", "png": args.static_png,
                         "body": body, "modes": [s["load_case"] for s in statics],
                         "caption": f"Static correction modes of the {label} (body {body}): the residual "
@@ -335,13 +338,13 @@ def main(argv=None) -> int:
                                       f"static-N models" if any(s["load_case"] == DEFAULT_LOAD_CASE
                                                                 for s in statics) else "")
                                    + ". Colours and scaling as in the vibration mode shapes."})
-    write_vtu(mesh.points, mesh.cells, disp, freqs, args.vtu)
+    write_vtu(mesh.points, mesh.cells, disp, freqs, args.vtu, record)
     if args.manifest:
         base = os.path.dirname(os.path.abspath(args.manifest))
         for e in entries:
             e["png"] = os.path.relpath(os.path.abspath(e["png"]), base)
         write_json(args.manifest, {"description": "Mode-shape figures (results/study/mode_shapes.py); "
-                                                  "paths relative to this file.", "figures": entries})
+                                                  "paths relative to this file.", "figures": entries}, record)
     return 0
 
 

@@ -48,7 +48,7 @@ from solver.bodydata import BODIES
 from solver.dynamics.simfile import read_sim
 from workflow import yamlfile
 from workflow.config import BODY_NAMES, load_config
-from workflow.provenance import atomic_path, versions
+from workflow.provenance import atomic_path, provenance, typst_metadata, versions
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DEFAULTS = {
@@ -794,13 +794,14 @@ def typst_source(ctx: dict, root: str) -> str:
             _performance_section(ctx, root) + _provenance_section(ctx))
 
 
-def compile_pdf(source: str, out_pdf: str, root: str) -> str:
-    """Write ``source`` beside ``out_pdf`` (report.typ) and compile it atomically."""
+def compile_pdf(source: str, out_pdf: str, root: str, record: dict | None = None) -> str:
+    """Write ``source`` beside ``out_pdf`` (report.typ) and compile it atomically, with the
+    provenance record (default ``workflow.provenance.provenance()``) in the PDF's ``/Subject``."""
     import typst  # optional heavy dependency (the Typst compiler): imported only to compile the PDF
     os.makedirs(os.path.dirname(os.path.abspath(out_pdf)), exist_ok=True)
     typ = os.path.splitext(os.path.abspath(out_pdf))[0] + ".typ"
     with open(typ, "w") as f:
-        f.write(source)
+        f.write(typst_metadata(record) + source)
     with atomic_path(out_pdf) as tmp:
         typst.compile(typ, output=str(tmp), root=root)
     return out_pdf
@@ -826,8 +827,11 @@ def main(argv=None) -> int:
     ctx = gather(paths)
     out = _abs(args.out)
     root = report_root(ctx, out)
+    # config hash: the truth's and the error tables' (the simulations' config hashes)
+    record = provenance(sources=[ctx["paths"][k] for k in ("truth", "ranking_table", "static_table")
+                                 if os.path.exists(ctx["paths"][k])])
     try:
-        compile_pdf(typst_source(ctx, root), out, root)
+        compile_pdf(typst_source(ctx, root), out, root, record)
     except Exception as exc:  # noqa: BLE001 - typst raises RuntimeError with the diagnostics
         msg = " ".join(str(exc).split())[:400]
         print(f"results.study.report: error: typst failed: {msg}", file=sys.stderr)

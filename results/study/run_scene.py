@@ -15,7 +15,8 @@ temporary folder; ``solver.dynamics.simulate`` integrates it and writes
 called in process with the same arguments, so a study file equals the file
 ``snakemake results/sim/{scene}/{model}.h5`` makes.
 
-Progress: one line per model with its time and the estimated time left.  The first model
+Progress (``workflow.progress``, stderr): at most one line every ``progress.EVERY`` seconds with
+the models done of the total, the time elapsed and the estimated time left.  The first model
 that fails stops the run with its one-line message and exit status 2 (nothing is left under
 its name; the others' files are removed by Snakemake as the outputs of a failed job).
 """
@@ -31,7 +32,8 @@ import numpy as np
 
 from reduction import models as reduction_models
 from solver.dynamics import chainfile, linearized, scenes, simulate
-from workflow.provenance import write_json
+from workflow.progress import Progress
+from workflow.provenance import provenance, write_json
 
 BODY_LABELS = ("outer gimbal", "middle gimbal", "inner gimbal", "stable platform")
 
@@ -60,12 +62,12 @@ def model_file_name(model: str) -> str:
 
 
 def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrator_args=(),
-              log=print, coupled_modes=None, config=None):
+              coupled_modes=None, config=None):
     """Reduce and simulate every model of ``models`` on ``scene`` (a scene file); writes
     {out_dir}/{model}.h5, and the truth's coupled-mode table to ``coupled_modes`` (JSON) if
     given.  Returns (status, failed model or None)."""
-    n = len(models)
-    t_start = time.perf_counter()
+    progress = Progress(f"run_scene {os.path.splitext(os.path.basename(str(scene)))[0]}", len(models),
+                        "models")
     with tempfile.TemporaryDirectory(prefix="run_scene_") as tmp:
         for k, model in enumerate(models, 1):
             t0 = time.perf_counter()
@@ -85,12 +87,11 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
             if rc:
                 return rc, model
             if model == "truth" and coupled_modes:
-                write_json(coupled_modes, coupled_mode_table(model_file, scene))
+                truth_sim = os.path.join(out_dir, model_file_name(model))
+                write_json(coupled_modes, coupled_mode_table(model_file, scene),
+                           record=provenance(sources=[truth_sim]))
             os.remove(model_file)
-            elapsed = time.perf_counter() - t_start
-            left = elapsed / k * (n - k)
-            log(f"run_scene: [{k}/{n}] {model} done in {time.perf_counter() - t0:.2f} s; "
-                f"{elapsed:.1f} s elapsed, ~{left:.0f} s left")
+            progress.update(k, note=f"{model} took {time.perf_counter() - t0:.2f} s")
     return 0, None
 
 

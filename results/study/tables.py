@@ -44,7 +44,7 @@ from solver.bodydata import BODIES
 from solver.dynamics.error_measure import (ARCSEC_PER_RAD, ErrorsInputError, attitude_error,
                                            check_same_grid, error_measure)
 from solver.dynamics.simfile import read_sim
-from workflow.provenance import csv_text, write_text
+from workflow.provenance import csv_text, provenance, write_text
 
 RATE_COLUMNS = tuple(f"E_{BODY_NAMES[b]}" for b in BODIES)
 ATTITUDE_COLUMNS = ("attitude_max_arcsec", "attitude_rms_arcsec")
@@ -146,8 +146,9 @@ def main(argv=None) -> int:
     except ErrorsInputError as exc:
         print(f"results.study.tables: error: {exc}", file=sys.stderr)
         return 2
-    write_text(args.ranking_table, format_csv(ranking))
-    write_text(args.static_table, format_csv(static))
+    record = provenance(sources=[args.truth, *args.cases])       # the simulations' config hashes
+    write_text(args.ranking_table, format_csv(ranking), record)
+    write_text(args.static_table, format_csv(static), record)
     print(f"results.study.tables: {len(ranking)} rows -> {args.ranking_table}, {len(static)} rows -> "
           f"{args.static_table}")
     return 0

@@ -25,11 +25,13 @@ deviation x = [dy; dy'] (dy = [d gamma (4); q (modal coordinates)]),
 Valid for small motion about y0 with the case near rest: the velocity-dependent terms
 (gyroscopic, centrifugal) are dropped, which is exact at the linearisation point only.
 The state ordering and names are written with the matrices (``state_names``,
-``input_names``, ``output_names``).  Units: in, lbf, s, rad.
+``input_names``, ``output_names``), and the provenance record as JSON text (``provenance``:
+config hash of the model file, git revision, versions).  Units: in, lbf, s, rad.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 
@@ -38,6 +40,7 @@ import scipy.io
 
 from solver.dynamics import chainfile, linearized, multibody, scenes
 from solver.dynamics.multibody import CaseMotion
+from workflow.provenance import provenance
 
 INPUT_NAMES = ("tau_outer", "tau_middle", "tau_inner", "tau_platform",
                "case_alpha_x", "case_alpha_y", "case_alpha_z")
@@ -122,7 +125,8 @@ def export(model_file, scene_name):
               "zero rates (velocity terms dropped)", file=sys.stderr)
     ss = state_space(chain, y0)
     ss.update({"scene": scene.name, "model": str(info.get("model", "")),
-               "n_modes": np.asarray(chain.n_modes), "units": "in, lbf, s, rad"})
+               "n_modes": np.asarray(chain.n_modes), "units": "in, lbf, s, rad",
+               "provenance": json.dumps(provenance(sources=[model_file]), sort_keys=True)})
     return ss
 
 

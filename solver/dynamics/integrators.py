@@ -50,7 +50,6 @@ no other module of the project but ``solver.dynamics.exponential`` (and its ``li
 """
 
 import math
-import sys
 import time
 from dataclasses import dataclass, field
 
@@ -58,6 +57,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from solver.dynamics import exponential
+from workflow.progress import Progress
 
 RK4_STABILITY = 2.785          # h * omega_max at RK4's stability limit (real-axis bound)
 RK4_DEFAULT_FRACTION = 0.5
@@ -351,7 +351,7 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, growth_factor=
 
 
 # A run longer than this prints a progress line (stderr, the job's log) this often [s]: the
-# simulated time reached and the wall time left at the mean rate so far
+# simulated time reached and the wall time left at the mean rate so far (workflow.progress)
 PROGRESS_EVERY = 30.0
 
 
@@ -368,21 +368,19 @@ class _Outputs:
     method: str
     model: str
 
-    started: float = field(default_factory=time.perf_counter)
-    reported: float = None
+    progress: Progress = None
+
+    def __post_init__(self):
+        self.progress = Progress(f"{self.method} {self.model}", float(self.t[-1]), "s",
+                                 every=PROGRESS_EVERY)
 
     def store(self, k, y, yd, h):
-        """Watch sample k (``Monitor``), then keep it; report progress every PROGRESS_EVERY s."""
+        """Watch sample k (``Monitor``), then keep it; report progress every PROGRESS_EVERY s
+        (simulated time of the whole; none at the first and the last sample)."""
         self.monitor(self.t[k], y, yd, h, self.method)
         self.Y[k], self.V[k] = y, yd
-        now = time.perf_counter()
-        if now - (self.started if self.reported is None else self.reported) >= PROGRESS_EVERY \
-                and 0 < k < self.t.size - 1:
-            self.reported = now
-            done, elapsed = self.t[k] / self.t[-1], now - self.started
-            print(f"progress: {self.method} {self.model}: t = {self.t[k]:.4g} of {self.t[-1]:.4g} s "
-                  f"({100 * done:.0f} %), {elapsed:.0f} s elapsed, ~{elapsed * (1 - done) / done:.0f} s left",
-                  file=sys.stderr, flush=True)
+        if 0 < k < self.t.size - 1:
+            self.progress.update(float(self.t[k]))
 
 
 def _exponential(problem, out, step, options):

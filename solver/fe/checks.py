@@ -34,10 +34,11 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 
 from geometry import verification as shapes
-from geometry.mesh import mesh_from_config, mesh_from_inputs, mesh_size
+from geometry.mesh import estimated_dofs, mesh_from_config, mesh_from_inputs, mesh_size
 from solver.bodydata import read_body_file, rigid_modes
 from solver.fe import bearings, eigen, forms as fe, modes
 from workflow import config as cfgmod
+from workflow.progress import Progress
 from workflow.provenance import check_record
 
 COMM = MPI.COMM_SELF
@@ -263,7 +264,13 @@ def check_convergence(config: dict, body: int, count: int | None = None, levels=
     count = count or int(cfgmod.value(config, "verification.convergence_modes"))
     sizes = [mesh_size(config, params, level) for level in levels]
     n = max(count, int(report_count or 0))
-    all_freqs = [np.asarray(supported_frequencies(config, body, s, n, workdir)) for s in sizes]
+    # progress: the levels' work estimated as DOFs^1.5 (sparse Cholesky of a shell; a solid's grows faster)
+    work = [estimated_dofs(cfgmod.body_inputs(config, body, s)["mesh"])[0] ** 1.5 for s in sizes]
+    progress = Progress(f"convergence {params['name']}", sum(work), None)
+    all_freqs = []
+    for s, w in zip(sizes, work):
+        all_freqs.append(np.asarray(supported_frequencies(config, body, s, n, workdir)))
+        progress.advance(w, note=f"mesh size {s:g} in done")
     per_mode = [np.abs(f / all_freqs[-1] - 1) for f in all_freqs]       # (levels, n)
     freqs = [f[:count] for f in all_freqs]
     finest = freqs[-1]

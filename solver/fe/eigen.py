@@ -16,6 +16,8 @@ import scipy.sparse as sp
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
+from workflow.progress import Progress
+
 
 class EigenSolveError(RuntimeError):
     """The eigen solve did not deliver the requested pairs; one-line message."""
@@ -48,6 +50,10 @@ def lowest_eigenpairs(K: PETSc.Mat, M: PETSc.Mat, count: int, shift: float = 0.0
     pc.setType(PETSc.PC.Type.CHOLESKY)
     pc.setFactorSolverType("mumps")
     eps.setFromOptions()
+    # progress on rank 0 (the job's log): converged pairs of the requested, at each restart
+    progress = Progress(f"eigen solve {label}", count, "eigenpairs", quiet=K.getComm().getRank() != 0)
+    eps.setMonitor(lambda _eps, its, nconv, _eig, _err:
+                   progress.update(min(nconv, count), note=f"Krylov-Schur restart {its}"))
     eps.solve()
     converged = eps.getConverged()
     if converged < count:

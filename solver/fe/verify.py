@@ -17,7 +17,7 @@ import numpy as np
 
 from solver.fe import checks as v
 from workflow import config as cfgmod
-from workflow.provenance import atomic_path, versions, write_json
+from workflow.provenance import provenance, versions, write_json, write_text
 
 CHECKS = cfgmod.CHECKS
 
@@ -87,12 +87,12 @@ def main(argv=None) -> int:
     started = time.perf_counter()
     try:
         config = cfgmod.load_config(args.config)
+        record = provenance(cfgmod.section_hash(config))
         if args.check == "combine":
             report = combine([json.load(open(p)) for p in args.parts], config)
-            write_json(args.out, report)
+            write_json(args.out, report, record)
             if args.summary:
-                with atomic_path(args.summary) as tmp:
-                    tmp.write_text(summary_markdown(report))
+                write_text(args.summary, summary_markdown(report), record)
             print(summary_markdown(report))
             return 0
         result = run_check(args.check, config, args)
@@ -100,7 +100,7 @@ def main(argv=None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     result["wall_time_s"] = time.perf_counter() - started
-    write_json(args.out, result)
+    write_json(args.out, result, record)
     print(json.dumps({k: result[k] for k in ("name", "value", "tolerance", "passed") if k in result}))
     return 0
 

@@ -5,6 +5,7 @@ thesis's initial angles, at rest, by a constant small torque on every motor and 
 small case acceleration about X for 3 ms.  Its exported (A, B, C) step response (exact
 zero-order-hold propagation, expm) must match the simulation's gimbal rates and platform
 attitude change to RTOL of each output's peak."""
+import json
 import os
 
 import numpy as np
@@ -16,6 +17,7 @@ from reduction import models
 from solver.dynamics import export, simulate
 from solver.dynamics.simfile import read_sim
 from tests.dynamics_fixtures import REAL_MODES, real_bodies_only
+from workflow.provenance import read_provenance
 
 RTOL = 1e-4          # of each output's peak over the run (measured: <= 1.4e-5)
 TORQUE = (0.02, -0.01, 0.01, 0.005)      # in lbf
@@ -55,6 +57,10 @@ def test_step_response_matches_simulation(tmp_path):
     npz = np.load(str(tmp_path / "ss.npz"))
     A, B, C = ss["A"], ss["B"], ss["C"]
     assert np.array_equal(A, npz["A"]) and A.shape == (2 * (4 + 12), 2 * (4 + 12))
+    # provenance (issue 16): the model file's config hash, the git revision, the versions
+    rec = json.loads(str(npz["provenance"]))
+    assert rec["config_hash"] == read_provenance(model_file)["config_hash"] and rec["git"]
+    assert read_provenance(out) == read_provenance(str(tmp_path / "ss.npz")) == rec
     assert B.shape == (A.shape[0], 7) and C.shape == (7, A.shape[0])
     sim = read_sim(sim_file)
     t = sim["t"]

@@ -5,6 +5,7 @@ Synthetic chains only (results/bench/oracle.py), except the last test, which che
 the stored a-priori estimate against a measured error on the real data when present."""
 
 import json
+import re
 import os
 
 import h5py
@@ -334,3 +335,31 @@ def test_ties_are_broken_by_priority():
     orders, _ = la.lockstep_elimination(cost, [[0, 1], [2, 3]], priority={0: 0, 1: 5, 2: 1, 3: 9},
                                         tie_rtol=1e-6)
     assert [list(o) for o in orders] == [[0, 1], [3, 2]]
+
+
+@pytest.mark.parametrize("search", [{"stride": 1, "drop_fraction": 0.0},
+                                    {"stride": 3, "drop_fraction": 1 / 16, "greedy_prefix": 3},
+                                    {"stride": 2, "drop_fraction": 0.25}])
+def test_ranking_progress_counts_the_work_it_planned(synthetic, monkeypatch, capsys, search):
+    """Issue 16: rank_scene prints progress lines whose share of the work is exact: the work it
+    plans (ranking_work) is the work its a-priori evaluations add up to (an upper bound with a
+    greedy prefix, whose length the plan cannot know: it protects modes from the elimination)."""
+    from workflow import progress
+    monkeypatch.setattr(progress, "EVERY", 0.0)
+    root, out = synthetic
+    model = fc.read_linear_model(out)
+    reductions = {b: str(root / "reduction" / f"body{b}.h5") for b in models.BODIES}
+    rankings = models.read_rankings(reductions)
+    for b in models.BODIES:
+        with h5py.File(reductions[b], "r") as f:
+            rankings[b]["rho_xmx"] = f["rho_xmx"][()]
+    result = la.rank_scene(model, rankings, pool_size=20, n_curve=5, search=search)
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("progress: load_aware: ranking: ")]
+    if search.get("greedy_prefix"):
+        assert 0.8 * result["work"]["planned"] <= result["work"]["done"] <= result["work"]["planned"]
+    else:
+        assert result["work"]["done"] == pytest.approx(result["work"]["planned"], rel=1e-12)
+        assert lines[-1].startswith("progress: load_aware: ranking: 100 % of the work")
+    assert len(lines) > 10
+    assert {ln.rsplit("; ", 1)[1] for ln in lines} == {"pooled ranking", "per-body ranking", "a-priori curves"}
+    assert all(re.search(r"\d+ % of the work, \d+ s elapsed, ~\d+ s left; ", ln) for ln in lines)

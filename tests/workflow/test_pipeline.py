@@ -60,3 +60,26 @@ def test_a_second_run_has_nothing_to_do(test_run):
     run = snakemake(test_run, "--dry-run", *TARGETS)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "Nothing to be done" in run.stdout + run.stderr
+
+
+def test_every_output_carries_provenance(test_run):
+    """Issue 16: every file the run wrote under results/ carries versions, git revision and config
+    hash (workflow.provenance.read_provenance: HDF5 attributes, JSON key, PNG metadata, a sidecar
+    for the VTU); a gmsh mesh through its metadata JSON (results/mesh/body{n}.json).  Not outputs of
+    the stages: Snakemake's benchmark records (results/benchmarks/rules/) and the scene's flag file."""
+    from workflow.provenance import SIDECAR, read_provenance
+    results = test_run / "results"
+    checked, missing = [], []
+    for path in sorted(results.rglob("*")):
+        rel = path.relative_to(results).as_posix()
+        if not path.is_file() or rel.endswith(SIDECAR) or rel.startswith("benchmarks/rules/") \
+                or rel.endswith("needs.done"):
+            continue
+        carrier = path.with_suffix(".json") if path.suffix == ".msh" else path
+        rec = read_provenance(carrier)
+        checked.append(rel)
+        if not (rec.get("config_hash") and rec.get("git") and "numpy" in (rec.get("versions") or {})):
+            missing.append(rel)
+    kinds = {p.rsplit(".", 1)[-1] for p in checked}
+    assert {"msh", "json", "h5", "png", "vtu"} <= kinds, kinds
+    assert not missing, missing
