@@ -29,6 +29,7 @@ the manifest lists what was made.
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import re
 import sys
@@ -50,7 +51,7 @@ from results.study.tables import RATE_COLUMNS, read_table
 from solver.bodydata import BODIES
 from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
 from solver.dynamics.simfile import read_sim
-from workflow.provenance import write_json
+from workflow.provenance import provenance, savefig, write_json
 
 STYLE = {"pdf.fonttype": 42, "ps.fonttype": 42, "font.size": 9, "axes.grid": True,
          "grid.alpha": 0.3, "legend.fontsize": 8, "figure.dpi": 100}
@@ -84,17 +85,27 @@ def safe_name(model: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]", "_", s)
 
 
-def save(fig, stem) -> dict:
-    """Write fig to stem.pdf and stem.png; returns {"pdf": path, "png": path}."""
+@functools.lru_cache(maxsize=1)
+def run_provenance() -> dict:
+    """The provenance record of this run's figures (``workflow.provenance.provenance``: config
+    hash of the run's configuration file, git revision, versions), made once per process (it
+    runs git)."""
+    return provenance()
+
+
+def save(fig, stem, record=None) -> dict:
+    """Write fig to stem.pdf and stem.png, each with the provenance ``record`` (default
+    ``run_provenance()``) in its metadata; returns {"pdf": path, "png": path}."""
     plt = _plt()
+    record = record or run_provenance()
     os.makedirs(os.path.dirname(os.path.abspath(stem)), exist_ok=True)
     paths = {"pdf": f"{stem}.pdf", "png": f"{stem}.png"}
-    fig.savefig(paths["pdf"])
+    savefig(fig, paths["pdf"], record)
     # the layout is solved once: the PDF's draw placed every axes (figure-relative, so the same at
     # any dpi); solving it again for the PNG cost ~40 % of the figure's time
     if fig.get_layout_engine() is not None:
         fig.set_layout_engine("none")
-    fig.savefig(paths["png"], dpi=PNG_DPI)
+    savefig(fig, paths["png"], record, dpi=PNG_DPI)
     plt.close(fig)
     return paths
 

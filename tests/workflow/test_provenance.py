@@ -18,11 +18,7 @@ from workflow import provenance as P
 from workflow.config import DEFAULT_CONFIG, load_config, section_hash
 
 # outputs that carry none, each for a stated reason
-WITHOUT = {
-    # results/study/figures.py (its owner's module) saves its figures with fig.savefig; it gets
-    # them by workflow.provenance.savefig(fig, path, record) instead of fig.savefig(path)
-    "figures.py figures": lambda rel: rel.startswith("figures/") and rel.endswith((".png", ".pdf")),
-}
+WITHOUT = {}
 
 
 def carries(path) -> bool:
