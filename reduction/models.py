@@ -64,6 +64,7 @@ import numpy as np
 
 from reduction import frozen_chain, modal_integrals
 from reduction.static_modes import load_case_vector, static_correction_modes
+from solver import bodyconfig
 from solver.bodydata import BODIES, BEARING_NAMES, check_config_hash, read_body_file
 from solver.dynamics import chainfile, multibody, scenes
 from workflow import cli
@@ -644,6 +645,8 @@ def main(argv=None):
         cli.check_writable(args.out)
         scene = scenes.load_scene(args.scene)
         config = cfgmod.load_config(args.config) if args.config else None
+        # the body files' attributes first (the configuration file named in the remedy), then their data
+        bodyconfig.check_files(args.bodies, args.config)
         chain, spec, attrs = reduce_model(
             args.model, scene, dict(zip(BODIES, args.bodies)),
             dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,

@@ -31,6 +31,7 @@ from reduction import modal_integrals as mi
 from reduction import ranking as rk
 from reduction import static_modes as st
 from reduction import verification as vf
+from solver import bodyconfig
 from solver.bodydata import BEARING_NAMES, read_body_file
 from reduction.errors import BodyFileError, MissingBearingError, ReductionError
 from workflow.provenance import atomic_h5, check_record, versions
@@ -260,11 +261,14 @@ def main(argv=None):
     parser.add_argument("--table-rows", type=int, default=40)
     parser.add_argument("--expect-config-hash", default=None,
                         help="refuse a body file with a different config_hash (stale)")
+    parser.add_argument("--config", help="the current configuration file: a body file of another "
+                                         "configuration is refused (solver.bodyconfig)")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
     log = (lambda *_: None) if args.quiet else (lambda msg: print(f"[reduction] {msg}"))
     started = time.perf_counter()
     try:
+        bodyconfig.check_files([args.body_file], args.config)
         body = read_body_file(args.body_file, args.expect_config_hash)
         result = reduce_body(body, args.n_modes, args.static_kept, args.static_ranking,
                              args.load_cases, args.table_rows, log)

@@ -30,6 +30,7 @@ import time
 import numpy as np
 
 from reduction import models as reduction_models
+from solver import bodyconfig
 from solver.dynamics import chainfile, linearized, scenes, simulate
 from workflow.provenance import write_json
 
@@ -114,6 +115,9 @@ def main(argv=None) -> int:
         return 2
     # every name is checked before any work (a typo in the last model must not cost the others)
     try:
+        # and every input file against the configuration, before any work (solver.bodyconfig)
+        bodyconfig.check_files([*args.bodies, *(args.reductions or []),
+                                *([args.load_ranking] if args.load_ranking else [])], args.config)
         if args.reductions:
             rankings = reduction_models.read_rankings(dict(zip(reduction_models.BODIES, args.reductions)))
             if args.load_ranking:

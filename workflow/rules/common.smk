@@ -99,6 +99,16 @@ def check_hash(check=None, body=None):
     )
 
 
+def body_files_hash(wildcards):
+    """params.cfg of a rule whose stage checks the body files it reads (directly, or through the
+    reduction, ranking and reduced-model files made from them) against the configuration
+    (--config {CONFIG}, solver/bodyconfig.py): what it compares them with, the config hash the
+    configuration gives every body file."""
+    return cfgmod.inputs_hash(
+        [cfgmod.inputs_hash(cfgmod.body_inputs(config, n)) for n in BODIES]
+    )
+
+
 # The code of a rule's stage: the hash of its stage's module (python -m X), of the project modules it
 # imports, transitively, and of the data files they read (workflow/imports.py); comments and
 # docstrings left out. A rule carries it as params.code, so editing a module reruns exactly the
