@@ -160,7 +160,7 @@ def parse_model(name, rankings):
             raise ModelError(
                 f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, load-N, "
                 f"global-N, static-N, static-xmx-N, static-xmgmx-N, static-load-N "
-                f"(N or N,N,N,N; global-N: one total N; optional @body:loadcase)")
+                f"(N or N,N,N,N; global-N: one total N; optional @body:loadcase) or tol-EPS")
         with_static = m.group(1) is not None
         family = m.group(2) or "freq"
         if family == GLOBAL_FAMILY:
@@ -184,6 +184,20 @@ def parse_model(name, rankings):
                              f"a permutation of 0..{available[b] - 1}")
         kept[b] = np.sort(order[:counts[b]])
     return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static), ranking=family)
+
+
+def check_name(name, n_modes=TRUTH_MODES):
+    """Refuse (ModelError, one line) a model name that cannot be built from body files of
+    ``n_modes`` modes each, from the name alone: its grammar, its counts, its load cases (the
+    rankings' order does not matter here, so every ranking is taken as the identity).  The
+    workflow calls it when the DAG is built (workflow/rules/common.smk), before any mesh or
+    modal solve; a tol-EPS name is checked for its EPS (its N is chosen from the rankings)."""
+    if parse_tolerance(name) is not None:
+        return
+    order = np.arange(int(n_modes))
+    rankings = {b: {key: order for key in (*RANKING_KEYS.values(), LOAD_KEY)} for b in BODIES}
+    rankings[POOLED_KEY] = {"body": np.repeat(BODIES, order.size), "mode": np.tile(order, len(BODIES))}
+    parse_model(name, rankings)
 
 
 def _static_spec(statics, with_static):

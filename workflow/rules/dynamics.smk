@@ -29,7 +29,8 @@ rule load_ranking:
 
 rule simulate:
     input:
-        model="results/models/{scene}/{model}.h5",
+        # the model file; a bad scene or model name stops the DAG build in one line
+        model=model_file,
     output:
         "results/sim/{scene}/{model}.h5",
     resources:
@@ -93,5 +94,6 @@ rule scene:
 
 rule dynamics:
     input:
-        scene_simulations("thesis"),
+        # when the DAG is built (its model names are checked against the config's mode count)
+        lambda wildcards: scene_simulations("thesis"),
         "results/verification/dynamics.json",
