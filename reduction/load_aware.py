@@ -68,6 +68,7 @@ from reduction.frozen_chain import (CURVE_SAMPLES, FROZEN_ANGLE, FROZEN_RATE, N_
 from solver import bodyconfig
 from solver.bodydata import BODIES
 from solver.dynamics import integrators, multibody, scenes, simulate
+from workflow import cli
 from workflow.provenance import atomic_h5, versions
 FORMAT_VERSION = 1
 DEFAULT_POOL = 160          # pooled modes ranked by backward elimination (40 per body on average)
@@ -655,7 +656,11 @@ def main(argv=None):
              "mode_index_base": 0, "units": "in, lbf, s, rad",
              "versions": json.dumps(versions()), "wall_time_s": time.perf_counter() - start,
              "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    write_ranking(args.out, result, model, attrs)
+    try:
+        write_ranking(args.out, result, model, attrs)
+    except OSError as exc:          # a full disk: the atomic writer left nothing
+        print(f"load_aware: error: {cli.write_failure(args.out, exc)}", file=sys.stderr)
+        return 2
     J = result["J"]
     log(f"{args.out}: rigid J = {J[0]:.3e}; pooled top 40/80/160: " +
         ", ".join(f"{J[n]:.3e}" for n in (40, 80, 160) if n < len(J)) +

@@ -34,6 +34,7 @@ from reduction import verification as vf
 from solver import bodyconfig
 from solver.bodydata import BEARING_NAMES, read_body_file
 from reduction.errors import BodyFileError, MissingBearingError, ReductionError
+from workflow import cli
 from workflow.provenance import atomic_h5, check_record, versions
 
 FORMAT_VERSION = 1
@@ -273,9 +274,13 @@ def main(argv=None):
         result = reduce_body(body, args.n_modes, args.static_kept, args.static_ranking,
                              args.load_cases, args.table_rows, log)
         result["timings"]["wall_time_s"] = time.perf_counter() - started
-        write_reduction_file(args.out, result, body)
     except (ReductionError, BodyFileError) as exc:
         print(f"reduction.stage: error: {exc}", file=sys.stderr)
+        return 2
+    try:
+        write_reduction_file(args.out, result, body)
+    except OSError as exc:          # a full disk: the atomic writer left nothing
+        print(f"reduction.stage: error: {cli.write_failure(args.out, exc)}", file=sys.stderr)
         return 2
     failed = [c["name"] for c in result["checks"] if not c["passed"]]
     log(f"{args.body_file} -> {args.out}: {result['n_modes']} modes, "
