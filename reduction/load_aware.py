@@ -603,7 +603,10 @@ def main(argv=None):
                     help=f"forward-selection steps that seed the ranking (0: none; default "
                          f"{GREEDY_STEPS})")
     ap.add_argument("--quiet", action="store_true")
-    args = ap.parse_args(argv)
+    try:        # a negative value is read as the option's value (and refused below)
+        args = ap.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, ap))
+    except SystemExit as exc:       # the one-line message is printed; in process, return the status
+        return exc.code
     log = (lambda *_: None) if args.quiet else (lambda m: print(f"load_aware: {m}", flush=True))
     start = time.perf_counter()
     try:

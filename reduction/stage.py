@@ -19,7 +19,6 @@ output-bearing load cases are skipped (and listed in the attribute
 were not named explicitly; naming one explicitly is an error.
 """
 
-import argparse
 import json
 import os
 import sys
@@ -246,8 +245,8 @@ def write_reduction_file(path, result, body):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description="Reduce one body: modal integrals, rankings, "
-                                                 "static correction modes.")
+    parser = cli.OneLineParser(prog="reduction.stage", description="Reduce one body: modal integrals, "
+                                                                  "rankings, static correction modes.")
     parser.add_argument("--body-file", required=True, help="results/modes/body{n}.h5")
     parser.add_argument("--out", required=True, help="results/reduction/body{n}.h5")
     parser.add_argument("--n-modes", type=int, default=None,
@@ -265,7 +264,10 @@ def main(argv=None):
     parser.add_argument("--config", help="the current configuration file: a body file of another "
                                          "configuration is refused (solver.bodyconfig)")
     parser.add_argument("--quiet", action="store_true")
-    args = parser.parse_args(argv)
+    try:        # a negative value is read as the option's value (and refused by the stage's checks)
+        args = parser.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, parser))
+    except SystemExit as exc:       # the one-line message is printed; in process, return the status
+        return exc.code
     log = (lambda *_: None) if args.quiet else (lambda msg: print(f"[reduction] {msg}"))
     started = time.perf_counter()
     try:

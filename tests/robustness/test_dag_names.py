@@ -37,18 +37,24 @@ CASES = {
         "results/sim/badneeds/needs.done",
         ("config/scenes/badneeds.yaml: needs.models", "unknown model 'nonsense-3'")),
     "unknown scene": ("results/sim/nosuch/freq-4.h5", ("unknown scene", "nosuch")),
+    "scene grid not dividing the duration": (
+        "results/sim/badgrid/freq-4.h5", ("badgrid.yaml", "output_interval", "divide")),
 }
 
 
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory):
-    """A copy of .test with a scene whose needs.models names a model that does not exist."""
+    """A copy of .test with a scene whose needs.models names a model that does not exist, and one whose
+    output interval does not divide its duration."""
     root = tmp_path_factory.mktemp("dag") / "work"
     shutil.copytree(ROOT / ".test", root)
     scene = yaml.safe_load((root / "config" / "scenes" / "short.yaml").read_text())
     scene["name"] = "badneeds"
     scene["needs"]["models"]["value"] = ["freq-4", "nonsense-3"]
     (root / "config" / "scenes" / "badneeds.yaml").write_text(yaml.safe_dump(scene))
+    scene["name"] = "badgrid"
+    scene["output_interval"]["value"] = 7e-4             # 3 ms is not a whole number of 0.7 ms
+    (root / "config" / "scenes" / "badgrid.yaml").write_text(yaml.safe_dump(scene))
     return root
 
 
