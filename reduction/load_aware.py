@@ -65,8 +65,10 @@ from reduction import models
 from reduction.frozen_chain import (CURVE_SAMPLES, FROZEN_ANGLE, FROZEN_RATE, N_JOINTS, LoadAwareError,
                                     coupled_modes, decimated, estimate_error, rate_response,
                                     velocity_response)
+from solver import bodyconfig
 from solver.bodydata import BODIES
 from solver.dynamics import integrators, multibody, scenes, simulate
+from workflow import cli
 from workflow.progress import Progress
 from workflow.provenance import atomic_h5, versions
 FORMAT_VERSION = 1
@@ -664,6 +666,8 @@ def main(argv=None):
     ap.add_argument("--reductions", nargs=4, required=True, metavar="REDUCTION_FILE",
                     help="the reduction stage's files of bodies 2..5 (frequency/XMX/XMGMX rankings)")
     ap.add_argument("--out", required=True, help="ranking file, e.g. results/reduction/load/thesis.h5")
+    ap.add_argument("--config", help="the current configuration file: body and reduction files of another "
+                                     "configuration are refused before the work (solver.bodyconfig)")
     ap.add_argument("--pool", type=int, default=DEFAULT_POOL,
                     help=f"modes ranked by backward elimination (default {DEFAULT_POOL})")
     ap.add_argument("--curve", type=int, default=N_CURVE,
@@ -678,10 +682,14 @@ def main(argv=None):
                     help=f"forward-selection steps that seed the ranking (0: none; default "
                          f"{GREEDY_STEPS})")
     ap.add_argument("--quiet", action="store_true")
-    args = ap.parse_args(argv)
+    try:        # a negative value is read as the option's value (and refused below)
+        args = ap.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, ap))
+    except SystemExit as exc:       # the one-line message is printed; in process, return the status
+        return exc.code
     log = (lambda *_: None) if args.quiet else (lambda m: print(f"load_aware: {m}", flush=True))
     start = time.perf_counter()
     try:
+        bodyconfig.check_files(args.bodies + args.reductions, args.config)
         if args.search_stride is None:
             scene0 = scenes.load_scene(args.scene)
             args.search_stride = search_stride(scene0.duration, scene0.output_interval)
@@ -730,7 +738,11 @@ def main(argv=None):
              "mode_index_base": 0, "units": "in, lbf, s, rad",
              "versions": json.dumps(versions()), "wall_time_s": time.perf_counter() - start,
              "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    write_ranking(args.out, result, model, attrs)
+    try:
+        write_ranking(args.out, result, model, attrs)
+    except OSError as exc:          # a full disk: the atomic writer left nothing
+        print(f"load_aware: error: {cli.write_failure(args.out, exc)}", file=sys.stderr)
+        return 2
     J = result["J"]
     log(f"{args.out}: rigid J = {J[0]:.3e}; pooled top 40/80/160: " +
         ", ".join(f"{J[n]:.3e}" for n in (40, 80, 160) if n < len(J)) +

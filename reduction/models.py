@@ -64,6 +64,7 @@ import numpy as np
 
 from reduction import frozen_chain, modal_integrals
 from reduction.static_modes import load_case_vector, static_correction_modes
+from solver import bodyconfig
 from solver.bodydata import BODIES, BEARING_NAMES, check_config_hash, read_body_file
 from solver.dynamics import chainfile, multibody, scenes
 from workflow import cli
@@ -159,7 +160,7 @@ def parse_model(name, rankings):
             raise ModelError(
                 f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, load-N, "
                 f"global-N, static-N, static-xmx-N, static-xmgmx-N, static-load-N "
-                f"(N or N,N,N,N; global-N: one total N; optional @body:loadcase)")
+                f"(N or N,N,N,N; global-N: one total N; optional @body:loadcase) or tol-EPS")
         with_static = m.group(1) is not None
         family = m.group(2) or "freq"
         if family == GLOBAL_FAMILY:
@@ -183,6 +184,20 @@ def parse_model(name, rankings):
                              f"a permutation of 0..{available[b] - 1}")
         kept[b] = np.sort(order[:counts[b]])
     return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static), ranking=family)
+
+
+def check_name(name, n_modes=TRUTH_MODES):
+    """Refuse (ModelError, one line) a model name that cannot be built from body files of
+    ``n_modes`` modes each, from the name alone: its grammar, its counts, its load cases (the
+    rankings' order does not matter here, so every ranking is taken as the identity).  The
+    workflow calls it when the DAG is built (workflow/rules/common.smk), before any mesh or
+    modal solve; a tol-EPS name is checked for its EPS (its N is chosen from the rankings)."""
+    if parse_tolerance(name) is not None:
+        return
+    order = np.arange(int(n_modes))
+    rankings = {b: {key: order for key in (*RANKING_KEYS.values(), LOAD_KEY)} for b in BODIES}
+    rankings[POOLED_KEY] = {"body": np.repeat(BODIES, order.size), "mode": np.tile(order, len(BODIES))}
+    parse_model(name, rankings)
 
 
 def _static_spec(statics, with_static):
@@ -644,6 +659,8 @@ def main(argv=None):
         cli.check_writable(args.out)
         scene = scenes.load_scene(args.scene)
         config = cfgmod.load_config(args.config) if args.config else None
+        # the body files' attributes first (the configuration file named in the remedy), then their data
+        bodyconfig.check_files(args.bodies, args.config)
         chain, spec, attrs = reduce_model(
             args.model, scene, dict(zip(BODIES, args.bodies)),
             dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,

@@ -52,6 +52,7 @@ from reduction import ranking as rk
 from reduction import stage
 from reduction import static_modes as st
 from reduction import verification as vf
+from solver import bodyconfig
 from solver.bodydata import RIGID_MOTION_NAMES, read_body_file, rigid_modes
 from reduction.errors import BodyFileError, ReductionError
 from workflow.provenance import check_record, provenance as provenance_record, versions, write_csv, write_json
@@ -555,10 +556,14 @@ def main(argv=None):
     parser.add_argument("--table", required=True, help="ranking CSV (Table 4.1 analogue)")
     parser.add_argument("--verification", required=True, help="verification JSON")
     parser.add_argument("--benchmark", required=True, help="benchmark JSON")
+    parser.add_argument("--config", help="the current configuration file: body and reduction files of "
+                                         "another configuration are refused (solver.bodyconfig; the "
+                                         "coarse body is checked by its own contract only)")
     args = parser.parse_args(argv)
     log = lambda msg: print(f"[reduction.report] {msg}")  # noqa: E731
     started = time.perf_counter()
     try:
+        bodyconfig.check_files(args.bodies + args.reductions, args.config)
         pairs = load_inputs(args.bodies, args.reductions)
         coarse = read_body_file(args.coarse_body)
         checks, bodies, rows, bench = build_report(pairs, coarse, log)

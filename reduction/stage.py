@@ -19,7 +19,6 @@ output-bearing load cases are skipped (and listed in the attribute
 were not named explicitly; naming one explicitly is an error.
 """
 
-import argparse
 import json
 import os
 import sys
@@ -31,8 +30,10 @@ from reduction import modal_integrals as mi
 from reduction import ranking as rk
 from reduction import static_modes as st
 from reduction import verification as vf
+from solver import bodyconfig
 from solver.bodydata import BEARING_NAMES, read_body_file
 from reduction.errors import BodyFileError, MissingBearingError, ReductionError
+from workflow import cli
 from workflow.provenance import atomic_h5, check_record, versions
 
 FORMAT_VERSION = 1
@@ -244,8 +245,8 @@ def write_reduction_file(path, result, body):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description="Reduce one body: modal integrals, rankings, "
-                                                 "static correction modes.")
+    parser = cli.OneLineParser(prog="reduction.stage", description="Reduce one body: modal integrals, "
+                                                                  "rankings, static correction modes.")
     parser.add_argument("--body-file", required=True, help="results/modes/body{n}.h5")
     parser.add_argument("--out", required=True, help="results/reduction/body{n}.h5")
     parser.add_argument("--n-modes", type=int, default=None,
@@ -260,18 +261,28 @@ def main(argv=None):
     parser.add_argument("--table-rows", type=int, default=40)
     parser.add_argument("--expect-config-hash", default=None,
                         help="refuse a body file with a different config_hash (stale)")
+    parser.add_argument("--config", help="the current configuration file: a body file of another "
+                                         "configuration is refused (solver.bodyconfig)")
     parser.add_argument("--quiet", action="store_true")
-    args = parser.parse_args(argv)
+    try:        # a negative value is read as the option's value (and refused by the stage's checks)
+        args = parser.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, parser))
+    except SystemExit as exc:       # the one-line message is printed; in process, return the status
+        return exc.code
     log = (lambda *_: None) if args.quiet else (lambda msg: print(f"[reduction] {msg}"))
     started = time.perf_counter()
     try:
+        bodyconfig.check_files([args.body_file], args.config)
         body = read_body_file(args.body_file, args.expect_config_hash)
         result = reduce_body(body, args.n_modes, args.static_kept, args.static_ranking,
                              args.load_cases, args.table_rows, log)
         result["timings"]["wall_time_s"] = time.perf_counter() - started
-        write_reduction_file(args.out, result, body)
     except (ReductionError, BodyFileError) as exc:
         print(f"reduction.stage: error: {exc}", file=sys.stderr)
+        return 2
+    try:
+        write_reduction_file(args.out, result, body)
+    except OSError as exc:          # a full disk: the atomic writer left nothing
+        print(f"reduction.stage: error: {cli.write_failure(args.out, exc)}", file=sys.stderr)
         return 2
     failed = [c["name"] for c in result["checks"] if not c["passed"]]
     log(f"{args.body_file} -> {args.out}: {result['n_modes']} modes, "

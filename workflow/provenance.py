@@ -383,10 +383,24 @@ def atomic_path(path: str | Path):
 
 @contextlib.contextmanager
 def atomic_h5(path: str | Path):
-    """An h5py File open for writing that appears at ``path`` only when closed successfully."""
+    """An h5py File open for writing that appears at ``path`` only when closed successfully.
+
+    The file is built in memory (HDF5's core driver without a backing store) and written to the
+    temporary file in one piece by Python's own I/O, so a full disk (or a quota) is a plain
+    OSError from that write, and the temporary file is removed (``atomic_path``).  HDF5 itself
+    never writes to the disk here: a flush or close that fails on a full disk is reported by h5py
+    as RuntimeErrors, printed as ignored exceptions from every object it frees, and can end the
+    process with a segmentation fault at exit (issue 15)."""
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as h5:
+        h5 = h5py.File(str(tmp), "w", driver="core", backing_store=False)
+        try:
             yield h5
+            h5.flush()
+            image = h5.id.get_file_image()
+        finally:
+            h5.close()
+        with open(tmp, "wb") as f:
+            f.write(image)
 
 
 def write_json(path: str | Path, data: dict, record: dict | None = None) -> None:

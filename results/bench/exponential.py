@@ -81,6 +81,7 @@ import numpy as np  # noqa: E402
 
 from results.bench.scaling import time_interleaved  # noqa: E402
 from results.study.tables import RATE_COLUMNS  # noqa: E402
+from solver import bodyconfig  # noqa: E402
 from solver.dynamics import chainfile, exponential, integrators, scenes, simulate  # noqa: E402
 from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
 from solver.dynamics.simfile import read_sim  # noqa: E402
@@ -709,6 +710,8 @@ def parser():
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-md", required=True)
     ap.add_argument("--out-csv", required=True)
+    ap.add_argument("--config", help="the current configuration file: input files of another "
+                                     "configuration are refused before the work (solver.bodyconfig)")
     return ap
 
 
@@ -765,6 +768,7 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     load0 = os.getloadavg()
     try:
+        bodyconfig.check_files([args.truth_model, *args.models], args.config)
         inputs = prepare(args)
     except (BenchInputError, chainfile.ChainFileError, ErrorsInputError, scenes.SceneError,
             ValueError, FileNotFoundError) as exc:

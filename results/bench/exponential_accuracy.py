@@ -24,6 +24,7 @@ import time
 import h5py
 import numpy as np
 
+from solver import bodyconfig
 from solver.dynamics import chainfile, exponential, integrators, scenes
 from solver.dynamics.error_measure import error_measure
 from solver.dynamics.simulate import scene_problem
@@ -106,9 +107,12 @@ def main(argv=None) -> int:
     ap.add_argument("--tol", type=float, default=exponential.DEFAULT_TOL)
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-md", required=True)
+    ap.add_argument("--config", help="the current configuration file: input files of another "
+                                     "configuration are refused before the work (solver.bodyconfig)")
     args = ap.parse_args(argv)
     start = time.perf_counter()
     try:
+        bodyconfig.check_files([args.truth_model], args.config)
         exponential.check_options(tol=args.tol)
         refs = parse_references(args.reference)
         loaded = {}

@@ -30,6 +30,7 @@ import time
 
 import numpy as np
 
+from solver import bodyconfig
 from solver.dynamics import chainfile, exponential, integrators, scenes
 from solver.dynamics.error_measure import error_measure
 from solver.dynamics.simulate import scene_problem
@@ -117,9 +118,12 @@ def main(argv=None) -> int:
                     help="the exponential integrator's tolerance (config simulation.tolerance)")
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-csv", required=True)
+    ap.add_argument("--config", help="the current configuration file: input files of another "
+                                     "configuration are refused before the work (solver.bodyconfig)")
     args = ap.parse_args(argv)
     start = time.perf_counter()
     try:
+        bodyconfig.check_files([args.truth_model, *args.models], args.config)
         exponential.check_options(tol=args.tol)
         scene = scenes.load_scene(args.scene)
         truth_chain, _ = chainfile.read_chain(args.truth_model, scene.damping_ratio)

@@ -56,6 +56,7 @@ from dataclasses import dataclass  # noqa: E402
 import numpy as np  # noqa: E402
 
 from reduction import models  # noqa: E402
+from solver import bodyconfig  # noqa: E402
 from results.study.cases import describe_model  # noqa: E402
 from results.study.figures import GROUP_STYLE, STYLE, pareto_front  # noqa: E402
 from results.study.tables import RATE_COLUMNS  # noqa: E402
@@ -369,6 +370,8 @@ def main(argv=None) -> int:
                     help="the scene's load-aware ranking, for load-N / global-N models")
     ap.add_argument("--out-csv", required=True)
     ap.add_argument("--figure", required=True, help="PNG path")
+    ap.add_argument("--config", help="the current configuration file: input files of another "
+                                     "configuration are refused before the work (solver.bodyconfig)")
     ap.add_argument("--rk4-fractions", type=float, nargs="+", default=[1.0, 0.5])
     ap.add_argument("--rtols", type=float, nargs="+", default=[1e-6, 1e-8, 1e-10])
     ap.add_argument("--galpha-steps", type=float, nargs="+", default=[1e-5, 5e-6, 2.5e-6])
@@ -386,6 +389,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     start = time.perf_counter()
     try:
+        bodyconfig.check_files(args.bodies + args.reductions + ([args.load_ranking] if args.load_ranking
+                                                                else []), args.config)
         if args.repeats < 1:
             raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
         scene = scenes.load_scene(args.scene)

@@ -32,6 +32,7 @@ import h5py
 import numpy as np
 
 from reduction import load_aware, models
+from solver import bodyconfig
 from results.study.cases import BODY_NAMES
 from solver.bodydata import BODIES
 from solver.dynamics.error_measure import check_same_grid, error_measure
@@ -199,11 +200,14 @@ def main(argv=None) -> int:
     ap.add_argument("--reductions", nargs=4, required=True, metavar="REDUCTION_FILE",
                     help="the reduction stage's files of bodies 2..5 (frequency/XMX/XMGMX rankings)")
     ap.add_argument("--table", required=True, help="CSV output, e.g. results/tables/selection.csv")
+    ap.add_argument("--config", help="the current configuration file: input files of another "
+                                     "configuration are refused before the work (solver.bodyconfig)")
     ap.add_argument("--figure", required=True,
                     help="PNG output (a PDF is written beside it), e.g. "
                          "results/figures/bench/global_ranking.png")
     args = ap.parse_args(argv)
     try:
+        bodyconfig.check_files(args.reductions + [args.ranking], args.config)
         ranking = read_ranking(args.ranking)
         rankings = models.read_rankings(dict(zip(models.BODIES, args.reductions)))
         models.load_load_ranking(args.ranking, rankings)

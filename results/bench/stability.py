@@ -62,6 +62,7 @@ from results.bench.rk4_theory import (
     rk4_real_axis_limit,
 )
 from reduction import models
+from solver import bodyconfig
 from solver.dynamics import integrators, scenes
 from workflow.provenance import provenance, savefig, versions, write_json, write_text
 
@@ -284,11 +285,14 @@ def main(argv=None):
     ap.add_argument("--figures-dir", default=os.path.join(ROOT, "results", "figures", "stability"))
     ap.add_argument("--quick", action="store_true",
                     help="reduced version (2 models, 2000-step trials, 1 s drift, 5 ms hard cases)")
+    ap.add_argument("--config", help="the current configuration file: input files of another "
+                                     "configuration are refused before the work (solver.bodyconfig)")
     args = ap.parse_args(argv)
     command_args = list(sys.argv[1:] if argv is None else argv)
     os.environ.setdefault("MPLBACKEND", "Agg")
     start = time.perf_counter()
     try:
+        bodyconfig.check_files(args.bodies + args.reductions, args.config)
         rankings, data, inputs = load_inputs(dict(zip(models.BODIES, args.bodies)),
                                              dict(zip(models.BODIES, args.reductions)))
         drift_scene = scenes.load_scene("free_10s")

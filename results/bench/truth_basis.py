@@ -22,6 +22,7 @@ import time
 import numpy as np
 
 from reduction import models as reduction_models
+from solver import bodyconfig
 from solver.dynamics import simulate
 from solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error, error_measure
 from solver.dynamics.simfile import read_sim
@@ -41,11 +42,13 @@ def compare(truth: dict, large: dict) -> dict:
     return out
 
 
-def run(bodies, scenes, log=print) -> dict:
+def run(bodies, scenes, log=print, config=None) -> dict:
     """{scene name: ``compare`` of the truth against the larger basis, wall_time_s}; progress
-    (``workflow.progress``): the simulations done of 2 per scene."""
+    (``workflow.progress``): the simulations done of 2 per scene.  config: the configuration
+    file the body files must come from (their config_hash), if given."""
     results = {}
     progress = Progress("truth_basis", 2 * len(scenes), "simulations")
+    checked = ["--config", str(config)] if config else []     # the body files vs the configuration
     with tempfile.TemporaryDirectory(prefix="truth_basis_") as tmp:
         for scene in scenes:
             name = os.path.splitext(os.path.basename(scene))[0]
@@ -55,9 +58,9 @@ def run(bodies, scenes, log=print) -> dict:
                 mfile = os.path.join(tmp, f"{name}_{model}_model.h5")
                 sfile = os.path.join(tmp, f"{name}_{model}.h5")
                 rc = reduction_models.main(["--model", model, "--scene", scene, "--bodies", *bodies,
-                                            "--out", mfile])
+                                            "--out", mfile, *checked])
                 if rc == 0:
-                    rc = simulate.main(["--scene", scene, "--model-file", mfile, "--out", sfile])
+                    rc = simulate.main(["--scene", scene, "--model-file", mfile, "--out", sfile, *checked])
                 if rc:
                     raise RuntimeError(f"scene {name}, model {model}: failed (status {rc}), see above")
                 sims[model] = read_sim(sfile)
@@ -74,9 +77,12 @@ def main(argv=None) -> int:
     ap.add_argument("--bodies", nargs=4, required=True, help="body files 2..5 with >= 200 modes")
     ap.add_argument("--scenes", nargs="+", required=True, help="scene files")
     ap.add_argument("--out", required=True, help="JSON")
+    ap.add_argument("--config", help="the current configuration file: body files of another "
+                                     "configuration are refused before the work (solver.bodyconfig)")
     args = ap.parse_args(argv)
     try:
-        results = run(args.bodies, args.scenes)
+        bodyconfig.check_files(args.bodies, args.config)
+        results = run(args.bodies, args.scenes, config=args.config)
     except (RuntimeError, ValueError, FileNotFoundError) as exc:
         print(f"truth_basis: error: {exc}", file=sys.stderr)
         return 2

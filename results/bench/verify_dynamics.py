@@ -44,6 +44,7 @@ from solver.dynamics import checks as dc
 from solver.dynamics import exponential, integrators, linearized, multibody, scenes, simulate
 from solver.dynamics.problem import Problem, make_rhs
 from reduction import models
+from solver import bodyconfig
 from results.bench.oracle import Oracle, jax_available, synthetic_chain
 from workflow.progress import Progress
 from workflow.provenance import check_record, provenance, versions, write_json
@@ -392,9 +393,12 @@ def main(argv=None):
     ap.add_argument("--verification", required=True, help="output JSON of the checks")
     ap.add_argument("--benchmark", required=True, help="output JSON of the truth-model timings")
     ap.add_argument("--repeats", type=int, default=5, help="runs per integrator (median)")
+    ap.add_argument("--config", help="the current configuration file: input files of another "
+                                     "configuration are refused before the work (solver.bodyconfig)")
     args = ap.parse_args(argv)
     start = time.perf_counter()
     try:
+        bodyconfig.check_files(args.bodies + args.reductions, args.config)
         body_files = dict(zip(models.BODIES, args.bodies))
         reduction_files = dict(zip(models.BODIES, args.reductions))
         rankings = models.read_rankings(reduction_files)

@@ -36,6 +36,7 @@ from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection  # noq
 from scipy.spatial import cKDTree  # noqa: E402
 
 from reduction.static_modes import DEFAULT_LOAD_CASE  # noqa: E402
+from solver import bodyconfig  # noqa: E402
 from solver.bodydata import BEARING_NAMES  # noqa: E402
 from workflow.provenance import (atomic_path, provenance, read_h5_checked, savefig, write_json,  # noqa: E402
                                  write_sidecar)
@@ -283,10 +284,13 @@ def main(argv=None) -> int:
     parser.add_argument("--ranked", type=int, default=2,
                         help="best XMX-ranked modes shown besides the lowest (default 2; needs --reduction)")
     parser.add_argument("--manifest", help="JSON list of the figures with captions")
+    parser.add_argument("--config", help="the current configuration file: a body or reduction file of "
+                                         "another configuration is refused (solver.bodyconfig)")
     args = parser.parse_args(argv)
     if args.static_png and not args.reduction:
         parser.error("--static-png needs --reduction")
     try:
+        bodyconfig.check_files([args.body_file] + ([args.reduction] if args.reduction else []), args.config)
         with read_h5_checked(args.body_file, ("modes", "dof_coords", "dof_component", "frequencies_hz",
                                               "bearing_points")) as h5:
             modes, coords = h5["modes"][()], h5["dof_coords"][()]

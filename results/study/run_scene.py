@@ -22,7 +22,6 @@ its name; the others' files are removed by Snakemake as the outputs of a failed 
 """
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import tempfile
@@ -31,7 +30,9 @@ import time
 import numpy as np
 
 from reduction import models as reduction_models
-from solver.dynamics import chainfile, linearized, scenes, simulate
+from solver import bodyconfig
+from solver.dynamics import chainfile, integrators, linearized, scenes, simulate
+from workflow import cli
 from workflow.progress import Progress
 from workflow.provenance import provenance, write_json
 
@@ -96,7 +97,7 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m results.study.run_scene", description=__doc__.split("\n\n")[0])
+    ap = cli.OneLineParser(prog="python -m results.study.run_scene", description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", required=True, help="scene file (config/scenes/NAME.yaml)")
     ap.add_argument("--models", nargs="+", required=True, help="model names (reduction/models.py)")
     ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE", help="body files 2..5")
@@ -106,15 +107,25 @@ def main(argv=None) -> int:
     ap.add_argument("--coupled-modes", help="JSON: the truth's coupled modes at the initial state")
     ap.add_argument("--config", help="the current configuration file: body files from another one "
                                      "are refused (reduction.models / simulate --config)")
-    ap.add_argument("--integrator", default=None, help="simulate's --integrator (default its own)")
-    ap.add_argument("--tol", default=None, help="simulate's --tol (exponential)")
-    args = ap.parse_args(argv)
+    ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
+                    help="simulate's --integrator (default its own)")
+    ap.add_argument("--tol", default=None, type=cli.positive_number("--tol"),
+                    help="simulate's --tol (exponential)")
+    try:        # a negative value is read as the option's value (and refused by its type)
+        args = ap.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, ap))
+        if args.tol is not None and (args.integrator or simulate.DEFAULT_INTEGRATOR) != "exponential":
+            ap.error(f"--tol is the exponential integrator's tolerance, not {args.integrator}'s")
+    except SystemExit as exc:       # the one-line message is printed; in process, return the status
+        return exc.code
     if len(set(args.models)) != len(args.models):
         dup = sorted({m for m in args.models if args.models.count(m) > 1})
         print(f"run_scene: model(s) given twice: {', '.join(dup)}", file=sys.stderr)
         return 2
     # every name is checked before any work (a typo in the last model must not cost the others)
     try:
+        # and every input file against the configuration, before any work (solver.bodyconfig)
+        bodyconfig.check_files([*args.bodies, *(args.reductions or []),
+                                *([args.load_ranking] if args.load_ranking else [])], args.config)
         if args.reductions:
             rankings = reduction_models.read_rankings(dict(zip(reduction_models.BODIES, args.reductions)))
             if args.load_ranking:
@@ -128,7 +139,7 @@ def main(argv=None) -> int:
     if args.integrator:
         integrator_args += ["--integrator", args.integrator]
     if args.tol:
-        integrator_args += ["--tol", args.tol]
+        integrator_args += ["--tol", repr(args.tol)]
     t0 = time.perf_counter()
     rc, failed = run_scene(args.scene, args.models, args.bodies, args.reductions, args.load_ranking,
                            args.out_dir, integrator_args, coupled_modes=args.coupled_modes,

@@ -24,3 +24,24 @@ def test_bad_model_name(name, work, refused):
     argv = ["--model", name, "--scene", work / "scene.yaml", *body_args(work), *reduction_args(work),
             "--out", work / "out" / "m.h5"]
     refused(models.main, argv, (name, NAMES[name]), work / "out")
+
+
+def test_every_model_the_workflow_names_passes_the_dag_check():
+    """No false refusal when the DAG is built (reduction.models.check_name, workflow/rules/common.smk):
+    the study's models and every shipped scene's needs.models at the config's 100 modes per body, the
+    .test scene's at its 12."""
+    import glob
+    import os
+
+    from results.study.cases import study_models
+    from solver.dynamics import scenes
+    names = set(study_models()) | set(study_models(extended=False)) | {"truth"}
+    for path in glob.glob(os.path.join(scenes.SCENES_DIR, "*.yaml")):
+        names |= set(scenes.load_scene(path).models)
+    for name in sorted(names):
+        models.check_name(name, 100)
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    for name in scenes.load_scene(os.path.join(root, ".test", "config", "scenes", "short.yaml")).models:
+        models.check_name(name, 12)
+    with pytest.raises(models.ModelError, match="only 12 computed"):
+        models.check_name("truth", 12)

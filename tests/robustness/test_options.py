@@ -3,9 +3,12 @@ conflicting options refused, options of another method refused; one line, nothin
 import pytest
 
 from geometry import mesh
-from reduction import models
+from reduction import load_aware, models, stage
+from results.study import run_scene
 from solver.dynamics import simulate
 from solver.fe import modes
+
+from .conftest import body_args, reduction_args
 
 MODEL = ("models", "scene", "xmx-2.h5")
 
@@ -78,3 +81,40 @@ def test_modes_unknown_body(work, refused, tmp_path):
     msh.write_text("")
     refused(modes.main, ["--body", "7", "--mesh", msh, "--out", work / "out" / "b.h5"],
             ("7",), work / "out")
+
+
+# the study's stage (results.study.run_scene, rule study_scene) and the load-aware ranking: checked
+# before any model is reduced
+RUN_SCENE = {
+    "tol negative exponent": (["--tol", "-1e-6"], ("--tol", "positive")),
+    "tol negative": (["--tol", "-1"], ("--tol", "positive")),
+    "tol with rk4": (["--integrator", "rk4", "--tol", "1e-6"], ("--tol", "rk4")),
+    "unknown integrator": (["--integrator", "euler"], ("--integrator", "euler")),
+}
+
+
+@pytest.mark.parametrize("case", sorted(RUN_SCENE))
+def test_run_scene_option(case, work, refused):
+    extra, words = RUN_SCENE[case]
+    refused(run_scene.main, ["--scene", work / "scene.yaml", "--models", "freq-2", *body_args(work),
+                             "--out-dir", work / "out", *extra], words, work / "out")
+
+
+LOAD_AWARE = {
+    "drop-fraction negative exponent": (["--drop-fraction", "-1e-3"], ("--drop-fraction",)),
+    "pool negative": (["--pool", "-1"], ("--pool",)),
+}
+
+
+@pytest.mark.parametrize("case", sorted(LOAD_AWARE))
+def test_load_aware_option(case, work, refused):
+    extra, words = LOAD_AWARE[case]
+    refused(load_aware.main, ["--scene", work / "scene.yaml", *body_args(work), *reduction_args(work),
+                              "--out", work / "out" / "l.h5", *extra], words, work / "out")
+
+
+@pytest.mark.parametrize("extra, words", [(["--static-kept", "-1e-3"], ("--static-kept", "-1e-3")),
+                                          (["--n-modes", "-3"], ("modes", "-3"))], ids=["static-kept", "n-modes"])
+def test_reduction_stage_negative_count(extra, words, work, refused):
+    refused(stage.main, ["--body-file", work / "modes" / "body2.h5", "--out", work / "out" / "r.h5", *extra],
+            words, work / "out")

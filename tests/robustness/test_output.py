@@ -1,22 +1,30 @@
 """The output location: checked before the work; a full disk while writing gives one line and
-leaves nothing (no file, no temporary file, no folder made for it); stale temporary files of
-killed writers are removed by the next write of their target."""
+leaves nothing (no file, no temporary file, no folder made for it), in the modal, reduction,
+reduced-model and simulation stages; stale temporary files of killed writers are removed by the
+next write of their target."""
 import contextlib
 import errno
 import os
+import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import h5py
+import numpy as np
 import pytest
 
-from reduction import models
+from reduction import models, stage
+from results.bench.oracle import synthetic_body
+from solver.bodydata import BODY_KEYS, read_body_file
 from solver.dynamics import chainfile, simfile, simulate
+from solver.fe import modes
 from workflow import provenance
 
 from .conftest import body_args
 
 MODEL = ("models", "scene", "xmx-2.h5")
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def sim(work, out):
@@ -88,6 +96,102 @@ def test_full_disk_keeps_the_previous_result(work, refused, monkeypatch):
     assert simulate.main([str(a) for a in sim(work, out)]) == 0
     full_disk_after(simfile, monkeypatch)
     refused(simulate.main, sim(work, out), ("no space left",), work / "out")    # s.h5 unchanged
+
+
+class _FullDisk:
+    """A file open for writing on a disk with ``room`` bytes left: the bytes that fit are written,
+    then ENOSPC, as the kernel does."""
+
+    def __init__(self, f, room):
+        self.f, self.room = f, room
+
+    def write(self, data):
+        data = bytes(data)
+        self.f.write(data[:self.room])
+        self.f.flush()
+        if len(data) > self.room:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        self.room -= len(data)
+        return len(data)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.f.close()
+
+
+def disk_full(monkeypatch, room=4096):
+    """The disk under the atomic HDF5 writer (workflow.provenance.atomic_h5: the file built in memory,
+    then written in one piece) holds only ``room`` more bytes."""
+    def opener(path, mode="r", *args, **kwargs):
+        f = open(path, mode, *args, **kwargs)
+        return _FullDisk(f, room) if "w" in mode else f
+    monkeypatch.setattr(provenance, "open", opener, raising=False)
+
+
+def modal_payload(body=2):
+    """What the modal stage's solve returns (solver.fe.modes.compute_body), from a synthetic body."""
+    d = synthetic_body(np.random.default_rng(body), body, n_nodes=8, rotations=True, n_modes=6,
+                       omega_max=3e3)
+    return {**{k: d[k] for k in BODY_KEYS if k != "frequencies_hz"},
+            "frequencies_hz": np.sqrt(d["eigenvalues"]) / (2 * np.pi), "residuals": np.zeros(6),
+            "attrs": {"body": body, "name": "outer_gimbal"}, "timings": {}}
+
+
+def modal_stage(work, monkeypatch, out):
+    """solver.fe.modes' command line with its solve replaced by a synthetic body (the writer is real)."""
+    monkeypatch.setattr(modes, "compute_body", lambda *args, **kwargs: modal_payload())
+    mesh = work / "b.msh"
+    mesh.write_text("")
+    return ["--body", "2", "--mesh", mesh, "--out", out]
+
+
+def test_full_disk_in_the_modal_stage_leaves_nothing(work, refused, monkeypatch):
+    out = work / "out" / "modes" / "body2.h5"
+    argv = modal_stage(work, monkeypatch, out)
+    disk_full(monkeypatch)
+    refused(modes.main, argv, (str(out), "no space left", "nothing was written"), work / "out")
+    assert not (work / "out" / "modes").exists()            # no file, no temporary file, no folder
+
+
+def test_full_disk_keeps_the_previous_body_file(work, refused, monkeypatch):
+    out = work / "out" / "body2.h5"
+    argv = modal_stage(work, monkeypatch, out)
+    assert modes.main([str(a) for a in argv]) == 0
+    read_body_file(out)                                       # the writer's file passes the contract
+    disk_full(monkeypatch, room=100)
+    refused(modes.main, argv, ("no space left",), work / "out")   # body2.h5 unchanged, no .part
+
+
+def test_full_disk_while_writing_a_simulation_file(work, refused, monkeypatch):
+    out = work / "out" / "s.h5"
+    disk_full(monkeypatch)
+    refused(simulate.main, sim(work, out), (str(out), "no space left"), work / "out")
+
+
+def test_full_disk_in_the_reduction_stage_leaves_nothing(work, refused, monkeypatch):
+    out = work / "out" / "r.h5"
+    disk_full(monkeypatch)
+    refused(stage.main, ["--body-file", work / "modes" / "body2.h5", "--out", out, "--quiet",
+                         "--static-kept", "2"],
+            (str(out), "no space left"), work / "out")
+
+
+def test_killed_modal_write_leaves_no_part_file_after_the_next_run(work, monkeypatch):
+    """A writer killed (SIGKILL) while writing the body file leaves its .part<pid>; the next run of
+    the modal stage on that target removes it."""
+    out = work / "out" / "body2.h5"
+    killed = subprocess.Popen([sys.executable, "-c", (
+        "import os, signal, sys\n"
+        "from workflow.provenance import atomic_path\n"
+        "with atomic_path(sys.argv[1]) as tmp:\n"
+        "    tmp.write_bytes(bytes(10**6))\n"
+        "    os.kill(os.getpid(), signal.SIGKILL)\n"), str(out)], cwd=ROOT)
+    assert killed.wait() == -signal.SIGKILL
+    assert [p.name for p in (work / "out").iterdir()] == [f".body2.h5.part{killed.pid}"]
+    assert modes.main([str(a) for a in modal_stage(work, monkeypatch, out)]) == 0
+    assert sorted(os.listdir(work / "out")) == ["body2.h5"]
 
 
 def dead_pid():

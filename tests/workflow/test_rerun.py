@@ -7,7 +7,8 @@ The workflow is loaded in-process (Snakemake's API) and its rules' params are ev
 * ``params.cfg`` is the hash of the config values the stage reads. Every leaf of
   config/config.yaml is changed in turn, and exactly the rules whose stages read it must see
   their hash change (the body rules through workflow.config.body_inputs, which the mesh and
-  modal stages read their parameters through).
+  modal stages read their parameters through; the stages that check their body files against the
+  configuration, through the body files' config hashes).
 """
 import copy
 import re
@@ -26,6 +27,14 @@ BODIES = (2, 3, 4, 5)
 NAMES = dict(zip(BODIES, cfgmod.BODY_NAMES))
 # rules whose params.cfg hashes the whole config (they record or print all of it)
 WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "report_scene"}
+# rules whose stage checks the body files it reads (directly, or through the reduction, ranking and
+# reduced-model files made from them) against the configuration (--config {CONFIG},
+# solver/bodyconfig.py): params.cfg is what it compares them with, every body file's config hash
+BODY_CHECKERS = {"reduction_report", "load_ranking", "reduced_model", "simulate", "study_scene", "truth_basis",
+                 "reference_simulation", "dynamics_verification", "stability", "pareto", "selection",
+                 "exponential_bench", "exponential_accuracy", "integrator_tables"}
+# ... and those that check one body's files (params.cfg = that body file's config hash)
+PER_BODY_CHECKERS = ("reduction_body", "mode_shapes_body")
 # a stage the rule runs besides its shell's python -m modules
 EXTRA_CODE = {"verify_mpi": ("solver.fe.modes",)}   # solver.fe.verify mpi runs solver.fe.modes under mpirun
 
@@ -228,13 +237,20 @@ def expected_readers(path):
     raise AssertionError(f"config leaf {'.'.join(path)} is not in the test's spec: add it")
 
 
+def checkers(readers):
+    """The checking rules whose params.cfg changes with the readers': those of a body whose modal
+    stage's hash (the body file's config hash) changes."""
+    bodies = [n for n in BODIES if f"modes_body[{n}]" in readers]
+    return (BODY_CHECKERS if bodies else set()) | {f"{r}[{n}]" for r in PER_BODY_CHECKERS for n in bodies}
+
+
 def test_each_config_leaf_reruns_exactly_its_readers(workflow):
     config = workflow.globals["config"]
     instances = rule_instances(workflow)
     per_body = {f"{rule}[{n}]" for rule in ("mesh_body", "modes_body", "verify_convergence", "verify_body",
-                                            "modes_body_large") for n in BODIES}
+                                            "modes_body_large", *PER_BODY_CHECKERS) for n in BODIES}
     per_check = {f"verify_check[{c}]" for c in workflow.globals["GLOBAL_CHECKS"]}
-    assert {label for label, _, _ in instances} == (per_body | per_check | WHOLE_CONFIG
+    assert {label for label, _, _ in instances} == (per_body | per_check | WHOLE_CONFIG | BODY_CHECKERS
                                                      | {"verify_mpi", "coarse_mesh", "coarse_body_all_modes"})
     before = hashes(instances)
     pristine = copy.deepcopy(config)
@@ -249,7 +265,8 @@ def test_each_config_leaf_reruns_exactly_its_readers(workflow):
             after = hashes(instances)
             node[path[-1]] = original
             changed = {label for label in before if after[label] != before[label]}
-            expected = expected_readers(path) | WHOLE_CONFIG
+            readers = expected_readers(path)
+            expected = readers | checkers(readers) | WHOLE_CONFIG
             assert changed == expected, (".".join(path), sorted(changed - expected), sorted(expected - changed))
             seen += 1
     finally:

@@ -5,7 +5,7 @@
 #   snakemake --cores 2 bench
 # Pareto: one model per family at ~40-100 elastic coordinates (each costs ~2 min of repeated
 # runs; the truth, always added, ~5 min).
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY from outside
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 PARETO_MODELS = ["freq-10", "xmx-10", "load-10", "global-100"]
 # Load-aware and global selection against frequency / XMX / XMGMX at equal coordinate counts
@@ -48,6 +48,7 @@ rule stability:
         drift="results/figures/stability/energy_drift.png",
     params:
         code=code_hash("results.bench.stability"),
+        cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: estimate, 2 GB and 1 h (bisections and 10 s energy-drift runs per integrator)
         mem_mb=2000,
@@ -59,7 +60,7 @@ rule stability:
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.stability --bodies {input.bodies} "
         "--reductions {input.reductions} --out-dir results/stability "
-        "--figures-dir $(dirname {output.rk4_limit}) > {log} 2>&1"
+        "--figures-dir $(dirname {output.rk4_limit}) --config {CONFIG} > {log} 2>&1"
 
 
 rule scaling:
@@ -100,6 +101,7 @@ rule pareto:
     params:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
         code=code_hash("results.bench.pareto"),
+        cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: ~2 min per model and ~5 min for the truth (comment above): 13 min, so 30 min
         mem_mb=mem_mb(780.5),
@@ -115,7 +117,7 @@ rule pareto:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.pareto --scene thesis --truth {input.truth} "
         "--models {params.models} --repeats 5 --budget 600 --bodies {input.bodies} --reductions {input.reductions} "
         "--load-ranking {input.load_ranking} "
-        "--out-csv {output.csv} --figure {output.figure} > {log} 2>&1"
+        "--out-csv {output.csv} --figure {output.figure} --config {CONFIG} > {log} 2>&1"
 
 
 rule selection:
@@ -129,6 +131,7 @@ rule selection:
         figure="results/figures/bench/global_ranking.png",
     params:
         code=code_hash("results.bench.selection"),
+        cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: reads simulation files (as error_tables, error_tables_long.tsv 2.7 s, 159.3 MB)
         mem_mb=mem_mb(159.3),
@@ -140,7 +143,7 @@ rule selection:
     shell:
         "MPLBACKEND=Agg {PY} -m results.bench.selection --truth {input.truth} --cases {input.cases} "
         "--ranking {input.ranking} --reductions {input.reductions} --table {output.table} "
-        "--figure {output.figure} > {log} 2>&1"
+        "--figure {output.figure} --config {CONFIG} > {log} 2>&1"
 
 
 rule reference_simulation:
@@ -165,9 +168,10 @@ rule reference_simulation:
         physics=scene_physics_hash,
         scene=scene_file,
         code=code_hash("solver.dynamics.simulate"),
+        cfg=body_files_hash,  # the model's body files are checked against the config
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
-        "--integrator dop853 --rtol 1e-10 --atol 1e-14 --out {output} > {log} 2>&1"
+        "--integrator dop853 --rtol 1e-10 --atol 1e-14 --config {CONFIG} --out {output} > {log} 2>&1"
 
 
 rule exponential_bench:
@@ -186,6 +190,7 @@ rule exponential_bench:
         references=reference_arguments,
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
         code=code_hash("results.bench.exponential"),
+        cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: ~3 + 2.5 + 1 min (comment above EXPONENTIAL_MODELS), so 15 min; memory as simulate
         mem_mb=mem_mb(780.5),
@@ -200,7 +205,8 @@ rule exponential_bench:
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.exponential "
         "--truth-model {input.truth_model} --reference {params.references} --models {params.models} "
-        "--repeats 5 --out-json {output.json} --out-md {output.md} --out-csv {output.csv} > {log} 2>&1"
+        "--repeats 5 --out-json {output.json} --out-md {output.md} --out-csv {output.csv} --config {CONFIG} "
+        "> {log} 2>&1"
 
 
 # Scenes on which the exponential integrator's accuracy is verified against a converged DOP853
@@ -228,6 +234,7 @@ rule exponential_accuracy:
         references=reference_arguments,
         tol=cfgmod.value(config, "simulation.tolerance"),
         code=code_hash("results.bench.exponential_accuracy"),
+        cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: one exponential run per accuracy scene (seconds each): as simulate
         mem_mb=mem_mb(780.5),
@@ -239,7 +246,7 @@ rule exponential_accuracy:
     shell:
         "OMP_NUM_THREADS=1 {PY} -m results.bench.exponential_accuracy --truth-model {input.truth_model} "
         "--reference {params.references} --tol {params.tol} --out-json {output.json} "
-        "--out-md {output.md} > {log} 2>&1"
+        "--out-md {output.md} --config {CONFIG} > {log} 2>&1"
 
 
 # The study's thesis table with both integrators (issue 13): the thesis's own cases (the RK4 runs are
@@ -260,6 +267,7 @@ rule integrator_tables:
         csv="results/benchmarks/integrator_tables.csv",
     params:
         code=code_hash("results.bench.integrator_tables"),
+        cfg=body_files_hash,  # the input files are checked against the config
         physics=lambda wildcards: scenes_mod.load_scene(
             scene_path("thesis")
         ).config_hash(),
@@ -276,7 +284,7 @@ rule integrator_tables:
     shell:
         "OMP_NUM_THREADS=1 {PY} -m results.bench.integrator_tables --scene config/scenes/thesis.yaml "
         "--truth-model {input.truth_model} --models {params.models} --tol {params.tol} "
-        "--out-json {output.json} --out-csv {output.csv} > {log} 2>&1"
+        "--out-json {output.json} --out-csv {output.csv} --config {CONFIG} > {log} 2>&1"
 
 
 rule bench:

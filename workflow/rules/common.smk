@@ -1,6 +1,7 @@
 # Shared set-up: validate the config (one-line error naming the key), the
 # interpreter that runs every stage, and the rerun triggers: the hash of the code
 # each stage runs and of the config values it reads.
+import functools
 import importlib
 import os
 import sys
@@ -99,6 +100,16 @@ def check_hash(check=None, body=None):
     )
 
 
+def body_files_hash(wildcards):
+    """params.cfg of a rule whose stage checks the body files it reads (directly, or through the
+    reduction, ranking and reduced-model files made from them) against the configuration
+    (--config {CONFIG}, solver/bodyconfig.py): what it compares them with, the config hash the
+    configuration gives every body file."""
+    return cfgmod.inputs_hash(
+        [cfgmod.inputs_hash(cfgmod.body_inputs(config, n)) for n in BODIES]
+    )
+
+
 # The code of a rule's stage: the hash of its stage's module (python -m X), of the project modules it
 # imports, transitively, and of the data files they read (workflow/imports.py); comments and
 # docstrings left out. A rule carries it as params.code, so editing a module reruns exactly the
@@ -112,6 +123,40 @@ models_mod = importlib.import_module("reduction.models")
 scenes_mod = importlib.import_module("solver.dynamics.scenes")
 
 
+# ---- A bad scene or model name (a target's, or in a scene's needs.models) stops the DAG build in one
+# line naming the culprit, before any job runs (a mesh or a modal solve included): an exception in an
+# input or params function would reach the user as Snakemake's multi-line InputFunctionException.
+def dag_refuse(message):
+    """Stop the DAG build with one line on stderr (the config's errors above do the same)."""
+    sys.stderr.write(" ".join(str(message).split()) + "\n")
+    sys.stderr.flush()
+    os._exit(1)
+
+
+@functools.lru_cache(maxsize=None)
+def dag_scene(name):
+    """The scene ``name`` (its file: scene_path), or a one-line refusal naming it."""
+    try:
+        return scenes_mod.load_scene(scene_path(name))
+    except ValueError as exc:  # SceneError: unknown scene, bad YAML, bad key or value
+        dag_refuse(exc)
+
+
+def checked_model(model, where):
+    """``model`` if it names a model the configuration can build (reduction.models.check_name, with
+    modes.count modes per body), else a one-line refusal naming ``where`` (the target or the scene).
+    """
+    count = cfgmod.value(config, "modes.count")
+    try:
+        models_mod.check_name(model, count)
+    except models_mod.ModelError as exc:
+        dag_refuse(
+            f"{where}: {exc} (model names: reduction/models.py; modes.count = {count} in "
+            f"{CONFIG}); nothing was run"
+        )
+    return model
+
+
 # models.smk
 def scene_path(name):
     """A scene's file: config/scenes/{name}.yaml of the working directory if it has one (the project's
@@ -123,6 +168,7 @@ def scene_path(name):
 
 
 def scene_file(wildcards):
+    dag_scene(wildcards.scene)  # it exists and is valid, or one line
     return scene_path(wildcards.scene)
 
 
@@ -132,6 +178,10 @@ def model_inputs(wildcards):
     global), and the scene's load-aware ranking for load-* and global-*.  So the DAG of
     results/sim/thesis/freq-10.h5 is four meshes, four modal solutions, one reduced model
     and one simulation."""
+    dag_scene(wildcards.scene)
+    checked_model(
+        wildcards.model, f"results/models/{wildcards.scene}/{wildcards.model}.h5"
+    )
     needed = {"bodies": [f"results/modes/body{n}.h5" for n in BODIES]}
     if models_mod.needs_reduction_rankings(wildcards.model):
         needed["reductions"] = [f"results/reduction/body{n}.h5" for n in BODIES]
@@ -152,7 +202,7 @@ def ranking_options(wildcards, input):
 
 def scene_elastic_bodies(wildcards):
     """What a reduced model reads from its scene: the elastic bodies (needs.bodies)."""
-    return list(scenes_mod.load_scene(scene_file(wildcards)).elastic_bodies)
+    return list(dag_scene(wildcards.scene).elastic_bodies)
 
 
 # dynamics.smk
@@ -164,7 +214,16 @@ WARMUP_SCENES = ("thesis", "damped")
 
 
 def scene_physics_hash(wildcards):
-    return scenes_mod.load_scene(scene_file(wildcards)).config_hash()
+    return dag_scene(wildcards.scene).config_hash()
+
+
+def model_file(wildcards):
+    """A simulation's reduced-model file, once its scene and model name are checked (one line)."""
+    dag_scene(wildcards.scene)
+    checked_model(
+        wildcards.model, f"results/sim/{wildcards.scene}/{wildcards.model}.h5"
+    )
+    return f"results/models/{wildcards.scene}/{wildcards.model}.h5"
 
 
 def integrator_options(wildcards):
@@ -176,8 +235,10 @@ def integrator_options(wildcards):
 
 
 def scene_simulations(scene):
-    """The simulations a scene's results use (its needs.models)."""
-    models = scenes_mod.load_scene(scene_path(scene)).models
+    """The simulations a scene's results use (its needs.models), each name checked (one line)."""
+    models = dag_scene(scene).models
+    for m in models:
+        checked_model(m, f"{scene_path(scene)}: needs.models")
     return [f"results/sim/{scene}/{m}.h5" for m in models]
 
 

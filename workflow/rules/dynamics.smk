@@ -1,5 +1,5 @@
 # Stage 4: the flexible multibody simulation of the gimbal chain, any scene and reduced model.
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY from outside
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 
 
@@ -39,6 +39,7 @@ rule load_ranking:
     params:
         code=code_hash("reduction.load_aware"),
         scene=scene_file,
+        cfg=body_files_hash,  # the body and reduction files are checked against the config
     resources:
         # records: load_ranking_thesis.tsv 385.0 s, 738.1 MB (max of 6)
         mem_mb=mem_mb(738.1),
@@ -49,12 +50,13 @@ rule load_ranking:
         "results/benchmarks/rules/load_ranking_{scene}.tsv"
     shell:
         "OMP_NUM_THREADS=1 {PY} -m reduction.load_aware --scene {params.scene} --bodies {input.bodies} "
-        "--reductions {input.reductions} --out {output} > {log} 2>&1"
+        "--reductions {input.reductions} --config {CONFIG} --out {output} > {log} 2>&1"
 
 
 rule simulate:
     input:
-        model="results/models/{scene}/{model}.h5",
+        # the model file; a bad scene or model name stops the DAG build in one line
+        model=model_file,
         kernels=ancient(KERNELS),
     output:
         "results/sim/{scene}/{model}.h5",
@@ -75,9 +77,11 @@ rule simulate:
         # config simulation: the integrator (exponential or rk4, the thesis's) and its options
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
+        # the model's body files are checked against the configuration (--config)
+        cfg=body_files_hash,
     shell:
         "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
-        "--integrator {params.integrator} {params.options} --out {output} > {log} 2>&1"
+        "--integrator {params.integrator} {params.options} --config {CONFIG} --out {output} > {log} 2>&1"
 
 
 rule dynamics_verification:
@@ -89,6 +93,7 @@ rule dynamics_verification:
         benchmark="results/benchmarks/dynamics.json",
     params:
         code=code_hash("results.bench.verify_dynamics"),
+        cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
         mem_mb=2000,
@@ -103,7 +108,7 @@ rule dynamics_verification:
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.verify_dynamics --bodies {input.bodies} "
         "--reductions {input.reductions} --verification {output.verification} "
-        "--benchmark {output.benchmark} > {log} 2>&1"
+        "--benchmark {output.benchmark} --config {CONFIG} > {log} 2>&1"
 
 
 rule scene:
@@ -116,5 +121,6 @@ rule scene:
 
 rule dynamics:
     input:
-        scene_simulations("thesis"),
+        # when the DAG is built (its model names are checked against the config's mode count)
+        lambda wildcards: scene_simulations("thesis"),
         "results/verification/dynamics.json",

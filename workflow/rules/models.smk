@@ -1,7 +1,7 @@
 # Stage 3b: one reduced model of the chain for one scene -- the file a simulation reads
 # (solver/dynamics/chainfile.py, docs/models.md).  A simulation job never loads the four
 # full body files; this rule reduces them once per (scene, model).
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY from outside
+# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 
 
@@ -19,6 +19,8 @@ rule reduced_model:
         scene=scene_file,
         elastic_bodies=scene_elastic_bodies,
         rankings=ranking_options,
+        # the body files' config hashes are checked against the configuration (--config)
+        cfg=body_files_hash,
     resources:
         # records: models/thesis/static-8.tsv 5.9 s, models/thesis/static-xmx-4.tsv 431.1 MB (max of 134)
         mem_mb=mem_mb(431.1),
@@ -29,4 +31,4 @@ rule reduced_model:
         "results/benchmarks/rules/models/{scene}/{model}.tsv"
     shell:
         "OMP_NUM_THREADS=1 {PY} -m reduction.models --model '{wildcards.model}' --scene {params.scene} "
-        "--bodies {input.bodies} {params.rankings} --out {output} > {log} 2>&1"
+        "--bodies {input.bodies} {params.rankings} --config {CONFIG} --out {output} > {log} 2>&1"

@@ -66,6 +66,7 @@ rule mode_shapes_body:
         vtu="results/modes/shapes/body{n}.vtu",
     params:
         code=code_hash("results.study.mode_shapes"),
+        cfg=body_hash(),  # the body and reduction files are checked against the config
     resources:
         # records: mode_shapes_body3.tsv 6.6 s, mode_shapes_body2.tsv 171.2 MB (max of 8)
         mem_mb=mem_mb(171.2),
@@ -77,7 +78,7 @@ rule mode_shapes_body:
     shell:
         "MPLBACKEND=Agg {PY} -m results.study.mode_shapes --body-file {input.body} --mesh {input.mesh} "
         "--reduction {input.reduction} --png {output.png} --static-png {output.static_png} "
-        "--manifest {output.manifest} --vtu {output.vtu} > {log} 2>&1"
+        "--manifest {output.manifest} --vtu {output.vtu} --config {CONFIG} > {log} 2>&1"
 
 
 rule mode_shapes:

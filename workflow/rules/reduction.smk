@@ -13,6 +13,7 @@ rule reduction_body:
         "results/reduction/body{n}.h5",
     params:
         code=code_hash("reduction.stage"),
+        cfg=body_hash(),  # the body file's config_hash is checked against the config
     resources:
         # records: reduction_body5.tsv 5.0 s, 376.5 MB (max of 4)
         mem_mb=mem_mb(376.5),
@@ -22,7 +23,8 @@ rule reduction_body:
     benchmark:
         "results/benchmarks/rules/reduction_body{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m reduction.stage --body-file {input.body} --out {output} > {log} 2>&1"
+        "OMP_NUM_THREADS=1 {PY} -m reduction.stage --body-file {input.body} --config {CONFIG} "
+        "--out {output} > {log} 2>&1"
 
 
 rule reduction:
@@ -84,6 +86,7 @@ rule reduction_report:
         benchmark="results/benchmarks/reduction.json",
     params:
         code=code_hash("reduction.report"),
+        cfg=body_files_hash,  # the body and reduction files are checked against the config
     resources:
         # records: reduction_report.tsv 31.0 s, 601.1 MB (max of 2)
         mem_mb=mem_mb(601.1),
@@ -95,4 +98,4 @@ rule reduction_report:
     shell:
         "OMP_NUM_THREADS=1 {PY} -m reduction.report --bodies {input.bodies} --reductions {input.reductions} "
         "--coarse-body {input.coarse} --table {output.table} --verification {output.verification} "
-        "--benchmark {output.benchmark} > {log} 2>&1"
+        "--benchmark {output.benchmark} --config {CONFIG} > {log} 2>&1"

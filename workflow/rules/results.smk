@@ -33,6 +33,8 @@ rule study_scene:
         options=integrator_options,
         models=" ".join(f"'{m}'" for m in SCENE_MODELS),
         out_dir="results/study/{scene}/sim",
+        # the body, reduction and ranking files are checked against the configuration (--config)
+        cfg=body_files_hash,
     resources:
         # records: study/long.tsv 249.3 s, 1053.6 MB (max of 4 files)
         mem_mb=mem_mb(1053.6),
@@ -45,7 +47,7 @@ rule study_scene:
         "OMP_NUM_THREADS=1 {PY} -m results.study.run_scene --scene {input.scene} --models {params.models} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
         "--out-dir {params.out_dir} --coupled-modes {output.coupled} --integrator {params.integrator} "
-        "{params.options} > {log} 2>&1"
+        "{params.options} --config {CONFIG} > {log} 2>&1"
 
 
 rule study:

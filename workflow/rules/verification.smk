@@ -203,6 +203,7 @@ rule truth_basis:
         "results/verification/truth_basis.json",
     params:
         code=code_hash("results.bench.truth_basis"),
+        cfg=body_files_hash,  # the body files are checked against the config
         physics=lambda wildcards: [
             scenes_mod.load_scene(f"config/scenes/{s}.yaml").config_hash()
             for s in TRUTH_BASIS_SCENES
@@ -217,4 +218,4 @@ rule truth_basis:
         "results/benchmarks/rules/truth_basis.tsv"
     shell:
         "OMP_NUM_THREADS=1 {PY} -m results.bench.truth_basis --bodies {input.bodies} --scenes {input.scenes} "
-        "--out {output} > {log} 2>&1"
+        "--config {CONFIG} --out {output} > {log} 2>&1"
