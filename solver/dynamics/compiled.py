@@ -33,7 +33,7 @@ import numpy as np
 
 from solver.dynamics import multibody
 from solver.dynamics.kernels import JIT
-from solver.dynamics.kernels import modal, recursion, rk4
+from solver.dynamics.kernels import linalg, modal, recursion, rk4
 from solver.dynamics.kernels.modal import YS_PAIRS
 
 
@@ -160,9 +160,13 @@ def _kinetic_energy(y, yd, w1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
 
 
 @numba.njit(**JIT)
-def _case_power(y, yd, w1, dw1, tau, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+def _case_power_at_acc(y, yd, ydd, w1, dw1, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+    """(Ad_{g1^-1} w1) . F0 at accelerations ydd: the inverse dynamics only.  The accelerations
+    come from ``_rhs``, compiled for the integration anyway: an entry that computed them itself
+    compiled the whole articulated-body solve a second time (52 of the kernels' 138 CPU-s)."""
     ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-    return recursion.case_power(y, yd, w1, dw1, tau, ch)
+    _, fr, F0 = recursion.inverse_dynamics(y, yd, ydd, w1, dw1, ch)
+    return np.dot(linalg.adinv(fr.R[0], fr.p[0], w1), F0)
 
 
 @numba.njit(**JIT)
@@ -323,9 +327,13 @@ class FastChain:
         return _kinetic_energy(np.asarray(y, float), np.asarray(yd, float), w1, *self.data)
 
     def case_power_at(self, y, yd, w1, dw1, tau):
-        """case_power at the accelerations of the equations (one compiled call)."""
-        return float(_case_power(np.asarray(y, float), np.asarray(yd, float), w1, dw1,
-                                 np.asarray(tau, float), *self.data))
+        """case_power at the accelerations of the equations: y'' by ``_rhs`` (w1, dw1 given: at
+        rest, so the case arrays are not read), then the power by the inverse dynamics."""
+        y, yd = np.asarray(y, float), np.asarray(yd, float)
+        unused = np.zeros(3)
+        ydd = _rhs(0.0, y, yd, True, unused, unused, unused, unused, w1, dw1,
+                   np.asarray(tau, float), *self.data)
+        return float(_case_power_at_acc(y, yd, ydd, w1, dw1, *self.data))
 
 
 class CompiledRhs:

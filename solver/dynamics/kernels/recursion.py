@@ -579,19 +579,9 @@ def kinetic_energy(y, yd, w1, ch):
 
 
 @numba.njit(**JIT)
-def case_power(y, yd, w1, dw1, tau, ch):
-    """Power the case motion feeds into bodies 2-5, (Ad_{g1^-1} w1) . F0, with F0 the
-    composite wrench on body 2 at the accelerations the equations give."""
-    S = y.shape[0] - 4
-    LIN = np.zeros(3 * S + 108)                      # [hq; Pq], reused by the second pass
-    LIND = np.zeros(3 * S + 108)
-    ydd = accelerations_lin(y, yd, w1, dw1, tau, LIN, False, LIND, ch)
-    return case_power_lin(y, yd, ydd, w1, dw1, LIN, ch)
-
-
-@numba.njit(**JIT)
 def case_power_lin(y, yd, ydd, w1, dw1, LIN, ch):
-    """``case_power`` at accelerations ydd, with LIN = [hq; Pq] of the state given."""
+    """Power the case motion feeds into bodies 2-5, (Ad_{g1^-1} w1) . F0, with F0 the composite
+    wrench on body 2, at accelerations ydd, with LIN = [hq; Pq] of the state given."""
     n = y.shape[0]
     S = n - 4
     out = np.zeros(n)
