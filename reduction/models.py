@@ -36,12 +36,19 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
   ``estimate/rigid`` for N = 0, and beyond the pool the same estimator evaluated on the
   file's ``linear/*`` chain) is <= EPS on every one of the four gimbal rates
   (``tolerance_choice``).  Refused with a one-line ModelError when no N up to the computed
-  modes meets EPS (the message gives the smallest estimate reached), or when the scene
-  moves the gimbals too far for the frozen chain (the ranking file's ``angle_excursion_rad``
-  above ``frozen_chain.FROZEN_ANGLE`` or ``rate_over_lowest_frequency`` above
-  ``FROZEN_RATE``): the estimate would be a promise it cannot keep.  No static modes
-  (``@``) are taken.  The choice (N, the estimate per rate, EPS, where the estimate came
-  from) is recorded in the reduced-model file's attributes ``tol_*``.
+  modes meets EPS (the message gives the smallest estimate reached).  Where the scene moves
+  the gimbals too far or too fast for the frozen chain (the ranking file's
+  ``angle_excursion_rad`` above ``frozen_chain.FROZEN_ANGLE`` or
+  ``rate_over_lowest_frequency`` above ``FROZEN_RATE``: scenes ``long``, ``spin``), the
+  estimate would be a promise it cannot keep: ``reduce_model`` says so and falls back to a
+  **verified search** (``reduction.verified_search``): candidate global-N are simulated
+  against the truth with the default integrator, and the smallest N found passing (measured
+  max E <= EPS, with global-(N - 1) measured failing) is taken; refused in one line if only
+  the truth itself passes.  ``parse_model`` alone (no scene, no simulation) and
+  ``--no-verified-search`` refuse instead (FrozenChainInvalid).  No static modes (``@``) are
+  taken.  The choice (N, how it was made, the estimate per rate, the measured E of a
+  verified search and its probes) is recorded in the reduced-model file's attributes
+  ``tol_*`` (docs/models.md).
 * ``@body:case`` puts static modes on the listed bodies only, e.g.
   ``static-10@2:output_motor_fz`` (outer gimbal only) or
   ``freq-6@2:output_motor_fz+output_motor_my@3:output_motor_fz``.
@@ -62,7 +69,7 @@ from dataclasses import dataclass
 import h5py
 import numpy as np
 
-from reduction import frozen_chain, modal_integrals
+from reduction import frozen_chain, modal_integrals, verified_search
 from reduction.static_modes import load_case_vector, static_correction_modes
 from solver.bodydata import BODIES, BEARING_NAMES, check_config_hash, read_body_file
 from solver.dynamics import chainfile, multibody, scenes
@@ -86,6 +93,15 @@ _LOAD_RE = re.compile(r"^(input_motor|input_resolver|output_motor|output_resolve
 
 class ModelError(ValueError):
     """A model name that cannot be built."""
+
+
+class FrozenChainInvalid(ModelError):
+    """tol-EPS on a scene where the frozen-chain estimate does not hold: ``reason`` says why,
+    ``eps`` is the request (``reduce_model`` answers it by verified search instead)."""
+
+    def __init__(self, message, reason="", eps=None):
+        super().__init__(message)
+        self.reason, self.eps = reason, eps
 
 
 @dataclass(frozen=True)
@@ -242,10 +258,10 @@ def frozen_chain_valid(pooled):
     rate = float(pooled.get("rate_over_lowest_frequency", 0.0))
     if exc.size and np.max(exc) > frozen_chain.FROZEN_ANGLE:
         return False, (f"the gimbals move {np.max(exc):.2e} rad > {frozen_chain.FROZEN_ANGLE:g} rad "
-                       f"(load_aware.FROZEN_ANGLE)")
+                       f"(frozen_chain.FROZEN_ANGLE)")
     if rate > frozen_chain.FROZEN_RATE:
         return False, (f"rate / lowest modal frequency {rate:.1e} > {frozen_chain.FROZEN_RATE:g} "
-                       f"(load_aware.FROZEN_RATE)")
+                       f"(frozen_chain.FROZEN_RATE)")
     return True, ""
 
 
@@ -272,17 +288,21 @@ def _extended_estimate(pooled, N):
     return E
 
 
-def tolerance_choice(eps, pooled, total, extend=None):
+def tolerance_choice(eps, pooled, total, extend=None, check_valid=True):
     """(N, E (4,), source): the smallest pooled count N (0..total) whose a-priori estimate is
     <= eps on every gimbal rate.  pooled: rankings["pooled"] with ``estimate`` (P, 4) of
     N = 1..P and ``rigid_estimate`` (4,) of N = 0; beyond P, extend(N) -> E (4,) (None: stop
     at P), scanned in steps of TOL_COARSE, then every N of the bracket that met eps.
-    ModelError (one line) if the frozen chain is flagged invalid or no N meets eps."""
+    FrozenChainInvalid (one line) if the frozen chain is flagged invalid (check_valid=False:
+    the estimate's choice all the same, the verified search's first guess); ModelError (one
+    line) if no N meets eps."""
     ok, why = frozen_chain_valid(pooled)
-    if not ok:
-        raise ModelError(f"tol-{eps:g}: refused on scene {pooled.get('scene', '?')!r}: {why}; "
-                         f"the frozen-linear-chain estimate cannot promise E <= {eps:g} "
-                         f"(choose a global-N and check it against the truth)")
+    if check_valid and not ok:
+        raise FrozenChainInvalid(
+            f"tol-{eps:g}: refused on scene {pooled.get('scene', '?')!r}: {why}; the "
+            f"frozen-linear-chain estimate cannot promise E <= {eps:g} (reduction.models answers "
+            f"by verified search unless --no-verified-search; or check a global-N against the truth)",
+            reason=why, eps=eps)
     est = pooled.get("estimate")
     if est is None:
         raise ModelError(f"tol-{eps:g}: the ranking file holds no a-priori estimates "
@@ -325,13 +345,91 @@ def _tol_spec(name, rankings):
                                     extend=(lambda n: _extended_estimate(pooled, n))
                                     if pooled.get("path") else None)
     kept = _pooled_kept(name, str(N), rankings, available)
-    _TOL_CHOICES[name] = {"tol_eps": eps, "tol_N": int(N), "tol_estimate": np.asarray(E, float),
-                          "tol_estimate_max": float(np.max(E)), "tol_estimate_source": source,
+    _TOL_CHOICES[name] = {"tol_eps": eps, "tol_N": int(N), "tol_method": TOL_APRIORI,
+                          "tol_estimate": np.asarray(E, float), "tol_estimate_max": float(np.max(E)),
+                          "tol_estimate_source": source, "tol_frozen_chain_valid": 1,
                           "tol_equivalent_model": f"global-{N}"}
     return ModelSpec(name=name, kept=kept, static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
 
 
+TOL_APRIORI, TOL_VERIFIED = "a-priori estimate", "verified search"
 _TOL_CHOICES = {}
+
+
+def apriori_estimate(pooled, N):
+    """(E (4,), source) of the pooled top N by the frozen chain: the ranking file's stored
+    curve (N <= pool), else the estimator on its frozen linear chain; (None, reason) if neither."""
+    N = int(N)
+    est = pooled.get("estimate")
+    if N == 0 and pooled.get("rigid_estimate") is not None:
+        return np.asarray(pooled["rigid_estimate"], float), "ranking file estimate/rigid"
+    if est is not None and 0 < N <= len(est):
+        return np.asarray(est, float).reshape(-1, 4)[N - 1], "ranking file estimate/global"
+    if pooled.get("path"):
+        return _extended_estimate(pooled, N), "frozen linear chain of the ranking file (N > pool)"
+    return None, "no a-priori estimate of this N in the ranking file"
+
+
+def _verified_tol_spec(name, invalid, scene, body_data, rankings, log=None):
+    """ModelSpec of ``tol-EPS`` on a scene where the frozen chain does not hold (``invalid``:
+    the FrozenChainInvalid that ``tolerance_choice`` raised): the smallest global-N found
+    passing by ``verified_search.smallest_verified``, each candidate simulated through the
+    scene against the truth (``verified_search.SimulationJudge``); the frozen chain's own choice
+    is its first guess.  Records the choice, the measured E and every probe for the file's
+    attributes (``tolerance_attrs``).  ModelError (one line) if only the truth passes."""
+    log = log or (lambda text: None)
+    eps = parse_tolerance(name)
+    pooled = rankings[POOLED_KEY]
+    available = {b: len(np.asarray(rankings[b]["rank_frequency"])) for b in BODIES}
+    total = sum(available.values())
+    extend = (lambda n: _extended_estimate(pooled, n)) if pooled.get("path") else None
+    try:
+        guess = tolerance_choice(eps, pooled, total, extend=extend, check_valid=False)[0]
+    except ModelError:
+        guess = None                # the estimate meets eps nowhere: plain bisection
+
+    def chain_for(N):
+        spec = ModelSpec(f"global-{N}", _pooled_kept(name, str(N), rankings, available),
+                         dict.fromkeys(BODIES, ()), GLOBAL_FAMILY)
+        return build_chain(restrict_to_bodies(spec, scene.elastic_bodies), body_data, scene.damping_ratio)
+
+    key = ("tol", scene.config_hash(), pooled.get("path_key"), tuple(scene.elastic_bodies),
+           tuple(str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES))
+    judge = verified_search.SimulationJudge(
+        scene, chain_for, total, key=key, log=lambda text: log(f"{name} verified search on "
+                                                                f"{scene.name}: {text}"))
+    log(f"{name}: {invalid.reason}: the frozen-chain estimate is no promise on scene {scene.name!r}; "
+        f"verified search over global-0..{total} (first guess {guess})")
+    t0 = time.perf_counter()
+    result = verified_search.smallest_verified(eps, judge, total, guess=guess,
+                                               known={total: np.zeros(4)})
+    wall = time.perf_counter() - t0
+    if result.N >= total:
+        below = [(n, e) for n, e in zip(result.probe_N, result.probe_E_max) if n < total]
+        best = min(below, key=lambda p: p[1]) if below else None
+        raise ModelError(f"tol-{eps:g}: on scene {scene.name!r} no pooled set smaller than the truth "
+                         f"({total} modes) meets E <= {eps:g} by simulation"
+                         + (f" (smallest measured: global-{best[0]}, max E {best[1]:.3e})" if best else ""))
+    E_est, source = apriori_estimate(pooled, result.N)
+    _TOL_CHOICES[name] = {
+        "tol_eps": eps, "tol_N": int(result.N), "tol_method": TOL_VERIFIED,
+        "tol_measured": np.asarray(result.E, float), "tol_measured_max": float(np.max(result.E)),
+        "tol_estimate": np.full(4, np.nan) if E_est is None else np.asarray(E_est, float),
+        "tol_estimate_max": float("nan") if E_est is None else float(np.max(E_est)),
+        "tol_estimate_source": f"{source} (not valid on this scene)",
+        "tol_frozen_chain_valid": 0, "tol_frozen_chain_reason": invalid.reason,
+        "tol_search_N": result.probe_N, "tol_search_E_max": result.probe_E_max,
+        "tol_search_probe_s": np.array([0.0 if n == total else judge.wall_time(n) for n in result.probe_N]),
+        "tol_search_guess": -1 if guess is None else int(guess),
+        "tol_search_integrator": verified_search.INTEGRATOR,
+        "tol_search_time_s": wall, "tol_search_truth_time_s": judge.wall_time(total),
+        "tol_equivalent_model": f"global-{result.N}"}
+    log(f"{name}: global-{result.N} by verified search (measured max E {np.max(result.E):.3e} <= "
+        f"{eps:g}; global-{result.N - 1} measured failing; {len(result.probes) - 1} simulated "
+        f"probes, {wall:.1f} s)" if result.N else
+        f"{name}: rigid (global-0) by verified search (measured max E {np.max(result.E):.3e} <= {eps:g})")
+    return ModelSpec(name=name, kept=_pooled_kept(name, str(result.N), rankings, available),
+                     static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
 
 
 def tolerance_attrs(name):
@@ -575,9 +673,14 @@ def expected_body_hashes(config):
     return {b: cfgmod.inputs_hash(cfgmod.body_inputs(config, b)) for b in BODIES}
 
 
-def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None, config=None):
+def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None, config=None,
+                 verified=True, log=None):
     """(Chain, ModelSpec, attrs) of model ``name`` on ``scene`` (undamped: damping is the
     scene's, applied when the model file is read).
+
+    verified: answer ``tol-EPS`` on a scene where the frozen-chain estimate does not hold by
+    verified search (simulations; ``_verified_tol_spec``), else refuse (FrozenChainInvalid);
+    log(text): its progress lines.
 
     body_files: {body: path} of the modal stage's files; reduction_files: {body: path} of
     the reduction stage's files (needed by xmx-, xmgmx-, load- and global- models);
@@ -604,7 +707,13 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
         load_load_ranking(load_ranking, rankings)
         check_load_ranking(load_ranking, rankings, body_data)
         ranking_hashes.append(str(rankings[POOLED_KEY].get("body_config_hashes", "")))
-    spec = restrict_to_bodies(parse_model(name, rankings), scene.elastic_bodies)
+    try:
+        spec = parse_model(name, rankings)
+    except FrozenChainInvalid as invalid:
+        if not verified:
+            raise
+        spec = _verified_tol_spec(name, invalid, scene, body_data, rankings, log)
+    spec = restrict_to_bodies(spec, scene.elastic_bodies)
     chain = build_chain(spec, body_data)
     attrs = {"model": spec.name, "scene": scene.name,
              "config_hash": model_config_hash(spec, body_data, scene, ranking_hashes),
@@ -635,6 +744,9 @@ def main(argv=None):
     ap.add_argument("--config", help="the current configuration file: every body file's config_hash "
                                      "must be the one it gives (a body file of another config is refused)")
     ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
+    ap.add_argument("--no-verified-search", action="store_true",
+                    help="tol-EPS where the frozen-chain estimate does not hold: refuse, instead of "
+                         "simulating candidates against the truth (minutes on the long scene)")
     try:
         args = ap.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, ap))
     except SystemExit as exc:       # the one-line message is printed; in process, return the status
@@ -647,7 +759,8 @@ def main(argv=None):
         chain, spec, attrs = reduce_model(
             args.model, scene, dict(zip(BODIES, args.bodies)),
             dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,
-            config=config)
+            config=config, verified=not args.no_verified_search,
+            log=lambda text: print(f"reduction.models: {text}", file=sys.stderr, flush=True))
     except (ValueError, FileNotFoundError) as exc:
         print(f"reduction.models: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
@@ -659,9 +772,13 @@ def main(argv=None):
     except OSError as exc:
         print(f"reduction.models: {cli.write_failure(args.out, exc)}", file=sys.stderr)
         return 2
-    if "tol_N" in attrs:
+    if attrs.get("tol_method") == TOL_APRIORI:
         print(f"reduction.models: {spec.name}: global-{attrs['tol_N']} (a-priori max E "
               f"{attrs['tol_estimate_max']:.3e} <= {attrs['tol_eps']:g}; {attrs['tol_estimate_source']})")
+    elif attrs.get("tol_method") == TOL_VERIFIED:
+        print(f"reduction.models: {spec.name}: global-{attrs['tol_N']} by verified search (measured "
+              f"max E {attrs['tol_measured_max']:.3e} <= {attrs['tol_eps']:g}; the frozen chain, not valid "
+              f"here ({attrs['tol_frozen_chain_reason']}), estimated {attrs['tol_estimate_max']:.3e})")
     print(f"reduction.models: {args.out}: model {spec.name} on scene {scene.name}, "
           f"{sum(chain.n_modes)} elastic coordinates {chain.n_modes} in {attrs['wall_time_s']:.2f} s")
     return 0

@@ -1,9 +1,12 @@
 """tol-EPS: grammar, the choice on a synthetic ranking file, and the refusal (fast, no FE)."""
+import shutil
+
 import h5py
 import numpy as np
 import pytest
 
 from reduction import models as m
+from reduction import verified_search as vs
 from solver.bodydata import BODIES
 
 D = 5   # modes per body in the synthetic ranking
@@ -100,3 +103,153 @@ def test_refusal_when_frozen_chain_invalid(tmp_path, excursion, rate, why):
     with pytest.raises(m.ModelError, match=f"refused on scene .synthetic.: .*{why}") as exc:
         m.parse_model("tol-1e-4", _rankings(path))
     assert "cannot promise" in str(exc.value) and "\n" not in str(exc.value)
+
+
+# ------------------------------------------------------------ verified search (pure)
+def _curve(values):
+    """measure(N) -> E (4,) from a list of max-E values, counting the calls."""
+    calls = []
+
+    def measure(N):
+        calls.append(N)
+        return np.array([values[N], 0.5 * values[N], 0.0, 0.0])
+    return measure, calls
+
+
+@pytest.mark.parametrize("guess", [None, 0, 3, 17, 29, 40])
+def test_search_finds_the_threshold_of_a_monotone_curve(guess):
+    values = [10.0 ** -(0.25 * n) for n in range(41)]              # 1, 0.56, ... 1e-10
+    measure, calls = _curve(values)
+    r = vs.smallest_verified(1e-4, measure, 40, guess=guess)
+    assert r.N == 16 and np.max(r.E) == pytest.approx(1e-4)       # 10^-4 at N = 16, 10^-3.75 at 15
+    assert 15 in calls and 16 in calls                             # both sides were simulated
+    assert len(set(calls)) == len(calls)                           # no N measured twice
+    assert len(calls) <= (6 if guess is None else 2 * int(np.log2(abs(guess - 16) + 1)) + 4)
+
+
+def test_search_on_a_non_monotone_curve_returns_a_verified_pass_and_fail():
+    rng = np.random.default_rng(5)
+    values = list(np.exp(-0.2 * np.arange(101)) * rng.uniform(0.3, 3.0, 101))
+    for eps in (1e-1, 1e-3, 1e-6):
+        measure, calls = _curve(values)
+        r = vs.smallest_verified(eps, measure, 100, guess=30)
+        assert values[r.N] <= eps and (r.N == 0 or values[r.N - 1] > eps)
+        assert r.N in calls and (r.N == 0 or r.N - 1 in calls)     # both measured, not assumed
+        assert list(r.probe_N) == calls                            # every probe recorded, in order
+
+
+def test_search_uses_known_values_and_fails_inf_and_nan():
+    values = [np.inf, np.nan, 1e-2, 1e-5, 0.0]
+
+    def measure(N):
+        if N == 4:
+            raise AssertionError("the known largest set was measured")
+        return np.full(4, values[N])
+    r = vs.smallest_verified(1e-4, measure, 4, known={4: np.zeros(4)})
+    assert r.N == 3 and r.probe_N[0] == 4                          # the known value comes first
+    r = vs.smallest_verified(1e-9, measure, 4, known={4: np.zeros(4)})
+    assert r.N == 4                                                # only the largest (the truth) passes
+    with pytest.raises(vs.SearchError, match="positive"):
+        vs.smallest_verified(0.0, measure, 4)
+
+
+# ------------------------------------------------ verified search, end to end (synthetic bodies)
+@pytest.fixture(scope="module")
+def invalid_scene(tmp_path_factory):
+    """Synthetic bodies (6 modes each) and their load-aware ranking on the thesis scene, a copy of
+    which is flagged as outside the frozen chain (gimbals moving 0.05 rad)."""
+    from reduction import load_aware as la
+    from results.bench.oracle import synthetic_body
+    from tests.reduction.test_models import write_body
+    root = tmp_path_factory.mktemp("tol_verified")
+    rng = np.random.default_rng(11)
+    (root / "modes").mkdir()
+    (root / "reduction").mkdir()
+    for b in BODIES:
+        write_body(root / "modes" / f"body{b}.h5",
+                   synthetic_body(rng, b, n_nodes=8, rotations=(b % 2 == 0), n_modes=6, omega_max=3e3))
+        with h5py.File(root / "reduction" / f"body{b}.h5", "w") as f:
+            f["rank_frequency"] = np.arange(6)
+            f["rank_xmx"] = np.array([3, 1, 0, 2, 5, 4])
+            f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
+            f["rho_xmx"] = np.array([0.3, 0.5, 0.2, 0.9, 0.01, 0.05])
+    valid = root / "load" / "valid.h5"
+    assert la.main(["--scene", "thesis", "--bodies", *[str(root / "modes" / f"body{b}.h5") for b in BODIES],
+                    "--reductions", *[str(root / "reduction" / f"body{b}.h5") for b in BODIES],
+                    "--out", str(valid), "--pool", "24", "--curve", "6", "--drop-fraction", "0",
+                    "--quiet"]) == 0
+    invalid = root / "load" / "invalid.h5"
+    shutil.copy(valid, invalid)
+    with h5py.File(invalid, "a") as f:
+        f.attrs["angle_excursion_rad"] = np.array([0.05, 0.0, 0.0, 0.0])
+    with h5py.File(valid, "r") as f:
+        curve = np.max(f["estimate/global"][()], axis=1)
+    return root, valid, invalid, curve
+
+
+def _tol_args(root, ranking, model, out, *extra):
+    return ["--model", model, "--scene", "thesis",
+            "--bodies", *[str(root / "modes" / f"body{b}.h5") for b in BODIES],
+            "--reductions", *[str(root / "reduction" / f"body{b}.h5") for b in BODIES],
+            "--load-ranking", str(ranking), "--out", str(out), *extra]
+
+
+def _measured(root, ranking, model, tmp_path):
+    """Max E (eq. 3.53, 4 rates) of ``model`` against the truth (global-24: every synthetic mode),
+    each reduced and simulated by the workflow's two stages (not the search's own simulations)."""
+    from solver.dynamics.error_measure import error_measure
+    from solver.dynamics.simfile import read_sim
+    from tests.dynamics_fixtures import run_model
+    out = {}
+    for name in ("global-24", model):
+        assert run_model("thesis", name, str(root / "modes"), str(root / "reduction"), str(tmp_path),
+                         load_ranking=str(ranking)) == 0
+        out[name] = read_sim(str(tmp_path / "thesis" / f"{name}.h5"))
+    truth = out["global-24"]
+    return float(np.max(error_measure(truth["t"], truth["gamma_dot"], out[model]["gamma_dot"])))
+
+
+def test_invalid_frozen_chain_falls_back_to_a_verified_search(invalid_scene, tmp_path, capsys):
+    root, valid, invalid, curve = invalid_scene
+    eps = float(np.sqrt(curve[2] * curve[8]))                     # somewhere inside the curve
+    out = tmp_path / "tol.h5"
+    assert m.main(_tol_args(root, invalid, f"tol-{eps:.4g}", out)) == 0
+    err = capsys.readouterr().err
+    assert "the frozen-chain estimate is no promise" in err and "gimbals move 5.00e-02 rad" in err
+    with h5py.File(out, "r") as f:
+        a = dict(f.attrs)
+    assert a["tol_method"] == m.TOL_VERIFIED and a["tol_frozen_chain_valid"] == 0
+    assert "gimbals move" in a["tol_frozen_chain_reason"]
+    N = int(a["tol_N"])
+    assert 0 < N < 24 and a["tol_measured_max"] <= float(f"{eps:.4g}")
+    probes = dict(zip(a["tol_search_N"].tolist(), a["tol_search_E_max"].tolist()))
+    assert probes[24] == 0.0 and N in probes and N - 1 in probes and probes[N - 1] > float(f"{eps:.4g}")
+    assert a["tol_search_probe_s"].shape == a["tol_search_N"].shape and a["tol_search_truth_time_s"] > 0
+    # the claim, checked by the workflow's own stages: global-N meets the request, global-(N-1) not
+    eps = float(f"{eps:.4g}")
+    assert _measured(root, valid, f"global-{N}", tmp_path / "a") <= eps
+    assert _measured(root, valid, f"global-{N - 1}", tmp_path / "b") > eps
+
+
+def test_invalid_frozen_chain_refused_without_search_and_when_only_the_truth_passes(invalid_scene, tmp_path,
+                                                                                   capsys):
+    root, valid, invalid, curve = invalid_scene
+    assert m.main(_tol_args(root, invalid, "tol-1e-3", tmp_path / "a.h5", "--no-verified-search")) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "refused on scene 'thesis'" in err and "cannot promise" in err
+    assert not (tmp_path / "a.h5").exists()
+    assert m.main(_tol_args(root, invalid, "tol-1e-40", tmp_path / "b.h5")) == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "no pooled set smaller than the truth (24 modes) meets E <= 1e-40 by simulation" in last
+    assert not (tmp_path / "b.h5").exists()
+
+
+def test_valid_frozen_chain_keeps_the_a_priori_choice(invalid_scene, tmp_path):
+    root, valid, invalid, curve = invalid_scene
+    eps = float(f"{np.sqrt(curve[2] * curve[8]):.4g}")
+    out = tmp_path / "tol.h5"
+    assert m.main(_tol_args(root, valid, f"tol-{eps:g}", out)) == 0
+    with h5py.File(out, "r") as f:
+        a = dict(f.attrs)
+    assert a["tol_method"] == m.TOL_APRIORI and a["tol_frozen_chain_valid"] == 1
+    assert "tol_search_N" not in a and a["tol_estimate_max"] <= eps
