@@ -154,14 +154,14 @@ def test_search_uses_known_values_and_fails_inf_and_nan():
 
 
 # ------------------------------------------------ verified search, end to end (synthetic bodies)
-@pytest.fixture(scope="module")
-def invalid_scene(tmp_path_factory):
-    """Synthetic bodies (6 modes each) and their load-aware ranking on the thesis scene, a copy of
-    which is flagged as outside the frozen chain (gimbals moving 0.05 rad)."""
+def synthetic_inputs(root):
+    """In folder ``root``: synthetic bodies (6 modes each: modes/, reduction/) and their load-aware
+    ranking on the thesis scene (load/valid.h5), and a copy flagged as outside the frozen chain,
+    gimbals moving 0.05 rad (load/invalid.h5).  Returns (valid, invalid, the a-priori max-E curve
+    of global-1..24)."""
     from reduction import load_aware as la
     from results.bench.oracle import synthetic_body
     from tests.reduction.test_models import write_body
-    root = tmp_path_factory.mktemp("tol_verified")
     rng = np.random.default_rng(11)
     (root / "modes").mkdir()
     (root / "reduction").mkdir()
@@ -184,7 +184,13 @@ def invalid_scene(tmp_path_factory):
         f.attrs["angle_excursion_rad"] = np.array([0.05, 0.0, 0.0, 0.0])
     with h5py.File(valid, "r") as f:
         curve = np.max(f["estimate/global"][()], axis=1)
-    return root, valid, invalid, curve
+    return valid, invalid, curve
+
+
+@pytest.fixture(scope="module")
+def invalid_scene(tmp_path_factory):
+    root = tmp_path_factory.mktemp("tol_verified")
+    return (root, *synthetic_inputs(root))
 
 
 def _tol_args(root, ranking, model, out, *extra):
