@@ -1,4 +1,5 @@
 """tol-EPS: grammar, the choice on a synthetic ranking file, and the refusal (fast, no FE)."""
+import os
 import shutil
 
 import h5py
@@ -6,10 +7,12 @@ import numpy as np
 import pytest
 
 from reduction import models as m
+from reduction import frozen_chain as fc
 from reduction import verified_search as vs
 from solver.bodydata import BODIES
 
 D = 5   # modes per body in the synthetic ranking
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 def _ranking_file(path, excursion=1e-4, rate=1e-6):
@@ -259,3 +262,32 @@ def test_valid_frozen_chain_keeps_the_a_priori_choice(invalid_scene, tmp_path):
         a = dict(f.attrs)
     assert a["tol_method"] == m.TOL_APRIORI and a["tol_frozen_chain_valid"] == 1
     assert "tol_search_N" not in a and a["tol_estimate_max"] <= eps
+
+
+# ------------------------------------------------ the fast-spinning scene (config/scenes/spin.yaml)
+def test_spin_scene_spins_at_a_constant_10_rev_per_s_about_x():
+    from solver.dynamics import scenes
+    s = scenes.load_scene("spin")
+    for t in np.linspace(0.0, s.duration, 7):
+        assert np.allclose(s.case.angular_velocity(t), [20 * np.pi, 0.0, 0.0], rtol=0, atol=1e-12)
+        assert not np.any(s.case.angular_acceleration(t))
+    assert s.initial_rates == (0.0, 0.0, 0.0, 0.0) and s.duration == 0.015
+
+
+REAL_BODIES = [os.path.join(ROOT, "results", "modes", f"body{b}.h5") for b in BODIES]
+
+
+@pytest.mark.skipif(not all(os.path.exists(p) for p in REAL_BODIES), reason="no real body files (snakemake modes)")
+def test_spin_scene_is_outside_the_frozen_chain_on_the_real_bodies():
+    """The rigid chain through `spin` (what reduction.load_aware records as the validity): the
+    gimbals swing far beyond FROZEN_ANGLE, so tol-EPS there is a verified search, not a promise."""
+    from reduction import load_aware as la
+    from solver.dynamics import scenes
+    body_data = {b: m.load_body_file(p) for b, p in zip(BODIES, REAL_BODIES)}
+    rigid = m.build_chain(m.ModelSpec("rigid", {b: np.zeros(0, int) for b in BODIES}, dict.fromkeys(BODIES, ()),
+                                      "freq"), body_data)
+    run = la.rigid_run(rigid, scenes.load_scene("spin"))
+    excursion = np.max(np.abs(run["y"] - run["y"][0]), axis=0)
+    assert np.max(excursion) > 10 * fc.FROZEN_ANGLE
+    ok, why = m.frozen_chain_valid({"angle_excursion": excursion, "rate_over_lowest_frequency": 0.0})
+    assert not ok and "gimbals move" in why

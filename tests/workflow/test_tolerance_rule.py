@@ -32,10 +32,10 @@ def test_tolerance_is_in_bench_and_not_in_all(workflow):
     assert not outputs & {str(f) for f in workflow.get_rule("all").input}
 
 
-def test_tolerance_runs_every_study_scene_for_eps_1e2_to_1e8(workflow):
+def test_tolerance_runs_every_study_scene_and_spin_for_eps_1e2_to_1e8(workflow):
     tolerance = workflow.get_rule("tolerance")
     scenes = [Path(str(f)).stem for f in tolerance.input.scenes]
-    assert scenes == [*STUDY_SCENES]
+    assert scenes == [*STUDY_SCENES, "spin"]
     assert [Path(str(f)).stem for f in tolerance.input.load_rankings] == scenes
     assert [float(e) for e in tolerance.params.eps.split()] == [10.0 ** -k for k in range(2, 9)]
     assert "-m results.bench.tolerance" in tolerance.shellcmd and "{params.eps}" in tolerance.shellcmd
