@@ -3,7 +3,7 @@
 Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
 
     model   := "truth" | "rigid" | family "-" counts statics | pooled "-" N statics
-             | "tol-" EPS          EPS a positive number, e.g. 1e-4 (no statics)
+             | "tol-" EPS [ "-att-" A ]   EPS, A positive numbers, e.g. tol-1e-4, tol-1e-4-att-2
     family  := "freq" | "xmx" | "xmgmx" | "load"              vibration modes only
              | "static" | "static-freq" | "static-xmx" | "static-xmgmx" | "static-load"
     pooled  := "global" | "static-global"     N modes in total, pooled over the bodies
@@ -45,8 +45,12 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
   against the truth with the default integrator, and the smallest N found passing (measured
   max E <= EPS, with global-(N - 1) measured failing) is taken; refused in one line if only
   the truth itself passes.  ``parse_model`` alone (no scene, no simulation) and
-  ``--no-verified-search`` refuse instead (FrozenChainInvalid).  No static modes (``@``) are
-  taken.  The choice (N, how it was made, the estimate per rate, the measured E of a
+  ``--no-verified-search`` refuse instead (FrozenChainInvalid).  ``tol-EPS-att-A``
+  (e.g. ``tol-1e-4-att-2``) also asks that the stable platform's attitude error against the
+  truth, the largest angle between the two platform frames over the window, be at most A
+  arcsec (the tables' ``attitude_max_arcsec``); the frozen chain estimates the rates only, so
+  this is always a verified search (AttitudeRequested), its first guess the rates' a-priori
+  choice.  No static modes (``@``) are taken.  The choice (N, how it was made, the estimate per rate, the measured E of a
   verified search and its probes) is recorded in the reduced-model file's attributes
   ``tol_*`` (docs/models.md).
 * ``@body:case`` puts static modes on the listed bodies only, e.g.
@@ -83,7 +87,8 @@ RANKING_KEYS = {"freq": "rank_frequency", "xmx": "rank_xmx", "xmgmx": "rank_xmgm
 LOAD_FAMILY, LOAD_KEY = "load", "rank_load"          # per-body load-aware ranking
 GLOBAL_FAMILY, POOLED_KEY = "global", "pooled"       # pooled ranking: rankings["pooled"]
 TOL_FAMILY = "tol"                                   # tol-EPS: smallest global-N with estimate <= EPS
-_TOL_RE = re.compile(r"tol-((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)")
+_NUMBER = r"((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
+_TOL_RE = re.compile(rf"tol-{_NUMBER}(?:-att-{_NUMBER})?")     # tol-EPS, tol-EPS-att-ARCSEC
 TOL_COARSE = 8          # beyond the stored estimates: scan N in steps of 8, then refine the bracket
 BEARINGS = BEARING_NAMES
 DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_motor_fz",
@@ -95,13 +100,21 @@ class ModelError(ValueError):
     """A model name that cannot be built."""
 
 
-class FrozenChainInvalid(ModelError):
-    """tol-EPS on a scene where the frozen-chain estimate does not hold: ``reason`` says why,
-    ``eps`` is the request (``reduce_model`` answers it by verified search instead)."""
+class NeedsSimulation(ModelError):
+    """A tol- request the frozen-chain estimate cannot answer: ``reason`` says why, ``eps`` is the
+    request (``reduce_model`` answers it by verified search instead)."""
 
     def __init__(self, message, reason="", eps=None):
         super().__init__(message)
         self.reason, self.eps = reason, eps
+
+
+class FrozenChainInvalid(NeedsSimulation):
+    """tol-EPS on a scene where the frozen-chain estimate does not hold."""
+
+
+class AttitudeRequested(NeedsSimulation):
+    """tol-EPS-att-A: the frozen chain gives the gimbal rates only, no attitude estimate."""
 
 
 @dataclass(frozen=True)
@@ -234,9 +247,10 @@ def _pooled_kept(name, text, rankings, available):
     return {b: np.sort(mode[:n][body[:n] == b]) for b in BODIES}
 
 
-def parse_tolerance(name):
-    """EPS of a ``tol-EPS`` name (float > 0), or None if the name is not a tol- name;
-    ModelError for a malformed one."""
+def parse_request(name):
+    """(EPS, A) of a ``tol-EPS`` or ``tol-EPS-att-A`` name: E <= EPS on every gimbal rate, and
+    the platform's attitude error <= A arcsec (None: not asked); None if the name is not a tol-
+    name; ModelError (one line) for a malformed one."""
     base = str(name).partition("@")[0]
     if not base.startswith(TOL_FAMILY + "-"):
         return None
@@ -244,11 +258,26 @@ def parse_tolerance(name):
     if "@" in str(name):
         raise ModelError(f"model {name!r}: tol-EPS takes no static modes (@body:case)")
     if not m:
-        raise ModelError(f"model {name!r}: tol-EPS needs a positive number EPS, e.g. tol-1e-4")
-    eps = float(m.group(1))
-    if not np.isfinite(eps) or eps <= 0:
-        raise ModelError(f"model {name!r}: the tolerance must be positive and finite, got {eps}")
-    return eps
+        raise ModelError(f"model {name!r}: tol-EPS needs a positive number EPS, e.g. tol-1e-4 "
+                         f"(or tol-1e-4-att-2: also the platform attitude within 2 arcsec)")
+    eps, att = float(m.group(1)), None if m.group(2) is None else float(m.group(2))
+    for what, value in (("tolerance", eps), ("attitude tolerance", att)):
+        if value is not None and (not np.isfinite(value) or value <= 0):
+            raise ModelError(f"model {name!r}: the {what} must be positive and finite, got {value}")
+    return eps, att
+
+
+def parse_tolerance(name):
+    """EPS of a ``tol-EPS`` name (float > 0), or None if the name is not a tol- name;
+    ModelError for a malformed one."""
+    request = parse_request(name)
+    return None if request is None else request[0]
+
+
+def parse_attitude(name):
+    """A [arcsec] of a ``tol-EPS-att-A`` name, or None (no attitude asked, or not a tol- name)."""
+    request = parse_request(name)
+    return None if request is None else request[1]
 
 
 def frozen_chain_valid(pooled):
@@ -344,6 +373,12 @@ def _tol_spec(name, rankings):
     N, E, source = tolerance_choice(eps, pooled, total,
                                     extend=(lambda n: _extended_estimate(pooled, n))
                                     if pooled.get("path") else None)
+    if parse_attitude(name) is not None:
+        raise AttitudeRequested(
+            f"tol-{eps:g}: the platform attitude has no a-priori estimate (the frozen chain gives the "
+            f"gimbal rates only): reduction.models answers {name} by verified search (simulations)",
+            reason="the platform attitude has no a-priori estimate (the frozen chain gives the gimbal "
+                   "rates only)", eps=eps)
     kept = _pooled_kept(name, str(N), rankings, available)
     _TOL_CHOICES[name] = {"tol_eps": eps, "tol_N": int(N), "tol_method": TOL_APRIORI,
                           "tol_estimate": np.asarray(E, float), "tol_estimate_max": float(np.max(E)),
@@ -370,15 +405,17 @@ def apriori_estimate(pooled, N):
     return None, "no a-priori estimate of this N in the ranking file"
 
 
-def _verified_tol_spec(name, invalid, scene, body_data, rankings, log=None):
-    """ModelSpec of ``tol-EPS`` on a scene where the frozen chain does not hold (``invalid``:
-    the FrozenChainInvalid that ``tolerance_choice`` raised): the smallest global-N found
-    passing by ``verified_search.smallest_verified``, each candidate simulated through the
-    scene against the truth (``verified_search.SimulationJudge``); the frozen chain's own choice
-    is its first guess.  Records the choice, the measured E and every probe for the file's
-    attributes (``tolerance_attrs``).  ModelError (one line) if only the truth passes."""
+def _verified_tol_spec(name, request, scene, body_data, rankings, log=None):
+    """ModelSpec of a tol- request the frozen-chain estimate cannot answer (``request``: the
+    NeedsSimulation that ``_tol_spec`` raised: the chain does not hold on this scene, or the
+    platform attitude is asked): the smallest global-N found passing by
+    ``verified_search.smallest_verified``, each candidate simulated through the scene against the
+    truth (``verified_search.SimulationJudge``); the frozen chain's own choice for the rates is its
+    first guess.  Records the choice, the measured E (and attitude error) and every probe for the
+    file's attributes (``tolerance_attrs``).  ModelError (one line) if only the truth passes."""
     log = log or (lambda text: None)
-    eps = parse_tolerance(name)
+    eps, att = parse_request(name)
+    invalid = isinstance(request, FrozenChainInvalid)
     pooled = rankings[POOLED_KEY]
     available = {b: len(np.asarray(rankings[b]["rank_frequency"])) for b in BODIES}
     total = sum(available.values())
@@ -396,38 +433,48 @@ def _verified_tol_spec(name, invalid, scene, body_data, rankings, log=None):
     key = ("tol", scene.config_hash(), pooled.get("path_key"), tuple(scene.elastic_bodies),
            tuple(str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES))
     judge = verified_search.SimulationJudge(
-        scene, chain_for, total, key=key, log=lambda text: log(f"{name} verified search on "
-                                                                f"{scene.name}: {text}"))
-    log(f"{name}: {invalid.reason}: the frozen-chain estimate is no promise on scene {scene.name!r}; "
-        f"verified search over global-0..{total} (first guess {guess})")
+        scene, chain_for, total, key=key, attitude=att is not None,
+        log=lambda text: log(f"{name} verified search on {scene.name}: {text}"))
+    limits = [eps] * 4 + ([att] if att is not None else [])
+    asked = f"E <= {eps:g}" + (f" and attitude <= {att:g} arcsec" if att is not None else "")
+    log(f"{name}: {request.reason}" + (f": the frozen-chain estimate is no promise on scene {scene.name!r}"
+                                       if invalid else "")
+        + f"; verified search over global-0..{total} for {asked} (first guess {guess})")
     t0 = time.perf_counter()
-    result = verified_search.smallest_verified(eps, judge, total, guess=guess,
-                                               known={total: np.zeros(4)})
+    result = verified_search.smallest_verified(limits, judge, total, guess=guess,
+                                               known={total: np.zeros(len(limits))})
     wall = time.perf_counter() - t0
     if result.N >= total:
         below = [(n, e) for n, e in zip(result.probe_N, result.probe_E_max) if n < total]
         best = min(below, key=lambda p: p[1]) if below else None
         raise ModelError(f"tol-{eps:g}: on scene {scene.name!r} no pooled set smaller than the truth "
-                         f"({total} modes) meets E <= {eps:g} by simulation"
+                         f"({total} modes) meets {asked} by simulation"
                          + (f" (smallest measured: global-{best[0]}, max E {best[1]:.3e})" if best else ""))
     E_est, source = apriori_estimate(pooled, result.N)
+    measured = np.asarray(result.E[:4], float)
     _TOL_CHOICES[name] = {
         "tol_eps": eps, "tol_N": int(result.N), "tol_method": TOL_VERIFIED,
-        "tol_measured": np.asarray(result.E, float), "tol_measured_max": float(np.max(result.E)),
+        "tol_measured": measured, "tol_measured_max": float(np.max(measured)),
         "tol_estimate": np.full(4, np.nan) if E_est is None else np.asarray(E_est, float),
         "tol_estimate_max": float("nan") if E_est is None else float(np.max(E_est)),
-        "tol_estimate_source": f"{source} (not valid on this scene)",
-        "tol_frozen_chain_valid": 0, "tol_frozen_chain_reason": invalid.reason,
+        "tol_estimate_source": source + (" (not valid on this scene)" if invalid else ""),
+        "tol_frozen_chain_valid": 0 if invalid else 1, "tol_search_reason": request.reason,
         "tol_search_N": result.probe_N, "tol_search_E_max": result.probe_E_max,
         "tol_search_probe_s": np.array([0.0 if n == total else judge.wall_time(n) for n in result.probe_N]),
         "tol_search_guess": -1 if guess is None else int(guess),
         "tol_search_integrator": verified_search.INTEGRATOR,
         "tol_search_time_s": wall, "tol_search_truth_time_s": judge.wall_time(total),
         "tol_equivalent_model": f"global-{result.N}"}
-    log(f"{name}: global-{result.N} by verified search (measured max E {np.max(result.E):.3e} <= "
-        f"{eps:g}; global-{result.N - 1} measured failing; {len(result.probes) - 1} simulated "
-        f"probes, {wall:.1f} s)" if result.N else
-        f"{name}: rigid (global-0) by verified search (measured max E {np.max(result.E):.3e} <= {eps:g})")
+    if invalid:
+        _TOL_CHOICES[name]["tol_frozen_chain_reason"] = request.reason
+    if att is not None:
+        _TOL_CHOICES[name].update({"tol_attitude_arcsec": att,
+                                   "tol_measured_attitude_arcsec": float(result.E[4]),
+                                   "tol_search_attitude_arcsec": result.probe_attitude})
+    got = f"max E {np.max(measured):.3e}" + (f", attitude {result.E[4]:.3g} arcsec" if att is not None else "")
+    log(f"{name}: global-{result.N} by verified search (measured {got}, meets {asked}; global-{result.N - 1} "
+        f"measured failing; {len(result.probes) - 1} simulated probes, {wall:.1f} s)" if result.N else
+        f"{name}: rigid (global-0) by verified search (measured {got}, meets {asked})")
     return ModelSpec(name=name, kept=_pooled_kept(name, str(result.N), rankings, available),
                      static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
 
@@ -678,8 +725,9 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     """(Chain, ModelSpec, attrs) of model ``name`` on ``scene`` (undamped: damping is the
     scene's, applied when the model file is read).
 
-    verified: answer ``tol-EPS`` on a scene where the frozen-chain estimate does not hold by
-    verified search (simulations; ``_verified_tol_spec``), else refuse (FrozenChainInvalid);
+    verified: answer a tol- request the frozen-chain estimate cannot (the chain does not hold on
+    the scene, or the attitude is asked) by verified search (simulations; ``_verified_tol_spec``),
+    else refuse (NeedsSimulation);
     log(text): its progress lines.
 
     body_files: {body: path} of the modal stage's files; reduction_files: {body: path} of
@@ -709,10 +757,10 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
         ranking_hashes.append(str(rankings[POOLED_KEY].get("body_config_hashes", "")))
     try:
         spec = parse_model(name, rankings)
-    except FrozenChainInvalid as invalid:
+    except NeedsSimulation as request:
         if not verified:
             raise
-        spec = _verified_tol_spec(name, invalid, scene, body_data, rankings, log)
+        spec = _verified_tol_spec(name, request, scene, body_data, rankings, log)
     spec = restrict_to_bodies(spec, scene.elastic_bodies)
     chain = build_chain(spec, body_data)
     attrs = {"model": spec.name, "scene": scene.name,
@@ -777,8 +825,10 @@ def main(argv=None):
               f"{attrs['tol_estimate_max']:.3e} <= {attrs['tol_eps']:g}; {attrs['tol_estimate_source']})")
     elif attrs.get("tol_method") == TOL_VERIFIED:
         print(f"reduction.models: {spec.name}: global-{attrs['tol_N']} by verified search (measured "
-              f"max E {attrs['tol_measured_max']:.3e} <= {attrs['tol_eps']:g}; the frozen chain, not valid "
-              f"here ({attrs['tol_frozen_chain_reason']}), estimated {attrs['tol_estimate_max']:.3e})")
+              f"max E {attrs['tol_measured_max']:.3e} <= {attrs['tol_eps']:g}"
+              + (f", attitude {attrs['tol_measured_attitude_arcsec']:.3g} <= {attrs['tol_attitude_arcsec']:g} "
+                 f"arcsec" if "tol_attitude_arcsec" in attrs else "")
+              + f"; {attrs['tol_search_reason']}; the frozen chain estimated {attrs['tol_estimate_max']:.3e})")
     print(f"reduction.models: {args.out}: model {spec.name} on scene {scene.name}, "
           f"{sum(chain.n_modes)} elastic coordinates {chain.n_modes} in {attrs['wall_time_s']:.2f} s")
     return 0

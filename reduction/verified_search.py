@@ -16,6 +16,10 @@ same way, with eq. 3.53 on each of the four gimbal rates n:
 
 global-Q keeps exactly the truth's modes, so E(Q) = 0 by identity (it is not simulated).
 
+**With an attitude request** (``tol-EPS-att-A``) the platform's attitude error against the
+truth's, the largest angle between the two platform frames over the window [arcsec], must also be
+<= A: the measured vector has a fifth entry and its own limit.
+
 **The search.**  E(N) does not fall monotonically with N (a kept mode can add ringing:
 docs/selection.md Section 1), so nothing short of simulating every N finds the smallest passing N
 for certain.  The search keeps a bracket: ``fail``, the largest N simulated and failing below the
@@ -43,7 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from solver.dynamics import integrators, simulate
-from solver.dynamics.error_measure import error_measure
+from solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error, error_measure
 
 N_RATES = 4
 # what every candidate and the truth are integrated with: the project's default (the modal
@@ -69,18 +73,29 @@ class SearchResult:
 
     @property
     def probe_E_max(self):
-        return np.array([float(np.max(e)) for _, e in self.probes])
+        """Largest gimbal-rate E of every probe (k,)."""
+        return np.array([float(np.max(e[:N_RATES])) for _, e in self.probes])
+
+    @property
+    def probe_attitude(self):
+        """Attitude error [arcsec] of every probe (k,) (NaN where not measured)."""
+        return np.array([float(e[N_RATES]) if e.size > N_RATES else np.nan for _, e in self.probes])
 
 
 def smallest_verified(eps, measure, total, guess=None, known=None) -> SearchResult:
-    """The smallest N in 0..total found passing, max E(N) <= eps, with N - 1 found failing.
+    """The smallest N in 0..total found passing, E(N) <= eps entry by entry, with N - 1 found
+    failing.
 
-    measure(N) -> E (4,) (eq. 3.53 per gimbal rate; inf or NaN fails); total: the largest
-    candidate, which passes by assumption if it is not in ``known`` and never needs measuring
-    to start the bracket (it is measured only if the search ends there and it is not known);
-    guess: the first probe (None: plain bisection); known: {N: E} already known (not
-    measured again).  Pure apart from the calls to ``measure``."""
-    if not np.isfinite(eps) or eps <= 0:
+    measure(N) -> E (k,): eq. 3.53 per gimbal rate (k = 4), and with an attitude request the
+    platform's attitude error [arcsec] as a fifth entry; inf or NaN fails.  eps: the limit, one
+    number for every entry or one per entry (k,).  total: the largest candidate, which passes by
+    assumption if it is not in ``known`` and never needs measuring to start the bracket (it is
+    measured only if the search ends there and it is not known); guess: the first probe (None:
+    plain bisection); known: {N: E} already known (not measured again).  ``SearchResult.probes``
+    and ``probe_E_max`` hold the whole vectors and their largest gimbal-rate E.  Pure apart from
+    the calls to ``measure``."""
+    limits = np.atleast_1d(np.asarray(eps, float))
+    if not np.all(np.isfinite(limits)) or np.any(limits <= 0):
         raise SearchError(f"verified search: the tolerance must be positive and finite, got {eps}")
     total = int(total)
     if total < 0:
@@ -90,14 +105,14 @@ def smallest_verified(eps, measure, total, guess=None, known=None) -> SearchResu
 
     def E_of(N):
         if N not in values:
-            E = np.asarray(known[N] if known and N in known else measure(N), float).reshape(N_RATES)
+            E = np.atleast_1d(np.asarray(known[N] if known and N in known else measure(N), float))
             values[N] = E
             probes.append((N, E))
         return values[N]
 
     def passes(N):
         E = E_of(N)
-        return bool(np.all(np.isfinite(E)) and np.max(E) <= eps)
+        return bool(np.all(np.isfinite(E)) and np.all(E <= limits))
 
     for N in sorted(known or {}):                      # known values come first in the record
         if 0 <= N <= total:
@@ -143,7 +158,10 @@ _RUNS = {}          # in process: key -> {"truth": (t, rates, s), N: (E (4,), s)
 
 class SimulationJudge:
     """measure(N) for ``smallest_verified``: E (4,) of global-N against the truth, each integrated
-    through ``scene`` with the default integrator (``solver.dynamics.simulate.run_scene``).
+    through ``scene`` with the default integrator (``solver.dynamics.simulate.run_scene``); with
+    ``attitude`` also the platform's attitude error against the truth's (5,): the largest angle
+    over the window between the two platform frames [arcsec] (``error_measure.attitude_error``,
+    the tables' ``attitude_max_arcsec``).
 
     chain_for(N) -> multibody.Chain of the candidate global-N (scene damping included);
     truth_N: the count whose chain is the truth's (its E is 0 by identity); key: a hashable
@@ -152,41 +170,48 @@ class SimulationJudge:
     (several EPS on one scene: ``results.bench.tolerance``) simulate each N once.  A candidate
     whose integration diverges fails (E = inf).  log(text): one line per simulation."""
 
-    def __init__(self, scene, chain_for, truth_N, key=None, log=None):
+    def __init__(self, scene, chain_for, truth_N, key=None, log=None, attitude=False):
         self.scene, self.chain_for, self.truth_N = scene, chain_for, int(truth_N)
+        self.size = N_RATES + 1 if attitude else N_RATES
         self.log = log or (lambda text: None)
         self.runs = _RUNS.setdefault(key, {}) if key is not None else {}
         self.seconds = 0.0          # wall time of the simulations this judge ran itself
 
-    def _rates(self, N):
+    def _run(self, N):
+        """(t (T,) [s], gimbal rates (T, 4) [rad/s], platform frames (T, 3, 3), wall time [s])."""
         t0 = time.perf_counter()
-        run, _ = simulate.run_scene(self.chain_for(N), self.scene, model_name=f"global-{N}")
+        chain = self.chain_for(N)
+        run, _ = simulate.run_scene(chain, self.scene, model_name=f"global-{N}")
         wall = time.perf_counter() - t0
         self.seconds += wall
-        return np.asarray(run.t, float), np.asarray(run.yd[:, :N_RATES], float), wall
+        return (np.asarray(run.t, float), np.asarray(run.yd[:, :N_RATES], float),
+                simulate.platform_attitude(chain, run), wall)
 
     def truth(self):
-        """(t (T,) [s], gimbal rates (T, 4) [rad/s], wall time [s]) of the truth's run."""
+        """(t (T,) [s], gimbal rates (T, 4) [rad/s], platform frames (T, 3, 3), wall time [s]) of
+        the truth's run."""
         if "truth" not in self.runs:
-            self.runs["truth"] = self._rates(self.truth_N)
-            self.log(f"truth (global-{self.truth_N}) simulated in {self.runs['truth'][2]:.1f} s")
+            self.runs["truth"] = self._run(self.truth_N)
+            self.log(f"truth (global-{self.truth_N}) simulated in {self.runs['truth'][-1]:.1f} s")
         return self.runs["truth"]
 
     def __call__(self, N):
         N = int(N)
         if N == self.truth_N:
-            return np.zeros(N_RATES)
+            return np.zeros(self.size)
         if N not in self.runs:
-            t, reference, _ = self.truth()
+            t, reference, frames, _ = self.truth()
             try:
-                t_N, rates, wall = self._rates(N)
-                E = np.asarray(error_measure(t, reference, rates), float)
+                _, rates, frames_N, wall = self._run(N)
+                E = np.append(np.asarray(error_measure(t, reference, rates), float),
+                              float(np.max(attitude_error(frames, frames_N))) * ARCSEC_PER_RAD)
             except integrators.DivergenceError as exc:
-                E, wall = np.full(N_RATES, np.inf), float("nan")
+                E, wall = np.full(N_RATES + 1, np.inf), float("nan")
                 self.log(f"global-{N} diverged ({' '.join(str(exc).split())[:120]}): fails")
             self.runs[N] = (E, wall)
-            self.log(f"global-{N}: max E {np.max(E):.3e} in {wall:.2f} s")
-        return self.runs[N][0]
+            self.log(f"global-{N}: max E {np.max(E[:N_RATES]):.3e}, attitude {E[N_RATES]:.3g} arcsec "
+                     f"in {wall:.2f} s")
+        return self.runs[N][0][:self.size]
 
     def wall_time(self, N):
         """Wall time [s] of candidate N's simulation (NaN if not simulated in this process)."""

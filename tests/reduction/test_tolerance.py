@@ -218,6 +218,14 @@ def _measured(root, ranking, model, tmp_path):
     return float(np.max(error_measure(truth["t"], truth["gamma_dot"], out[model]["gamma_dot"])))
 
 
+def _measured_attitude(tmp_path, model):
+    """Largest platform attitude error [arcsec] of a model simulated by ``_measured`` in tmp_path."""
+    from solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error
+    from solver.dynamics.simfile import read_sim
+    truth, case = (read_sim(str(tmp_path / "thesis" / f"{m}.h5")) for m in ("global-24", model))
+    return float(np.max(attitude_error(truth["platform_attitude"], case["platform_attitude"]))) * ARCSEC_PER_RAD
+
+
 def test_invalid_frozen_chain_falls_back_to_a_verified_search(invalid_scene, tmp_path, capsys):
     root, valid, invalid, curve = invalid_scene
     eps = float(np.sqrt(curve[2] * curve[8]))                     # somewhere inside the curve
@@ -291,3 +299,56 @@ def test_spin_scene_is_outside_the_frozen_chain_on_the_real_bodies():
     assert np.max(excursion) > 10 * fc.FROZEN_ANGLE
     ok, why = m.frozen_chain_valid({"angle_excursion": excursion, "rate_over_lowest_frequency": 0.0})
     assert not ok and "gimbals move" in why
+
+
+# ------------------------------------------------ tol-EPS-att-A: the platform attitude too
+@pytest.mark.parametrize("name, request_", [("tol-1e-4-att-2", (1e-4, 2.0)), ("tol-0.01-att-0.5", (0.01, 0.5)),
+                                            ("tol-1e-6-att-2.5e-1", (1e-6, 0.25)), ("tol-1e-4", (1e-4, None))])
+def test_attitude_grammar(name, request_):
+    assert m.parse_request(name) == request_
+    assert m.parse_tolerance(name) == request_[0] and m.parse_attitude(name) == request_[1]
+    assert m.needs_load_ranking(name) and m.parse_request("global-40") is None
+
+
+@pytest.mark.parametrize("name, message", [("tol-1e-4-att-", "positive number"), ("tol-1e-4-att-0", "attitude"),
+                                           ("tol-1e-4-att-x", "positive number"),
+                                           ("tol-1e-4-att-2-att-3", "positive number")])
+def test_attitude_grammar_errors(name, message):
+    with pytest.raises(m.ModelError, match=message):
+        m.parse_request(name)
+
+
+def test_attitude_request_has_no_a_priori_answer(tmp_path):
+    path = tmp_path / "rank.h5"
+    _ranking_file(path)
+    with pytest.raises(m.AttitudeRequested, match="attitude has no a-priori estimate") as exc:
+        m.parse_model("tol-1e-4-att-2", _rankings(path))
+    assert "\n" not in str(exc.value) and isinstance(exc.value, m.NeedsSimulation)
+
+
+def test_attitude_request_is_answered_by_a_verified_search(invalid_scene, tmp_path, capsys):
+    """tol-EPS-att-A on a scene where the frozen chain holds: the rates' a-priori choice is only the
+    first guess; the answer meets both limits when simulated again, and N - 1 misses one of them."""
+    root, valid, invalid, curve = invalid_scene
+    eps = float(f"{np.sqrt(curve[2] * curve[8]):.4g}")
+    rates = tmp_path / "rates.h5"
+    assert m.main(_tol_args(root, valid, f"tol-{eps:g}", rates)) == 0
+    with h5py.File(rates, "r") as f:
+        n_rates = int(f.attrs["tol_N"])
+    _measured(root, valid, f"global-{n_rates}", tmp_path / "r")
+    A = float(f"{0.5 * _measured_attitude(tmp_path / 'r', f'global-{n_rates}'):.3g}")     # binds
+    out = tmp_path / "tol.h5"
+    assert m.main(_tol_args(root, valid, f"tol-{eps:g}-att-{A:g}", out)) == 0
+    assert "attitude has no a-priori estimate" in capsys.readouterr().err
+    with h5py.File(out, "r") as f:
+        a = dict(f.attrs)
+    assert a["tol_method"] == m.TOL_VERIFIED and a["tol_frozen_chain_valid"] == 1
+    assert a["tol_attitude_arcsec"] == A and a["tol_search_guess"] == n_rates
+    N = int(a["tol_N"])
+    assert a["tol_measured_attitude_arcsec"] <= A and a["tol_measured_max"] <= eps and N != n_rates
+    assert a["tol_search_attitude_arcsec"].shape == a["tol_search_N"].shape
+    # the claim, re-simulated by the workflow's stages
+    assert _measured(root, valid, f"global-{N}", tmp_path / "a") <= eps
+    assert _measured_attitude(tmp_path / "a", f"global-{N}") <= A
+    below = _measured(root, valid, f"global-{N - 1}", tmp_path / "b")
+    assert below > eps or _measured_attitude(tmp_path / "b", f"global-{N - 1}") > A
