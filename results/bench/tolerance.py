@@ -33,7 +33,8 @@ includes the candidates' simulations, which the later EPS of a scene partly reus
 ``search_cost_s`` is the search's cost on its own, the truth's run plus every probe's).  One row
 per (scene, EPS): the kept coordinates, how they were chosen, the a-priori estimate (flagged
 where the frozen chain does not hold), the verified search's measured E, the measured E of this
-run, and the times.  A refused request is a row with its one-line reason and no numbers.
+run, what the frozen chain alone would have chosen (``apriori_N``) with that set's measured E
+(where the search simulated it: its first probe), and the times.  A refused request is a row with its one-line reason and no numbers.
 """
 from __future__ import annotations
 
@@ -66,8 +67,9 @@ SCENES = ("thesis", "damped", "smooth", "long", "spin")
 EPS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
 COLUMNS = ("scene", "eps", "model", "method", "n_kept", "equivalent_model", "estimated_E_max",
            "frozen_chain_valid", "verified_E_max", "measured_E_max", "within_request",
-           "measured_over_estimated", "selection_time_s", "search_probes", "search_cost_s",
-           "run_time_s", "runs", "truth_run_time_s", "status")
+           "measured_over_estimated", "apriori_N", "apriori_measured_E_max", "apriori_within",
+           "selection_time_s", "search_probes", "search_cost_s", "run_time_s", "runs",
+           "truth_run_time_s", "status")
 COMPARISON_COLUMNS = ("scene", "eps", "family", "model", "n_elastic", "table_E_max", "measured_E_max",
                       "run_time_s", "runs", "tol_n_kept", "tol_run_time_s", "time_ratio")
 
@@ -119,12 +121,20 @@ def tol_row(scene, eps, attrs, run, truth, selection_time):
     meas, est = float(np.max(E)), _float(attrs, "tol_estimate_max")
     probe_s = np.asarray(attrs.get("tol_search_probe_s", []), float)
     verified = attrs.get("tol_method") == reduction_models.TOL_VERIFIED
+    # what the frozen chain alone would have promised: its own choice (the search's first guess)
+    # and that set's measured E (the search simulated it first), or this model where it chose
+    probes = dict(zip(np.asarray(attrs.get("tol_search_N", []), int).tolist(),
+                      np.asarray(attrs.get("tol_search_E_max", []), float).tolist()))
+    guess = int(attrs.get("tol_search_guess", -1)) if verified else int(attrs["tol_N"])
+    guess_E = probes.get(guess, float("nan")) if verified else meas
     return {"scene": scene, "eps": eps, "model": f"tol-{eps:g}", "method": str(attrs.get("tol_method", "")),
             "n_kept": int(attrs["tol_coordinates"]), "equivalent_model": str(attrs["tol_equivalent_model"]),
             "estimated_E_max": est, "frozen_chain_valid": bool(int(attrs.get("tol_frozen_chain_valid", 1))),
             "verified_E_max": _float(attrs, "tol_measured_max"), "measured_E_max": meas,
             "within_request": bool(meas <= eps),
             "measured_over_estimated": meas / est if est > 0 else float("nan"),
+            "apriori_N": guess if guess >= 0 else "", "apriori_measured_E_max": guess_E,
+            "apriori_within": bool(guess_E <= eps) if np.isfinite(guess_E) else "",
             "selection_time_s": selection_time,
             "search_probes": int(len(attrs.get("tol_search_N", [])) - 1) if verified else 0,
             "search_cost_s": float(_float(attrs, "tol_search_truth_time_s") + np.nansum(probe_s))

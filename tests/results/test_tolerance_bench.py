@@ -101,12 +101,19 @@ def test_bench_rows_measure_every_request_against_the_reference(bench_run):
     thesis = [r for r in rows if r["scene"] == "thesis"]
     wild = [r for r in rows if r["scene"] == "wild"]
     assert all(r["method"] == "a-priori estimate" and r["frozen_chain_valid"] for r in thesis)
+    assert all(r["apriori_N"] == r["n_kept"] and r["apriori_measured_E_max"] == r["measured_E_max"]
+               for r in thesis)
     assert all(r["estimated_E_max"] <= r["eps"] for r in thesis)
     # the invalid scene's requests were answered by simulation, and the bench's own run agrees
     assert all(r["method"] == "verified search" and not r["frozen_chain_valid"] for r in wild)
     for r in wild:
         assert r["within_request"] and r["measured_E_max"] == pytest.approx(r["verified_E_max"], rel=1e-9)
         assert r["search_probes"] >= 1 and r["search_cost_s"] > 0
+        # the frozen chain's own choice on the same physics is the a-priori scene's answer, and the
+        # search measured it first
+        same = next(t for t in thesis if t["eps"] == r["eps"])
+        assert r["apriori_N"] == same["n_kept"]
+        assert r["apriori_measured_E_max"] == pytest.approx(same["measured_E_max"], rel=1e-9)
     assert data["counts"]["all"]["verified"] == 2 and data["counts"]["all"]["a_priori"] == 2
     with open(out / "tolerance.csv") as f:
         assert len(list(csv.DictReader(f))) == 4

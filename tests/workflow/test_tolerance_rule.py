@@ -39,3 +39,13 @@ def test_tolerance_runs_every_study_scene_and_spin_for_eps_1e2_to_1e8(workflow):
     assert [Path(str(f)).stem for f in tolerance.input.load_rankings] == scenes
     assert [float(e) for e in tolerance.params.eps.split()] == [10.0 ** -k for k in range(2, 9)]
     assert "-m results.bench.tolerance" in tolerance.shellcmd and "{params.eps}" in tolerance.shellcmd
+
+
+def test_the_study_report_reads_the_tolerance_bench_if_present(workflow):
+    """An optional input (read if present, with its date), not a dependency: `all` runs no bench."""
+    from snakemake.io import Wildcards
+    rule = workflow.get_rule("study_report")
+    assert "--tolerance results/benchmarks/tolerance.json" in rule.params.optional(Wildcards())
+    assert "results/benchmarks/tolerance.json" not in {str(f) for f in rule.input}
+    # the scene reports do not take it (results.study.report has no such option)
+    assert "--tolerance" not in workflow.get_rule("report_scene").params.optional(Wildcards())
