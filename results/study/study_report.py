@@ -681,7 +681,7 @@ def tolerance_table(data) -> str:
     """Estimated against measured E: per scene the kept coordinates, the a-priori estimate and the
     measured E (✓ within the request) of tol-EPS, one column per EPS."""
     eps = sorted({p["eps"] for d in data.values() for p in d["points"]}, reverse=True)
-    rows = []
+    rows, own_choice = [], False
     for scene, d in data.items():
         by = {p["eps"]: p for p in d["points"]}
         verified = any(p["method"] == "verified search" for p in d["points"])
@@ -693,6 +693,7 @@ def tolerance_table(data) -> str:
         rows.append(["", s("measured")] + [(sci(by[e]["measured"]) + " " + s(TOL_MARK[by[e]["within"]]))
                                            if e in by and by[e]["measured"] is not None else "--" for e in eps])
         if verified and any(by[e].get("apriori_measured") is not None for e in eps if e in by):
+            own_choice = True
             rows.append(["", s("frozen chain's own choice N")] +
                         [s(by[e]["apriori_N"]) if e in by and by[e]["apriori_N"] is not None else "--" for e in eps])
             rows.append(["", s("its measured E")] +
@@ -702,8 +703,9 @@ def tolerance_table(data) -> str:
                  "tol-EPS on every bench scene: elastic coordinates kept, the frozen chain's a-priori E "
                  "(max over the four gimbal rates) and the E measured against the truth (✓: within the "
                  "request). Where the frozen chain does not hold, the model was chosen by verified "
-                 "search and its estimate is shown only for comparison, with the set the frozen chain "
-                 "would have chosen and its measured E (the search's first probe).", "tab-tolerance",
+                 "search and its estimate is shown only for comparison"
+                 + (", with the set the frozen chain would have chosen and its measured E (the search's "
+                    "first probe)" if own_choice else "") + ".", "tab-tolerance",
                  columns=f"(auto, auto) + (1fr,) * {len(eps)}", size="6.5pt")
 
 
@@ -774,8 +776,9 @@ def tolerance_section(ctx, root) -> str:
     for method, m in sm["methods"].items():
         out.append(f"By {s(method)} ({s(', '.join(m['scenes']))}): {s(m['within'])} of {s(m['built'])}. ")
     if sm["apriori_max_ratio"] is not None:
-        per = "; ".join(f"{s(k)} {s(f'{lo:.3g}')} to {s(f'{hi:.4g}')}" for k, (lo, hi) in sm["apriori_ratio"].items())
-        worst = f"{sm['apriori_max_ratio']:.4g}"
+        # one string: Typst drops a ';' that follows an expression
+        per = s("; ".join(f"{k} {lo:.5g} to {hi:.5g}" for k, (lo, hi) in sm["apriori_ratio"].items()))
+        worst = f"{sm['apriori_max_ratio']:.5g}"
         out.append(f"Where the frozen chain holds and chose, the measured E is at most {s(worst)} times the "
                    f"a-priori estimate (measured / estimated per scene: {per}). ")
         damped = [sc["name"] for sc in ctx["scenes"] if sc["name"] in sm["apriori_ratio"]
@@ -787,8 +790,8 @@ def tolerance_section(ctx, root) -> str:
         broken = sm["promise_broken"]
         out.append(f"Where the search ran, the frozen chain's own choice (its first probe) would have missed the "
                    f"request in {s(len(broken))} of {s(sm['promise_checked'])} cases"
-                   + (" (" + "; ".join(f"{s(sc)} EPS {_eps_label(e)}: global-{s(n)} measured {sci(E)}"
-                                       for sc, e, n, E in broken[:4])
+                   + (" (" + s("; ").join(f"{s(sc)} EPS {_eps_label(e)}: global-{s(n)} measured {sci(E)}"
+                                          for sc, e, n, E in broken[:4])
                       + (s("; ...") if len(broken) > 4 else "") + ")" if broken else "") + ". ")
     n = len(sm["comparisons"])
     if n:
