@@ -274,6 +274,7 @@ def plot(rows, stem, record=None):
         ax.legend(fontsize=7, loc="upper left")
         bx.axhline(1.0, color="0.4", lw=1, ls="--")
         bx.set_xscale("log")
+        bx.set_yscale("log")            # damped: the estimate is 1e-7 .. 3e-2 of the measurement
         bx.set_xlabel("requested tolerance EPS")
         bx.set_ylabel("measured / a-priori estimated E")
         bx.set_title("the frozen chain's estimate, checked", fontsize=9)
