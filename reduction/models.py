@@ -3,7 +3,7 @@
 Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
 
     model   := "truth" | "rigid" | family "-" counts statics | pooled "-" N statics
-             | "tol-" EPS          EPS a positive number, e.g. 1e-4 (no statics)
+             | "tol-" EPS [ "-att-" A ]   EPS, A positive numbers, e.g. tol-1e-4, tol-1e-4-att-2
     family  := "freq" | "xmx" | "xmgmx" | "load"              vibration modes only
              | "static" | "static-freq" | "static-xmx" | "static-xmgmx" | "static-load"
     pooled  := "global" | "static-global"     N modes in total, pooled over the bodies
@@ -36,12 +36,23 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
   ``estimate/rigid`` for N = 0, and beyond the pool the same estimator evaluated on the
   file's ``linear/*`` chain) is <= EPS on every one of the four gimbal rates
   (``tolerance_choice``).  Refused with a one-line ModelError when no N up to the computed
-  modes meets EPS (the message gives the smallest estimate reached), or when the scene
-  moves the gimbals too far for the frozen chain (the ranking file's ``angle_excursion_rad``
-  above ``frozen_chain.FROZEN_ANGLE`` or ``rate_over_lowest_frequency`` above
-  ``FROZEN_RATE``): the estimate would be a promise it cannot keep.  No static modes
-  (``@``) are taken.  The choice (N, the estimate per rate, EPS, where the estimate came
-  from) is recorded in the reduced-model file's attributes ``tol_*``.
+  modes meets EPS (the message gives the smallest estimate reached).  Where the scene moves
+  the gimbals too far or too fast for the frozen chain (the ranking file's
+  ``angle_excursion_rad`` above ``frozen_chain.FROZEN_ANGLE`` or
+  ``rate_over_lowest_frequency`` above ``FROZEN_RATE``: scenes ``long``, ``spin``), the
+  estimate would be a promise it cannot keep: ``reduce_model`` says so and falls back to a
+  **verified search** (``reduction.verified_search``): candidate global-N are simulated
+  against the truth with the default integrator, and the smallest N found passing (measured
+  max E <= EPS, with global-(N - 1) measured failing) is taken; refused in one line if only
+  the truth itself passes.  ``parse_model`` alone (no scene, no simulation) and
+  ``--no-verified-search`` refuse instead (FrozenChainInvalid).  ``tol-EPS-att-A``
+  (e.g. ``tol-1e-4-att-2``) also asks that the stable platform's attitude error against the
+  truth, the largest angle between the two platform frames over the window, be at most A
+  arcsec (the tables' ``attitude_max_arcsec``); the frozen chain estimates the rates only, so
+  this is always a verified search (AttitudeRequested), its first guess the rates' a-priori
+  choice.  No static modes (``@``) are taken.  The choice (N, how it was made, the estimate per rate, the measured E of a
+  verified search and its probes) is recorded in the reduced-model file's attributes
+  ``tol_*`` (docs/models.md).
 * ``@body:case`` puts static modes on the listed bodies only, e.g.
   ``static-10@2:output_motor_fz`` (outer gimbal only) or
   ``freq-6@2:output_motor_fz+output_motor_my@3:output_motor_fz``.
@@ -62,7 +73,7 @@ from dataclasses import dataclass
 import h5py
 import numpy as np
 
-from reduction import frozen_chain, modal_integrals
+from reduction import frozen_chain, modal_integrals, verified_search
 from reduction.static_modes import load_case_vector, static_correction_modes
 from solver import bodyconfig
 from solver.bodydata import BODIES, BEARING_NAMES, check_config_hash, read_body_file
@@ -77,7 +88,8 @@ RANKING_KEYS = {"freq": "rank_frequency", "xmx": "rank_xmx", "xmgmx": "rank_xmgm
 LOAD_FAMILY, LOAD_KEY = "load", "rank_load"          # per-body load-aware ranking
 GLOBAL_FAMILY, POOLED_KEY = "global", "pooled"       # pooled ranking: rankings["pooled"]
 TOL_FAMILY = "tol"                                   # tol-EPS: smallest global-N with estimate <= EPS
-_TOL_RE = re.compile(r"tol-((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)")
+_NUMBER = r"((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
+_TOL_RE = re.compile(rf"tol-{_NUMBER}(?:-att-{_NUMBER})?")     # tol-EPS, tol-EPS-att-ARCSEC
 TOL_COARSE = 8          # beyond the stored estimates: scan N in steps of 8, then refine the bracket
 BEARINGS = BEARING_NAMES
 DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_motor_fz",
@@ -87,6 +99,23 @@ _LOAD_RE = re.compile(r"^(input_motor|input_resolver|output_motor|output_resolve
 
 class ModelError(ValueError):
     """A model name that cannot be built."""
+
+
+class NeedsSimulation(ModelError):
+    """A tol- request the frozen-chain estimate cannot answer: ``reason`` says why, ``eps`` is the
+    request (``reduce_model`` answers it by verified search instead)."""
+
+    def __init__(self, message, reason="", eps=None):
+        super().__init__(message)
+        self.reason, self.eps = reason, eps
+
+
+class FrozenChainInvalid(NeedsSimulation):
+    """tol-EPS on a scene where the frozen-chain estimate does not hold."""
+
+
+class AttitudeRequested(NeedsSimulation):
+    """tol-EPS-att-A: the frozen chain gives the gimbal rates only, no attitude estimate."""
 
 
 @dataclass(frozen=True)
@@ -233,9 +262,10 @@ def _pooled_kept(name, text, rankings, available):
     return {b: np.sort(mode[:n][body[:n] == b]) for b in BODIES}
 
 
-def parse_tolerance(name):
-    """EPS of a ``tol-EPS`` name (float > 0), or None if the name is not a tol- name;
-    ModelError for a malformed one."""
+def parse_request(name):
+    """(EPS, A) of a ``tol-EPS`` or ``tol-EPS-att-A`` name: E <= EPS on every gimbal rate, and
+    the platform's attitude error <= A arcsec (None: not asked); None if the name is not a tol-
+    name; ModelError (one line) for a malformed one."""
     base = str(name).partition("@")[0]
     if not base.startswith(TOL_FAMILY + "-"):
         return None
@@ -243,11 +273,26 @@ def parse_tolerance(name):
     if "@" in str(name):
         raise ModelError(f"model {name!r}: tol-EPS takes no static modes (@body:case)")
     if not m:
-        raise ModelError(f"model {name!r}: tol-EPS needs a positive number EPS, e.g. tol-1e-4")
-    eps = float(m.group(1))
-    if not np.isfinite(eps) or eps <= 0:
-        raise ModelError(f"model {name!r}: the tolerance must be positive and finite, got {eps}")
-    return eps
+        raise ModelError(f"model {name!r}: tol-EPS needs a positive number EPS, e.g. tol-1e-4 "
+                         f"(or tol-1e-4-att-2: also the platform attitude within 2 arcsec)")
+    eps, att = float(m.group(1)), None if m.group(2) is None else float(m.group(2))
+    for what, value in (("tolerance", eps), ("attitude tolerance", att)):
+        if value is not None and (not np.isfinite(value) or value <= 0):
+            raise ModelError(f"model {name!r}: the {what} must be positive and finite, got {value}")
+    return eps, att
+
+
+def parse_tolerance(name):
+    """EPS of a ``tol-EPS`` name (float > 0), or None if the name is not a tol- name;
+    ModelError for a malformed one."""
+    request = parse_request(name)
+    return None if request is None else request[0]
+
+
+def parse_attitude(name):
+    """A [arcsec] of a ``tol-EPS-att-A`` name, or None (no attitude asked, or not a tol- name)."""
+    request = parse_request(name)
+    return None if request is None else request[1]
 
 
 def frozen_chain_valid(pooled):
@@ -257,10 +302,10 @@ def frozen_chain_valid(pooled):
     rate = float(pooled.get("rate_over_lowest_frequency", 0.0))
     if exc.size and np.max(exc) > frozen_chain.FROZEN_ANGLE:
         return False, (f"the gimbals move {np.max(exc):.2e} rad > {frozen_chain.FROZEN_ANGLE:g} rad "
-                       f"(load_aware.FROZEN_ANGLE)")
+                       f"(frozen_chain.FROZEN_ANGLE)")
     if rate > frozen_chain.FROZEN_RATE:
         return False, (f"rate / lowest modal frequency {rate:.1e} > {frozen_chain.FROZEN_RATE:g} "
-                       f"(load_aware.FROZEN_RATE)")
+                       f"(frozen_chain.FROZEN_RATE)")
     return True, ""
 
 
@@ -287,17 +332,21 @@ def _extended_estimate(pooled, N):
     return E
 
 
-def tolerance_choice(eps, pooled, total, extend=None):
+def tolerance_choice(eps, pooled, total, extend=None, check_valid=True):
     """(N, E (4,), source): the smallest pooled count N (0..total) whose a-priori estimate is
     <= eps on every gimbal rate.  pooled: rankings["pooled"] with ``estimate`` (P, 4) of
     N = 1..P and ``rigid_estimate`` (4,) of N = 0; beyond P, extend(N) -> E (4,) (None: stop
     at P), scanned in steps of TOL_COARSE, then every N of the bracket that met eps.
-    ModelError (one line) if the frozen chain is flagged invalid or no N meets eps."""
+    FrozenChainInvalid (one line) if the frozen chain is flagged invalid (check_valid=False:
+    the estimate's choice all the same, the verified search's first guess); ModelError (one
+    line) if no N meets eps."""
     ok, why = frozen_chain_valid(pooled)
-    if not ok:
-        raise ModelError(f"tol-{eps:g}: refused on scene {pooled.get('scene', '?')!r}: {why}; "
-                         f"the frozen-linear-chain estimate cannot promise E <= {eps:g} "
-                         f"(choose a global-N and check it against the truth)")
+    if check_valid and not ok:
+        raise FrozenChainInvalid(
+            f"tol-{eps:g}: refused on scene {pooled.get('scene', '?')!r}: {why}; the "
+            f"frozen-linear-chain estimate cannot promise E <= {eps:g} (reduction.models answers "
+            f"by verified search unless --no-verified-search; or check a global-N against the truth)",
+            reason=why, eps=eps)
     est = pooled.get("estimate")
     if est is None:
         raise ModelError(f"tol-{eps:g}: the ranking file holds no a-priori estimates "
@@ -339,14 +388,110 @@ def _tol_spec(name, rankings):
     N, E, source = tolerance_choice(eps, pooled, total,
                                     extend=(lambda n: _extended_estimate(pooled, n))
                                     if pooled.get("path") else None)
+    if parse_attitude(name) is not None:
+        raise AttitudeRequested(
+            f"tol-{eps:g}: the platform attitude has no a-priori estimate (the frozen chain gives the "
+            f"gimbal rates only): reduction.models answers {name} by verified search (simulations)",
+            reason="the platform attitude has no a-priori estimate (the frozen chain gives the gimbal "
+                   "rates only)", eps=eps)
     kept = _pooled_kept(name, str(N), rankings, available)
-    _TOL_CHOICES[name] = {"tol_eps": eps, "tol_N": int(N), "tol_estimate": np.asarray(E, float),
-                          "tol_estimate_max": float(np.max(E)), "tol_estimate_source": source,
+    _TOL_CHOICES[name] = {"tol_eps": eps, "tol_N": int(N), "tol_method": TOL_APRIORI,
+                          "tol_estimate": np.asarray(E, float), "tol_estimate_max": float(np.max(E)),
+                          "tol_estimate_source": source, "tol_frozen_chain_valid": 1,
                           "tol_equivalent_model": f"global-{N}"}
     return ModelSpec(name=name, kept=kept, static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
 
 
+TOL_APRIORI, TOL_VERIFIED = "a-priori estimate", "verified search"
 _TOL_CHOICES = {}
+
+
+def apriori_estimate(pooled, N):
+    """(E (4,), source) of the pooled top N by the frozen chain: the ranking file's stored
+    curve (N <= pool), else the estimator on its frozen linear chain; (None, reason) if neither."""
+    N = int(N)
+    est = pooled.get("estimate")
+    if N == 0 and pooled.get("rigid_estimate") is not None:
+        return np.asarray(pooled["rigid_estimate"], float), "ranking file estimate/rigid"
+    if est is not None and 0 < N <= len(est):
+        return np.asarray(est, float).reshape(-1, 4)[N - 1], "ranking file estimate/global"
+    if pooled.get("path"):
+        return _extended_estimate(pooled, N), "frozen linear chain of the ranking file (N > pool)"
+    return None, "no a-priori estimate of this N in the ranking file"
+
+
+def _verified_tol_spec(name, request, scene, body_data, rankings, log=None):
+    """ModelSpec of a tol- request the frozen-chain estimate cannot answer (``request``: the
+    NeedsSimulation that ``_tol_spec`` raised: the chain does not hold on this scene, or the
+    platform attitude is asked): the smallest global-N found passing by
+    ``verified_search.smallest_verified``, each candidate simulated through the scene against the
+    truth (``verified_search.SimulationJudge``); the frozen chain's own choice for the rates is its
+    first guess.  Records the choice, the measured E (and attitude error) and every probe for the
+    file's attributes (``tolerance_attrs``).  ModelError (one line) if only the truth passes."""
+    log = log or (lambda text: None)
+    eps, att = parse_request(name)
+    invalid = isinstance(request, FrozenChainInvalid)
+    pooled = rankings[POOLED_KEY]
+    available = {b: len(np.asarray(rankings[b]["rank_frequency"])) for b in BODIES}
+    total = sum(available.values())
+    extend = (lambda n: _extended_estimate(pooled, n)) if pooled.get("path") else None
+    try:
+        guess = tolerance_choice(eps, pooled, total, extend=extend, check_valid=False)[0]
+    except ModelError:
+        guess = None                # the estimate meets eps nowhere: plain bisection
+
+    def chain_for(N):
+        spec = ModelSpec(f"global-{N}", _pooled_kept(name, str(N), rankings, available),
+                         dict.fromkeys(BODIES, ()), GLOBAL_FAMILY)
+        return build_chain(restrict_to_bodies(spec, scene.elastic_bodies), body_data, scene.damping_ratio)
+
+    key = ("tol", scene.config_hash(), pooled.get("path_key"), tuple(scene.elastic_bodies),
+           tuple(str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES))
+    judge = verified_search.SimulationJudge(
+        scene, chain_for, total, key=key, attitude=att is not None,
+        log=lambda text: log(f"{name} verified search on {scene.name}: {text}"))
+    limits = [eps] * 4 + ([att] if att is not None else [])
+    asked = f"E <= {eps:g}" + (f" and attitude <= {att:g} arcsec" if att is not None else "")
+    log(f"{name}: {request.reason}" + (f": the frozen-chain estimate is no promise on scene {scene.name!r}"
+                                       if invalid else "")
+        + f"; verified search over global-0..{total} for {asked} (first guess {guess})")
+    t0 = time.perf_counter()
+    result = verified_search.smallest_verified(limits, judge, total, guess=guess,
+                                               known={total: np.zeros(len(limits))})
+    wall = time.perf_counter() - t0
+    if result.N >= total:
+        below = [(n, e) for n, e in zip(result.probe_N, result.probe_E_max) if n < total]
+        best = min(below, key=lambda p: p[1]) if below else None
+        raise ModelError(f"tol-{eps:g}: on scene {scene.name!r} no pooled set smaller than the truth "
+                         f"({total} modes) meets {asked} by simulation"
+                         + (f" (smallest measured: global-{best[0]}, max E {best[1]:.3e})" if best else ""))
+    E_est, source = apriori_estimate(pooled, result.N)
+    measured = np.asarray(result.E[:4], float)
+    _TOL_CHOICES[name] = {
+        "tol_eps": eps, "tol_N": int(result.N), "tol_method": TOL_VERIFIED,
+        "tol_measured": measured, "tol_measured_max": float(np.max(measured)),
+        "tol_estimate": np.full(4, np.nan) if E_est is None else np.asarray(E_est, float),
+        "tol_estimate_max": float("nan") if E_est is None else float(np.max(E_est)),
+        "tol_estimate_source": source + (" (not valid on this scene)" if invalid else ""),
+        "tol_frozen_chain_valid": 0 if invalid else 1, "tol_search_reason": request.reason,
+        "tol_search_N": result.probe_N, "tol_search_E_max": result.probe_E_max,
+        "tol_search_probe_s": np.array([0.0 if n == total else judge.wall_time(n) for n in result.probe_N]),
+        "tol_search_guess": -1 if guess is None else int(guess),
+        "tol_search_integrator": verified_search.INTEGRATOR,
+        "tol_search_time_s": wall, "tol_search_truth_time_s": judge.wall_time(total),
+        "tol_equivalent_model": f"global-{result.N}"}
+    if invalid:
+        _TOL_CHOICES[name]["tol_frozen_chain_reason"] = request.reason
+    if att is not None:
+        _TOL_CHOICES[name].update({"tol_attitude_arcsec": att,
+                                   "tol_measured_attitude_arcsec": float(result.E[4]),
+                                   "tol_search_attitude_arcsec": result.probe_attitude})
+    got = f"max E {np.max(measured):.3e}" + (f", attitude {result.E[4]:.3g} arcsec" if att is not None else "")
+    log(f"{name}: global-{result.N} by verified search (measured {got}, meets {asked}; global-{result.N - 1} "
+        f"measured failing; {len(result.probes) - 1} simulated probes, {wall:.1f} s)" if result.N else
+        f"{name}: rigid (global-0) by verified search (measured {got}, meets {asked})")
+    return ModelSpec(name=name, kept=_pooled_kept(name, str(result.N), rankings, available),
+                     static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
 
 
 def tolerance_attrs(name):
@@ -590,9 +735,15 @@ def expected_body_hashes(config):
     return {b: cfgmod.inputs_hash(cfgmod.body_inputs(config, b)) for b in BODIES}
 
 
-def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None, config=None):
+def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None, config=None,
+                 verified=True, log=None):
     """(Chain, ModelSpec, attrs) of model ``name`` on ``scene`` (undamped: damping is the
     scene's, applied when the model file is read).
+
+    verified: answer a tol- request the frozen-chain estimate cannot (the chain does not hold on
+    the scene, or the attitude is asked) by verified search (simulations; ``_verified_tol_spec``),
+    else refuse (NeedsSimulation);
+    log(text): its progress lines.
 
     body_files: {body: path} of the modal stage's files; reduction_files: {body: path} of
     the reduction stage's files (needed by xmx-, xmgmx-, load- and global- models);
@@ -619,7 +770,13 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
         load_load_ranking(load_ranking, rankings)
         check_load_ranking(load_ranking, rankings, body_data)
         ranking_hashes.append(str(rankings[POOLED_KEY].get("body_config_hashes", "")))
-    spec = restrict_to_bodies(parse_model(name, rankings), scene.elastic_bodies)
+    try:
+        spec = parse_model(name, rankings)
+    except NeedsSimulation as request:
+        if not verified:
+            raise
+        spec = _verified_tol_spec(name, request, scene, body_data, rankings, log)
+    spec = restrict_to_bodies(spec, scene.elastic_bodies)
     chain = build_chain(spec, body_data)
     attrs = {"model": spec.name, "scene": scene.name,
              "config_hash": model_config_hash(spec, body_data, scene, ranking_hashes),
@@ -650,6 +807,9 @@ def main(argv=None):
     ap.add_argument("--config", help="the current configuration file: every body file's config_hash "
                                      "must be the one it gives (a body file of another config is refused)")
     ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
+    ap.add_argument("--no-verified-search", action="store_true",
+                    help="tol-EPS where the frozen-chain estimate does not hold: refuse, instead of "
+                         "simulating candidates against the truth (minutes on the long scene)")
     try:
         args = ap.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, ap))
     except SystemExit as exc:       # the one-line message is printed; in process, return the status
@@ -664,7 +824,8 @@ def main(argv=None):
         chain, spec, attrs = reduce_model(
             args.model, scene, dict(zip(BODIES, args.bodies)),
             dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,
-            config=config)
+            config=config, verified=not args.no_verified_search,
+            log=lambda text: print(f"reduction.models: {text}", file=sys.stderr, flush=True))
     except (ValueError, FileNotFoundError) as exc:
         print(f"reduction.models: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
@@ -676,9 +837,15 @@ def main(argv=None):
     except OSError as exc:
         print(f"reduction.models: {cli.write_failure(args.out, exc)}", file=sys.stderr)
         return 2
-    if "tol_N" in attrs:
+    if attrs.get("tol_method") == TOL_APRIORI:
         print(f"reduction.models: {spec.name}: global-{attrs['tol_N']} (a-priori max E "
               f"{attrs['tol_estimate_max']:.3e} <= {attrs['tol_eps']:g}; {attrs['tol_estimate_source']})")
+    elif attrs.get("tol_method") == TOL_VERIFIED:
+        print(f"reduction.models: {spec.name}: global-{attrs['tol_N']} by verified search (measured "
+              f"max E {attrs['tol_measured_max']:.3e} <= {attrs['tol_eps']:g}"
+              + (f", attitude {attrs['tol_measured_attitude_arcsec']:.3g} <= {attrs['tol_attitude_arcsec']:g} "
+                 f"arcsec" if "tol_attitude_arcsec" in attrs else "")
+              + f"; {attrs['tol_search_reason']}; the frozen chain estimated {attrs['tol_estimate_max']:.3e})")
     print(f"reduction.models: {args.out}: model {spec.name} on scene {scene.name}, "
           f"{sum(chain.n_modes)} elastic coordinates {chain.n_modes} in {attrs['wall_time_s']:.2f} s")
     return 0

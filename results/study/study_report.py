@@ -28,7 +28,9 @@ import time
 
 import numpy as np
 
+from results.bench.equal_error import FAMILIES, cheapest_within, max_error
 from results.study.cases import GROUP_LABELS, MODE_COUNTS, TRUTH, TRUTH_CHECK
+from results.study.figures import GROUP_STYLE, STYLE, _plt, save
 from results.study.findings import THESIS, THESIS_TABLE_4_1
 from results.study.report import ROOT, _json, _versions, _yaml, compile_pdf, figure, note, s, sci, table
 from results.study.tables import RATE_COLUMNS, read_table
@@ -43,7 +45,8 @@ OPTIONAL = {"dynamics": "snakemake verify", "exponential": "snakemake verify",
             "exponential_bench": "snakemake bench", "fe_full": "snakemake verify",
             "integrators": "snakemake verify", "stability": "snakemake bench",
             "truth_basis": "snakemake results/verification/truth_basis.json",
-            "pareto": "snakemake bench", "scaling": "snakemake bench", "selection": "snakemake bench"}
+            "pareto": "snakemake bench", "scaling": "snakemake bench", "selection": "snakemake bench",
+            "tolerance": "snakemake bench"}
 
 
 # ---------------------------------------------------------------- reading
@@ -312,6 +315,7 @@ def results_section(ctx, an, root) -> str:
             out.append(figure(f["pdf"], f"Scene {s(sc['name'])}: " + s(f["caption"]), root, width="85%"))
         if not err:
             out.append(note(f"scene {s(sc['name'])}: no error figure"))
+    out.append(tolerance_section(ctx, root))
     return "".join(out)
 
 
@@ -553,6 +557,264 @@ def conclusions_section(ctx, an) -> str:
     return "".join(out)
 
 
+# ---------------------------------------------------------------- accuracy on request (issue 17)
+def _float_or_none(x):
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if np.isfinite(x) else None
+
+
+def _int_or_none(x):
+    x = _float_or_none(x)
+    return None if x is None else int(x)
+
+
+def tolerance_chart_data(tol, scene_rows) -> dict:
+    """Chart and table data of "cost against requested tolerance" (pure).
+
+    tol: results/benchmarks/tolerance.json (results.bench.tolerance); scene_rows: {scene: rows of
+    its study error table}.  Per bench scene, in the bench's order:
+    ``points`` [{eps, n_kept, run_time_s, estimated, measured, within, apriori_N,
+    apriori_measured, method, status}] (EPS descending; a refused request has n_kept None;
+    apriori_*: the frozen chain's own choice and its measured E, None where not measured); ``families`` {family: [{eps, model, n_elastic,
+    E_max, run_time_s}]}: for every EPS the cheapest model of the family in the study table meeting
+    EPS on every rate (``results.bench.equal_error.cheapest_within``; model None where no study
+    model does), with its run time from the bench's comparisons timed in the same run (None if
+    the bench did not time it); ``has_table``: the scene has a study table."""
+    rows = tol.get("rows", []) if tol else []
+    timed = {(c["scene"], float(c["eps"]), c["family"], c.get("model")): c
+             for c in (tol or {}).get("comparisons", []) if c.get("model")}
+    out = {}
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        pts = []
+        for r in sorted((r for r in rows if r["scene"] == scene), key=lambda r: -float(r["eps"])):
+            ok = r.get("status") == "ok"
+            pts.append({"eps": float(r["eps"]), "n_kept": int(r["n_kept"]) if ok else None,
+                        "run_time_s": float(r["run_time_s"]) if ok else None,
+                        "estimated": float(r["estimated_E_max"]) if ok else None,
+                        "measured": float(r["measured_E_max"]) if ok else None,
+                        "within": bool(r["within_request"]) if ok else None,
+                        "apriori_N": _int_or_none(r.get("apriori_N")) if ok else None,
+                        "apriori_measured": _float_or_none(r.get("apriori_measured_E_max")) if ok else None,
+                        "method": r.get("method", ""), "status": r.get("status", "")})
+        table_rows = scene_rows.get(scene) or []
+        fams = {}
+        for family in FAMILIES:
+            fams[family] = []
+            for p in pts:
+                c = cheapest_within(table_rows, family, p["eps"])
+                t = timed.get((scene, p["eps"], family, c["model"])) if c else None
+                fams[family].append({"eps": p["eps"], "model": c["model"] if c else None,
+                                     "n_elastic": int(c["n_elastic"]) if c else None,
+                                     "E_max": max_error(c) if c else None,
+                                     "run_time_s": float(t["run_time_s"]) if t and t.get("run_time_s") != ""
+                                     else None})
+        out[scene] = {"points": pts, "families": fams, "has_table": bool(table_rows)}
+    return out
+
+
+def tolerance_summary(data) -> dict:
+    """The numbers the section's text quotes (pure, from ``tolerance_chart_data``): requests,
+    built, within the request, per method; where the a-priori estimate chose, measured /
+    estimated E per scene (min, max) and over all (max: the side that breaks a promise); where
+    the search ran, how often the frozen chain's own choice would have missed the request (its
+    set's measured E > EPS); the equal-error comparisons with the cheapest study model of each
+    family (tol-EPS keeps fewer, as many or more coordinates), and the requests no study model
+    meets."""
+    pts = [(scene, p) for scene, d in data.items() for p in d["points"]]
+    built = [(scene, p) for scene, p in pts if p["n_kept"] is not None]
+    out = {"requests": len(pts), "built": len(built), "within": sum(p["within"] for _, p in built),
+           "methods": {}, "apriori_ratio": {}, "apriori_max_ratio": None, "comparisons": [],
+           "fewer": 0, "equal": 0, "more": 0, "more_scenes": [], "beyond_study": 0,
+           "promise_checked": 0, "promise_broken": []}
+    for method in dict.fromkeys(p["method"] for _, p in built):
+        mine = [p for _, p in built if p["method"] == method]
+        out["methods"][method] = {"built": len(mine), "within": sum(p["within"] for p in mine),
+                                  "scenes": sorted({sc for sc, p in built if p["method"] == method})}
+    for scene, d in data.items():
+        r = [p["measured"] / p["estimated"] for p in d["points"]
+             if p["n_kept"] is not None and p["method"] == "a-priori estimate" and p["estimated"]]
+        if r:
+            out["apriori_ratio"][scene] = (min(r), max(r))
+    if out["apriori_ratio"]:
+        out["apriori_max_ratio"] = max(hi for _, hi in out["apriori_ratio"].values())
+    for scene, p in built:              # where the search ran: would the frozen chain's choice have held?
+        if p["method"] == "verified search" and p["apriori_measured"] is not None:
+            out["promise_checked"] += 1
+            if p["apriori_measured"] > p["eps"]:
+                out["promise_broken"].append((scene, p["eps"], p["apriori_N"], p["apriori_measured"]))
+    for scene, d in data.items():
+        for k, p in enumerate(d["points"]):
+            if p["n_kept"] is None or not d["has_table"]:
+                continue
+            fam = [d["families"][f][k] | {"family": f} for f in FAMILIES if d["families"][f][k]["model"]]
+            if not fam:
+                out["beyond_study"] += 1
+            for f in fam:
+                out["comparisons"].append((scene, p["eps"], f["family"], f["model"], p["n_kept"], f["n_elastic"]))
+                key = "fewer" if p["n_kept"] < f["n_elastic"] else "equal" if p["n_kept"] == f["n_elastic"] \
+                    else "more"
+                out[key] += 1
+                if key == "more" and scene not in out["more_scenes"]:
+                    out["more_scenes"].append(scene)
+    return out
+
+
+def _eps_label(eps) -> str:
+    """EPS as Typst math: 10^(-k) for a power of ten, else ``sci``."""
+    k = np.log10(eps)
+    return f"$10^({int(round(k))})$" if abs(k - round(k)) < 1e-9 else sci(eps, 2)
+
+
+TOL_MARK = {True: "✓", False: "✗", None: ""}
+
+
+def _damping(sc) -> float:
+    """The modal damping ratio of a report scene (its scene file), 0 if not given."""
+    d = sc["scene"] if isinstance(sc.get("scene"), dict) else {}
+    return float((d.get("damping_ratio") or {}).get("value", 0.0) or 0.0)
+
+
+def tolerance_table(data) -> str:
+    """Estimated against measured E: per scene the kept coordinates, the a-priori estimate and the
+    measured E (✓ within the request) of tol-EPS, one column per EPS."""
+    eps = sorted({p["eps"] for d in data.values() for p in d["points"]}, reverse=True)
+    rows, own_choice = [], False
+    for scene, d in data.items():
+        by = {p["eps"]: p for p in d["points"]}
+        verified = any(p["method"] == "verified search" for p in d["points"])
+        label = f"{scene} (verified search)" if verified else scene
+        rows.append([s(label), s("N kept")] + [s(by[e]["n_kept"]) if e in by and by[e]["n_kept"] is not None
+                                               else s("refused") for e in eps])
+        rows.append(["", s("estimated" + (" (not valid)" if verified else ""))] +
+                    [sci(by[e]["estimated"]) if e in by else "--" for e in eps])
+        rows.append(["", s("measured")] + [(sci(by[e]["measured"]) + " " + s(TOL_MARK[by[e]["within"]]))
+                                           if e in by and by[e]["measured"] is not None else "--" for e in eps])
+        if verified and any(by[e].get("apriori_measured") is not None for e in eps if e in by):
+            own_choice = True
+            rows.append(["", s("frozen chain's own choice N")] +
+                        [s(by[e]["apriori_N"]) if e in by and by[e]["apriori_N"] is not None else "--" for e in eps])
+            rows.append(["", s("its measured E")] +
+                        [(sci(by[e]["apriori_measured"]) + " " + s(TOL_MARK[by[e]["apriori_measured"] <= e]))
+                         if e in by and by[e]["apriori_measured"] is not None else "--" for e in eps])
+    return table(["scene", ""] + [f"EPS {_eps_label(e)}" for e in eps], rows,
+                 "tol-EPS on every bench scene: elastic coordinates kept, the frozen chain's a-priori E "
+                 "(max over the four gimbal rates) and the E measured against the truth (✓: within the "
+                 "request). Where the frozen chain does not hold, the model was chosen by verified "
+                 "search and its estimate is shown only for comparison"
+                 + (", with the set the frozen chain would have chosen and its measured E (the search's "
+                    "first probe)" if own_choice else "") + ".", "tab-tolerance",
+                 columns=f"(auto, auto) + (1fr,) * {len(eps)}", size="6.5pt")
+
+
+def draw_tolerance_chart(data, stem) -> dict:
+    """The chart "cost against requested tolerance": one row per scene, kept elastic coordinates
+    (left) and the median integration time (right) against EPS, tol-EPS as a line, the cheapest
+    freq-, xmx- and global-N of the study meeting EPS as markers; stem.pdf and stem.png."""
+    plt = _plt()
+    scenes = list(data)
+    eps = [p["eps"] for d in data.values() for p in d["points"]] or [1e-2]
+    with plt.rc_context({**STYLE, "font.size": 7, "legend.fontsize": 7}):
+        fig = plt.figure(figsize=(6.7, 1.3 * len(scenes) + 0.8), constrained_layout=True)
+        grid = fig.add_gridspec(len(scenes) + 1, 2, height_ratios=[0.22] + [1.0] * len(scenes))
+        key = fig.add_subplot(grid[0, :])
+        key.axis("off")
+        axes = [(fig.add_subplot(grid[k + 1, 0]), fig.add_subplot(grid[k + 1, 1])) for k in range(len(scenes))]
+        handles = {}
+        for (ax, bx), scene in zip(axes, scenes):
+            d = data[scene]
+            pts = [p for p in d["points"] if p["n_kept"] is not None]
+            x = [p["eps"] for p in pts]
+            h, = ax.plot(x, [p["n_kept"] for p in pts], color="black", marker="o", ms=3, lw=1.2)
+            bx.plot(x, [p["run_time_s"] for p in pts], color="black", marker="o", ms=3, lw=1.2)
+            handles["tol-EPS"] = h
+            for k, family in enumerate(FAMILIES):
+                color, marker, _ = GROUP_STYLE[family]
+                fs = [f for f in d["families"][family] if f["model"]]
+                shift = 1.0 + 0.12 * (k - 1)              # side by side at one EPS
+                handles[f"cheapest {family}-N of the study"] = ax.scatter(
+                    [f["eps"] * shift for f in fs], [f["n_elastic"] for f in fs], color=color,
+                    marker=marker, s=16, zorder=3)
+                timed = [f for f in fs if f["run_time_s"]]
+                bx.scatter([f["eps"] * shift for f in timed], [f["run_time_s"] for f in timed], color=color,
+                           marker=marker, s=16, zorder=3)
+            ax.set_ylabel(f"{scene}\nelastic coord.")
+            ax.set_ylim(-15, 420)
+            bx.set_yscale("log")
+            bx.set_ylabel("run time [s]")
+            if not d["has_table"]:
+                ax.text(0.02, 0.9, "no study table: tol-EPS only", transform=ax.transAxes, fontsize=6,
+                        va="top", color="0.35")
+            for a in (ax, bx):
+                a.set_xscale("log")
+                a.set_xlim(2 * max(eps), min(eps) / 2)          # tighter tolerance to the right
+                if scene != scenes[-1]:
+                    a.tick_params(labelbottom=False)
+                else:
+                    a.set_xlabel("requested tolerance EPS")
+        key.legend(list(handles.values()), list(handles), loc="center", ncol=4, fontsize=7, frameon=False,
+                   handletextpad=0.3, columnspacing=1.2)
+        return save(fig, stem)
+
+
+def tolerance_section(ctx, root) -> str:
+    """== Accuracy on request: the chart, the table and the numbers, from the tolerance bench."""
+    out = ["== Accuracy on request: cost against requested tolerance\n\n"]
+    tol = ctx.get("tolerance")
+    if not tol:
+        return out[0] + note(s(ctx["missing"].get("tolerance", "results/benchmarks/tolerance.json missing "
+                                                               "(made by snakemake bench)")))
+    data = tolerance_chart_data(tol, {sc["name"]: sc["rows"] for sc in ctx["scenes"]})
+    sm = tolerance_summary(data)
+    out.append(f"`tol-EPS` asks for the smallest pooled load-aware set whose error is at most EPS on every "
+               f"gimbal rate (docs/models.md). The tolerance bench (results/benchmarks/tolerance.json, "
+               f"{s(ctx['dates'].get('tolerance', ''))}) built {s(sm['built'])} of {s(sm['requests'])} "
+               f"requests and measured each against the truth: {s(sm['within'])} of {s(sm['built'])} are "
+               f"within the request. ")
+    for method, m in sm["methods"].items():
+        out.append(f"By {s(method)} ({s(', '.join(m['scenes']))}): {s(m['within'])} of {s(m['built'])}. ")
+    if sm["apriori_max_ratio"] is not None:
+        # one string: Typst drops a ';' that follows an expression
+        per = s("; ".join(f"{k} {lo:.5g} to {hi:.5g}" for k, (lo, hi) in sm["apriori_ratio"].items()))
+        worst = f"{sm['apriori_max_ratio']:.5g}"
+        out.append(f"Where the frozen chain holds and chose, the measured E is at most {s(worst)} times the "
+                   f"a-priori estimate (measured / estimated per scene: {per}). ")
+        damped = [sc["name"] for sc in ctx["scenes"] if sc["name"] in sm["apriori_ratio"]
+                  and _damping(sc) > 0 and sm["apriori_ratio"][sc["name"]][1] < 1]
+        if damped:
+            out.append(f"On {s(', '.join(damped))} the estimate is pessimistic: the frozen chain ignores the "
+                       f"modal damping, so tol-EPS is safe there but keeps more modes than it needs. ")
+    if sm["promise_checked"]:
+        broken = sm["promise_broken"]
+        out.append(f"Where the search ran, the frozen chain's own choice (its first probe) would have missed the "
+                   f"request in {s(len(broken))} of {s(sm['promise_checked'])} cases"
+                   + (" (" + s("; ").join(f"{s(sc)} EPS {_eps_label(e)}: global-{s(n)} measured {sci(E)}"
+                                          for sc, e, n, E in broken[:4])
+                      + (s("; ...") if len(broken) > 4 else "") + ")" if broken else "") + ". ")
+    n = len(sm["comparisons"])
+    if n:
+        out.append(f"At equal error (both meet EPS on the scene), tol-EPS keeps fewer elastic coordinates than "
+                   f"the cheapest freq-, XMX- or global-N of the study in {s(sm['fewer'])} of {s(n)} "
+                   f"comparisons, as many in {s(sm['equal'])} and more in {s(sm['more'])}"
+                   + (f" ({s(', '.join(sm['more_scenes']))})" if sm["more_scenes"] else "") + ". ")
+    if sm["beyond_study"]:
+        out.append(f"For {s(sm['beyond_study'])} requests no freq-, XMX- or global-N of the study (at most "
+                   f"100 elastic coordinates) meets EPS at all; tol-EPS does, with more coordinates. ")
+    out.append("Run times are medians of repeated integrations timed in the same bench run.\n\n")
+    out.append(tolerance_table(data))
+    fig = ctx.get("tolerance_figure")
+    if fig:
+        out.append(figure(fig["pdf"], "Cost against requested tolerance, per scene: elastic coordinates "
+                          "kept (left) and the integration's median wall time (right) of tol-EPS (line) "
+                          "against the requested EPS, beside the cheapest freq-, XMX- and global-N of the "
+                          "study meeting the same EPS on every rate (markers; none where no study model "
+                          "does). Scenes without a study table show tol-EPS alone.", root,
+                          label="fig-tolerance"))
+    return "".join(out)
+
+
 def verification_section(ctx) -> str:
     out = ["= Verification and run time\n\n"]
     fe = ctx.get("fe")
@@ -634,6 +896,13 @@ def main(argv=None) -> int:
         print(f"results.study.study_report: error: {exc}", file=sys.stderr)
         return 2
     out = os.path.abspath(args.out)
+    if ctx.get("tolerance"):        # the chart is drawn beside the report (as its .typ)
+        try:
+            ctx["tolerance_figure"] = draw_tolerance_chart(
+                tolerance_chart_data(ctx["tolerance"], {sc["name"]: sc["rows"] for sc in ctx["scenes"]}),
+                os.path.splitext(out)[0] + "_tolerance_cost")
+        except (KeyError, TypeError, ValueError) as exc:
+            ctx["missing"]["tolerance chart"] = f"not drawn ({exc.__class__.__name__}: {exc})"
     paths = [os.path.dirname(out)] + [f["pdf"] for sc in ctx["scenes"] for f in sc["figures"]]
     root = os.path.commonpath(paths + [ROOT]) if paths else ROOT
     try:

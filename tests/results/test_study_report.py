@@ -156,3 +156,86 @@ def test_mode_ranking_table_is_read_and_shown_beside_the_thesis(study):
     # XMX keeps modes 1..20: all 80 among the 25 lowest; the thesis's top 20: 71 of 80
     assert "== The thesis's Table 4.1 beside ours" in src
     assert "Of the 80 top-20 modes, 71 (thesis), 80 (XMX) and" in src
+
+
+# ------------------------------------------------ accuracy on request (issue 17)
+def tol_row(scene, eps, n, est, meas, method="a-priori estimate", run=0.1):
+    return {"scene": scene, "eps": eps, "status": "ok", "n_kept": n, "estimated_E_max": est,
+            "measured_E_max": meas, "within_request": meas <= eps, "method": method, "run_time_s": run}
+
+
+TOLERANCE = {
+    "rows": [tol_row("thesis", 1e-2, 73, 9.6e-3, 9.7e-3, run=0.05),
+             tol_row("thesis", 1e-3, 150, 9.9e-4, 1.1e-3, run=0.08),
+             {**tol_row("spin", 1e-2, 0, 9.5e-4, 9.6e-4, "verified search", 0.2), "apriori_N": 40,
+              "apriori_measured_E_max": 1.5e-2},                  # the frozen chain's own choice missed
+             {"scene": "spin", "eps": 1e-3, "status": "refused: only the truth", "n_kept": "",
+              "method": "", "estimated_E_max": "", "measured_E_max": "", "within_request": "",
+              "run_time_s": ""}],
+    "comparisons": [{"scene": "thesis", "eps": 1e-2, "family": "global", "model": "global-100",
+                     "run_time_s": 0.06, "n_elastic": 100}],
+    "scenes": ["thesis", "spin"], "eps": [1e-2, 1e-3]}
+
+
+def test_tolerance_chart_data_pairs_tol_eps_with_the_cheapest_study_models():
+    data = study_report.tolerance_chart_data(TOLERANCE, {"thesis": ROWS})
+    assert list(data) == ["thesis", "spin"]
+    th = data["thesis"]
+    assert [p["eps"] for p in th["points"]] == [1e-2, 1e-3] and th["has_table"]
+    assert [p["n_kept"] for p in th["points"]] == [73, 150]
+    assert th["points"][0]["within"] is True and th["points"][1]["within"] is False   # 1.1e-3 > 1e-3
+    g = th["families"]["global"]
+    assert g[0]["model"] == "global-100" and g[0]["n_elastic"] == 100 and g[0]["run_time_s"] == 0.06
+    assert g[1]["model"] is None                                  # global-100's 3e-3 misses 1e-3
+    assert th["families"]["freq"][0]["model"] is None             # freq-10's 7e-2 misses 1e-2
+    sp = data["spin"]
+    assert not sp["has_table"] and sp["points"][1]["n_kept"] is None and sp["points"][1]["within"] is None
+
+
+def test_tolerance_summary_counts_methods_deviation_and_equal_error_ratios():
+    sm = study_report.tolerance_summary(study_report.tolerance_chart_data(TOLERANCE, {"thesis": ROWS}))
+    assert sm["requests"] == 4 and sm["built"] == 3 and sm["within"] == 2
+    assert sm["methods"]["verified search"] == {"built": 1, "within": 1, "scenes": ["spin"]}
+    assert sm["apriori_ratio"]["thesis"] == (pytest.approx(9.7e-3 / 9.6e-3), pytest.approx(1.1e-3 / 9.9e-4))
+    assert sm["apriori_max_ratio"] == pytest.approx(1.1e-3 / 9.9e-4) and "spin" not in sm["apriori_ratio"]
+    assert sm["comparisons"] == [("thesis", 1e-2, "global", "global-100", 73, 100)]
+    assert (sm["fewer"], sm["equal"], sm["more"]) == (1, 0, 0)
+    assert sm["beyond_study"] == 1                                # EPS 1e-3: no study model meets it
+    assert sm["promise_checked"] == 1 and sm["promise_broken"] == [("spin", 1e-2, 40, 1.5e-2)]
+
+
+def test_study_report_shows_the_tolerance_section_with_the_bench_numbers(study, tmp_path):
+    import json
+    path = tmp_path / "tolerance.json"
+    path.write_text(json.dumps(TOLERANCE))
+    pdf = tmp_path / "report.pdf"
+    rc = study_report.main(["--scenes", *study["scenes"], "--ranking-tables", *study["rank"],
+                            "--static-tables", *study["static"], "--findings", *study["findings"],
+                            "--figures", *study["figures"], "--fe", str(study["tmp"] / "nope.json"),
+                            "--reduction", str(study["tmp"] / "nope2.json"), "--tolerance", str(path),
+                            "--out", str(pdf)])
+    assert rc == 0
+    src = (tmp_path / "report.typ").read_text()
+    assert "== Accuracy on request: cost against requested tolerance" in src
+    assert "<fig-tolerance>" in src and "<tab-tolerance>" in src
+    assert (tmp_path / "report_tolerance_cost.png").stat().st_size > 5000
+    for x in (9.6e-3, 9.7e-3, 9.9e-4, 1.1e-3, 9.5e-4):           # estimated and measured, from the file
+        assert sci(x) in src, x
+    assert '#"spin (verified search)"' in src and '#"refused"' in src
+    assert "frozen chain's own choice N" in src and sci(1.5e-2) + ' #"✗"' in src
+    assert 'would have missed the request in #"1" of #"1" cases' in src
+    tables_by_scene = {"thesis": tables.read_table(study["rank"][0]), "smooth": tables.read_table(study["rank"][1])}
+    sm = study_report.tolerance_summary(study_report.tolerance_chart_data(TOLERANCE, tables_by_scene))
+    assert len(sm["comparisons"]) > 0 and "$10^(-3)$" in src
+    assert (f'in #"{sm["fewer"]}" of #"{len(sm["comparisons"])}" comparisons, as many in #"{sm["equal"]}" '
+            f'and more in #"{sm["more"]}"') in src
+    assert 'built #"3" of #"4" requests' in src and '#"2" of #"3" are within the request' in src
+    assert sci(1.1e-3) + ' #"✗"' in src and sci(9.7e-3) + ' #"✓"' in src
+    # without the bench's file the section says what makes it
+    pdf2 = tmp_path / "b" / "report.pdf"
+    assert study_report.main(["--scenes", *study["scenes"], "--ranking-tables", *study["rank"],
+                              "--static-tables", *study["static"], "--findings", *study["findings"],
+                              "--figures", *study["figures"], "--fe", str(study["tmp"] / "nope.json"),
+                              "--reduction", str(study["tmp"] / "nope2.json"), "--out", str(pdf2)]) == 0
+    src = (tmp_path / "b" / "report.typ").read_text()
+    assert "== Accuracy on request" in src and "made by snakemake bench" in src

@@ -244,7 +244,7 @@ rule study_report:
         ),
     params:
         code=code_hash("results.study.study_report"),
-        optional=optional_report_inputs,
+        optional=lambda wildcards: f"{optional_report_inputs(wildcards)} --tolerance {rules.tolerance.output.json}",
     resources:
         # records: study_report.tsv 1.5 s, 142.7 MB
         mem_mb=mem_mb(142.7),

@@ -1,0 +1,51 @@
+"""Issue 17: the rule `tolerance` (workflow/rules/bench.smk) is part of `bench`, not of `all`, runs
+results.bench.tolerance on every study scene and the fast-spinning one for EPS 1e-2 .. 1e-8, and
+feeds the study report's optional input."""
+from pathlib import Path
+
+import pytest
+from snakemake.api import SnakemakeApi
+from snakemake.settings.types import ConfigSettings, OutputSettings, ResourceSettings
+
+from results.study.cases import STUDY_SCENES
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def workflow():
+    with SnakemakeApi(OutputSettings(quiet=True)) as api:
+        yield api.workflow(resource_settings=ResourceSettings(cores=1), config_settings=ConfigSettings(),
+                           snakefile=ROOT / "Snakefile", workdir=ROOT)._workflow
+
+
+def _files(rule):
+    return {str(f) for f in rule.input} | {str(f) for f in rule.output}
+
+
+def test_tolerance_is_in_bench_and_not_in_all(workflow):
+    tolerance = workflow.get_rule("tolerance")
+    outputs = {str(f) for f in tolerance.output}
+    assert {"results/benchmarks/tolerance.csv", "results/benchmarks/tolerance.json",
+            "results/figures/bench/tolerance.png"} <= outputs
+    assert outputs <= {str(f) for f in workflow.get_rule("bench").input}
+    assert not outputs & {str(f) for f in workflow.get_rule("all").input}
+
+
+def test_tolerance_runs_every_study_scene_and_spin_for_eps_1e2_to_1e8(workflow):
+    tolerance = workflow.get_rule("tolerance")
+    scenes = [Path(str(f)).stem for f in tolerance.input.scenes]
+    assert scenes == [*STUDY_SCENES, "spin"]
+    assert [Path(str(f)).stem for f in tolerance.input.load_rankings] == scenes
+    assert [float(e) for e in tolerance.params.eps.split()] == [10.0 ** -k for k in range(2, 9)]
+    assert "-m results.bench.tolerance" in tolerance.shellcmd and "{params.eps}" in tolerance.shellcmd
+
+
+def test_the_study_report_reads_the_tolerance_bench_if_present(workflow):
+    """An optional input (read if present, with its date), not a dependency: `all` runs no bench."""
+    from snakemake.io import Wildcards
+    rule = workflow.get_rule("study_report")
+    assert "--tolerance results/benchmarks/tolerance.json" in rule.params.optional(Wildcards())
+    assert "results/benchmarks/tolerance.json" not in {str(f) for f in rule.input}
+    # the scene reports do not take it (results.study.report has no such option)
+    assert "--tolerance" not in workflow.get_rule("report_scene").params.optional(Wildcards())
