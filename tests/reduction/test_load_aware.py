@@ -219,11 +219,10 @@ def test_grammar_errors(name, change, message):
 
 
 # ------------------------------------------------- the stage on synthetic files
-@pytest.fixture(scope="module")
-def synthetic(tmp_path_factory):
-    """Synthetic body and reduction files, and the load-aware ranking made by the CLI."""
-    root = tmp_path_factory.mktemp("load_aware")
-    rng = np.random.default_rng(11)
+def write_synthetic_bodies(root, seed=11):
+    """root/modes/body{2..5}.h5 (synthetic bodies, 6 modes each) and root/reduction/body{n}.h5
+    (fixed rankings): the inputs of the load-aware stage."""
+    rng = np.random.default_rng(seed)
     (root / "modes").mkdir()
     (root / "reduction").mkdir()
     for b in models.BODIES:
@@ -234,6 +233,13 @@ def synthetic(tmp_path_factory):
             f["rank_xmx"] = np.array([3, 1, 0, 2, 5, 4])
             f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
             f["rho_xmx"] = np.array([0.3, 0.5, 0.2, 0.9, 0.01, 0.05])
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    """Synthetic body and reduction files, and the load-aware ranking made by the CLI."""
+    root = tmp_path_factory.mktemp("load_aware")
+    write_synthetic_bodies(root)
     out = root / "load" / "thesis.h5"
     rc = la.main(["--scene", "thesis", "--bodies", *[str(root / "modes" / f"body{b}.h5") for b in models.BODIES],
                   "--reductions", *[str(root / "reduction" / f"body{b}.h5") for b in models.BODIES],

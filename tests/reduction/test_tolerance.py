@@ -163,19 +163,8 @@ def synthetic_inputs(root):
     gimbals moving 0.05 rad (load/invalid.h5).  Returns (valid, invalid, the a-priori max-E curve
     of global-1..24)."""
     from reduction import load_aware as la
-    from results.bench.oracle import synthetic_body
-    from tests.reduction.test_models import write_body
-    rng = np.random.default_rng(11)
-    (root / "modes").mkdir()
-    (root / "reduction").mkdir()
-    for b in BODIES:
-        write_body(root / "modes" / f"body{b}.h5",
-                   synthetic_body(rng, b, n_nodes=8, rotations=(b % 2 == 0), n_modes=6, omega_max=3e3))
-        with h5py.File(root / "reduction" / f"body{b}.h5", "w") as f:
-            f["rank_frequency"] = np.arange(6)
-            f["rank_xmx"] = np.array([3, 1, 0, 2, 5, 4])
-            f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
-            f["rho_xmx"] = np.array([0.3, 0.5, 0.2, 0.9, 0.01, 0.05])
+    from tests.reduction.test_load_aware import write_synthetic_bodies
+    write_synthetic_bodies(root)
     valid = root / "load" / "valid.h5"
     assert la.main(["--scene", "thesis", "--bodies", *[str(root / "modes" / f"body{b}.h5") for b in BODIES],
                     "--reductions", *[str(root / "reduction" / f"body{b}.h5") for b in BODIES],
