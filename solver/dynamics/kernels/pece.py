@@ -1,0 +1,732 @@
+"""The exponential integrator's step loop, compiled (``solver.dynamics.exponential``).
+
+Why: the exponential Adams PECE step of ``docs/exponential.md`` (Sections 4-6) is a few
+dozen small array operations per step -- two polynomial fits, two phi-weighted advances
+of the modal state, two physical transforms and projections, the error norm, the dense
+outputs, the phase-error estimate and the step-size decisions.  As NumPy calls from a
+Python loop that cost ~0.5 ms per step on the truth model (~60 calls of ~5 us overhead
+each), more than the arithmetic.  Here the whole loop is one Numba generator,
+``pece_steps``: it runs step after step in compiled code and hands control back to
+Python only when it needs something Python owns:
+
+* ``NEED_RHS``: the right-hand side a(t, y, y') at (ev.t, ev.y, ev.yd) (the problem's,
+  possibly a wrapped or overridden one), written into ev.a; twice per step;
+* ``NEED_PROBE``, ``NEED_FREQUENCIES``, ``NEED_BASIS``: the first basis's frequency
+  sensitivity, new frequencies of the same shapes, a new basis (eigenproblem) at the
+  accepted state in ev (Sections 6); Python rewrites the basis arrays ``b`` and the phase
+  arrays of ``st`` in place, the loop then carries its history into the new basis;
+* ``OUTPUTS`` (fixed steps only): outputs st.ints[OUT_FIRST..OUT_LAST] are new (the
+  integrators' energy watch);
+* ``FAILED``: the run cannot go on (st.ints[FAILURE] says why, st.reals the numbers).
+
+Every array the loop and Python share is allocated once per run (``exponential.
+ExponentialAdams.run``) and rewritten in place: the generator holds references to them.
+The arithmetic is that of ``exponential.py``'s functions (the same formulas and order of
+operations), so a run gives the same result to rounding as the Python loop did.
+
+The containers (named tuples built in Python, each field documented in its class):
+``Basis`` b, ``WeightCache`` w, ``Settings`` cfg, ``State`` st, ``History`` hist,
+``Evaluation`` ev, ``Outputs`` out.  Shapes: n coordinates (4 joint angles first), m = n - 4
+elastic modes, K + 1 polynomial coefficients at most (K = max(order, 2): the first step's
+midpoint fit has one node more than the corrector).  Units: s, rad, the chain's units.
+"""
+
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from solver.dynamics.kernels import JIT
+from solver.dynamics.kernels.exponential import advance_diagonal, phi_table
+
+N_JOINTS = 4
+
+# requests the loop yields to Python (module docstring)
+NEED_RHS = 1
+NEED_PROBE = 2
+NEED_FREQUENCIES = 3
+NEED_BASIS = 4
+OUTPUTS = 5
+FAILED = 6
+
+# st.ints: counters and flags shared with Python
+STEPS = 0                   # accepted steps
+REJECTED = 1                # rejected step attempts
+EVALUATIONS = 2             # right-hand sides asked for
+PHASE_RELINEARISATIONS = 3  # bases asked for by the phase error (not the drift)
+PROBED = 4                  # 1 once the current basis knows its frequency sensitivity (Python sets it)
+OUT_FIRST = 5               # OUTPUTS: the first and last new output index
+OUT_LAST = 6
+FAILURE = 7                 # FAILED: one of the FAIL_* causes below
+N_INTS = 8
+# st.reals
+SMALLEST_STEP = 0           # [s]
+LARGEST_STEP = 1            # [s]
+EVENT_TIME = 2              # [s] time of a basis request or a failure
+EVENT_STEP = 3              # [s] the step h of a failure or of new outputs
+EVENT_VALUE = 4             # a failure's error estimate, or the drift [rad] of a probe / frozen basis
+ENERGY_SCALE = 5            # ErrorNorm: the largest energy norm of the solution so far
+RATE_SCALE = 6              # ErrorNorm: the largest gimbal rate so far [rad/s]
+N_REALS = 7
+# failure causes (st.ints[FAILURE]); the messages are written in exponential.py
+FAIL_STEP_TOO_SMALL = 1     # the step fell below the grid with the error above tol (t = EVENT_TIME)
+FAIL_NON_FINITE_STATE = 2   # non-finite state after a step (t = EVENT_TIME)
+FAIL_NON_FINITE_RHS = 3     # non-finite accelerations at an accepted state
+FAIL_FROZEN_DRIFT = 4       # a frozen basis beyond its validity (EVENT_VALUE: the drift)
+
+
+class Basis(NamedTuple):
+    """The current coupled modal basis (``exponential.ModalBasis``) as the loop reads it,
+    rewritten in place by Python on every new basis or frequency update.
+
+    y_ref (n,) linearisation state; X (m, m) elastic block of phi; YT (m, m) X^-1 (only when
+    some stiffness is zero, else (0, 0)) and Ky (m,) the stiffness Omega^2 [(rad/s)^2] (the
+    projection Lambda^-1 X^T K v otherwise); omega_ref (n,) [rad/s] the eigenfrequencies at
+    y_ref, omega (n,) [rad/s] the current ones (a frequency update changes them) and omega2
+    (n,) = omega^2 (Lambda); Lt (4, 4) L^-T; J (4, m) the joints' motion per modal motion;
+    Lg (4, n) L^-1 M0[:4]; rates (4, n) = phi[:4], the gimbal rows of phi.
+    The elastic oscillators: undamped bank mu, delta (m,) complex (xi = (eta' - conj(mu) eta)
+    / delta); damped (``CoupledBank``) mu (m,) and P_eta, P_vel, V_eta, V_vel (m, m) complex,
+    Ct (m, m) [1/s] the modal damping (all (0, 0) undamped).
+    version (1,) int: counted up by Python on every change (the loop then clears its weight
+    cache).
+    """
+    y_ref: np.ndarray
+    X: np.ndarray
+    YT: np.ndarray
+    Ky: np.ndarray
+    omega_ref: np.ndarray
+    omega: np.ndarray
+    omega2: np.ndarray
+    Lt: np.ndarray
+    J: np.ndarray
+    Lg: np.ndarray
+    rates: np.ndarray
+    mu: np.ndarray
+    delta: np.ndarray
+    P_eta: np.ndarray
+    P_vel: np.ndarray
+    V_eta: np.ndarray
+    V_vel: np.ndarray
+    Ct: np.ndarray
+    version: np.ndarray
+
+
+class WeightCache(NamedTuple):
+    """The variation-of-constants weights of the current basis (``exponential.StepWeights``),
+    one entry per (step length m, offset o) in grid ticks: the length H = o tick of a step of
+    m ticks (o = m: the step itself; o < m: a dense output, theta = o / m, whose powers theta^r
+    are folded into W, wpos, wvel).  keys (C, 2) int, -1 = empty; E (C, m) = e^{H mu}; W
+    (C, K + 1, m) = H r! phi_{r+1}(H mu); wpos, wvel (C, K + 1) = H^2 r!/(r+2)!, H r!/(r+1)!;
+    H (C,) [s]; used (2,) int: [entries filled, basis version they belong to]; inv_fact, fact
+    (>= series_terms + K + 3,) 1/k!, k!; z (m,) complex and phis (K + 2, m) complex scratch."""
+    keys: np.ndarray
+    E: np.ndarray
+    W: np.ndarray
+    wpos: np.ndarray
+    wvel: np.ndarray
+    H: np.ndarray
+    used: np.ndarray
+    inv_fact: np.ndarray
+    fact: np.ndarray
+    z: np.ndarray
+    phis: np.ndarray
+
+
+class Settings(NamedTuple):
+    """What does not change during a run (``exponential`` constants and options, read from the
+    module when the run starts): tol (local error per step; <= 0: fixed steps), tick [s] (the
+    step grid: dt_out / ticks_per_output), ticks_per_output, i_end (the last tick), m0 (the
+    first step in ticks), order (Adams predictor order), relinearise (bool), every_ticks
+    (fixed steps: re-linearise every this many ticks, 0: never), drift [rad] (new basis beyond
+    this gimbal drift), frozen_validity [rad], probe_drift [rad], phase_limit, update_drift
+    (a phase error at a drift <= update_drift x drift: new frequencies), update_min_modes,
+    max_rejections (in a basis that is not fresh), grow_safety, rate_floor, series_radius and
+    series_terms (``phi_functions``), watch (bool: yield OUTPUTS)."""
+    tol: float
+    tick: float
+    ticks_per_output: int
+    i_end: int
+    m0: int
+    order: int
+    relinearise: bool
+    every_ticks: int
+    drift: float
+    frozen_validity: float
+    probe_drift: float
+    phase_limit: float
+    update_drift: float
+    update_min_modes: int
+    max_rejections: int
+    grow_safety: float
+    rate_floor: float
+    series_radius: float
+    series_terms: int
+    watch: bool
+
+
+class State(NamedTuple):
+    """The loop's state that Python reads or sets: eta, etad (n,) the modal state at the start
+    (the loop keeps its own from then on); i0 (1,) int the tick it starts at; ints (N_INTS,)
+    and reals (N_REALS,) (indices above); rate_scales (4,) [rad/s] each gimbal rate's largest
+    magnitude so far (ErrorNorm); phase (m,) [rad] the accumulated phase error estimate of the
+    frozen frequencies, kappa (m,) [1/rad] their relative sensitivity to drift, phase_ref (4,)
+    [rad] the angles the phase is counted from (Python resets the three on a new basis or
+    frequency update)."""
+    eta: np.ndarray
+    etad: np.ndarray
+    i0: np.ndarray
+    ints: np.ndarray
+    reals: np.ndarray
+    rate_scales: np.ndarray
+    phase: np.ndarray
+    kappa: np.ndarray
+    phase_ref: np.ndarray
+
+
+class History(NamedTuple):
+    """The accepted nodes, newest first (row 0): t (order + 1,) [s], y, yd, a (order + 1, n) the
+    physical state and accelerations (to carry g into a new basis), g (order + 1, n) the modal
+    forcing in the current basis; length (1,) int the rows in use."""
+    t: np.ndarray
+    y: np.ndarray
+    yd: np.ndarray
+    a: np.ndarray
+    g: np.ndarray
+    length: np.ndarray
+
+
+class Evaluation(NamedTuple):
+    """The exchange with Python: t (1,) [s], y, yd (n,) the state of a request, a (n,) the
+    accelerations Python writes back (NEED_RHS)."""
+    t: np.ndarray
+    y: np.ndarray
+    yd: np.ndarray
+    a: np.ndarray
+
+
+class Outputs(NamedTuple):
+    """eta, etad (T, n) the modal outputs at the output times, segment (T,) int the basis
+    (index into the run's list of bases) each was computed in."""
+    eta: np.ndarray
+    etad: np.ndarray
+    segment: np.ndarray
+
+
+# ------------------------------------------------------------ transforms (ModalBasis)
+# The helpers take plain arrays, not the named tuples, so that ``exponential.ModalBasis`` calls
+# the same code from Python at the dispatch cost of a few arrays (~2 us; a tuple of many arrays
+# costs ~0.2 ms to dispatch, ``solver.dynamics.compiled``).
+@numba.njit(**JIT)
+def to_physical(y_ref, Lt, J, X, eta, etad, y, yd):
+    """(y, y') (n,) of a modal state (eta, eta') (n,) into y, yd: y = y_ref + phi eta,
+    y' = phi eta' with phi = [[Lt, J X], [0, X]] (``exponential.ModalBasis``): one product of
+    X (m, m) with both elastic parts, then the four joint rows."""
+    j = N_JOINTS
+    nm = eta.shape[0] - j
+    Z = np.empty((2, nm))
+    Z[0] = eta[j:]
+    Z[1] = etad[j:]
+    Q = np.dot(Z, X.T)                                     # (2, m)
+    y[j:] = Q[0]
+    yd[j:] = Q[1]
+    y[:j] = y_ref[:j] + np.dot(Lt, eta[:j]) + np.dot(J, Q[0])
+    yd[:j] = np.dot(Lt, etad[:j]) + np.dot(J, Q[1])
+
+
+@numba.njit(**JIT)
+def project(Lg, X, Ky, omega_ref, YT, v, out):
+    """out (n,) = phi^-1 v = [L^-1 M0[:4] v; Y^T v[4:]] of a physical vector v (n,): with every
+    stiffness positive (YT of size 0) Y^T v = Lambda^-1 X^T (K v), the same matrix X as
+    ``to_physical`` (Ky (m,) = Omega^2, omega_ref (n,) [rad/s]), else the stored Y^T = X^-1."""
+    j = N_JOINTS
+    out[:j] = np.dot(Lg, v)
+    if YT.shape[0] == 0:
+        out[j:] = np.dot(X.T, Ky * v[j:]) / omega_ref[j:] ** 2
+    else:
+        out[j:] = np.dot(YT, v[j:])
+
+
+@numba.njit(**JIT)
+def add_linear_terms(omega2, Ct, eta, etad, g):
+    """g += Lambda eta + Ct eta' (n,): the linear terms the modal equations' left side holds
+    (omega2 (n,) = Lambda; Ct (m, m) [1/s] the elastic modes' damping, size 0 undamped)."""
+    j = N_JOINTS
+    g += omega2 * eta
+    if Ct.shape[0]:
+        g[j:] += np.dot(Ct, etad[j:])
+
+
+@numba.njit(**JIT)
+def coupled_advance(P_eta, P_vel, V_eta, V_vel, eta, etad, coef, theta_pow, E, W, wpos, wvel, H,
+                    out_eta, out_etad):
+    """The damped bank's advance (``exponential.CoupledBank``; the undamped one is
+    ``kernels.exponential.advance_diagonal``, same arguments): xi = P+ [eta; eta'] (m,)
+    complex, xi <- E xi + sum_r W_r (P_vel theta^r c_r), (eta, eta') = 2 Re(V+ xi); the joints
+    as in ``advance_diagonal``.  P_eta, P_vel, V_eta, V_vel (m, m) complex."""
+    j = N_JOINTS
+    kk = coef.shape[0]
+    nm = eta.shape[0] - j
+    xi = E * (np.dot(P_eta, eta[j:].astype(np.complex128))
+              + np.dot(P_vel, etad[j:].astype(np.complex128)))
+    for r in range(kk):
+        xi += np.dot(P_vel, (coef[r, j:] * theta_pow[r]).astype(np.complex128)) * W[r, :nm]
+    out_eta[j:] = 2.0 * np.dot(V_eta, xi).real
+    out_etad[j:] = 2.0 * np.dot(V_vel, xi).real
+    for a in range(j):
+        p = eta[a] + H * etad[a]
+        v = etad[a]
+        for r in range(kk):
+            p += wpos[r] * (coef[r, a] * theta_pow[r])
+            v += wvel[r] * (coef[r, a] * theta_pow[r])
+        out_eta[a] = p
+        out_etad[a] = v
+
+
+@numba.njit(**JIT)
+def phase_shift(mu, delta, P_eta, P_vel, V_eta, V_vel, phase, eta_e, etad_e, d_eta, d_etad):
+    """(d_eta, d_etad) (m,): the change of the elastic state (eta_e, etad_e) (m,) when mode i's
+    complex coordinate turns by the phase phase_i [rad], xi_i -> xi_i + i phase_i xi_i: the
+    undamped bank's (P_eta of size 0) xi = (eta' - conj(mu) eta) / delta, eta = 2 Re xi,
+    eta' = 2 Re(mu xi); the damped bank's through its eigenvectors."""
+    if P_eta.shape[0]:
+        dxi = 1j * phase * (np.dot(P_eta, eta_e.astype(np.complex128))
+                            + np.dot(P_vel, etad_e.astype(np.complex128)))
+        d_eta[:] = 2.0 * np.dot(V_eta, dxi).real
+        d_etad[:] = 2.0 * np.dot(V_vel, dxi).real
+        return
+    for i in range(mu.shape[0]):
+        xi = (etad_e[i] - np.conj(mu[i]) * eta_e[i]) / delta[i]
+        dxi = 1j * phase[i] * xi
+        d_eta[i] = 2.0 * dxi.real
+        d_etad[i] = 2.0 * (mu[i] * dxi).real
+
+
+# ------------------------------------------------------------ weights (StepWeights)
+@numba.njit(**JIT)
+def fill_weights(mu, H, theta, dense, radius, terms, inv_fact, fact, z, phis, E, W, wpos, wvel):
+    """The variation-of-constants weights of one length H [s] (``exponential.StepWeights``):
+    phi_0 .. phi_{K+1} at H mu (m,) (``phi_table``; z (m,), phis (K + 2, m) complex scratch),
+    E (m,) = e^{H mu}, W (K + 1, m) = (H r!) phi_{r+1}(H mu) theta^r, and the joints'
+    wpos (K + 1,) = H H r! / (r+2)!, wvel = H r! / (r+1)! for a step (dense False, theta 1),
+    H^2 (r!/(r+2)!) theta^r and H (r!/(r+1)!) theta^r for a dense output at theta = H / h
+    (the two orders of operations of the Python weights they replace).  inv_fact, fact
+    (>= terms + K + 3,) = 1/k!, k!."""
+    K = W.shape[0] - 1
+    for i in range(mu.shape[0]):
+        z[i] = H * mu[i]
+    phi_table(z, K + 1, radius, terms, inv_fact, phis)
+    E[:] = phis[0]
+    for r in range(K + 1):
+        tp = theta ** float(r) if dense else 1.0
+        hf = H * fact[r]
+        for i in range(mu.shape[0]):
+            W[r, i] = hf * phis[r + 1, i] * tp
+        if dense:
+            wpos[r] = H ** 2 * (fact[r] / fact[r + 2]) * tp
+            wvel[r] = H * (fact[r] / fact[r + 1]) * tp
+        else:
+            wpos[r] = H * H * fact[r] / fact[r + 2]
+            wvel[r] = H * fact[r] / fact[r + 1]
+
+
+# ------------------------------------------------------------ the Adams fits
+@numba.njit(**JIT)
+def poly_coefficients(nodes, values):
+    """Monomial coefficients c (q, n) of the polynomial through (nodes[k], values[k]), nodes
+    (q,) in units of the step, values (q, n): the q x q Vandermonde matrix (q <= 7) inverted
+    by LAPACK gesv against the identity (as ``numpy.linalg.inv``), then one product."""
+    q = nodes.shape[0]
+    V = np.empty((q, q))
+    for r in range(q):
+        p = 1.0
+        for k in range(q):
+            V[r, k] = p
+            p *= nodes[r]
+    Vinv = np.linalg.solve(V, np.eye(q))
+    return np.dot(Vinv, values)
+
+
+# ------------------------------------------------------------ error measures (ErrorNorm)
+@numba.njit(**JIT)
+def energy_norm(omega2, eta, etad):
+    """sqrt(sum eta'^2 + omega^2 eta^2) of a modal state (n,) each: twice the linearised
+    kinetic plus strain energy (joints included), the local error's scale."""
+    return math.sqrt(np.dot(etad, etad) + np.dot(omega2 * eta, eta))
+
+
+@numba.njit(**JIT)
+def gimbal_rates(rates, v, out):
+    """out (4,) = rates v: the four gimbal rows of phi (4, >= k) applied to a modal vector (k,)
+    that holds the last k coordinates (k = n: the whole state; k = m: its elastic part)."""
+    off = rates.shape[1] - v.shape[0]
+    for a in range(N_JOINTS):
+        s = 0.0
+        for c in range(v.shape[0]):
+            s += rates[a, off + c] * v[c]
+        out[a] = s
+
+
+@numba.njit(**JIT)
+def local_error(omega2, rates, scales, eta_c, etad_c, eta_p, etad_p):
+    """The relative local error of a step: the larger of (i) the energy norm of corrector -
+    predictor over the largest energy norm of the solution (scales[ENERGY_SCALE], or the
+    corrector's) and (ii) the largest gimbal-rate difference (rates (4, n) = phi[:4]) over the
+    largest gimbal rate so far (scales[RATE_SCALE], or the corrector's): all four rates
+    share that scale, so a rate that stays ~0 does not demand an absolute accuracy."""
+    d_eta = eta_c - eta_p
+    d_etad = etad_c - etad_p
+    e_scale = max(scales[ENERGY_SCALE], energy_norm(omega2, eta_c, etad_c), 1e-300)
+    err = energy_norm(omega2, d_eta, d_etad) / e_scale
+    r = np.empty(N_JOINTS)
+    gimbal_rates(rates, etad_c, r)
+    r_scale = max(scales[RATE_SCALE], np.abs(r).max(), 1e-300)
+    gimbal_rates(rates, d_etad, r)
+    return max(err, np.abs(r).max() / r_scale)
+
+
+@numba.njit(**JIT)
+def accept_scales(omega2, eta, etad, yd, scales, rate_scales):
+    """The error scales grow with an accepted state (eta, eta', y') (n,): the energy norm and
+    the largest gimbal rate into scales (ENERGY_SCALE, RATE_SCALE), each gimbal rate's largest
+    magnitude into rate_scales (4,) [rad/s]."""
+    scales[ENERGY_SCALE] = max(scales[ENERGY_SCALE], energy_norm(omega2, eta, etad))
+    scales[RATE_SCALE] = max(scales[RATE_SCALE], np.abs(yd[:N_JOINTS]).max())
+    for k in range(N_JOINTS):
+        rate_scales[k] = max(rate_scales[k], abs(yd[k]))
+
+
+@numba.njit(**JIT)
+def phase_error(b, st, cfg, eta, etad, h, drift0, drift1):
+    """Add the phase every elastic mode gains in a step of h [s] while the gimbals drift from
+    drift0 to drift1 [rad] (delta omega_i = kappa_i omega_i drift, st.phase) and return the
+    error it causes: the larger of the energy norm of the state's change (``phase_shift``)
+    over the solution's and of its gimbal rates, each over that rate's own scale (the phase
+    error accumulates, and E weighs every rate against its own signal), floored at
+    rate_floor of the largest."""
+    j = N_JOINTS
+    w = b.omega[j:]
+    nm = w.shape[0]
+    st.phase[:] += st.kappa * w * 0.5 * (drift0 + drift1) * h
+    d_eta = np.empty(nm)
+    d_etad = np.empty(nm)
+    phase_shift(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, st.phase, eta[j:], etad[j:],
+                d_eta, d_etad)
+    e_scale = max(st.reals[ENERGY_SCALE], 1e-300)
+    energy = math.sqrt(np.dot(d_etad, d_etad) + np.dot((w * d_eta) ** 2, np.ones(nm)))
+    floor = cfg.rate_floor * max(st.reals[RATE_SCALE], 1e-300)
+    d_rates = np.empty(j)
+    gimbal_rates(b.rates, d_etad, d_rates)
+    rates = 0.0
+    for k in range(j):
+        rates = max(rates, abs(d_rates[k]) / max(st.rate_scales[k], floor))
+    return max(energy / e_scale, rates)
+
+
+# ------------------------------------------------------------ the basis as the loop uses it
+@numba.njit(**JIT)
+def physical(b, eta, etad, y, yd):
+    to_physical(b.y_ref, b.Lt, b.J, b.X, eta, etad, y, yd)
+
+
+@numba.njit(**JIT)
+def modal(b, y, yd, eta, etad):
+    """(eta, eta') (n,) of a physical state: phi^-1 (y - y_ref), phi^-1 y'."""
+    project(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, y - b.y_ref, eta)
+    project(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, yd, etad)
+
+
+@numba.njit(**JIT)
+def modal_forcing(b, eta, etad, a, g):
+    """g (n,) = phi^-1 a + Lambda eta + Ct eta': the modal forcing of the accelerations a (n,)
+    at the modal state (eta, eta')."""
+    project(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, a, g)
+    add_linear_terms(b.omega2, b.Ct, eta, etad, g)
+
+
+@numba.njit(**JIT)
+def advance_by(b, w, c, eta, etad, coef, out_eta, out_etad):
+    """The modal state after the length of cache entry c from (eta, eta') with the forcing
+    polynomial coef (kk, n) (theta's powers are folded into the entry's weights)."""
+    ones = np.ones(coef.shape[0])
+    if b.P_eta.shape[0]:
+        coupled_advance(b.P_eta, b.P_vel, b.V_eta, b.V_vel, eta, etad, coef, ones, w.E[c], w.W[c],
+                        w.wpos[c], w.wvel[c], w.H[c], out_eta, out_etad)
+    else:
+        advance_diagonal(eta, etad, coef, ones, w.E[c], w.W[c], w.wpos[c], w.wvel[c], b.mu,
+                         b.delta, w.H[c], out_eta, out_etad)
+
+
+@numba.njit(**JIT)
+def weights(b, w, cfg, m, offset):
+    """The index of the cache entry (``WeightCache``) of a length of ``offset`` ticks inside a
+    step of m ticks (offset = m: the step), filled on first use (``fill_weights``); a new
+    basis version empties the cache, and so does a full one (a new pattern of steps)."""
+    if w.used[1] != b.version[0]:
+        w.keys[:] = -1
+        w.used[0] = 0
+        w.used[1] = b.version[0]
+    filled = w.used[0]
+    for c in range(filled):
+        if w.keys[c, 0] == m and w.keys[c, 1] == offset:
+            return c
+    if filled == w.keys.shape[0]:
+        w.keys[:] = -1
+        filled = 0
+    c = filled
+    w.used[0] = filled + 1
+    fill_weights(b.mu, offset * cfg.tick, offset / m, offset != m, cfg.series_radius,
+                 cfg.series_terms, w.inv_fact, w.fact, w.z, w.phis, w.E[c], w.W[c], w.wpos[c],
+                 w.wvel[c])
+    w.H[c] = offset * cfg.tick
+    w.keys[c, 0] = m
+    w.keys[c, 1] = offset
+    return c
+
+
+# ------------------------------------------------------------ the history
+@numba.njit(**JIT)
+def carry_history(b, hist):
+    """g of every stored node in the current basis, from its physical a, y, y'."""
+    n = hist.y.shape[1]
+    eta = np.empty(n)
+    etad = np.empty(n)
+    for k in range(hist.length[0]):
+        modal(b, hist.y[k], hist.yd[k], eta, etad)
+        modal_forcing(b, eta, etad, hist.a[k], hist.g[k])
+
+
+@numba.njit(**JIT)
+def push_history(hist_t, hist_y, hist_yd, hist_a, hist_g, length, order, t, y, yd, a, g):
+    """Insert an accepted node (t, y, y', a, g) as row 0 of the history arrays (``History``'s
+    fields), keeping the newest order + 1; length (1,) the rows in use."""
+    keep = min(length[0] + 1, order + 1)
+    for k in range(keep - 1, 0, -1):
+        hist_t[k] = hist_t[k - 1]
+        hist_y[k] = hist_y[k - 1]
+        hist_yd[k] = hist_yd[k - 1]
+        hist_a[k] = hist_a[k - 1]
+        hist_g[k] = hist_g[k - 1]
+    hist_t[0] = t
+    hist_y[0] = y
+    hist_yd[0] = yd
+    hist_a[0] = a
+    hist_g[0] = g
+    length[0] = keep
+
+
+@numba.njit(**JIT)
+def all_finite(x):
+    for v in x.ravel():
+        if not np.isfinite(v):
+            return False
+    return True
+
+
+# ------------------------------------------------------------ the loop
+@numba.njit(**JIT)
+def pece_steps(b, w, cfg, st, hist, ev, out):
+    """The exponential Adams PECE loop from tick st.i0 to cfg.i_end (module docstring): a
+    generator of requests to Python.  The algorithm is ``docs/exponential.md`` Sections 5-6
+    (the Python loop it replaces, step by step):
+
+    * predict: p through g at the last q = min(order, nodes) nodes, the state advanced over
+      h = m tick; evaluate g there;
+    * correct: p through the predicted g at t + h and the same nodes; the first step (one node)
+      adds a midpoint evaluation and the quadratic fit (its estimate is quadratic - linear);
+    * error: ``local_error`` of corrector - predictor, accepted when <= tol; a rejection halves
+      m (and after max_rejections in an aged basis asks for a new basis);
+    * accept: evaluate at the corrected state (the node joins the history), outputs at the
+      output ticks inside the step by the exact formula (dense), drift and phase error,
+      new frequencies / new basis when due, and the step doubles after two steps when
+      err 2^(q+1) <= grow_safety tol on a tick that is a multiple of 2 m."""
+    j = N_JOINTS
+    n = st.eta.shape[0]
+    nm = n - j
+    fixed = cfg.tol <= 0.0
+    tpo = cfg.ticks_per_output
+    tick = cfg.tick
+    eta = st.eta.copy()
+    etad = st.etad.copy()
+    eta_p, etad_p = np.empty(n), np.empty(n)
+    eta_c, etad_c = np.empty(n), np.empty(n)
+    eta_q, etad_q = np.empty(n), np.empty(n)
+    g_p, g_m, g_1 = np.empty(n), np.empty(n), np.empty(n)
+    i = st.i0[0]
+    m = cfg.m0
+    basis_tick = 0
+    since_change = 0
+    drift_prev = 0.0
+    rejections = 0
+    segment = 0
+    while i < cfg.i_end:
+        while m > cfg.i_end - i:
+            m //= 2
+        h = m * tick
+        t = i * tick
+        q = min(cfg.order, hist.length[0])
+        nodes = np.empty(q + 2)                     # [1, 1/2 (first step only), history nodes]
+        for k in range(q):
+            nodes[2 + k] = (hist.t[k] - t) / h
+        G = hist.g[:q]
+        # predict, evaluate
+        c_step = weights(b, w, cfg, m, m)
+        cP = poly_coefficients(nodes[2:], G)
+        advance_by(b, w, c_step, eta, etad, cP, eta_p, etad_p)
+        physical(b, eta_p, etad_p, ev.y, ev.yd)
+        ev.t[0] = t + h
+        st.ints[EVALUATIONS] += 1
+        yield NEED_RHS
+        modal_forcing(b, eta_p, etad_p, ev.a, g_p)
+        # correct
+        nodes[1] = 1.0
+        values = np.empty((q + 1, n))
+        values[0] = g_p
+        values[1:] = G
+        cC = poly_coefficients(nodes[1:], values)
+        c_step = weights(b, w, cfg, m, m)
+        advance_by(b, w, c_step, eta, etad, cC, eta_c, etad_c)
+        finite = all_finite(g_p) and all_finite(eta_c) and all_finite(etad_c)
+        err = local_error(b.omega2, b.rates, st.reals, eta_c, etad_c, eta_p, etad_p) if finite else np.inf
+        if finite and not fixed and q == 1 and m >= 2:
+            # The first step has one node: its predictor holds g(0), so from rest under a
+            # forcing that starts at zero (scene smooth) the predictor is exactly the rest
+            # state and the estimate is 100 % at every step size.  Instead: one more
+            # evaluation at the midpoint, the quadratic through g(0), g(h/2), g(h), and the
+            # difference quadratic - linear as the estimate (the higher order is kept).
+            c_mid = weights(b, w, cfg, m, m // 2)
+            advance_by(b, w, c_mid, eta, etad, cC, eta_q, etad_q)
+            physical(b, eta_q, etad_q, ev.y, ev.yd)
+            ev.t[0] = t + 0.5 * h
+            st.ints[EVALUATIONS] += 1
+            yield NEED_RHS
+            modal_forcing(b, eta_q, etad_q, ev.a, g_m)
+            nodes[0], nodes[1] = 1.0, 0.5
+            values_q = np.empty((q + 2, n))
+            values_q[0] = g_p
+            values_q[1] = g_m
+            values_q[2:] = G
+            cQ = poly_coefficients(nodes, values_q)
+            c_step = weights(b, w, cfg, m, m)
+            advance_by(b, w, c_step, eta, etad, cQ, eta_q, etad_q)
+            finite = all_finite(eta_q) and all_finite(etad_q)
+            err = local_error(b.omega2, b.rates, st.reals, eta_q, etad_q, eta_c, etad_c) if finite else np.inf
+            cC = cQ
+            eta_c[:] = eta_q
+            etad_c[:] = etad_q
+        if not fixed and not err <= cfg.tol:
+            st.ints[REJECTED] += 1
+            rejections += 1
+            if cfg.relinearise and i > basis_tick and rejections > cfg.max_rejections:
+                # a new basis at the last accepted state; the step is retried in it
+                physical(b, eta, etad, ev.y, ev.yd)
+                ev.t[0] = t
+                yield NEED_BASIS
+                carry_history(b, hist)
+                segment += 1
+                rejections = 0
+                modal(b, hist.y[0], hist.yd[0], eta, etad)
+                basis_tick = i
+                drift_prev = 0.0
+                continue
+            if m == 1:
+                st.ints[FAILURE] = FAIL_STEP_TOO_SMALL
+                st.reals[EVENT_TIME], st.reals[EVENT_STEP], st.reals[EVENT_VALUE] = t, h, err
+                yield FAILED
+                return
+            m //= 2
+            since_change = 0
+            continue
+        if not finite:
+            st.ints[FAILURE] = FAIL_NON_FINITE_STATE
+            st.reals[EVENT_TIME] = t + h
+            yield FAILED
+            return
+        # accept: evaluate at the corrected state, store the outputs
+        physical(b, eta_c, etad_c, ev.y, ev.yd)
+        ev.t[0] = t + h
+        st.ints[EVALUATIONS] += 1
+        yield NEED_RHS
+        modal_forcing(b, eta_c, etad_c, ev.a, g_1)
+        if not all_finite(g_1):
+            st.ints[FAILURE] = FAIL_NON_FINITE_RHS
+            st.reals[EVENT_TIME] = t + h
+            yield FAILED
+            return
+        first = i // tpo + 1
+        last = (i + m) // tpo
+        for k in range(first, last + 1):
+            offset = k * tpo - i
+            if offset < m:
+                c_out = weights(b, w, cfg, m, offset)
+                advance_by(b, w, c_out, eta, etad, cC, out.eta[k], out.etad[k])
+            else:
+                out.eta[k] = eta_c
+                out.etad[k] = etad_c
+            out.segment[k] = segment
+        push_history(hist.t, hist.y, hist.yd, hist.a, hist.g, hist.length, cfg.order, t + h,
+                     ev.y, ev.yd, ev.a, g_1)
+        if cfg.watch and last >= first:
+            st.ints[OUT_FIRST], st.ints[OUT_LAST] = first, last
+            st.reals[EVENT_STEP] = h
+            yield OUTPUTS
+        eta[:] = eta_c
+        etad[:] = etad_c
+        accept_scales(b.omega2, eta, etad, hist.yd[0], st.reals, st.rate_scales)
+        st.ints[STEPS] += 1
+        st.reals[SMALLEST_STEP] = min(st.reals[SMALLEST_STEP], h)
+        st.reals[LARGEST_STEP] = max(st.reals[LARGEST_STEP], h)
+        i += m
+        since_change += 1
+        y1 = hist.y[0]
+        drift = 0.0
+        pdrift = 0.0
+        for k in range(j):
+            drift = max(drift, abs(y1[k] - b.y_ref[k]))
+            pdrift = max(pdrift, abs(y1[k] - st.phase_ref[k]))
+        phase_err = 0.0
+        if not fixed and cfg.relinearise and nm > 0:
+            if not st.ints[PROBED] and drift >= cfg.probe_drift:
+                ev.y[:] = y1
+                ev.t[0] = t + h
+                st.reals[EVENT_VALUE] = drift
+                yield NEED_PROBE
+            phase_err = phase_error(b, st, cfg, eta, etad, h, drift_prev, pdrift)
+        drift_prev = pdrift
+        if i < cfg.i_end:
+            if fixed:
+                due = cfg.every_ticks > 0 and i - basis_tick >= cfg.every_ticks
+            else:
+                due = cfg.relinearise and (drift > cfg.drift or phase_err > cfg.phase_limit * cfg.tol)
+                if due and drift <= cfg.drift:
+                    if (drift <= cfg.update_drift * cfg.drift and b.P_eta.shape[0] == 0
+                            and nm >= cfg.update_min_modes):
+                        ev.y[:] = y1
+                        ev.t[0] = t + h
+                        yield NEED_FREQUENCIES
+                        carry_history(b, hist)
+                        drift_prev = 0.0
+                        due = False
+                    else:
+                        st.ints[PHASE_RELINEARISATIONS] += 1
+            if due:
+                physical(b, eta, etad, ev.y, ev.yd)
+                ev.t[0] = t + h
+                yield NEED_BASIS
+                carry_history(b, hist)
+                segment += 1
+                rejections = 0
+                modal(b, hist.y[0], hist.yd[0], eta, etad)
+                basis_tick = i
+                drift_prev = 0.0
+            elif drift > cfg.frozen_validity and (not cfg.relinearise or fixed):
+                st.ints[FAILURE] = FAIL_FROZEN_DRIFT
+                st.reals[EVENT_TIME], st.reals[EVENT_VALUE] = t + h, drift
+                yield FAILED
+                return
+        # grow the step (dyadic, aligned, after >= 2 steps at this size)
+        if not fixed and since_change >= 2 and err * 2.0 ** (q + 1) <= cfg.grow_safety * cfg.tol \
+                and i % (2 * m) == 0:
+            m *= 2
+            since_change = 0
