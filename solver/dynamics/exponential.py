@@ -492,12 +492,11 @@ class ExponentialAdams:
     [s]); relinearise=False freezes the first basis (then refused beyond
     FROZEN_VALIDITY rad of drift).
 
-    The step loop is compiled (``kernels.pece.pece_steps``, a generator); this class owns
-    what it asks for: the right-hand side, the bases (eigenproblems), the frequency probe and
-    updates, the outputs' physical states for ``on_outputs`` and the error messages.  The
-    loop and this class share arrays allocated once per run (``_allocate``): the loop holds
-    references to them, so a new basis is copied into them (``_load_basis``), never
-    rebound."""
+    The step loop is compiled (``kernels.pece.pece_run``, called until it is done); this class
+    owns what it asks for: the right-hand side, the bases (eigenproblems), the frequency probe
+    and updates, the outputs' physical states for ``on_outputs`` and the error messages.  The
+    loop and this class share arrays allocated once per run (``_allocate``) and passed on every
+    call, so a new basis is copied into them (``_load_basis``), never rebound."""
 
     def __init__(self, problem, tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
                  drift=DEFAULT_DRIFT, relinearise=True, model=""):
@@ -536,10 +535,10 @@ class ExponentialAdams:
             fact=_FACTORIALS, z=np.zeros(m, complex), phis=np.zeros((K + 2, m), complex))
         reals = np.zeros(pece.N_REALS)
         reals[pece.SMALLEST_STEP] = np.inf
-        self.kst = pece.State(
-            eta=np.zeros(n), etad=np.zeros(n), i0=np.zeros(1, dtype=np.int64),
-            ints=np.zeros(pece.N_INTS, dtype=np.int64), reals=reals, rate_scales=np.zeros(j),
-            phase=np.zeros(m), kappa=np.zeros(m), phase_ref=np.zeros(j))
+        self.kst = pece.State(ints=np.zeros(pece.N_INTS, dtype=np.int64), reals=reals,
+                              rate_scales=np.zeros(j), phase=np.zeros(m), kappa=np.zeros(m),
+                              phase_ref=np.zeros(j))
+        self.work = pece.Work(*(np.zeros(n) for _ in range(11)), coef=np.zeros((K + 2, n)))
         H = self.order + 1
         self.hist = pece.History(t=np.zeros(H), y=np.zeros((H, n)), yd=np.zeros((H, n)),
                                  a=np.zeros((H, n)), g=np.zeros((H, n)),
@@ -660,9 +659,10 @@ class ExponentialAdams:
         i = 0
         if fixed and self.order > 1 and self.order * m <= i_end:
             i, eta, etad = self._block_start(eta, etad, m, tick, tpo)
-        st.eta[:], st.etad[:], st.i0[0] = eta, etad, i
+        self.work.eta[:], self.work.etad[:] = eta, etad
+        st.ints[pece.STAGE], st.ints[pece.TICK], st.ints[pece.STEP_TICKS] = pece.STEP, i, m
         settings = pece.Settings(
-            tol=0.0 if fixed else float(self.tol), tick=tick, ticks_per_output=tpo, i_end=i_end, m0=m,
+            tol=0.0 if fixed else float(self.tol), tick=tick, ticks_per_output=tpo, i_end=i_end,
             order=self.order, relinearise=self.relinearise,
             every_ticks=0 if self.every is None else max(int(round(self.every / tick)), 1),
             drift=self.drift, frozen_validity=FROZEN_VALIDITY, probe_drift=PROBE_DRIFT,
@@ -670,14 +670,18 @@ class ExponentialAdams:
             update_min_modes=FREQUENCY_UPDATE_MIN_MODES, max_rejections=MAX_REJECTIONS_IN_BASIS,
             grow_safety=GROW_SAFETY, rate_floor=RATE_FLOOR, series_radius=SERIES_RADIUS,
             series_terms=SERIES_TERMS, watch=on_outputs is not None)
-        self._drive(pece.pece_steps(self.kb, self.kw, settings, st, self.hist, self.ev,
-                                    pece.Outputs(self.out_eta, self.out_etad, self.out_segment)))
+        outputs = pece.Outputs(self.out_eta, self.out_etad, self.out_segment)
+        self._drive((*self.kb, *self.kw, *settings, *st, *self.hist, *self.ev, *outputs, *self.work))
         return self._result()
 
-    def _drive(self, loop):
-        """Answer the compiled loop's requests (``kernels.pece``) until it ends."""
+    def _drive(self, arguments):
+        """Call the compiled loop (``kernels.pece.pece_run(*arguments)``) and answer its
+        requests until it is done."""
         ev, st, rhs = self.ev, self.kst, self.problem.rhs
-        for request in loop:
+        while True:
+            request = pece.pece_run(*arguments)
+            if request == pece.DONE:
+                break
             if request == pece.NEED_RHS:
                 ev.a[:] = rhs(ev.t[0], ev.y, ev.yd)
             elif request == pece.NEED_PROBE:

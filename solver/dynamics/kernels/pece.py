@@ -4,29 +4,39 @@ Why: the exponential Adams PECE step of ``docs/exponential.md`` (Sections 4-6) i
 dozen small array operations per step -- two polynomial fits, two phi-weighted advances
 of the modal state, two physical transforms and projections, the error norm, the dense
 outputs, the phase-error estimate and the step-size decisions.  As NumPy calls from a
-Python loop that cost ~0.5 ms per step on the truth model (~60 calls of ~5 us overhead
-each), more than the arithmetic.  Here the whole loop is one Numba generator,
-``pece_steps``: it runs step after step in compiled code and hands control back to
-Python only when it needs something Python owns:
+Python loop that cost ~0.3 ms per step on the truth model (~60 calls of ~5 us overhead
+each) besides the arithmetic.  Here the whole loop is one compiled function, ``pece_run``.
+It returns to Python only with a request for something Python owns, and is called again to
+go on from where it stopped (st.ints[STAGE]):
 
-* ``NEED_RHS``: the right-hand side a(t, y, y') at (ev.t, ev.y, ev.yd) (the problem's,
-  possibly a wrapped or overridden one), written into ev.a; twice per step;
+* ``NEED_RHS``: the right-hand side a(t, y, y') at (ev.t, ev.y, ev.yd), written into ev.a by
+  Python (the problem's own, compiled or not, wrapped or overridden: the loop never needs to
+  know which); twice per step;
 * ``NEED_PROBE``, ``NEED_FREQUENCIES``, ``NEED_BASIS``: the first basis's frequency
   sensitivity, new frequencies of the same shapes, a new basis (eigenproblem) at the
-  accepted state in ev (Sections 6); Python rewrites the basis arrays ``b`` and the phase
+  accepted state in ev (Section 6); Python rewrites the basis arrays ``b`` and the phase
   arrays of ``st`` in place, the loop then carries its history into the new basis;
 * ``OUTPUTS`` (fixed steps only): outputs st.ints[OUT_FIRST..OUT_LAST] are new (the
   integrators' energy watch);
-* ``FAILED``: the run cannot go on (st.ints[FAILURE] says why, st.reals the numbers).
+* ``FAILED``: the run cannot go on (st.ints[FAILURE] says why, st.reals the numbers);
+* ``DONE``: the last output is reached.
+
+Why a function called again and not a Numba generator that yields the requests: the
+generator was the same code, but LLVM took ~460 s to optimise it against ~50 s for this
+plain function (measured on the loaded 2-core machine; 20 s with NUMBA_OPT=0).  Why the
+right-hand side is not evaluated in here (for the compiled one): it saved ~7 us per
+evaluation (1 ms of a thesis truth run) but the recursion, linked into this function,
+doubled its compile time (~50 s more).
 
 Every array the loop and Python share is allocated once per run (``exponential.
-ExponentialAdams.run``) and rewritten in place: the generator holds references to them.
-The arithmetic is that of ``exponential.py``'s functions (the same formulas and order of
-operations), so a run gives the same result to rounding as the Python loop did.
+ExponentialAdams``) and rewritten in place.  The arithmetic is that of the Python loop it
+replaced (the same formulas and order of operations): the runs measured gave the same
+steps and bitwise the same outputs (undamped; the damped bank's sums are ordered
+differently, outputs within 2e-10 relative, E unchanged).
 
-The containers (named tuples built in Python, each field documented in its class):
-``Basis`` b, ``WeightCache`` w, ``Settings`` cfg, ``State`` st, ``History`` hist,
-``Evaluation`` ev, ``Outputs`` out.  Shapes: n coordinates (4 joint angles first), m = n - 4
+The containers (named tuples, each field documented in its class): ``Basis`` b,
+``WeightCache`` w, ``Settings`` cfg, ``State`` st, ``History`` hist, ``Evaluation`` ev,
+``Outputs`` out, ``Work`` work.  Shapes: n coordinates (4 joint angles first), m = n - 4
 elastic modes, K + 1 polynomial coefficients at most (K = max(order, 2): the first step's
 midpoint fit has one node more than the corrector).  Units: s, rad, the chain's units.
 """
@@ -42,7 +52,8 @@ from solver.dynamics.kernels.exponential import advance_diagonal, phi_table
 
 N_JOINTS = 4
 
-# requests the loop yields to Python (module docstring)
+# what pece_run returns: a request to Python, or DONE (module docstring)
+DONE = 0
 NEED_RHS = 1
 NEED_PROBE = 2
 NEED_FREQUENCIES = 3
@@ -50,25 +61,51 @@ NEED_BASIS = 4
 OUTPUTS = 5
 FAILED = 6
 
-# st.ints: counters and flags shared with Python
-STEPS = 0                   # accepted steps
-REJECTED = 1                # rejected step attempts
-EVALUATIONS = 2             # right-hand sides asked for
-PHASE_RELINEARISATIONS = 3  # bases asked for by the phase error (not the drift)
-PROBED = 4                  # 1 once the current basis knows its frequency sensitivity (Python sets it)
-OUT_FIRST = 5               # OUTPUTS: the first and last new output index
-OUT_LAST = 6
-FAILURE = 7                 # FAILED: one of the FAIL_* causes below
-N_INTS = 8
+# where pece_run goes on when called again (st.ints[STAGE]); the step's order of work
+STEP = 0            # a step attempt starts: predict, ask for g at the predicted state
+PREDICTED = 1       # the predicted state's g is there: correct, estimate the error
+MIDPOINT = 2        # the first step's midpoint g is there: the quadratic fit
+DECIDE = 3          # accept or reject (after PREDICTED or MIDPOINT, without a request)
+ACCEPTED = 4        # g at the accepted state is there: outputs, history, drift
+PHASE = 5           # (after the OUTPUTS request) the first basis's frequency probe if due
+PHASE_ERROR = 6     # the phase error and what it asks for: new frequencies or a new basis
+UPDATED = 7         # new frequencies are there: carry the history
+REBASED = 8         # a new basis after an accepted step: carry the history, state in it
+RETRY = 9           # a new basis after repeated rejections: the same, then the step again
+GROW = 10           # double the step if the error allows
+
+# st.ints: the loop's integers between calls, counters and flags shared with Python
+STAGE = 0                   # where to go on (above)
+TICK = 1                    # i: the grid tick of the current state
+STEP_TICKS = 2              # m: the step in ticks
+SINCE_CHANGE = 3            # accepted steps since the step last changed
+BASIS_TICK = 4              # the tick of the current basis
+REJECTIONS_IN_BASIS = 5
+SEGMENT = 6                 # the current basis's index in the run's list of bases
+NODES = 7                   # q: history nodes of the current step's fits
+COEF_ROWS = 8               # rows of work.coef in use (the corrector's polynomial)
+STEPS = 9                   # accepted steps
+REJECTED = 10               # rejected step attempts
+EVALUATIONS = 11            # right-hand sides evaluated
+PHASE_RELINEARISATIONS = 12  # bases asked for by the phase error (not the drift)
+PROBED = 13                 # 1 once the current basis knows its frequency sensitivity (Python sets it)
+OUT_FIRST = 14              # OUTPUTS: the first and last new output index
+OUT_LAST = 15
+FAILURE = 16                # FAILED: one of the FAIL_* causes below
+N_INTS = 17
 # st.reals
 SMALLEST_STEP = 0           # [s]
 LARGEST_STEP = 1            # [s]
 EVENT_TIME = 2              # [s] time of a basis request or a failure
 EVENT_STEP = 3              # [s] the step h of a failure or of new outputs
 EVENT_VALUE = 4             # a failure's error estimate, or the drift [rad] of a probe / frozen basis
-ENERGY_SCALE = 5            # ErrorNorm: the largest energy norm of the solution so far
-RATE_SCALE = 6              # ErrorNorm: the largest gimbal rate so far [rad/s]
-N_REALS = 7
+ENERGY_SCALE = 5            # the error norm's scales: the largest energy norm of the solution so far
+RATE_SCALE = 6              # ... and the largest gimbal rate so far [rad/s]
+ERROR = 7                   # the current step's local error estimate
+DRIFT = 8                   # [rad] the accepted state's gimbal drift from the basis's angles
+PHASE_DRIFT = 9             # [rad] ... from the angles the phase is counted from
+DRIFT_PREVIOUS = 10         # [rad] PHASE_DRIFT of the previous step (0 after a basis change)
+N_REALS = 11
 # failure causes (st.ints[FAILURE]); the messages are written in exponential.py
 FAIL_STEP_TOO_SMALL = 1     # the step fell below the grid with the error above tol (t = EVENT_TIME)
 FAIL_NON_FINITE_STATE = 2   # non-finite state after a step (t = EVENT_TIME)
@@ -137,18 +174,18 @@ class WeightCache(NamedTuple):
 class Settings(NamedTuple):
     """What does not change during a run (``exponential`` constants and options, read from the
     module when the run starts): tol (local error per step; <= 0: fixed steps), tick [s] (the
-    step grid: dt_out / ticks_per_output), ticks_per_output, i_end (the last tick), m0 (the
-    first step in ticks), order (Adams predictor order), relinearise (bool), every_ticks
+    step grid: dt_out / ticks_per_output), ticks_per_output, i_end (the last tick), order (Adams
+    predictor order), relinearise (bool), every_ticks
     (fixed steps: re-linearise every this many ticks, 0: never), drift [rad] (new basis beyond
     this gimbal drift), frozen_validity [rad], probe_drift [rad], phase_limit, update_drift
     (a phase error at a drift <= update_drift x drift: new frequencies), update_min_modes,
     max_rejections (in a basis that is not fresh), grow_safety, rate_floor, series_radius and
-    series_terms (``phi_functions``), watch (bool: yield OUTPUTS)."""
+    series_terms (``phi_functions``), watch (bool: return OUTPUTS).  The first step and the tick the run starts at are
+    st.ints[STEP_TICKS], st.ints[TICK], set by Python."""
     tol: float
     tick: float
     ticks_per_output: int
     i_end: int
-    m0: int
     order: int
     relinearise: bool
     every_ticks: int
@@ -167,22 +204,38 @@ class Settings(NamedTuple):
 
 
 class State(NamedTuple):
-    """The loop's state that Python reads or sets: eta, etad (n,) the modal state at the start
-    (the loop keeps its own from then on); i0 (1,) int the tick it starts at; ints (N_INTS,)
-    and reals (N_REALS,) (indices above); rate_scales (4,) [rad/s] each gimbal rate's largest
-    magnitude so far (ErrorNorm); phase (m,) [rad] the accumulated phase error estimate of the
+    """The loop's state between calls and what Python reads or sets: ints (N_INTS,) and reals
+    (N_REALS,) (indices above); rate_scales (4,) [rad/s] each gimbal rate's largest magnitude
+    so far (the error norm's); phase (m,) [rad] the accumulated phase error estimate of the
     frozen frequencies, kappa (m,) [1/rad] their relative sensitivity to drift, phase_ref (4,)
-    [rad] the angles the phase is counted from (Python resets the three on a new basis or
+    [rad] the angles the phase is counted from (Python resets the three on a new basis or a
     frequency update)."""
-    eta: np.ndarray
-    etad: np.ndarray
-    i0: np.ndarray
     ints: np.ndarray
     reals: np.ndarray
     rate_scales: np.ndarray
     phase: np.ndarray
     kappa: np.ndarray
     phase_ref: np.ndarray
+
+
+class Work(NamedTuple):
+    """The step's modal vectors (n,) each, kept between calls: eta, etad the current state (set
+    by Python at the start), eta_p, etad_p the predicted, eta_c, etad_c the corrected, eta_q,
+    etad_q the first step's midpoint and quadratic states; g_p, g_m, g_1 the modal forcing at
+    the predicted state, the midpoint and the accepted state; coef (K + 2, n) the corrector's
+    polynomial (st.ints[COEF_ROWS] rows), which the dense outputs reuse."""
+    eta: np.ndarray
+    etad: np.ndarray
+    eta_p: np.ndarray
+    etad_p: np.ndarray
+    eta_c: np.ndarray
+    etad_c: np.ndarray
+    eta_q: np.ndarray
+    etad_q: np.ndarray
+    g_p: np.ndarray
+    g_m: np.ndarray
+    g_1: np.ndarray
+    coef: np.ndarray
 
 
 class History(NamedTuple):
@@ -425,76 +478,78 @@ def phase_error(b, st, cfg, eta, etad, h, drift0, drift1):
 
 
 # ------------------------------------------------------------ the basis as the loop uses it
+# (arrays one by one, not the named tuples: every call passes only what it reads.  With the
+# tuples passed whole, the loop took 2-3x longer to compile.)
 @numba.njit(**JIT)
-def physical(b, eta, etad, y, yd):
-    to_physical(b.y_ref, b.Lt, b.J, b.X, eta, etad, y, yd)
-
-
-@numba.njit(**JIT)
-def modal(b, y, yd, eta, etad):
-    """(eta, eta') (n,) of a physical state: phi^-1 (y - y_ref), phi^-1 y'."""
-    project(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, y - b.y_ref, eta)
-    project(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, yd, etad)
+def to_modal(y_ref, Lg, X, Ky, omega_ref, YT, y, yd, eta, etad):
+    """(eta, eta') (n,) of a physical state (y, y') (n,): phi^-1 (y - y_ref), phi^-1 y'
+    (``project``'s arrays)."""
+    project(Lg, X, Ky, omega_ref, YT, y - y_ref, eta)
+    project(Lg, X, Ky, omega_ref, YT, yd, etad)
 
 
 @numba.njit(**JIT)
-def modal_forcing(b, eta, etad, a, g):
+def modal_forcing(Lg, X, Ky, omega_ref, YT, omega2, Ct, eta, etad, a, g):
     """g (n,) = phi^-1 a + Lambda eta + Ct eta': the modal forcing of the accelerations a (n,)
-    at the modal state (eta, eta')."""
-    project(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, a, g)
-    add_linear_terms(b.omega2, b.Ct, eta, etad, g)
+    at the modal state (eta, eta') (``project``'s and ``add_linear_terms``' arrays)."""
+    project(Lg, X, Ky, omega_ref, YT, a, g)
+    add_linear_terms(omega2, Ct, eta, etad, g)
 
 
 @numba.njit(**JIT)
-def advance_by(b, w, c, eta, etad, coef, out_eta, out_etad):
-    """The modal state after the length of cache entry c from (eta, eta') with the forcing
-    polynomial coef (kk, n) (theta's powers are folded into the entry's weights)."""
+def advance_bank(mu, delta, P_eta, P_vel, V_eta, V_vel, E, W, wpos, wvel, H, eta, etad, coef,
+                 out_eta, out_etad):
+    """The modal state after a length H [s] from (eta, eta') with the forcing polynomial coef
+    (kk, n), weights (E, W, wpos, wvel) of that length with theta's powers folded in: the
+    undamped bank (P_eta of size 0; mu, delta) or the damped one (P+, V+)."""
     ones = np.ones(coef.shape[0])
-    if b.P_eta.shape[0]:
-        coupled_advance(b.P_eta, b.P_vel, b.V_eta, b.V_vel, eta, etad, coef, ones, w.E[c], w.W[c],
-                        w.wpos[c], w.wvel[c], w.H[c], out_eta, out_etad)
+    if P_eta.shape[0]:
+        coupled_advance(P_eta, P_vel, V_eta, V_vel, eta, etad, coef, ones, E, W, wpos, wvel, H,
+                        out_eta, out_etad)
     else:
-        advance_diagonal(eta, etad, coef, ones, w.E[c], w.W[c], w.wpos[c], w.wvel[c], b.mu,
-                         b.delta, w.H[c], out_eta, out_etad)
+        advance_diagonal(eta, etad, coef, ones, E, W, wpos, wvel, mu, delta, H, out_eta, out_etad)
 
 
 @numba.njit(**JIT)
-def weights(b, w, cfg, m, offset):
-    """The index of the cache entry (``WeightCache``) of a length of ``offset`` ticks inside a
-    step of m ticks (offset = m: the step), filled on first use (``fill_weights``); a new
-    basis version empties the cache, and so does a full one (a new pattern of steps)."""
-    if w.used[1] != b.version[0]:
-        w.keys[:] = -1
-        w.used[0] = 0
-        w.used[1] = b.version[0]
-    filled = w.used[0]
+def weights(keys, used, E, W, wpos, wvel, H, inv_fact, fact, z, phis, mu, version, tick, radius,
+            terms, m, offset):
+    """The index of the cache entry (``WeightCache``'s arrays) of a length of ``offset`` ticks
+    (tick [s]) inside a step of m ticks (offset = m: the step), filled on first use
+    (``fill_weights``, the bank's eigenvalues mu); the basis version ``version`` differing
+    from the cache's empties it, and so does a full cache (a new pattern of steps)."""
+    if used[1] != version:
+        keys[:] = -1
+        used[0] = 0
+        used[1] = version
+    filled = used[0]
     for c in range(filled):
-        if w.keys[c, 0] == m and w.keys[c, 1] == offset:
+        if keys[c, 0] == m and keys[c, 1] == offset:
             return c
-    if filled == w.keys.shape[0]:
-        w.keys[:] = -1
+    if filled == keys.shape[0]:
+        keys[:] = -1
         filled = 0
     c = filled
-    w.used[0] = filled + 1
-    fill_weights(b.mu, offset * cfg.tick, offset / m, offset != m, cfg.series_radius,
-                 cfg.series_terms, w.inv_fact, w.fact, w.z, w.phis, w.E[c], w.W[c], w.wpos[c],
-                 w.wvel[c])
-    w.H[c] = offset * cfg.tick
-    w.keys[c, 0] = m
-    w.keys[c, 1] = offset
+    used[0] = filled + 1
+    fill_weights(mu, offset * tick, offset / m, offset != m, radius, terms, inv_fact, fact, z, phis,
+                 E[c], W[c], wpos[c], wvel[c])
+    H[c] = offset * tick
+    keys[c, 0] = m
+    keys[c, 1] = offset
     return c
 
 
 # ------------------------------------------------------------ the history
 @numba.njit(**JIT)
-def carry_history(b, hist):
-    """g of every stored node in the current basis, from its physical a, y, y'."""
-    n = hist.y.shape[1]
+def carry_history(y_ref, Lg, X, Ky, omega_ref, YT, omega2, Ct, hist_y, hist_yd, hist_a, hist_g,
+                  length):
+    """g of the first ``length`` stored nodes (``History``'s arrays) in the current basis, from
+    their physical a, y, y'."""
+    n = hist_y.shape[1]
     eta = np.empty(n)
     etad = np.empty(n)
-    for k in range(hist.length[0]):
-        modal(b, hist.y[k], hist.yd[k], eta, etad)
-        modal_forcing(b, eta, etad, hist.a[k], hist.g[k])
+    for k in range(length):
+        to_modal(y_ref, Lg, X, Ky, omega_ref, YT, hist_y[k], hist_yd[k], eta, etad)
+        modal_forcing(Lg, X, Ky, omega_ref, YT, omega2, Ct, eta, etad, hist_a[k], hist_g[k])
 
 
 @numba.njit(**JIT)
@@ -526,207 +581,282 @@ def all_finite(x):
 
 # ------------------------------------------------------------ the loop
 @numba.njit(**JIT)
-def pece_steps(b, w, cfg, st, hist, ev, out):
-    """The exponential Adams PECE loop from tick st.i0 to cfg.i_end (module docstring): a
-    generator of requests to Python.  The algorithm is ``docs/exponential.md`` Sections 5-6
-    (the Python loop it replaces, step by step):
+def history_nodes(hist, q, t, h, lead):
+    """(lead + q,) nodes in units of the step h from t: lead free places (the corrector's
+    1, the midpoint fit's 1 and 1/2), then (t_k - t) / h of the q newest history nodes."""
+    nodes = np.empty(lead + q)
+    for k in range(q):
+        nodes[lead + k] = (hist.t[k] - t) / h
+    return nodes
 
-    * predict: p through g at the last q = min(order, nodes) nodes, the state advanced over
-      h = m tick; evaluate g there;
-    * correct: p through the predicted g at t + h and the same nodes; the first step (one node)
-      adds a midpoint evaluation and the quadratic fit (its estimate is quadratic - linear);
-    * error: ``local_error`` of corrector - predictor, accepted when <= tol; a rejection halves
-      m (and after max_rejections in an aged basis asks for a new basis);
-    * accept: evaluate at the corrected state (the node joins the history), outputs at the
-      output ticks inside the step by the exact formula (dense), drift and phase error,
-      new frequencies / new basis when due, and the step doubles after two steps when
-      err 2^(q+1) <= grow_safety tol on a tick that is a multiple of 2 m."""
+
+@numba.njit(**JIT)
+def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J, b_Lg, b_rates,
+             b_mu, b_delta, b_P_eta, b_P_vel, b_V_eta, b_V_vel, b_Ct, b_version, w_keys, w_E, w_W,
+             w_wpos, w_wvel, w_H, w_used, w_inv_fact, w_fact, w_z, w_phis, cfg_tol, cfg_tick,
+             cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise, cfg_every_ticks,
+             cfg_drift, cfg_frozen_validity, cfg_probe_drift, cfg_phase_limit, cfg_update_drift,
+             cfg_update_min_modes, cfg_max_rejections, cfg_grow_safety, cfg_rate_floor,
+             cfg_series_radius, cfg_series_terms, cfg_watch, st_ints,
+             st_reals, st_rate_scales, st_phase, st_kappa, st_phase_ref, hist_t, hist_y, hist_yd,
+             hist_a, hist_g, hist_length, ev_t, ev_y, ev_yd, ev_a, out_eta, out_etad, out_segment,
+             work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
+             work_etad_q, work_g_p, work_g_m, work_g_1, work_coef):
+    """The exponential Adams PECE loop from where it stopped (st.ints[STAGE]) to the next
+    request or to the end (module docstring); returns DONE or the request.
+
+    Arguments: the fields of the eight containers in order,
+    ``pece_run(*b, *w, *cfg, *st, *hist, *ev, *out, *work)``.
+    The containers are built here: handing Numba's dispatcher named tuples of many arrays
+    costs ~0.3 ms per call (``solver.dynamics.compiled``), the arrays one by one a few us; and
+    the loop is this function's body, not a second function, because LLVM's optimisation of
+    the one inlined into the other took ~90 s more to compile.
+
+    The algorithm is ``docs/exponential.md`` Sections 5-6, stage by stage:
+
+    * STEP, predict: p through g at the last q = min(order, nodes) history nodes, the state
+      advanced over h = m tick; g at the predicted state;
+    * PREDICTED, correct: p through the predicted g at t + h and the same nodes, the local
+      error of corrector - predictor; the first step (one node) adds a midpoint evaluation
+      (MIDPOINT) and the quadratic fit, its estimate quadratic - linear;
+    * DECIDE: accepted when the error is <= tol (g at the accepted state, ACCEPTED); a
+      rejection halves m and, after max_rejections in an aged basis, asks for a new basis
+      (RETRY);
+    * ACCEPTED: the outputs at the output ticks inside the step by the exact formula (dense),
+      the node joins the history, the gimbal drift; PHASE: the first basis's frequency
+      probe once it has drifted probe_drift; PHASE_ERROR: the phase error, new frequencies
+      (UPDATED) or a new basis (REBASED) when due;
+    * GROW: the step doubles after two accepted steps when err 2^(q+1) <= grow_safety tol on
+      a tick that is a multiple of 2 m."""
+    b = Basis(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J, b_Lg, b_rates,
+              b_mu, b_delta, b_P_eta, b_P_vel, b_V_eta, b_V_vel, b_Ct, b_version)
+    w = WeightCache(w_keys, w_E, w_W, w_wpos, w_wvel, w_H, w_used, w_inv_fact, w_fact, w_z,
+                    w_phis)
+    cfg = Settings(cfg_tol, cfg_tick, cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise,
+                   cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift,
+                   cfg_phase_limit, cfg_update_drift, cfg_update_min_modes, cfg_max_rejections,
+                   cfg_grow_safety, cfg_rate_floor, cfg_series_radius, cfg_series_terms,
+                   cfg_watch)
+    st = State(st_ints, st_reals, st_rate_scales, st_phase, st_kappa, st_phase_ref)
+    hist = History(hist_t, hist_y, hist_yd, hist_a, hist_g, hist_length)
+    ev = Evaluation(ev_t, ev_y, ev_yd, ev_a)
+    out = Outputs(out_eta, out_etad, out_segment)
+    work = Work(work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
+                work_etad_q, work_g_p, work_g_m, work_g_1, work_coef)
     j = N_JOINTS
-    n = st.eta.shape[0]
+    n = work.eta.shape[0]
     nm = n - j
     fixed = cfg.tol <= 0.0
     tpo = cfg.ticks_per_output
     tick = cfg.tick
-    eta = st.eta.copy()
-    etad = st.etad.copy()
-    eta_p, etad_p = np.empty(n), np.empty(n)
-    eta_c, etad_c = np.empty(n), np.empty(n)
-    eta_q, etad_q = np.empty(n), np.empty(n)
-    g_p, g_m, g_1 = np.empty(n), np.empty(n), np.empty(n)
-    i = st.i0[0]
-    m = cfg.m0
-    basis_tick = 0
-    since_change = 0
-    drift_prev = 0.0
-    rejections = 0
-    segment = 0
-    while i < cfg.i_end:
-        while m > cfg.i_end - i:
-            m //= 2
+    ints, reals = st.ints, st.reals
+    eta, etad = work.eta, work.etad
+    eta_p, etad_p, eta_c, etad_c = work.eta_p, work.etad_p, work.eta_c, work.etad_c
+    eta_q, etad_q = work.eta_q, work.etad_q
+    finite = True
+    while True:
+        stage = ints[STAGE]
+        i = ints[TICK]
+        m = ints[STEP_TICKS]
+        q = ints[NODES]
         h = m * tick
         t = i * tick
-        q = min(cfg.order, hist.length[0])
-        nodes = np.empty(q + 2)                     # [1, 1/2 (first step only), history nodes]
-        for k in range(q):
-            nodes[2 + k] = (hist.t[k] - t) / h
-        G = hist.g[:q]
-        # predict, evaluate
-        c_step = weights(b, w, cfg, m, m)
-        cP = poly_coefficients(nodes[2:], G)
-        advance_by(b, w, c_step, eta, etad, cP, eta_p, etad_p)
-        physical(b, eta_p, etad_p, ev.y, ev.yd)
-        ev.t[0] = t + h
-        st.ints[EVALUATIONS] += 1
-        yield NEED_RHS
-        modal_forcing(b, eta_p, etad_p, ev.a, g_p)
-        # correct
-        nodes[1] = 1.0
-        values = np.empty((q + 1, n))
-        values[0] = g_p
-        values[1:] = G
-        cC = poly_coefficients(nodes[1:], values)
-        c_step = weights(b, w, cfg, m, m)
-        advance_by(b, w, c_step, eta, etad, cC, eta_c, etad_c)
-        finite = all_finite(g_p) and all_finite(eta_c) and all_finite(etad_c)
-        err = local_error(b.omega2, b.rates, st.reals, eta_c, etad_c, eta_p, etad_p) if finite else np.inf
-        if finite and not fixed and q == 1 and m >= 2:
-            # The first step has one node: its predictor holds g(0), so from rest under a
-            # forcing that starts at zero (scene smooth) the predictor is exactly the rest
-            # state and the estimate is 100 % at every step size.  Instead: one more
-            # evaluation at the midpoint, the quadratic through g(0), g(h/2), g(h), and the
-            # difference quadratic - linear as the estimate (the higher order is kept).
-            c_mid = weights(b, w, cfg, m, m // 2)
-            advance_by(b, w, c_mid, eta, etad, cC, eta_q, etad_q)
-            physical(b, eta_q, etad_q, ev.y, ev.yd)
-            ev.t[0] = t + 0.5 * h
-            st.ints[EVALUATIONS] += 1
-            yield NEED_RHS
-            modal_forcing(b, eta_q, etad_q, ev.a, g_m)
+        if stage == STEP:
+            if i >= cfg.i_end:
+                return DONE
+            while m > cfg.i_end - i:
+                m //= 2
+            ints[STEP_TICKS] = m
+            h = m * tick
+            q = min(cfg.order, hist.length[0])
+            ints[NODES] = q
+            c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
+                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, m)
+            cP = poly_coefficients(history_nodes(hist, q, t, h, 0), hist.g[:q])
+            advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
+                         w.wvel[c], w.H[c], eta, etad, cP, eta_p, etad_p)
+            to_physical(b.y_ref, b.Lt, b.J, b.X, eta_p, etad_p, ev.y, ev.yd)
+            ev.t[0] = t + h
+            ints[EVALUATIONS] += 1
+            ints[STAGE] = PREDICTED
+            return NEED_RHS
+        elif stage == PREDICTED:
+            modal_forcing(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, eta_p, etad_p, ev.a, work.g_p)
+            nodes = history_nodes(hist, q, t, h, 1)
+            nodes[0] = 1.0
+            values = np.empty((q + 1, n))
+            values[0] = work.g_p
+            values[1:] = hist.g[:q]
+            work.coef[:q + 1] = poly_coefficients(nodes, values)
+            ints[COEF_ROWS] = q + 1
+            c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
+                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, m)
+            advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
+                         w.wvel[c], w.H[c], eta, etad, work.coef[:q + 1], eta_c, etad_c)
+            finite = all_finite(work.g_p) and all_finite(eta_c) and all_finite(etad_c)
+            reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_c, etad_c, eta_p, etad_p) \
+                if finite else np.inf
+            ints[STAGE] = DECIDE
+            if finite and not fixed and q == 1 and m >= 2:
+                # The first step has one node: its predictor holds g(0), so from rest under a
+                # forcing that starts at zero (scene smooth) the predictor is exactly the rest
+                # state and the estimate is 100 % at every step size.  Instead: one more
+                # evaluation at the midpoint, the quadratic through g(0), g(h/2), g(h), and the
+                # difference quadratic - linear as the estimate (the higher order is kept).
+                c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
+                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, m // 2)
+                advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
+                         w.wvel[c], w.H[c], eta, etad, work.coef[:q + 1], eta_q, etad_q)
+                to_physical(b.y_ref, b.Lt, b.J, b.X, eta_q, etad_q, ev.y, ev.yd)
+                ev.t[0] = t + 0.5 * h
+                ints[EVALUATIONS] += 1
+                ints[STAGE] = MIDPOINT
+                return NEED_RHS
+        elif stage == MIDPOINT:
+            modal_forcing(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, eta_q, etad_q, ev.a, work.g_m)
+            nodes = history_nodes(hist, q, t, h, 2)
             nodes[0], nodes[1] = 1.0, 0.5
-            values_q = np.empty((q + 2, n))
-            values_q[0] = g_p
-            values_q[1] = g_m
-            values_q[2:] = G
-            cQ = poly_coefficients(nodes, values_q)
-            c_step = weights(b, w, cfg, m, m)
-            advance_by(b, w, c_step, eta, etad, cQ, eta_q, etad_q)
+            values = np.empty((q + 2, n))
+            values[0] = work.g_p
+            values[1] = work.g_m
+            values[2:] = hist.g[:q]
+            work.coef[:q + 2] = poly_coefficients(nodes, values)
+            ints[COEF_ROWS] = q + 2
+            c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
+                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, m)
+            advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
+                         w.wvel[c], w.H[c], eta, etad, work.coef[:q + 2], eta_q, etad_q)
             finite = all_finite(eta_q) and all_finite(etad_q)
-            err = local_error(b.omega2, b.rates, st.reals, eta_q, etad_q, eta_c, etad_c) if finite else np.inf
-            cC = cQ
+            reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_q, etad_q, eta_c, etad_c) \
+                if finite else np.inf
             eta_c[:] = eta_q
             etad_c[:] = etad_q
-        if not fixed and not err <= cfg.tol:
-            st.ints[REJECTED] += 1
-            rejections += 1
-            if cfg.relinearise and i > basis_tick and rejections > cfg.max_rejections:
-                # a new basis at the last accepted state; the step is retried in it
-                physical(b, eta, etad, ev.y, ev.yd)
-                ev.t[0] = t
-                yield NEED_BASIS
-                carry_history(b, hist)
-                segment += 1
-                rejections = 0
-                modal(b, hist.y[0], hist.yd[0], eta, etad)
-                basis_tick = i
-                drift_prev = 0.0
+            ints[STAGE] = DECIDE
+        elif stage == DECIDE:
+            err = reals[ERROR]
+            if not fixed and not err <= cfg.tol:
+                ints[REJECTED] += 1
+                ints[REJECTIONS_IN_BASIS] += 1
+                if cfg.relinearise and i > ints[BASIS_TICK] \
+                        and ints[REJECTIONS_IN_BASIS] > cfg.max_rejections:
+                    # a new basis at the last accepted state; the step is retried in it
+                    to_physical(b.y_ref, b.Lt, b.J, b.X, eta, etad, ev.y, ev.yd)
+                    ev.t[0] = t
+                    ints[STAGE] = RETRY
+                    return NEED_BASIS
+                if m == 1:
+                    ints[FAILURE] = FAIL_STEP_TOO_SMALL
+                    reals[EVENT_TIME], reals[EVENT_STEP], reals[EVENT_VALUE] = t, h, err
+                    return FAILED
+                ints[STEP_TICKS] = m // 2
+                ints[SINCE_CHANGE] = 0
+                ints[STAGE] = STEP
                 continue
-            if m == 1:
-                st.ints[FAILURE] = FAIL_STEP_TOO_SMALL
-                st.reals[EVENT_TIME], st.reals[EVENT_STEP], st.reals[EVENT_VALUE] = t, h, err
-                yield FAILED
-                return
-            m //= 2
-            since_change = 0
-            continue
-        if not finite:
-            st.ints[FAILURE] = FAIL_NON_FINITE_STATE
-            st.reals[EVENT_TIME] = t + h
-            yield FAILED
-            return
-        # accept: evaluate at the corrected state, store the outputs
-        physical(b, eta_c, etad_c, ev.y, ev.yd)
-        ev.t[0] = t + h
-        st.ints[EVALUATIONS] += 1
-        yield NEED_RHS
-        modal_forcing(b, eta_c, etad_c, ev.a, g_1)
-        if not all_finite(g_1):
-            st.ints[FAILURE] = FAIL_NON_FINITE_RHS
-            st.reals[EVENT_TIME] = t + h
-            yield FAILED
-            return
-        first = i // tpo + 1
-        last = (i + m) // tpo
-        for k in range(first, last + 1):
-            offset = k * tpo - i
-            if offset < m:
-                c_out = weights(b, w, cfg, m, offset)
-                advance_by(b, w, c_out, eta, etad, cC, out.eta[k], out.etad[k])
-            else:
-                out.eta[k] = eta_c
-                out.etad[k] = etad_c
-            out.segment[k] = segment
-        push_history(hist.t, hist.y, hist.yd, hist.a, hist.g, hist.length, cfg.order, t + h,
-                     ev.y, ev.yd, ev.a, g_1)
-        if cfg.watch and last >= first:
-            st.ints[OUT_FIRST], st.ints[OUT_LAST] = first, last
-            st.reals[EVENT_STEP] = h
-            yield OUTPUTS
-        eta[:] = eta_c
-        etad[:] = etad_c
-        accept_scales(b.omega2, eta, etad, hist.yd[0], st.reals, st.rate_scales)
-        st.ints[STEPS] += 1
-        st.reals[SMALLEST_STEP] = min(st.reals[SMALLEST_STEP], h)
-        st.reals[LARGEST_STEP] = max(st.reals[LARGEST_STEP], h)
-        i += m
-        since_change += 1
-        y1 = hist.y[0]
-        drift = 0.0
-        pdrift = 0.0
-        for k in range(j):
-            drift = max(drift, abs(y1[k] - b.y_ref[k]))
-            pdrift = max(pdrift, abs(y1[k] - st.phase_ref[k]))
-        phase_err = 0.0
-        if not fixed and cfg.relinearise and nm > 0:
-            if not st.ints[PROBED] and drift >= cfg.probe_drift:
-                ev.y[:] = y1
-                ev.t[0] = t + h
-                st.reals[EVENT_VALUE] = drift
-                yield NEED_PROBE
-            phase_err = phase_error(b, st, cfg, eta, etad, h, drift_prev, pdrift)
-        drift_prev = pdrift
-        if i < cfg.i_end:
-            if fixed:
-                due = cfg.every_ticks > 0 and i - basis_tick >= cfg.every_ticks
-            else:
-                due = cfg.relinearise and (drift > cfg.drift or phase_err > cfg.phase_limit * cfg.tol)
-                if due and drift <= cfg.drift:
-                    if (drift <= cfg.update_drift * cfg.drift and b.P_eta.shape[0] == 0
-                            and nm >= cfg.update_min_modes):
-                        ev.y[:] = y1
-                        ev.t[0] = t + h
-                        yield NEED_FREQUENCIES
-                        carry_history(b, hist)
-                        drift_prev = 0.0
-                        due = False
-                    else:
-                        st.ints[PHASE_RELINEARISATIONS] += 1
-            if due:
-                physical(b, eta, etad, ev.y, ev.yd)
-                ev.t[0] = t + h
-                yield NEED_BASIS
-                carry_history(b, hist)
-                segment += 1
-                rejections = 0
-                modal(b, hist.y[0], hist.yd[0], eta, etad)
-                basis_tick = i
-                drift_prev = 0.0
-            elif drift > cfg.frozen_validity and (not cfg.relinearise or fixed):
-                st.ints[FAILURE] = FAIL_FROZEN_DRIFT
-                st.reals[EVENT_TIME], st.reals[EVENT_VALUE] = t + h, drift
-                yield FAILED
-                return
-        # grow the step (dyadic, aligned, after >= 2 steps at this size)
-        if not fixed and since_change >= 2 and err * 2.0 ** (q + 1) <= cfg.grow_safety * cfg.tol \
-                and i % (2 * m) == 0:
-            m *= 2
-            since_change = 0
+            if not finite:
+                ints[FAILURE] = FAIL_NON_FINITE_STATE
+                reals[EVENT_TIME] = t + h
+                return FAILED
+            to_physical(b.y_ref, b.Lt, b.J, b.X, eta_c, etad_c, ev.y, ev.yd)
+            ev.t[0] = t + h
+            ints[EVALUATIONS] += 1
+            ints[STAGE] = ACCEPTED
+            return NEED_RHS
+        elif stage == ACCEPTED:
+            modal_forcing(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, eta_c, etad_c, ev.a, work.g_1)
+            if not all_finite(work.g_1):
+                ints[FAILURE] = FAIL_NON_FINITE_RHS
+                reals[EVENT_TIME] = t + h
+                return FAILED
+            coef = work.coef[:ints[COEF_ROWS]]
+            first = i // tpo + 1
+            last = (i + m) // tpo
+            for k in range(first, last + 1):
+                offset = k * tpo - i
+                if offset < m:
+                    c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
+                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, offset)
+                    advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
+                         w.wvel[c], w.H[c], eta, etad, coef, out.eta[k], out.etad[k])
+                else:
+                    out.eta[k] = eta_c
+                    out.etad[k] = etad_c
+                out.segment[k] = ints[SEGMENT]
+            push_history(hist.t, hist.y, hist.yd, hist.a, hist.g, hist.length, cfg.order, t + h,
+                         ev.y, ev.yd, ev.a, work.g_1)
+            eta[:] = eta_c
+            etad[:] = etad_c
+            accept_scales(b.omega2, eta, etad, hist.yd[0], reals, st.rate_scales)
+            ints[STEPS] += 1
+            reals[SMALLEST_STEP] = min(reals[SMALLEST_STEP], h)
+            reals[LARGEST_STEP] = max(reals[LARGEST_STEP], h)
+            ints[TICK] = i + m
+            ints[SINCE_CHANGE] += 1
+            drift = 0.0
+            phase_drift = 0.0
+            for k in range(j):
+                drift = max(drift, abs(hist.y[0, k] - b.y_ref[k]))
+                phase_drift = max(phase_drift, abs(hist.y[0, k] - st.phase_ref[k]))
+            reals[DRIFT], reals[PHASE_DRIFT] = drift, phase_drift
+            ints[STAGE] = PHASE
+            if cfg.watch and last >= first:
+                ints[OUT_FIRST], ints[OUT_LAST] = first, last
+                reals[EVENT_STEP] = h
+                return OUTPUTS
+        elif stage == PHASE:                # i is the accepted tick from here on: t + h = i tick
+            ints[STAGE] = PHASE_ERROR
+            if not fixed and cfg.relinearise and nm > 0 and not ints[PROBED] \
+                    and reals[DRIFT] >= cfg.probe_drift:
+                ev.y[:] = hist.y[0]
+                ev.t[0] = hist.t[0]
+                reals[EVENT_VALUE] = reals[DRIFT]
+                return NEED_PROBE
+        elif stage == PHASE_ERROR:
+            drift = reals[DRIFT]
+            phase_err = 0.0
+            if not fixed and cfg.relinearise and nm > 0:
+                phase_err = phase_error(b, st, cfg, eta, etad, h,
+                                        reals[DRIFT_PREVIOUS], reals[PHASE_DRIFT])
+            reals[DRIFT_PREVIOUS] = reals[PHASE_DRIFT]
+            ints[STAGE] = GROW
+            if i < cfg.i_end:
+                if fixed:
+                    due = cfg.every_ticks > 0 and i - ints[BASIS_TICK] >= cfg.every_ticks
+                else:
+                    due = cfg.relinearise and (drift > cfg.drift or phase_err > cfg.phase_limit * cfg.tol)
+                    if due and drift <= cfg.drift:
+                        if (drift <= cfg.update_drift * cfg.drift and b.P_eta.shape[0] == 0
+                                and nm >= cfg.update_min_modes):
+                            ev.y[:] = hist.y[0]
+                            ev.t[0] = hist.t[0]
+                            ints[STAGE] = UPDATED
+                            return NEED_FREQUENCIES
+                        ints[PHASE_RELINEARISATIONS] += 1
+                if due:
+                    to_physical(b.y_ref, b.Lt, b.J, b.X, eta, etad, ev.y, ev.yd)
+                    ev.t[0] = hist.t[0]
+                    ints[STAGE] = REBASED
+                    return NEED_BASIS
+                if drift > cfg.frozen_validity and (not cfg.relinearise or fixed):
+                    ints[FAILURE] = FAIL_FROZEN_DRIFT
+                    reals[EVENT_TIME], reals[EVENT_VALUE] = hist.t[0], drift
+                    return FAILED
+        elif stage == UPDATED:
+            carry_history(b.y_ref, b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, hist.y,
+                          hist.yd, hist.a, hist.g, hist.length[0])
+            reals[DRIFT_PREVIOUS] = 0.0
+            ints[STAGE] = GROW
+        elif stage == REBASED or stage == RETRY:
+            carry_history(b.y_ref, b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, hist.y,
+                          hist.yd, hist.a, hist.g, hist.length[0])
+            ints[SEGMENT] += 1
+            ints[REJECTIONS_IN_BASIS] = 0
+            to_modal(b.y_ref, b.Lg, b.X, b.Ky, b.omega_ref, b.YT, hist.y[0], hist.yd[0], eta, etad)
+            ints[BASIS_TICK] = i
+            reals[DRIFT_PREVIOUS] = 0.0
+            ints[STAGE] = GROW if stage == REBASED else STEP
+        else:                               # GROW (dyadic, aligned, after >= 2 steps at this size)
+            if not fixed and ints[SINCE_CHANGE] >= 2 \
+                    and reals[ERROR] * 2.0 ** (q + 1) <= cfg.grow_safety * cfg.tol and i % (2 * m) == 0:
+                ints[STEP_TICKS] = 2 * m
+                ints[SINCE_CHANGE] = 0
+            ints[STAGE] = STEP
