@@ -180,8 +180,8 @@ class Settings(NamedTuple):
     this gimbal drift), frozen_validity [rad], probe_drift [rad], phase_limit, update_drift
     (a phase error at a drift <= update_drift x drift: new frequencies), update_min_modes,
     max_rejections (in a basis that is not fresh), grow_safety, rate_floor, series_radius and
-    series_terms (``phi_functions``), watch (bool: return OUTPUTS).  The first step and the tick the run starts at are
-    st.ints[STEP_TICKS], st.ints[TICK], set by Python."""
+    series_terms (``phi_functions``), watch (bool: return OUTPUTS).  The first step and the
+    tick the run starts at are st.ints[STEP_TICKS], st.ints[TICK], set by Python."""
     tol: float
     tick: float
     ticks_per_output: int
@@ -538,6 +538,20 @@ def weights(keys, used, E, W, wpos, wvel, H, inv_fact, fact, z, phis, mu, versio
     return c
 
 
+@numba.njit(**JIT)
+def advance_over(m, offset, eta, etad, coef, out_eta, out_etad, grid, keys, used, E, W, wpos, wvel,
+                 H, inv_fact, fact, z, phis, mu, delta, P_eta, P_vel, V_eta, V_vel):
+    """The modal state after ``offset`` ticks of a step of m ticks from (eta, eta') (n,) with the
+    forcing polynomial coef (kk, n), into out_eta, out_etad (n,): the cached weights of that
+    length (``weights``; grid = (basis version, tick [s], series radius, series terms), then
+    the ``WeightCache`` arrays), the bank's advance (``advance_bank``: mu, delta, P+, V+)."""
+    version, tick, radius, terms = grid
+    c = weights(keys, used, E, W, wpos, wvel, H, inv_fact, fact, z, phis, mu, version, tick, radius,
+                terms, m, offset)
+    advance_bank(mu, delta, P_eta, P_vel, V_eta, V_vel, E[c], W[c], wpos[c], wvel[c], H[c], eta, etad,
+                 coef, out_eta, out_etad)
+
+
 # ------------------------------------------------------------ the history
 @numba.njit(**JIT)
 def carry_history(y_ref, Lg, X, Ky, omega_ref, YT, omega2, Ct, hist_y, hist_yd, hist_a, hist_g,
@@ -653,6 +667,15 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
     eta, etad = work.eta, work.etad
     eta_p, etad_p, eta_c, etad_c = work.eta_p, work.etad_p, work.eta_c, work.etad_c
     eta_q, etad_q = work.eta_q, work.etad_q
+    # the arrays the helpers take, grouped and star-unpacked into the calls: the helpers take
+    # arrays one by one, not the containers (passing the containers whole made this function
+    # take 2-3x longer to compile: every call passes every field)
+    physical_map = (b.y_ref, b.Lt, b.J, b.X)                # to_physical
+    projection = (b.Lg, b.X, b.Ky, b.omega_ref, b.YT)       # project
+    linear = (b.omega2, b.Ct)                               # add_linear_terms
+    bank = (b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel)
+    cache = (w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis)
+    grid = (b.version[0], tick, cfg.series_radius, cfg.series_terms)
     finite = True
     while True:
         stage = ints[STAGE]
@@ -670,18 +693,15 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             h = m * tick
             q = min(cfg.order, hist.length[0])
             ints[NODES] = q
-            c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
-                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, m)
             cP = poly_coefficients(history_nodes(hist, q, t, h, 0), hist.g[:q])
-            advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
-                         w.wvel[c], w.H[c], eta, etad, cP, eta_p, etad_p)
-            to_physical(b.y_ref, b.Lt, b.J, b.X, eta_p, etad_p, ev.y, ev.yd)
+            advance_over(m, m, eta, etad, cP, eta_p, etad_p, grid, *cache, *bank)
+            to_physical(*physical_map, eta_p, etad_p, ev.y, ev.yd)
             ev.t[0] = t + h
             ints[EVALUATIONS] += 1
             ints[STAGE] = PREDICTED
             return NEED_RHS
         elif stage == PREDICTED:
-            modal_forcing(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, eta_p, etad_p, ev.a, work.g_p)
+            modal_forcing(*projection, *linear, eta_p, etad_p, ev.a, work.g_p)
             nodes = history_nodes(hist, q, t, h, 1)
             nodes[0] = 1.0
             values = np.empty((q + 1, n))
@@ -689,10 +709,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             values[1:] = hist.g[:q]
             work.coef[:q + 1] = poly_coefficients(nodes, values)
             ints[COEF_ROWS] = q + 1
-            c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
-                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, m)
-            advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
-                         w.wvel[c], w.H[c], eta, etad, work.coef[:q + 1], eta_c, etad_c)
+            advance_over(m, m, eta, etad, work.coef[:q + 1], eta_c, etad_c, grid, *cache, *bank)
             finite = all_finite(work.g_p) and all_finite(eta_c) and all_finite(etad_c)
             reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_c, etad_c, eta_p, etad_p) \
                 if finite else np.inf
@@ -703,17 +720,15 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                 # state and the estimate is 100 % at every step size.  Instead: one more
                 # evaluation at the midpoint, the quadratic through g(0), g(h/2), g(h), and the
                 # difference quadratic - linear as the estimate (the higher order is kept).
-                c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
-                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, m // 2)
-                advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
-                         w.wvel[c], w.H[c], eta, etad, work.coef[:q + 1], eta_q, etad_q)
-                to_physical(b.y_ref, b.Lt, b.J, b.X, eta_q, etad_q, ev.y, ev.yd)
+                advance_over(m, m // 2, eta, etad, work.coef[:q + 1], eta_q, etad_q, grid, *cache,
+                             *bank)
+                to_physical(*physical_map, eta_q, etad_q, ev.y, ev.yd)
                 ev.t[0] = t + 0.5 * h
                 ints[EVALUATIONS] += 1
                 ints[STAGE] = MIDPOINT
                 return NEED_RHS
         elif stage == MIDPOINT:
-            modal_forcing(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, eta_q, etad_q, ev.a, work.g_m)
+            modal_forcing(*projection, *linear, eta_q, etad_q, ev.a, work.g_m)
             nodes = history_nodes(hist, q, t, h, 2)
             nodes[0], nodes[1] = 1.0, 0.5
             values = np.empty((q + 2, n))
@@ -722,10 +737,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             values[2:] = hist.g[:q]
             work.coef[:q + 2] = poly_coefficients(nodes, values)
             ints[COEF_ROWS] = q + 2
-            c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
-                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, m)
-            advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
-                         w.wvel[c], w.H[c], eta, etad, work.coef[:q + 2], eta_q, etad_q)
+            advance_over(m, m, eta, etad, work.coef[:q + 2], eta_q, etad_q, grid, *cache, *bank)
             finite = all_finite(eta_q) and all_finite(etad_q)
             reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_q, etad_q, eta_c, etad_c) \
                 if finite else np.inf
@@ -740,7 +752,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                 if cfg.relinearise and i > ints[BASIS_TICK] \
                         and ints[REJECTIONS_IN_BASIS] > cfg.max_rejections:
                     # a new basis at the last accepted state; the step is retried in it
-                    to_physical(b.y_ref, b.Lt, b.J, b.X, eta, etad, ev.y, ev.yd)
+                    to_physical(*physical_map, eta, etad, ev.y, ev.yd)
                     ev.t[0] = t
                     ints[STAGE] = RETRY
                     return NEED_BASIS
@@ -756,13 +768,13 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                 ints[FAILURE] = FAIL_NON_FINITE_STATE
                 reals[EVENT_TIME] = t + h
                 return FAILED
-            to_physical(b.y_ref, b.Lt, b.J, b.X, eta_c, etad_c, ev.y, ev.yd)
+            to_physical(*physical_map, eta_c, etad_c, ev.y, ev.yd)
             ev.t[0] = t + h
             ints[EVALUATIONS] += 1
             ints[STAGE] = ACCEPTED
             return NEED_RHS
         elif stage == ACCEPTED:
-            modal_forcing(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, eta_c, etad_c, ev.a, work.g_1)
+            modal_forcing(*projection, *linear, eta_c, etad_c, ev.a, work.g_1)
             if not all_finite(work.g_1):
                 ints[FAILURE] = FAIL_NON_FINITE_RHS
                 reals[EVENT_TIME] = t + h
@@ -773,10 +785,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             for k in range(first, last + 1):
                 offset = k * tpo - i
                 if offset < m:
-                    c = weights(w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis,
-                        b.mu, b.version[0], tick, cfg.series_radius, cfg.series_terms, m, offset)
-                    advance_bank(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, w.E[c], w.W[c], w.wpos[c],
-                         w.wvel[c], w.H[c], eta, etad, coef, out.eta[k], out.etad[k])
+                    advance_over(m, offset, eta, etad, coef, out.eta[k], out.etad[k], grid, *cache,
+                                 *bank)
                 else:
                     out.eta[k] = eta_c
                     out.etad[k] = etad_c
@@ -822,7 +832,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                 if fixed:
                     due = cfg.every_ticks > 0 and i - ints[BASIS_TICK] >= cfg.every_ticks
                 else:
-                    due = cfg.relinearise and (drift > cfg.drift or phase_err > cfg.phase_limit * cfg.tol)
+                    due = cfg.relinearise and (drift > cfg.drift
+                                               or phase_err > cfg.phase_limit * cfg.tol)
                     if due and drift <= cfg.drift:
                         if (drift <= cfg.update_drift * cfg.drift and b.P_eta.shape[0] == 0
                                 and nm >= cfg.update_min_modes):
@@ -832,7 +843,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                             return NEED_FREQUENCIES
                         ints[PHASE_RELINEARISATIONS] += 1
                 if due:
-                    to_physical(b.y_ref, b.Lt, b.J, b.X, eta, etad, ev.y, ev.yd)
+                    to_physical(*physical_map, eta, etad, ev.y, ev.yd)
                     ev.t[0] = hist.t[0]
                     ints[STAGE] = REBASED
                     return NEED_BASIS
@@ -841,22 +852,22 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                     reals[EVENT_TIME], reals[EVENT_VALUE] = hist.t[0], drift
                     return FAILED
         elif stage == UPDATED:
-            carry_history(b.y_ref, b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, hist.y,
-                          hist.yd, hist.a, hist.g, hist.length[0])
+            carry_history(b.y_ref, *projection, *linear, hist.y, hist.yd, hist.a, hist.g,
+                          hist.length[0])
             reals[DRIFT_PREVIOUS] = 0.0
             ints[STAGE] = GROW
         elif stage == REBASED or stage == RETRY:
-            carry_history(b.y_ref, b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, hist.y,
-                          hist.yd, hist.a, hist.g, hist.length[0])
+            carry_history(b.y_ref, *projection, *linear, hist.y, hist.yd, hist.a, hist.g,
+                          hist.length[0])
             ints[SEGMENT] += 1
             ints[REJECTIONS_IN_BASIS] = 0
-            to_modal(b.y_ref, b.Lg, b.X, b.Ky, b.omega_ref, b.YT, hist.y[0], hist.yd[0], eta, etad)
+            to_modal(b.y_ref, *projection, hist.y[0], hist.yd[0], eta, etad)
             ints[BASIS_TICK] = i
             reals[DRIFT_PREVIOUS] = 0.0
             ints[STAGE] = GROW if stage == REBASED else STEP
         else:                               # GROW (dyadic, aligned, after >= 2 steps at this size)
-            if not fixed and ints[SINCE_CHANGE] >= 2 \
-                    and reals[ERROR] * 2.0 ** (q + 1) <= cfg.grow_safety * cfg.tol and i % (2 * m) == 0:
+            if not fixed and ints[SINCE_CHANGE] >= 2 and i % (2 * m) == 0 \
+                    and reals[ERROR] * 2.0 ** (q + 1) <= cfg.grow_safety * cfg.tol:
                 ints[STEP_TICKS] = 2 * m
                 ints[SINCE_CHANGE] = 0
             ints[STAGE] = STEP
