@@ -92,37 +92,24 @@ def coupled_frequencies_at(M, stiffness):
 
 
 _INV_FACTORIALS = np.array([1.0 / math.factorial(k) for k in range(SERIES_TERMS + 16)])
+_FACTORIALS = np.array([float(math.factorial(k)) for k in range(_INV_FACTORIALS.size)])
 
 
 def phi_functions(z, order):
-    """phi_0 .. phi_order at z: (order + 1, n) complex, z (n,) complex.
+    """phi_0 .. phi_order at z: (order + 1, *z.shape) complex.
 
     phi_0 = exp(z), phi_{j+1}(z) = (phi_j(z) - 1/j!) / z, phi_j(0) = 1/j!.  The
     recurrence for |z| >= SERIES_RADIUS (it loses at most a factor ~(j + 1)/|z| per
-    step there), the Taylor series phi_j(z) = sum_m z^m / (m + j)! below."""
+    step there), below it the Taylor series phi_order(z) = sum_m z^m / (m + order)! and the
+    same recurrence downwards (``kernels.exponential.phi_table``, compiled)."""
     z = np.atleast_1d(np.asarray(z, dtype=complex))
+    if SERIES_TERMS + order + 1 > _INV_FACTORIALS.size:
+        raise ValueError(f"phi_functions: order {order} above the {_INV_FACTORIALS.size - SERIES_TERMS - 1} "
+                         f"the factorial table holds")
     out = np.empty((order + 1, z.size), dtype=complex)
-    if z.ndim == 1 and SERIES_TERMS + order < _INV_FACTORIALS.size:     # compiled, same arithmetic
-        kernels.phi_table(np.ascontiguousarray(z), int(order), SERIES_RADIUS, SERIES_TERMS,
-                          _INV_FACTORIALS, out)
-        return out
-    out[0] = np.exp(z)
-    big = np.abs(z) >= SERIES_RADIUS
-    if big.any():
-        zb = z[big]
-        prev = out[0, big]
-        for j in range(order):
-            prev = (prev - 1.0 / math.factorial(j)) / zb
-            out[j + 1, big] = prev
-    small = ~big
-    if small.any():
-        zs = z[small]
-        for j in range(1, order + 1):
-            acc = np.full(zs.shape, 1.0 / math.factorial(SERIES_TERMS + j), dtype=complex)
-            for m in range(SERIES_TERMS - 1, -1, -1):
-                acc = acc * zs + 1.0 / math.factorial(m + j)
-            out[j, small] = acc
-    return out
+    kernels.phi_table(np.ascontiguousarray(z.ravel()), int(order), SERIES_RADIUS, SERIES_TERMS,
+                      _INV_FACTORIALS, out)
+    return out.reshape((order + 1,) + z.shape)
 
 
 class DiagonalBank:
@@ -244,23 +231,29 @@ class ModalBasis:
             x^T M_qq x = |x|^2 + sum_k (J_k e).(P_k e) + (B_k x_k).(J_k e),
             M_qg x = J_g^T P e,    M_gg = J_g^T P_g    (J_g, P_g: the joint columns),
 
-        i.e. the products of J and P (24, m) and of the B_k (6, D_k) with X: ~55 m^2 multiply-adds
-        against m^3 (M - I has rank <= 30 on the modal block: the bodies' motion is six rigid
-        velocities each).  The same quotients to rounding (docs/exponential.md Sec. 6)."""
+        i.e. the products of J_k, P_k (6, m) and B_k (6, D_k) with X; J_k is zero beyond the joints
+        and the modes of body k's ancestors, P_k beyond its own (the chain is a chain), so these
+        are ~30 m^2 multiply-adds against m^3 (M_qq - I is of low rank, 36 of 400 measured on the
+        truth model: the bodies' modal motion enters M through six rigid velocities each).  The
+        same quotients to rounding (docs/exponential.md Sec. 6)."""
         j = N_JOINTS
         X = self.X
-        JX = F.J[:, j:] @ X                         # (24, m): J_k e of every shape
-        PX = F.P[:, j:] @ X                         # (24, m): P_k e
-        q = np.einsum("km,km->m", X, X) + np.einsum("km,km->m", JX, PX)
+        q = np.einsum("km,km->m", X, X)
+        MgqX = np.zeros((j, X.shape[1]))                # M_gq X = J_g^T P_e X, body by body
         for k in range(N_JOINTS):
             o, D = int(F.off[k]), int(F.D[k])
-            if D:
-                BX = F.B[:, o:o + D] @ X[o:o + D]           # (6, m): B_k x_k
-                q += np.einsum("km,km->m", BX, JX[6 * k:6 * k + 6])
+            rows = slice(6 * k, 6 * k + 6)
+            PX = F.P[rows, j:j + o + D] @ X[:o + D]     # (6, m): P_k e (zero beyond its modes)
+            MgqX += F.J[rows, :j].T @ PX
+            if o:                                       # J_k e: the ancestors' modes only
+                JX = F.J[rows, j:j + o] @ X[:o]
+                q += np.einsum("km,km->m", JX, PX)
+                if D:
+                    q += np.einsum("km,km->m", F.B[:, o:o + D] @ X[o:o + D], JX)
         Jg = F.J[:, :j]
         Mgg = Jg.T @ F.P[:, :j]
         L = np.linalg.cholesky(0.5 * (Mgg + Mgg.T))
-        R = scipy.linalg.solve_triangular(L, Jg.T @ PX, lower=True)         # (4, m) L^-1 M_gq X
+        R = scipy.linalg.solve_triangular(L, MgqX, lower=True)          # (4, m) L^-1 M_gq X
         return self.omega_ref[j:] / np.sqrt(q - np.einsum("km,km->m", R, R))
 
     def with_frequencies(self, om):
@@ -341,32 +334,33 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
                       J=J, Lt=Lt, Lg=Linv @ M0[:j], omega_ref=omega)
 
 
-_FACTORIALS = np.array([float(math.factorial(k)) for k in range(_INV_FACTORIALS.size)])
-
-
 class StepWeights:
     """Cached weights of the variation-of-constants formula for one basis (module docstring):
-    for a length H [s], ``get(H)`` -> (E (m,), W (K+1, m), wpos (K+1,), wvel (K+1,)) with
-    E = e^{H mu}, W_j = H j! phi_{j+1}(H mu) (mu: the bank's eigenvalues), wpos_j =
+    for a length H [s], ``get(H)`` -> (E_re, E_im (m,), F_re, F_im (K+1, m), wpos, wvel (K+1,))
+    with E = e^{H mu}, the forcing weights F_j = H j! phi_{j+1}(H mu) (mu: the bank's
+    eigenvalues; over Delta for the undamped bank, whose forcing is g / Delta), wpos_j =
     H^2 j!/(j+2)!, wvel_j = H j!/(j+1)!, K the highest polynomial degree; ``dense(offsets, m,
     tick)`` the same for several points inside one step with the powers theta^j (theta = the
     point's fraction of the step) folded in.  Both by ``kernels.pece.fill_weights``, the
     compiled step loop's own weights (which it caches per step pattern itself)."""
 
     def __init__(self, basis, degree):
-        self.mu = np.ascontiguousarray(basis.bank.mu, dtype=complex)
+        bank = basis.bank
+        self.mu = np.ascontiguousarray(bank.mu, dtype=complex)
+        self.delta = bank.delta if isinstance(bank, DiagonalBank) else np.zeros(0, complex)
         self.K = degree
         self.cache = {}
         self.dense_cache = {}
 
     def _fill(self, H, theta, dense):
-        m = self.mu.size
-        E, W = np.empty(m, complex), np.empty((self.K + 1, m), complex)
-        wpos, wvel = np.empty(self.K + 1), np.empty(self.K + 1)
-        pece.fill_weights(self.mu, float(H), float(theta), dense, SERIES_RADIUS, SERIES_TERMS,
+        m, K = self.mu.size, self.K
+        E_re, E_im = np.empty(m), np.empty(m)
+        F_re, F_im = np.empty((K + 1, m)), np.empty((K + 1, m))
+        wpos, wvel = np.empty(K + 1), np.empty(K + 1)
+        pece.fill_weights(self.mu, self.delta, float(H), float(theta), dense, SERIES_RADIUS, SERIES_TERMS,
                           _INV_FACTORIALS, _FACTORIALS, np.empty(m, complex),
-                          np.empty((self.K + 2, m), complex), E, W, wpos, wvel)
-        return E, W, wpos, wvel
+                          np.empty((K + 2, m), complex), E_re, E_im, F_re, F_im, wpos, wvel)
+        return E_re, E_im, F_re, F_im, wpos, wvel
 
     def get(self, H):
         w = self.cache.get(H)
@@ -375,14 +369,14 @@ class StepWeights:
         return w
 
     def dense(self, offsets, m, tick):
-        """(E (k, m), W (k, K+1, m), wpos, wvel (k, K+1), H (k,)) at the offsets (k,) [ticks]
-        inside a step of m ticks of tick [s] each, theta^j folded in; cached per pattern (with
-        a steady step every step has the same one)."""
+        """The weights of ``get`` stacked for the offsets (k,) [ticks] inside a step of m ticks of
+        tick [s] each (theta^j folded in), and H (k,) [s]; cached per pattern (with a steady step
+        every step has the same one)."""
         key = (offsets, m)
         w = self.dense_cache.get(key)
         if w is None:
             points = [self._fill(o * tick, o / m, True) for o in offsets]
-            w = tuple(np.array([p[k] for p in points]) for k in range(4)) + \
+            w = tuple(np.array([p[k] for p in points]) for k in range(6)) + \
                 (np.array(offsets, float) * tick,)
             self.dense_cache[key] = w
         return w
@@ -391,37 +385,46 @@ class StepWeights:
 def advance(basis, weights, eta, etad, coef, H, theta):
     """The modal state (eta, eta') (n,) after a length H = theta h from (eta, eta'), with g
     replaced by sum_j coef[j] (s / h)^j, coef (K'+1, n), K' <= K (module docstring), by the
-    compiled loops of the step (``kernels.exponential.advance_diagonal`` for the undamped
-    bank, ``kernels.pece.coupled_advance`` for the damped one)."""
-    E, W, wpos, wvel = weights.get(H)
+    compiled loops of the step (``kernels.pece.advance_bank``)."""
     kk = coef.shape[0]
     theta_pow = theta ** np.arange(kk, dtype=float)
     out_eta, out_etad = np.empty_like(eta), np.empty_like(etad)
-    _advance_bank(basis.bank, eta, etad, np.ascontiguousarray(coef, dtype=float), theta_pow, E, W,
-                  wpos, wvel, float(H), out_eta, out_etad)
+    _advance_bank(basis.bank, eta, etad, np.ascontiguousarray(coef, dtype=float), theta_pow,
+                  weights.get(H), float(H), out_eta, out_etad)
     return out_eta, out_etad
 
 
-def _advance_bank(bank, eta, etad, coef, theta_pow, E, W, wpos, wvel, H, out_eta, out_etad):
+def _bank_arrays(bank, eta, etad):
+    """(mu, xi_re, xi_im, P_eta, P_vel, V_eta, V_vel): the bank as ``kernels.pece.advance_bank``
+    takes it, with the undamped bank's complex coordinates of (eta, eta') (``modal_xi``)."""
     if isinstance(bank, DiagonalBank):
-        kernels.advance_diagonal(eta, etad, coef, theta_pow, E, W, wpos, wvel, bank.mu, bank.delta, H,
-                                 out_eta, out_etad)
-    else:
-        pece.coupled_advance(bank.P_eta, bank.P_vel, bank.V_eta, bank.V_vel, eta, etad, coef,
-                             theta_pow, E, W, wpos, wvel, H, out_eta, out_etad)
+        m = bank.mu.size
+        xi_re, xi_im = np.empty(m), np.empty(m)
+        kernels.modal_xi(eta, etad, bank.mu, bank.delta, xi_re, xi_im)
+        none = np.zeros((0, 0), complex)
+        return bank.mu, xi_re, xi_im, none, none, none, none
+    return bank.mu, np.zeros(0), np.zeros(0), bank.P_eta, bank.P_vel, bank.V_eta, bank.V_vel
+
+
+def _advance_bank(bank, eta, etad, coef, theta_pow, w, H, out_eta, out_etad, arrays=None):
+    """``kernels.pece.advance_bank`` with the weights w = (E_re, E_im, F_re, F_im, wpos, wvel) of
+    the length H; arrays: ``_bank_arrays`` of (eta, eta') if known."""
+    arrays = _bank_arrays(bank, eta, etad) if arrays is None else arrays
+    pece.advance_bank(*arrays, *w, H, eta, etad, coef, theta_pow, out_eta, out_etad)
 
 
 def dense_advance(basis, weights, eta, etad, coef, offsets, m, tick):
     """``advance`` to several points inside one step of m grid ticks: offsets (k,) in ticks
     (tuple, a cache key), tick [s]; returns (eta, eta') (k, n)."""
-    E, W, wpos, wvel, H = weights.dense(offsets, m, tick)
+    *w, H = weights.dense(offsets, m, tick)
     coef = np.ascontiguousarray(coef, dtype=float)
     ones = np.ones(coef.shape[0])
+    arrays = _bank_arrays(basis.bank, eta, etad)
     eta_out = np.empty((len(offsets), eta.size))
     etad_out = np.empty_like(eta_out)
     for k in range(len(offsets)):
-        _advance_bank(basis.bank, eta, etad, coef, ones, E[k], W[k], wpos[k], wvel[k], float(H[k]),
-                      eta_out[k], etad_out[k])
+        _advance_bank(basis.bank, eta, etad, coef, ones, [x[k] for x in w], float(H[k]), eta_out[k],
+                      etad_out[k], arrays)
     return eta_out, etad_out
 
 
@@ -491,6 +494,7 @@ class ExponentialStats:
     phase_relinearisations: int = 0               # bases renewed for the phase error, not drift
     frequency_updates: int = 0                    # phase errors met by new frequencies, same shapes
     first_basis_time: float = 0.0                 # [s] the initial basis's set-up (in basis_time too)
+    weight_sets: int = 0                          # step weights computed (per basis and step pattern)
 
 
 def check_options(tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
@@ -551,22 +555,24 @@ class ExponentialAdams:
             y_ref=np.zeros(n), X=np.zeros(square), YT=np.zeros((0, 0) if stiff else square),
             Ky=np.zeros(m), omega_ref=np.zeros(n), omega=np.zeros(n), omega2=np.zeros(n),
             Lt=np.zeros((j, j)), J=np.zeros((j, m)), Lg=np.zeros((j, n)), rates=np.zeros((j, n)),
-            mu=np.zeros(m, complex), delta=np.zeros(m, complex),
+            mu=np.zeros(m, complex), delta=np.zeros(0 if damped else m, complex),
             P_eta=np.zeros(damped_square, complex), P_vel=np.zeros(damped_square, complex),
             V_eta=np.zeros(damped_square, complex), V_vel=np.zeros(damped_square, complex),
             Ct=np.zeros(damped_square), version=np.zeros(1, dtype=np.int64))
         C = WEIGHT_CACHE_ENTRIES
         self.kw = pece.WeightCache(
-            keys=np.full((C, 2), -1, dtype=np.int64), E=np.zeros((C, m), complex),
-            W=np.zeros((C, K + 1, m), complex), wpos=np.zeros((C, K + 1)), wvel=np.zeros((C, K + 1)),
-            H=np.zeros(C), used=np.array([0, -1], dtype=np.int64), inv_fact=_INV_FACTORIALS,
+            keys=np.full((C, 2), -1, dtype=np.int64), E_re=np.zeros((C, m)), E_im=np.zeros((C, m)),
+            F_re=np.zeros((C, K + 1, m)), F_im=np.zeros((C, K + 1, m)), wpos=np.zeros((C, K + 1)),
+            wvel=np.zeros((C, K + 1)),
+            H=np.zeros(C), used=np.array([0, -1, 0], dtype=np.int64), inv_fact=_INV_FACTORIALS,
             fact=_FACTORIALS, z=np.zeros(m, complex), phis=np.zeros((K + 2, m), complex))
         reals = np.zeros(pece.N_REALS)
         reals[pece.SMALLEST_STEP] = np.inf
         self.kst = pece.State(ints=np.zeros(pece.N_INTS, dtype=np.int64), reals=reals,
                               rate_scales=np.zeros(j), phase=np.zeros(m), kappa=np.zeros(m),
                               phase_ref=np.zeros(j))
-        self.work = pece.Work(*(np.zeros(n) for _ in range(11)), coef=np.zeros((K + 2, n)))
+        self.work = pece.Work(*(np.zeros(n) for _ in range(11)), coef=np.zeros((K + 2, n)),
+                              xi_re=np.zeros(m), xi_im=np.zeros(m))
         H = self.order + 1
         self.hist = pece.History(t=np.zeros(H), y=np.zeros((H, n)), yd=np.zeros((H, n)),
                                  a=np.zeros((H, n)), g=np.zeros((H, n)),
@@ -729,6 +735,7 @@ class ExponentialAdams:
         s.rejected += int(st.ints[pece.REJECTED])
         s.evaluations += int(st.ints[pece.EVALUATIONS])
         s.phase_relinearisations += int(st.ints[pece.PHASE_RELINEARISATIONS])
+        s.weight_sets = int(self.kw.used[2])
         s.smallest_step = min(s.smallest_step, float(st.reals[pece.SMALLEST_STEP]))
         s.largest_step = max(s.largest_step, float(st.reals[pece.LARGEST_STEP]))
 
@@ -838,8 +845,8 @@ class ExponentialAdams:
     def _frequencies_at(self, y):
         """The current shapes' elastic frequencies (m,) [rad/s] at the configuration y (n,): their
         Rayleigh quotients, from the mass matrix's composite factors when the problem has them
-        (``ModalBasis.rayleigh_frequencies_factored``: 0.66 against 4.5 ms on the truth model,
-        measured), else from M(y)."""
+        (``ModalBasis.rayleigh_frequencies_factored``: 0.40 against 3.4 ms with M(y) on the truth
+        model, measured; the same to rounding), else from M(y)."""
         factors = getattr(self.problem, "mass_factors", None)
         F = None if factors is None else factors(y)
         if F is None:

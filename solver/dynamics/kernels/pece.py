@@ -48,7 +48,7 @@ import numba
 import numpy as np
 
 from solver.dynamics.kernels import JIT
-from solver.dynamics.kernels.exponential import advance_diagonal, phi_table
+from solver.dynamics.kernels.exponential import advance_diagonal, modal_xi, phi_table
 
 N_JOINTS = 4
 
@@ -125,10 +125,9 @@ class Basis(NamedTuple):
     Lg (4, n) L^-1 M0[:4]; rates (4, n) = phi[:4], the gimbal rows of phi.
     The elastic oscillators: undamped bank mu, delta (m,) complex (xi = (eta' - conj(mu) eta)
     / delta); damped (``CoupledBank``) mu (m,) and P_eta, P_vel, V_eta, V_vel (m, m) complex,
-    Ct (m, m) [1/s] the modal damping (all (0, 0) undamped).
+    Ct (m, m) [1/s] the modal damping (all (0, 0) undamped; delta of size 0 damped).
     version (1,) int: counted up by Python on every change (the loop then clears its weight
-    cache).
-    """
+    cache)."""
     y_ref: np.ndarray
     X: np.ndarray
     YT: np.ndarray
@@ -151,16 +150,19 @@ class Basis(NamedTuple):
 
 
 class WeightCache(NamedTuple):
-    """The variation-of-constants weights of the current basis (``exponential.StepWeights``),
-    one entry per (step length m, offset o) in grid ticks: the length H = o tick of a step of
-    m ticks (o = m: the step itself; o < m: a dense output, theta = o / m, whose powers theta^r
-    are folded into W, wpos, wvel).  keys (C, 2) int, -1 = empty; E (C, m) = e^{H mu}; W
-    (C, K + 1, m) = H r! phi_{r+1}(H mu); wpos, wvel (C, K + 1) = H^2 r!/(r+2)!, H r!/(r+1)!;
-    H (C,) [s]; used (2,) int: [entries filled, basis version they belong to]; inv_fact, fact
-    (>= series_terms + K + 3,) 1/k!, k!; z (m,) complex and phis (K + 2, m) complex scratch."""
+    """The variation-of-constants weights of the current basis (``fill_weights``), one entry per
+    (step length m, offset o) in grid ticks: the length H = o tick of a step of m ticks (o = m:
+    the step itself; o < m: a dense output, theta = o / m, whose powers theta^r are folded into
+    the weights).  keys (C, 2) int, -1 = empty; E_re, E_im (C, m) = e^{H mu}; F_re, F_im
+    (C, K + 1, m) the forcing weights H r! phi_{r+1}(H mu) (over delta for the undamped bank);
+    wpos, wvel (C, K + 1) = H^2 r!/(r+2)!, H r!/(r+1)!; H (C,) [s]; used (3,) int: [entries
+    filled, basis version they belong to, entries computed in the run]; inv_fact, fact (>= series_terms + K + 3,) 1/k!, k!;
+    z (m,) complex and phis (K + 2, m) complex scratch."""
     keys: np.ndarray
-    E: np.ndarray
-    W: np.ndarray
+    E_re: np.ndarray
+    E_im: np.ndarray
+    F_re: np.ndarray
+    F_im: np.ndarray
     wpos: np.ndarray
     wvel: np.ndarray
     H: np.ndarray
@@ -223,7 +225,8 @@ class Work(NamedTuple):
     by Python at the start), eta_p, etad_p the predicted, eta_c, etad_c the corrected, eta_q,
     etad_q the first step's midpoint and quadratic states; g_p, g_m, g_1 the modal forcing at
     the predicted state, the midpoint and the accepted state; coef (K + 2, n) the corrector's
-    polynomial (st.ints[COEF_ROWS] rows), which the dense outputs reuse."""
+    polynomial (st.ints[COEF_ROWS] rows), which the dense outputs reuse; xi_re, xi_im (m,) the
+    undamped bank's complex coordinates of the step's start (``modal_xi``; unused damped)."""
     eta: np.ndarray
     etad: np.ndarray
     eta_p: np.ndarray
@@ -236,6 +239,8 @@ class Work(NamedTuple):
     g_m: np.ndarray
     g_1: np.ndarray
     coef: np.ndarray
+    xi_re: np.ndarray
+    xi_im: np.ndarray
 
 
 class History(NamedTuple):
@@ -312,19 +317,21 @@ def add_linear_terms(omega2, Ct, eta, etad, g):
 
 
 @numba.njit(**JIT)
-def coupled_advance(P_eta, P_vel, V_eta, V_vel, eta, etad, coef, theta_pow, E, W, wpos, wvel, H,
-                    out_eta, out_etad):
+def coupled_advance(P_eta, P_vel, V_eta, V_vel, eta, etad, coef, theta_pow, E_re, E_im, W_re, W_im,
+                    wpos, wvel, H, out_eta, out_etad):
     """The damped bank's advance (``exponential.CoupledBank``; the undamped one is
-    ``kernels.exponential.advance_diagonal``, same arguments): xi = P+ [eta; eta'] (m,)
-    complex, xi <- E xi + sum_r W_r (P_vel theta^r c_r), (eta, eta') = 2 Re(V+ xi); the joints
-    as in ``advance_diagonal``.  P_eta, P_vel, V_eta, V_vel (m, m) complex."""
+    ``kernels.exponential.advance_diagonal``): xi = P+ [eta; eta'] (m,) complex,
+    xi <- E xi + sum_r W_r (P_vel theta^r c_r), (eta, eta') = 2 Re(V+ xi); the joints as in
+    ``advance_diagonal``.  P_eta, P_vel, V_eta, V_vel (m, m) complex; E, W (real and imaginary
+    parts, (m,) and (>= kk, m)) the weights of ``fill_weights``."""
     j = N_JOINTS
     kk = coef.shape[0]
     nm = eta.shape[0] - j
-    xi = E * (np.dot(P_eta, eta[j:].astype(np.complex128))
-              + np.dot(P_vel, etad[j:].astype(np.complex128)))
+    xi = (E_re + 1j * E_im) * (np.dot(P_eta, eta[j:].astype(np.complex128))
+                               + np.dot(P_vel, etad[j:].astype(np.complex128)))
     for r in range(kk):
-        xi += np.dot(P_vel, (coef[r, j:] * theta_pow[r]).astype(np.complex128)) * W[r, :nm]
+        xi += np.dot(P_vel, (coef[r, j:] * theta_pow[r]).astype(np.complex128)) \
+            * (W_re[r, :nm] + 1j * W_im[r, :nm])
     out_eta[j:] = 2.0 * np.dot(V_eta, xi).real
     out_etad[j:] = 2.0 * np.dot(V_vel, xi).real
     for a in range(j):
@@ -358,24 +365,34 @@ def phase_shift(mu, delta, P_eta, P_vel, V_eta, V_vel, phase, eta_e, etad_e, d_e
 
 # ------------------------------------------------------------ weights (StepWeights)
 @numba.njit(**JIT)
-def fill_weights(mu, H, theta, dense, radius, terms, inv_fact, fact, z, phis, E, W, wpos, wvel):
+def fill_weights(mu, delta, H, theta, dense, radius, terms, inv_fact, fact, z, phis, E_re, E_im, F_re,
+                 F_im, wpos, wvel):
     """The variation-of-constants weights of one length H [s] (``exponential.StepWeights``):
     phi_0 .. phi_{K+1} at H mu (m,) (``phi_table``; z (m,), phis (K + 2, m) complex scratch),
-    E (m,) = e^{H mu}, W (K + 1, m) = (H r!) phi_{r+1}(H mu) theta^r, and the joints'
-    wpos (K + 1,) = H H r! / (r+2)!, wvel = H r! / (r+1)! for a step (dense False, theta 1),
-    H^2 (r!/(r+2)!) theta^r and H (r!/(r+1)!) theta^r for a dense output at theta = H / h
-    (the two orders of operations of the Python weights they replace).  inv_fact, fact
-    (>= terms + K + 3,) = 1/k!, k!."""
-    K = W.shape[0] - 1
-    for i in range(mu.shape[0]):
+    E (m,) = e^{H mu} and the forcing weights F (K + 1, m) = (H r!) phi_{r+1}(H mu) theta^r,
+    over delta (m,) for the undamped bank (delta of size 0: the damped bank, whose forcing is
+    P_vel c), real and imaginary parts apart; the joints' wpos (K + 1,) = H H r! / (r+2)!,
+    wvel = H r! / (r+1)! for a step (dense False, theta 1), H^2 (r!/(r+2)!) theta^r and
+    H (r!/(r+1)!) theta^r for a dense output at theta = H / h (the two orders of operations
+    of the Python weights they replaced).  inv_fact, fact (>= terms + K + 3,) = 1/k!, k!."""
+    K = F_re.shape[0] - 1
+    nm = mu.shape[0]
+    for i in range(nm):
         z[i] = H * mu[i]
     phi_table(z, K + 1, radius, terms, inv_fact, phis)
-    E[:] = phis[0]
+    for i in range(nm):
+        E_re[i] = phis[0, i].real
+        E_im[i] = phis[0, i].imag
+    over = np.ones(nm, dtype=np.complex128)         # 1 / delta (undamped), 1 (damped)
+    if delta.shape[0]:
+        over = 1.0 / delta
     for r in range(K + 1):
         tp = theta ** float(r) if dense else 1.0
         hf = H * fact[r]
-        for i in range(mu.shape[0]):
-            W[r, i] = hf * phis[r + 1, i] * tp
+        for i in range(nm):
+            f = hf * phis[r + 1, i] * tp * over[i]
+            F_re[r, i] = f.real
+            F_im[r, i] = f.imag
         if dense:
             wpos[r] = H ** 2 * (fact[r] / fact[r + 2]) * tp
             wvel[r] = H * (fact[r] / fact[r + 1]) * tp
@@ -497,25 +514,26 @@ def modal_forcing(Lg, X, Ky, omega_ref, YT, omega2, Ct, eta, etad, a, g):
 
 
 @numba.njit(**JIT)
-def advance_bank(mu, delta, P_eta, P_vel, V_eta, V_vel, E, W, wpos, wvel, H, eta, etad, coef,
-                 out_eta, out_etad):
+def advance_bank(mu, xi_re, xi_im, P_eta, P_vel, V_eta, V_vel, E_re, E_im, F_re, F_im, wpos, wvel,
+                 H, eta, etad, coef, theta_pow, out_eta, out_etad):
     """The modal state after a length H [s] from (eta, eta') with the forcing polynomial coef
-    (kk, n), weights (E, W, wpos, wvel) of that length with theta's powers folded in: the
-    undamped bank (P_eta of size 0; mu, delta) or the damped one (P+, V+)."""
-    ones = np.ones(coef.shape[0])
+    (kk, n) (theta_pow (kk,) = theta^r, ones when folded into the weights), the weights
+    (``fill_weights``) of that length: the undamped bank (P_eta of size 0: mu, and xi_re, xi_im
+    of (eta, eta'), ``modal_xi``) or the damped one (P+, V+)."""
     if P_eta.shape[0]:
-        coupled_advance(P_eta, P_vel, V_eta, V_vel, eta, etad, coef, ones, E, W, wpos, wvel, H,
-                        out_eta, out_etad)
+        coupled_advance(P_eta, P_vel, V_eta, V_vel, eta, etad, coef, theta_pow, E_re, E_im, F_re, F_im,
+                        wpos, wvel, H, out_eta, out_etad)
     else:
-        advance_diagonal(eta, etad, coef, ones, E, W, wpos, wvel, mu, delta, H, out_eta, out_etad)
+        advance_diagonal(eta, etad, xi_re, xi_im, coef, theta_pow, E_re, E_im, F_re, F_im, wpos, wvel,
+                         mu, H, out_eta, out_etad)
 
 
 @numba.njit(**JIT)
-def weights(keys, used, E, W, wpos, wvel, H, inv_fact, fact, z, phis, mu, version, tick, radius,
-            terms, m, offset):
+def weights(keys, used, E_re, E_im, F_re, F_im, wpos, wvel, H, inv_fact, fact, z, phis, mu, delta,
+            version, tick, radius, terms, m, offset):
     """The index of the cache entry (``WeightCache``'s arrays) of a length of ``offset`` ticks
     (tick [s]) inside a step of m ticks (offset = m: the step), filled on first use
-    (``fill_weights``, the bank's eigenvalues mu); the basis version ``version`` differing
+    (``fill_weights``, the bank's mu, delta); the basis version ``version`` differing
     from the cache's empties it, and so does a full cache (a new pattern of steps)."""
     if used[1] != version:
         keys[:] = -1
@@ -530,8 +548,9 @@ def weights(keys, used, E, W, wpos, wvel, H, inv_fact, fact, z, phis, mu, versio
         filled = 0
     c = filled
     used[0] = filled + 1
-    fill_weights(mu, offset * tick, offset / m, offset != m, radius, terms, inv_fact, fact, z, phis,
-                 E[c], W[c], wpos[c], wvel[c])
+    used[2] += 1
+    fill_weights(mu, delta, offset * tick, offset / m, offset != m, radius, terms, inv_fact, fact, z,
+                 phis, E_re[c], E_im[c], F_re[c], F_im[c], wpos[c], wvel[c])
     H[c] = offset * tick
     keys[c, 0] = m
     keys[c, 1] = offset
@@ -539,17 +558,18 @@ def weights(keys, used, E, W, wpos, wvel, H, inv_fact, fact, z, phis, mu, versio
 
 
 @numba.njit(**JIT)
-def advance_over(m, offset, eta, etad, coef, out_eta, out_etad, grid, keys, used, E, W, wpos, wvel,
-                 H, inv_fact, fact, z, phis, mu, delta, P_eta, P_vel, V_eta, V_vel):
-    """The modal state after ``offset`` ticks of a step of m ticks from (eta, eta') (n,) with the
-    forcing polynomial coef (kk, n), into out_eta, out_etad (n,): the cached weights of that
-    length (``weights``; grid = (basis version, tick [s], series radius, series terms), then
-    the ``WeightCache`` arrays), the bank's advance (``advance_bank``: mu, delta, P+, V+)."""
+def advance_over(m, offset, eta, etad, xi, coef, out_eta, out_etad, grid, keys, used, E_re, E_im,
+                 F_re, F_im, wpos, wvel, H, inv_fact, fact, z, phis, mu, delta, P_eta, P_vel, V_eta, V_vel):
+    """The modal state after ``offset`` ticks of a step of m ticks from (eta, eta') (n,) (xi: the
+    undamped bank's (xi_re, xi_im) of it) with the forcing polynomial coef (kk, n), into
+    out_eta, out_etad (n,): the cached weights of that length (``weights``; grid = (basis
+    version, tick [s], series radius, series terms), then the ``WeightCache`` arrays), the
+    bank's advance (``advance_bank``: mu, delta, P+, V+)."""
     version, tick, radius, terms = grid
-    c = weights(keys, used, E, W, wpos, wvel, H, inv_fact, fact, z, phis, mu, version, tick, radius,
-                terms, m, offset)
-    advance_bank(mu, delta, P_eta, P_vel, V_eta, V_vel, E[c], W[c], wpos[c], wvel[c], H[c], eta, etad,
-                 coef, out_eta, out_etad)
+    c = weights(keys, used, E_re, E_im, F_re, F_im, wpos, wvel, H, inv_fact, fact, z, phis, mu, delta,
+                version, tick, radius, terms, m, offset)
+    advance_bank(mu, xi[0], xi[1], P_eta, P_vel, V_eta, V_vel, E_re[c], E_im[c], F_re[c], F_im[c],
+                 wpos[c], wvel[c], H[c], eta, etad, coef, np.ones(coef.shape[0]), out_eta, out_etad)
 
 
 # ------------------------------------------------------------ the history
@@ -606,16 +626,16 @@ def history_nodes(hist, q, t, h, lead):
 
 @numba.njit(**JIT)
 def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J, b_Lg, b_rates,
-             b_mu, b_delta, b_P_eta, b_P_vel, b_V_eta, b_V_vel, b_Ct, b_version, w_keys, w_E, w_W,
-             w_wpos, w_wvel, w_H, w_used, w_inv_fact, w_fact, w_z, w_phis, cfg_tol, cfg_tick,
-             cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise, cfg_every_ticks,
-             cfg_drift, cfg_frozen_validity, cfg_probe_drift, cfg_phase_limit, cfg_update_drift,
-             cfg_update_min_modes, cfg_max_rejections, cfg_grow_safety, cfg_rate_floor,
-             cfg_series_radius, cfg_series_terms, cfg_watch, st_ints,
-             st_reals, st_rate_scales, st_phase, st_kappa, st_phase_ref, hist_t, hist_y, hist_yd,
-             hist_a, hist_g, hist_length, ev_t, ev_y, ev_yd, ev_a, out_eta, out_etad, out_segment,
+             b_mu, b_delta, b_P_eta, b_P_vel, b_V_eta, b_V_vel, b_Ct, b_version, w_keys, w_E_re,
+             w_E_im, w_F_re, w_F_im, w_wpos, w_wvel, w_H, w_used, w_inv_fact, w_fact, w_z, w_phis,
+             cfg_tol, cfg_tick, cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise,
+             cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift, cfg_phase_limit,
+             cfg_update_drift, cfg_update_min_modes, cfg_max_rejections, cfg_grow_safety,
+             cfg_rate_floor, cfg_series_radius, cfg_series_terms, cfg_watch, st_ints, st_reals,
+             st_rate_scales, st_phase, st_kappa, st_phase_ref, hist_t, hist_y, hist_yd, hist_a,
+             hist_g, hist_length, ev_t, ev_y, ev_yd, ev_a, out_eta, out_etad, out_segment,
              work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
-             work_etad_q, work_g_p, work_g_m, work_g_1, work_coef):
+             work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im):
     """The exponential Adams PECE loop from where it stopped (st.ints[STAGE]) to the next
     request or to the end (module docstring); returns DONE or the request.
 
@@ -644,8 +664,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
       a tick that is a multiple of 2 m."""
     b = Basis(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J, b_Lg, b_rates,
               b_mu, b_delta, b_P_eta, b_P_vel, b_V_eta, b_V_vel, b_Ct, b_version)
-    w = WeightCache(w_keys, w_E, w_W, w_wpos, w_wvel, w_H, w_used, w_inv_fact, w_fact, w_z,
-                    w_phis)
+    w = WeightCache(w_keys, w_E_re, w_E_im, w_F_re, w_F_im, w_wpos, w_wvel, w_H, w_used,
+                    w_inv_fact, w_fact, w_z, w_phis)
     cfg = Settings(cfg_tol, cfg_tick, cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise,
                    cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift,
                    cfg_phase_limit, cfg_update_drift, cfg_update_min_modes, cfg_max_rejections,
@@ -656,7 +676,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
     ev = Evaluation(ev_t, ev_y, ev_yd, ev_a)
     out = Outputs(out_eta, out_etad, out_segment)
     work = Work(work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
-                work_etad_q, work_g_p, work_g_m, work_g_1, work_coef)
+                work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im)
     j = N_JOINTS
     n = work.eta.shape[0]
     nm = n - j
@@ -674,7 +694,9 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
     projection = (b.Lg, b.X, b.Ky, b.omega_ref, b.YT)       # project
     linear = (b.omega2, b.Ct)                               # add_linear_terms
     bank = (b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel)
-    cache = (w.keys, w.used, w.E, w.W, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z, w.phis)
+    cache = (w.keys, w.used, w.E_re, w.E_im, w.F_re, w.F_im, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z,
+             w.phis)
+    xi = (work.xi_re, work.xi_im)
     grid = (b.version[0], tick, cfg.series_radius, cfg.series_terms)
     finite = True
     while True:
@@ -693,8 +715,10 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             h = m * tick
             q = min(cfg.order, hist.length[0])
             ints[NODES] = q
+            if b.P_eta.shape[0] == 0:
+                modal_xi(eta, etad, b.mu, b.delta, work.xi_re, work.xi_im)    # for every advance below
             cP = poly_coefficients(history_nodes(hist, q, t, h, 0), hist.g[:q])
-            advance_over(m, m, eta, etad, cP, eta_p, etad_p, grid, *cache, *bank)
+            advance_over(m, m, eta, etad, xi, cP, eta_p, etad_p, grid, *cache, *bank)
             to_physical(*physical_map, eta_p, etad_p, ev.y, ev.yd)
             ev.t[0] = t + h
             ints[EVALUATIONS] += 1
@@ -709,7 +733,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             values[1:] = hist.g[:q]
             work.coef[:q + 1] = poly_coefficients(nodes, values)
             ints[COEF_ROWS] = q + 1
-            advance_over(m, m, eta, etad, work.coef[:q + 1], eta_c, etad_c, grid, *cache, *bank)
+            advance_over(m, m, eta, etad, xi, work.coef[:q + 1], eta_c, etad_c, grid, *cache, *bank)
             finite = all_finite(work.g_p) and all_finite(eta_c) and all_finite(etad_c)
             reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_c, etad_c, eta_p, etad_p) \
                 if finite else np.inf
@@ -720,7 +744,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                 # state and the estimate is 100 % at every step size.  Instead: one more
                 # evaluation at the midpoint, the quadratic through g(0), g(h/2), g(h), and the
                 # difference quadratic - linear as the estimate (the higher order is kept).
-                advance_over(m, m // 2, eta, etad, work.coef[:q + 1], eta_q, etad_q, grid, *cache,
+                advance_over(m, m // 2, eta, etad, xi, work.coef[:q + 1], eta_q, etad_q, grid, *cache,
                              *bank)
                 to_physical(*physical_map, eta_q, etad_q, ev.y, ev.yd)
                 ev.t[0] = t + 0.5 * h
@@ -737,7 +761,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             values[2:] = hist.g[:q]
             work.coef[:q + 2] = poly_coefficients(nodes, values)
             ints[COEF_ROWS] = q + 2
-            advance_over(m, m, eta, etad, work.coef[:q + 2], eta_q, etad_q, grid, *cache, *bank)
+            advance_over(m, m, eta, etad, xi, work.coef[:q + 2], eta_q, etad_q, grid, *cache, *bank)
             finite = all_finite(eta_q) and all_finite(etad_q)
             reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_q, etad_q, eta_c, etad_c) \
                 if finite else np.inf
@@ -785,7 +809,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             for k in range(first, last + 1):
                 offset = k * tpo - i
                 if offset < m:
-                    advance_over(m, offset, eta, etad, coef, out.eta[k], out.etad[k], grid, *cache,
+                    advance_over(m, offset, eta, etad, xi, coef, out.eta[k], out.etad[k], grid, *cache,
                                  *bank)
                 else:
                     out.eta[k] = eta_c
