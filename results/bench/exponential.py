@@ -300,7 +300,8 @@ def _measured(case, key):
     setup = case.get("setup_median_s")
     split = ("" if setup is None else
              f"; set-up {format_seconds(setup)}" if q == "integration_median_s" else
-             f"; = set-up {format_seconds(setup)} + integration {format_seconds(case['integration_median_s'])}")
+             f"; = set-up {format_seconds(setup)} + integration "
+             f"{format_seconds(case['integration_median_s'])}")
     extra = (f"; {case['steps']} steps, {case['evaluations']} evaluations, "
              f"{plural(case['relinearisations'] + 1, 'basis', 'bases')}" if case.get("steps") is not None else "")
     return f"{what} {format_seconds(v)} (median of {case['runs']}{split}{extra})"
@@ -532,9 +533,9 @@ def timed_run(model_file, scene, duration, method, options, model):
     t3 = time.perf_counter()
     first = float(run.stats.get("first_basis_time_s", 0.0))
     later = float(run.stats.get("basis_time_s", first)) - first
-    return run, prob, {"read_s": t1 - t0, "problem_s": t2 - t1, "first_basis_s": first, "later_bases_s": later,
-                       "run_s": run.wall_time, "setup_s": t2 - t0 + first, "integration_s": run.wall_time - first,
-                       "end_to_end_s": t3 - t0}
+    return run, prob, {"read_s": t1 - t0, "problem_s": t2 - t1, "first_basis_s": first,
+                       "later_bases_s": later, "run_s": run.wall_time, "setup_s": t2 - t0 + first,
+                       "integration_s": run.wall_time - first, "end_to_end_s": t3 - t0}
 
 
 FAILURES = (exponential.ExponentialError, integrators.DivergenceError, integrators.StepTooLargeError,

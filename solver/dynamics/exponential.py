@@ -39,13 +39,18 @@ The scheme: exponential Adams in PECE form.  The predictor's p interpolates g at
 last q accepted times (order q), the corrector's adds the predicted g at t_n + h
 (order q + 1); every node pattern is handled by a q x q Vandermonde solve, so variable
 steps cost nothing extra.  The difference corrector - predictor estimates the local
-error (``ErrorNorm``); the step is halved or doubled on a dyadic grid of the output
-interval, so dense outputs reuse cached weights.  The basis is rebuilt (re-linearised)
-when the gimbal angles drift from y_r by more than ``drift`` [rad], or when steps keep
-failing in an aged basis; the stored history of accelerations is carried over.  A run
-that cannot hold (steps below the floor, a singular joint mass matrix, an overdamped
+error (``kernels.pece.local_error``); the step is halved or doubled on a dyadic grid of the
+output interval, so dense outputs reuse cached weights.  The basis is rebuilt
+(re-linearised) when the gimbal angles drift from y_r by more than ``drift`` [rad], or when
+steps keep failing in an aged basis; the stored history of accelerations is carried over.
+A run that cannot hold (steps below the floor, a singular joint mass matrix, an overdamped
 mode, a frozen basis beyond its validity) stops with ``ExponentialError`` naming the
 time and the cause.
+
+The step loop is compiled (``kernels.pece.pece_run``, docs/exponential.md Sec. 8): this
+module builds the bases, answers the loop's requests (right-hand sides, bases, frequency
+updates) and holds the Python forms of its pieces (``ModalBasis``' transforms,
+``StepWeights``, ``advance``), which call the same compiled helpers.
 
 Units: in, lbf, s, rad as everywhere (``solver.dynamics.multibody``).
 """
@@ -62,7 +67,7 @@ from solver.dynamics.kernels import pece
 from solver.dynamics.linearized import free_joint_basis, free_joint_frequencies
 
 N_JOINTS = 4
-DEFAULT_TOL = 5e-6         # local error per step, relative (ErrorNorm); docs/exponential.md Sec. 5
+DEFAULT_TOL = 5e-6         # local error per step, relative (kernels.pece.local_error); docs/exponential.md 5
 DEFAULT_ORDER = 4          # Adams predictor order (corrector q + 1)
 DEFAULT_DRIFT = 0.01       # [rad] gimbal-angle drift that triggers a new basis (measured, Sec. 6)
 FROZEN_VALIDITY = 0.05     # [rad] drift beyond which a frozen basis is refused (Sec. 6)

@@ -156,7 +156,8 @@ class WeightCache(NamedTuple):
     the weights).  keys (C, 2) int, -1 = empty; E_re, E_im (C, m) = e^{H mu}; F_re, F_im
     (C, K + 1, m) the forcing weights H r! phi_{r+1}(H mu) (over delta for the undamped bank);
     wpos, wvel (C, K + 1) = H^2 r!/(r+2)!, H r!/(r+1)!; H (C,) [s]; used (3,) int: [entries
-    filled, basis version they belong to, entries computed in the run]; inv_fact, fact (>= series_terms + K + 3,) 1/k!, k!;
+    filled, basis version they belong to, entries computed in the run]; inv_fact, fact
+    (>= series_terms + K + 3,) 1/k!, k!;
     z (m,) complex and phis (K + 2, m) complex scratch."""
     keys: np.ndarray
     E_re: np.ndarray
@@ -418,7 +419,7 @@ def poly_coefficients(nodes, values):
     return np.dot(Vinv, values)
 
 
-# ------------------------------------------------------------ error measures (ErrorNorm)
+# ------------------------------------------------------------ error measures
 @numba.njit(**JIT)
 def energy_norm(omega2, eta, etad):
     """sqrt(sum eta'^2 + omega^2 eta^2) of a modal state (n,) each: twice the linearised
