@@ -390,7 +390,7 @@ def profile_limits(profile, n_coordinates, bases, steps, samples, top=(), freque
     frequency_updates: the run's phase errors met by new frequencies (no eigenproblem)."""
     later = bases - 1
     updates = (f"the frequency probe and {frequency_updates} frequency updates (Rayleigh quotients "
-               f"from the mass matrix's factors, ~55 m^2 multiply-adds each)" if frequency_updates
+               f"from the mass matrix's factors, ~30 m^2 multiply-adds each)" if frequency_updates
                else "the frequency probe")
     rest_top = "; ".join(f"{r['function']} {format_seconds(r['tottime_s'])} in {r['calls']} calls"
                          for r in top[:4])
