@@ -184,11 +184,12 @@ def _rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, amp, omf, phase, o
 
 
 @numba.njit(**JIT)
-def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
+def _mass_factors(y, Jall, Pall, BtJ, Ball, D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     """The composite (Jacobian) assembly of M(y) = sum_k J_k^T N_k J_k (docs in
     ``solver.dynamics.dense_baseline``, whose baseline it was first written for).  Fill Jall (24, n) (the four bodies' twist Jacobians J_k), Pall (24, n)
-    (P_k = M_X J_k + B E_k) and BtJ (S, n) (rows of the modal coordinates, B_k^T J_k),
-    so that M(y) = Jall^T Pall + [0; BtJ] + I_modal (module docstring).  The joint
+    (P_k = M_X J_k + B E_k), BtJ (S, n) (rows of the modal coordinates, B_k^T J_k) and Ball
+    (6, S) (B_k = [P; H + sum_j q_j G_j] of body k in its own modes' columns), so that
+    M(y) = Jall^T Pall + [0; BtJ] + I_modal (module docstring).  The joint
     poses and maps are those of the structured solver's kinematics
     (``kernels.recursion.kinematics``: L = [R^T Psi; Lw Theta] on the parent's modes).
     The chain's arrays come as separate arguments (``*pack(chain)``): the dispatch of
@@ -241,7 +242,9 @@ def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C
         for i in range(Dk):
             for a in range(6):
                 Pk[a, 4 + o + i] += Bk[a, i]
-        BtJ[o:o + Dk] = Bk.T @ Jk
+        if BtJ.shape[0]:                        # (size 0: only the factors are asked for)
+            BtJ[o:o + Dk] = Bk.T @ Jk
+        Ball[:, o:o + Dk] = Bk
         Jall[6 * k:6 * k + 6] = Jk
         Pall[6 * k:6 * k + 6] = Pk
         J = Jk
@@ -249,7 +252,7 @@ def _mass_factors(y, Jall, Pall, BtJ, D, off, M6, V, gram, M1, G, om2, cd, C1, C
 
 class Workspace:
     """Buffers of the composite assembly for n coordinates, reused from call to call:
-    Jall, Pall (24, n), BtJ (n - 4, n), M (n, n).  Reuse matters beyond the copy: a fresh
+    Jall, Pall (24, n), BtJ (n - 4, n), B (6, n - 4), M (n, n).  Reuse matters beyond the copy: a fresh
     n x n array is fresh memory, and its first touch costs a page fault per 4 kB page
     (measured: ~5 ms of a 7 ms assembly at n = 804 on the benchmark VM)."""
 
@@ -257,6 +260,7 @@ class Workspace:
         self.Jall = np.zeros((24, n))
         self.Pall = np.zeros((24, n))
         self.BtJ = np.zeros((n - 4, n))
+        self.B = np.zeros((6, n - 4))
         self.M = np.zeros((n, n))
 
 
@@ -267,12 +271,35 @@ def mass_matrix_composite(data, y, work=None):
     result is written into (and returned as) work.M; without one, into a new array."""
     y = np.ascontiguousarray(y, dtype=float)
     work = Workspace(y.size) if work is None else work
-    _mass_factors(y, work.Jall, work.Pall, work.BtJ, *data)
+    _mass_factors(y, work.Jall, work.Pall, work.BtJ, work.B, *data)
     M = np.dot(work.Jall.T, work.Pall, out=work.M)     # the one O(n^2) product: BLAS dgemm
     M[4:] += work.BtJ
     idx = np.arange(4, y.size)
     M[idx, idx] += 1.0
     return M
+
+
+class MassFactors(NamedTuple):
+    """M(y) in the factored form of the composite assembly (``mass_factors``): J, P (24, n) the
+    four bodies' twist Jacobians J_k (rows 6k..6k+5) and P_k = M_X J_k + B_k E_k, B (6, S) the
+    bodies' B_k in their own modes' columns (off[k]..off[k] + D[k]); off, D (4,) int.  Then
+    M = J^T P + [0; B_k^T J_k rows] + I on the modal block: every block of M minus the
+    identity has rank <= 30, which a quadratic form x^T M x uses (``ModalBasis.
+    rayleigh_frequencies``)."""
+    J: np.ndarray
+    P: np.ndarray
+    B: np.ndarray
+    off: np.ndarray
+    D: np.ndarray
+
+
+def mass_factors(data, y):
+    """The ``MassFactors`` of M(y) (new arrays); data = ``pack(chain)``."""
+    y = np.ascontiguousarray(y, dtype=float)
+    n = y.size
+    J, P, B = np.zeros((24, n)), np.zeros((24, n)), np.zeros((6, n - 4))
+    _mass_factors(y, J, P, np.zeros((0, n)), B, *data)
+    return MassFactors(J, P, B, data.off, data.D)
 
 
 # ------------------------------------------------------------------ wrappers
@@ -284,6 +311,7 @@ class FastChain:
     def __init__(self, chain):
         self.chain = chain
         self.data = pack(chain)
+        self._work = None           # the composite assembly's buffers (``Workspace``), made on first use
 
     def inverse_dynamics(self, y, yd, ydd, w1, dw1):
         return _inverse_dynamics(np.asarray(y, float), np.asarray(yd, float), np.asarray(ydd, float),
@@ -297,9 +325,20 @@ class FastChain:
         return _solve_mass(y, np.asarray(r, float), dg, unit, *self.data)
 
     def mass_matrix(self, y):
-        """M(y) (n, n), symmetrised, by the composite assembly (``mass_matrix_composite``)."""
-        M = mass_matrix_composite(self.data, y)
-        return 0.5 * (M + M.T)
+        """M(y) (n, n), symmetrised, by the composite assembly (``mass_matrix_composite``) in
+        buffers kept from call to call: only the result is fresh memory (measured 0.5 against
+        3.2 ms at n = 404 between the eigenproblems of an exponential run, where fresh (n, n)
+        buffers page-fault on first touch, ``Workspace``)."""
+        if self._work is None or self._work.M.shape[0] != np.size(y):
+            self._work = Workspace(np.size(y))
+        M = mass_matrix_composite(self.data, y, self._work)
+        out = np.add(M, M.T)
+        out *= 0.5
+        return out
+
+    def mass_factors(self, y):
+        """M(y) factored (``MassFactors``), the composite assembly's own factors."""
+        return mass_factors(self.data, y)
 
     def mass_matrix_by_columns(self, y):
         """M(y) (n, n), symmetrised, column by column from the inverse dynamics at unit

@@ -401,6 +401,7 @@ def _exponential(problem, out, step, options):
         "order": integrator.order, "drift": integrator.drift,
         "evaluations": st.evaluations, "rejected": st.rejected,
         "relinearisations": st.relinearisations, "basis_time_s": st.basis_time,
+        "first_basis_time_s": st.first_basis_time, "weight_sets": st.weight_sets,
         "phase_relinearisations": st.phase_relinearisations, "frequency_updates": st.frequency_updates,
         "smallest_step": st.smallest_step, "largest_step": st.largest_step,
         "coupled_omega_max": st.coupled_omega_max}

@@ -5,8 +5,10 @@ state (``Problem``), and the choice between the compiled and the NumPy right-han
 ``solver.dynamics.integrators`` works on this interface only: ``rhs``, ``residual``,
 ``solve``, ``mass_matrix``, ``kinetic_energy``, ``potential_energy``, ``energy``,
 ``input_power``, ``stiffness_diagonal``, ``damping_diagonal``, ``y0``, ``yd0``, ``omega_max``
-(computed on first use), and the two
-optional compiled paths ``rk4_steps`` and ``rk4_run`` (None when there is none).
+(computed on first use), the two
+optional compiled paths ``rk4_steps`` and ``rk4_run`` (None when there is none), and the
+optional ``mass_factors`` (returns None when there are none; an integrator without it uses
+``mass_matrix``).
 """
 
 import numpy as np
@@ -95,6 +97,14 @@ class Problem:
         if self._fast is not None:
             return self._fast.mass_matrix(y)
         return mass_matrix(self.chain, y)
+
+    def mass_factors(self, y):
+        """M(y) in the composite assembly's factored form (``compiled.MassFactors``), or None
+        without the compiled kernels: the exponential integrator's frequency updates read
+        only quadratic forms of M, which the factors give at a fraction of the cost."""
+        if self._fast is not None:
+            return self._fast.mass_factors(y)
+        return None
 
     def tau(self, t):
         out = np.zeros(self.chain.n_coordinates)

@@ -97,6 +97,7 @@ def _case(scene, status="ok", E=1e-9, integ=0.01, e2e=0.05, model="truth"):
 def _comparison(speedup=800.0, e_dop=2e-10, e_exp=1e-9):
     return {"status": "ok", "rtol": 1e-6, "runs": 5, "speedup": speedup, "speedup_end_to_end": speedup / 3,
             "dop853_integration_median_s": 12.0, "exponential_integration_median_s": 12.0 / speedup,
+            "dop853_end_to_end_median_s": 12.1, "exponential_end_to_end_median_s": 12.1 * 3 / speedup,
             "E_dop853": e_dop, "E_exponential": e_exp,
             "equal_or_better": e_dop is not None and e_exp is not None and e_dop <= e_exp}
 
@@ -138,18 +139,19 @@ def test_dop853_ratio_counts_only_at_equal_or_better_error():
 
 
 def test_profile_split_adds_up():
-    p = bench.profile_split(0.1, 0.02, 0.03, 75, 4e-5)
+    p = bench.profile_split(0.1, 0.02, 0.025, 0.005, 75, 4e-5)
     assert p["rhs_evaluations_s"] == pytest.approx(0.003)
-    assert p["rest_s"] == pytest.approx(0.1 - 0.02 - 0.03 - 0.003)
-    parts = ("problem_setup_s", "basis_setup_s", "rhs_evaluations_s", "rest_s")
+    assert p["rest_s"] == pytest.approx(0.1 - 0.02 - 0.025 - 0.005 - 0.003)
+    parts = ("problem_setup_s", "first_basis_s", "later_bases_s", "rhs_evaluations_s", "rest_s")
     assert sum(p[k] for k in parts) == pytest.approx(p["end_to_end_s"])
     assert sum(p[k.replace("_s", "_share")] for k in parts) == pytest.approx(1.0)
-    noisy = bench.profile_split(0.05, 0.02, 0.03, 100, 1e-4)          # parts exceed the total
+    noisy = bench.profile_split(0.05, 0.02, 0.03, 0.0, 100, 1e-4)     # parts exceed the total
     assert noisy["rest_s"] == pytest.approx(-0.01)
     limits = bench.profile_limits({**p, "read_s": 0.015, "problem_s": 0.005}, 404, 2, 37, 1501,
-                                  [{"function": "exponential.py:1(run)", "tottime_s": 0.01, "calls": 1}])
+                                  [{"function": "exponential.py:1(run)", "tottime_s": 0.01, "calls": 1}], 4)
     assert set(limits) == set(parts)
-    assert "404" in limits["basis_setup_s"] and "75 evaluations" in limits["rhs_evaluations_s"]
+    assert "400" in limits["first_basis_s"] and "75 evaluations" in limits["rhs_evaluations_s"]
+    assert "4 frequency updates" in limits["later_bases_s"] and "1 new basis" in limits["later_bases_s"]
     assert "exponential.py:1(run)" in limits["rest_s"]
 
 
@@ -169,8 +171,9 @@ def test_markdown_and_csv_formats():
         r["n_coordinates"] = 4
         r.setdefault("integration_median_s", 0.01)
     table = bench.issue_table(cases, _comparison(), reduced)
-    profile = bench.profile_split(0.05, 0.01, 0.02, 75, 4e-5)
-    limits = {k: f"limit of {k}" for k in ("problem_setup_s", "basis_setup_s", "rhs_evaluations_s", "rest_s")}
+    profile = bench.profile_split(0.05, 0.01, 0.015, 0.005, 75, 4e-5)
+    limits = {k: f"limit of {k}" for k in ("problem_setup_s", "first_basis_s", "later_bases_s",
+                                           "rhs_evaluations_s", "rest_s")}
     md = bench.format_markdown(table, cases, _comparison(), reduced, profile, limits,
                                {"title": "T", "note": "N", "provenance": "P"})
     lines = md.splitlines()
@@ -264,8 +267,16 @@ def test_cli_smoke_on_a_synthetic_chain(tmp_path, synthetic_files):
     assert len(data["table"]) == len(bench.TARGETS) and data["targets"] == bench.TARGETS
     thesis = data["truth_cases"]["thesis"]
     assert thesis["status"] == "ok" and thesis["runs"] == 1 and thesis["E_max"] < 1e-6
+    # set-up (read, problem, initial basis) + integration (the rest of the run) = end to end, up to
+    # the little between the timers (the Run's assembly)
+    assert 0 < thesis["setup_median_s"] and 0 < thesis["integration_median_s"]
+    assert thesis["setup_median_s"] + thesis["integration_median_s"] \
+        <= thesis["end_to_end_median_s"] * (1 + 1e-9)
+    assert thesis["integration_median_s"] == \
+        pytest.approx(thesis["run_median_s"] - thesis["first_basis_median_s"])
     comp = data["dop853_comparison"]
     assert comp["status"] == "ok" and comp["speedup"] > 0 and comp["E_dop853"] is not None
+    assert comp["speedup_end_to_end"] > 0
     assert data["profile"]["evaluations"] == thesis["evaluations"] and data["profile"]["cprofile_top"]
     assert data["config_hash"] and data["versions"]["git"]
     md = (tmp_path / "e.md").read_text()

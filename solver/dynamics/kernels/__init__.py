@@ -5,7 +5,9 @@ body's modal rows and the O(D^2) Coriolis passes; ``recursion``: kinematics, the
 Newton-Euler backward pass, the articulated-body solve, energies and the case twist;
 ``rk4``: the compiled RK4 loops.  They are the equations of ``solver.dynamics.multibody``
 (docs/dynamics.md Sections 3 and 8) written for speed; ``solver.dynamics.compiled``
-packs a chain for them and is their Python interface.
+packs a chain for them and is their Python interface.  ``exponential`` (the modal
+advance and the phi-functions) and ``pece`` (the exponential Adams step loop) are the
+exponential integrator's (``solver.dynamics.exponential``, docs/exponential.md).
 
 The chain reaches the kernels as ONE argument ``ch``, the named tuple
 ``compiled.PackedChain`` (D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho; see
