@@ -679,9 +679,49 @@ def static_modes_for(data, load_cases, kept_modes, kept_eigenvalues):
                                    names=list(load_cases))
 
 
-def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rotation_blocks=True):
-    """multibody.Body of one body: kept vibration modes plus static correction modes."""
+def all_mode_integrals(data, rotate_rotation_blocks=True):
+    """The modal integrals (``modal_integrals.chain_integrals``) of every mode of one body's
+    file, computed once and kept in its dict (read-only, as ``_apply_G``): a study builds ~50
+    models from the same four bodies, and every integral of a subset of the modes is a
+    selection of these (``select_mode_integrals``)."""
+    key = "_all_mode_integrals" if rotate_rotation_blocks else "_all_mode_integrals_unrotated"
+    integ = data.get(key)
+    if integ is None:
+        integ = modal_integrals.chain_integrals(
+            data["M"], np.asarray(data["modes"]), data["rigid_modes"], data["dof_coords"],
+            data["dof_component"], np.asarray(data["bearing_modes"]), data["bearing_points"],
+            rotate_rotation_blocks=rotate_rotation_blocks)
+        data[key] = integ
+    return integ
+
+
+def select_mode_integrals(integ, kept):
+    """The integrals of modes ``kept`` (k,) from those of all D modes: every integral is one
+    column (row) per mode -- momentum (6, D), inertia_gradient (D, 6, 6), inside_translation and
+    inside_rotation (3, D) -- except the Coriolis coefficients (D, 3, D), bilinear in the modes,
+    whose rows and columns are both selected.  Fresh contiguous arrays."""
     kept = np.asarray(kept, dtype=int)
+    out = {"rigid_mass": np.array(integ["rigid_mass"]),
+           "momentum": np.ascontiguousarray(integ["momentum"][:, kept]),
+           "inertia_gradient": np.ascontiguousarray(integ["inertia_gradient"][kept]),
+           "coriolis": np.ascontiguousarray(integ["coriolis"][kept][:, :, kept])}
+    for name in ("inside_translation", "inside_rotation"):
+        if name in integ:
+            out[name] = np.ascontiguousarray(integ[name][:, kept])
+    return out
+
+
+def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rotation_blocks=True):
+    """multibody.Body of one body: kept vibration modes plus static correction modes.
+
+    Without static modes the integrals are a selection of the body's all-mode integrals
+    (``all_mode_integrals``, computed once per body); with them, computed for the kept and
+    static modes together (the static modes depend on the kept set)."""
+    kept = np.asarray(kept, dtype=int)
+    if not load_cases:
+        integ = select_mode_integrals(all_mode_integrals(data, rotate_rotation_blocks), kept)
+        lam = np.asarray(data["eigenvalues"])[kept]
+        return multibody.make_body(number, integ, lam, damping_ratio, [f"mode {i}" for i in kept])
     Phi = np.asarray(data["modes"])[:, kept]
     lam = np.asarray(data["eigenvalues"])[kept]
     labels = [f"mode {i}" for i in kept]

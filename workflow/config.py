@@ -201,11 +201,28 @@ def read_config_file(path: str | Path) -> dict:
     return config
 
 
+_VALIDATED: dict = {}
+
+
 def load_config(path: str | Path = DEFAULT_CONFIG) -> dict:
     """Read and validate a config file; raise ConfigError with a one-line message.
 
-    The values come in the units their keys are read in (:func:`validate`)."""
-    return validate(read_config_file(path))
+    The values come in the units their keys are read in (:func:`validate`).  A file validated
+    before in this process (same path, size and modification time, same schema file) is not
+    validated again: its result is handed out as a deep copy (a study process loads the config
+    ~150 times; the JSON-schema check and the unit conversions cost ~30 ms each)."""
+    try:
+        key = (yamlfile.file_key(path), yamlfile.file_key(SCHEMA))
+    except OSError:
+        key = None                          # read_config_file gives the one-line error
+    if key is None or key not in _VALIDATED:
+        config = validate(read_config_file(path))
+        if key is None:
+            return config
+        if len(_VALIDATED) >= 16:
+            _VALIDATED.clear()
+        _VALIDATED[key] = config
+    return copy.deepcopy(_VALIDATED[key])
 
 
 def value(config: dict, dotted_key: str):

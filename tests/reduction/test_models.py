@@ -151,6 +151,35 @@ def test_body_file_roundtrip_gives_same_chain(files):
     assert np.allclose(body.coriolis, ref.coriolis, rtol=1e-12, atol=1e-16)
 
 
+@pytest.mark.parametrize("rotate", [True, False])
+def test_selected_integrals_equal_those_computed_for_the_subset(files, rotate):
+    """build_body without static modes selects from the body's all-mode integrals (kept in its
+    dict); they must equal chain_integrals computed on the kept modes alone, for a permuted
+    subset, on a body with output bearings (body 2) and on the platform (body 5)."""
+    from reduction import modal_integrals
+    root, _ = files
+    kept = np.array([4, 0, 3])
+    for b in (2, 5):
+        data = dict(models.load_body_file(str(root / "modes" / f"body{b}.h5")))   # own cache
+        body = models.build_body(b, data, kept, rotate_rotation_blocks=rotate)
+        direct = modal_integrals.chain_integrals(
+            data["M"], data["modes"][:, kept], data["rigid_modes"], data["dof_coords"],
+            data["dof_component"], data["bearing_modes"][kept], data["bearing_points"],
+            rotate_rotation_blocks=rotate)
+        ref = multibody.make_body(b, direct, data["eigenvalues"][kept])
+        for name in ("rigid_mass", "momentum", "inertia_gradient", "coriolis", "omega2"):
+            got, want = getattr(body, name), getattr(ref, name)
+            assert got.shape == want.shape and got.flags.c_contiguous
+            assert np.allclose(got, want, rtol=1e-12, atol=1e-14 * np.abs(want).max()), name
+        assert (body.inside_translation is None) == (b == 5)
+        if b != 5:
+            assert np.allclose(body.inside_rotation, ref.inside_rotation, rtol=1e-12, atol=1e-15)
+        assert np.any(body.coriolis != 0)
+        # the selection is a selection: a different subset gives different integrals
+        other = models.build_body(b, data, np.array([1, 2, 5]), rotate_rotation_blocks=rotate)
+        assert not np.allclose(other.momentum, body.momentum)
+
+
 def test_static_mode_model_builds_and_orthonormal(files):
     root, _ = files
     data = {b: models.load_body_file(str(root / "modes" / f"body{b}.h5")) for b in models.BODIES}

@@ -109,3 +109,25 @@ def test_body_inputs_mesh_size_override(config):
     assert "shell" in cfgmod.body_inputs(config, 2) and "solid_degree" in cfgmod.body_inputs(config, 5)
     with pytest.raises(cfgmod.ConfigError, match="unknown check"):
         cfgmod.check_inputs(config, "nope")
+
+
+def test_loaded_config_is_kept_per_file_state_and_handed_out_as_copies(tmp_path):
+    """load_config keeps a validated file in process (the study loads it ~150 times): a
+    caller's change to the dict it got must not reach the next caller, and a rewritten file
+    (new size or modification time) is read and validated again, errors included."""
+    import os
+    import shutil
+    path = tmp_path / "config.yaml"
+    shutil.copy(cfgmod.DEFAULT_CONFIG, path)
+    first = cfgmod.load_config(path)
+    first["modes"]["count"]["value"] = -1
+    assert cfgmod.load_config(path)["modes"]["count"]["value"] > 0
+    text = path.read_text()
+    key = "poissons_ratio"
+    assert key in text
+    bad = text.replace(key, "poissons_ration", 1)
+    path.write_text(bad)
+    st = os.stat(path)
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
+    with pytest.raises(cfgmod.ConfigError, match="poissons_ration"):
+        cfgmod.load_config(path)
