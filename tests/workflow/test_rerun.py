@@ -30,7 +30,7 @@ WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "report_scene"}
 # rules whose stage checks the body files it reads (directly, or through the reduction, ranking and
 # reduced-model files made from them) against the configuration (--config {CONFIG},
 # solver/bodyconfig.py): params.cfg is what it compares them with, every body file's config hash
-BODY_CHECKERS = {"reduction_report", "load_ranking", "reduced_model", "simulate", "study_scene", "truth_basis",
+BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "reduced_model", "simulate", "study_scene", "truth_basis",
                  "reference_simulation", "dynamics_verification", "stability", "pareto", "selection",
                  "exponential_bench", "exponential_accuracy", "integrator_tables"}
 # ... and those that check one body's files (params.cfg = that body file's config hash)

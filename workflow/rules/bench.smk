@@ -342,6 +342,7 @@ rule tolerance:
 
 rule bench:
     input:
+        rules.reduction_benchmark.output,
         rules.stability.output,
         rules.scaling.output,
         rules.pareto.output,
