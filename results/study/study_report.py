@@ -759,6 +759,82 @@ def draw_tolerance_chart(data, stem) -> dict:
         return save(fig, stem)
 
 
+def mesh_convergence(fe_full) -> list:
+    """The mesh-convergence checks of ``fe.json`` (``solver.fe.checks.check_convergence``), one
+    per body: [{name, mesh_sizes (levels,) [in], deviation (levels, n) |f/f_finest - 1| per mode,
+    default (index of the default mesh), count (modes of the verdict), passed}], those holding
+    per-mode deviations only."""
+    out = []
+    for c in (fe_full or {}).get("checks", []):
+        dev = c.get("deviation_per_mode")
+        if "mesh convergence" not in c.get("name", "") or not dev:
+            continue
+        sizes = [float(h) for h in c["mesh_sizes"]]
+        # the default mesh is the coarsest level within 1 % when the check passes; the levels are
+        # (2h, h, h/2) for the rings and (h, h/2, h/4) for the platform (check_convergence)
+        default = 1 if "gimbal" in c["name"] else 0
+        out.append({"name": c["name"].split(" mesh convergence")[0], "mesh_sizes": sizes,
+                    "deviation": [[float(v) for v in row] for row in dev], "default": default,
+                    "count": len(c.get("frequencies_hz", [[]])[0]), "passed": bool(c.get("passed"))})
+    return out
+
+
+def draw_convergence(entries, stem) -> dict:
+    """Relative frequency change of every computed mode against the finest mesh, one panel per
+    body, each coarser level a line; the 1 % and 0.5 % limits of the verdict dashed."""
+    plt = _plt()
+    with plt.rc_context({**STYLE, "font.size": 7, "legend.fontsize": 6.5}):
+        cols = min(2, len(entries))
+        rows = -(-len(entries) // cols)
+        fig, axes = plt.subplots(rows, cols, figsize=(6.7, 1.9 * rows + 0.2), sharey=True, squeeze=False,
+                                 constrained_layout=True)
+        for ax in axes.ravel()[len(entries):]:
+            ax.axis("off")
+        axes = axes.ravel()
+        for ax, e in zip(axes, entries):
+            finest = e["mesh_sizes"][-1]
+            for k, (h, dev) in enumerate(zip(e["mesh_sizes"][:-1], e["deviation"][:-1])):
+                label = f"h = {h:g} in" + (" (default)" if k == e["default"] else "")
+                ax.semilogy(np.arange(1, len(dev) + 1), np.maximum(dev, 1e-7), lw=1.0 if k == e["default"] else 0.8,
+                            color="black" if k == e["default"] else "0.6", label=label)
+            ax.axhline(0.01, color="tab:red", ls="--", lw=0.7)
+            ax.axhline(0.005, color="tab:orange", ls=":", lw=0.7)
+            ax.axvline(e["count"] + 0.5, color="0.75", lw=0.6)
+            ax.set_title(f"{e['name'].replace('_', ' ')} (finest h = {finest:g} in)", fontsize=7)
+            ax.set_xlabel("mode number")
+            ax.legend(loc="lower right", frameon=False, handlelength=1.5)
+        for ax in axes[::cols]:
+            ax.set_ylabel("|f / f_finest - 1|")
+        return save(fig, stem)
+
+
+def convergence_paragraph(ctx, root) -> str:
+    """Mesh convergence of all the modes the study uses, from the last `snakemake verify`."""
+    entries = mesh_convergence(ctx.get("fe_full"))
+    if not entries:
+        return ""
+    rows = []
+    for e in entries:
+        d = e["deviation"][e["default"]]
+        n = len(d)
+        rows.append([s(e["name"].replace("_", " ")), s(f"{e['mesh_sizes'][e['default']]:g}"),
+                     s(f"{e['mesh_sizes'][-1]:g}"), s(n), sci(max(d[:e["count"]])), sci(max(d)),
+                     s(int(np.argmax(d)) + 1), s(sum(v > 0.01 for v in d))])
+    out = [table(["body", "default h [in]", "finest h [in]", "modes", f"max dev., first {entries[0]['count']}",
+                  "max dev., all", "worst mode", "modes > 1 %"], rows,
+                 f"Mesh convergence of every mode the study uses (last `snakemake verify`, "
+                 f"{s(ctx['dates'].get('fe_full', ''))}): the relative change |f/f_finest - 1| of each "
+                 f"supported frequency from the default mesh to the finest of three levels; the verdict "
+                 f"of the check is on the first {entries[0]['count']}.", "tab-convergence", size="7pt")]
+    fig = ctx.get("convergence_figure")
+    if fig:
+        out.append(figure(fig["pdf"], "Mesh convergence of all computed modes per body: |f/f_finest - 1| "
+                          "of each mode on the coarser meshes (black: the default mesh the study uses); "
+                          "dashed: 1 %, dotted: 0.5 %; the grey vertical line ends the modes of the "
+                          "check's verdict.", root, label="fig-convergence"))
+    return "".join(out)
+
+
 def tolerance_section(ctx, root) -> str:
     """== Accuracy on request: the chart, the table and the numbers, from the tolerance bench."""
     out = ["== Accuracy on request: cost against requested tolerance\n\n"]
@@ -815,7 +891,7 @@ def tolerance_section(ctx, root) -> str:
     return "".join(out)
 
 
-def verification_section(ctx) -> str:
+def verification_section(ctx, root=None) -> str:
     out = ["= Verification and run time\n\n"]
     fe = ctx.get("fe")
     if fe:
@@ -838,6 +914,8 @@ def verification_section(ctx) -> str:
         n_ok = sum(1 for c in checks if c.get("passed"))
         out.append(f"- {s(what)}: {s(n_ok)} of {s(len(checks))} checks pass "
                    f"(last run {s(ctx['dates'].get(key, ''))}).\n")
+        if key == "fe_full":
+            out.append("\n" + convergence_paragraph(ctx, root) + "\n")
     eb = ctx.get("exponential_bench")
     if eb is None:
         out.append(f"- Run times: {s(ctx['missing'].get('exponential_bench', 'missing') + ';')} this "
@@ -869,7 +947,7 @@ def typst_source(ctx, root) -> str:
             f'S.M. thesis, MIT (2001). Built {s(ctx["date"])}, revision '
             f'{s(ctx["versions"].get("git", "unknown"))}]]\n\n#outline(depth: 1)\n\n')
     return (head + summary_section(ctx, an) + methods_section(ctx) + results_section(ctx, an, root)
-            + discussion_section(ctx, an) + conclusions_section(ctx, an) + verification_section(ctx)
+            + discussion_section(ctx, an) + conclusions_section(ctx, an) + verification_section(ctx, root)
             + provenance_section(ctx))
 
 
@@ -903,6 +981,12 @@ def main(argv=None) -> int:
                 os.path.splitext(out)[0] + "_tolerance_cost")
         except (KeyError, TypeError, ValueError) as exc:
             ctx["missing"]["tolerance chart"] = f"not drawn ({exc.__class__.__name__}: {exc})"
+    entries = mesh_convergence(ctx.get("fe_full"))
+    if entries:
+        try:
+            ctx["convergence_figure"] = draw_convergence(entries, os.path.splitext(out)[0] + "_mesh_convergence")
+        except (KeyError, TypeError, ValueError) as exc:
+            ctx["missing"]["convergence chart"] = f"not drawn ({exc.__class__.__name__}: {exc})"
     paths = [os.path.dirname(out)] + [f["pdf"] for sc in ctx["scenes"] for f in sc["figures"]]
     root = os.path.commonpath(paths + [ROOT]) if paths else ROOT
     try:

@@ -239,3 +239,49 @@ def test_study_report_shows_the_tolerance_section_with_the_bench_numbers(study, 
                               "--reduction", str(study["tmp"] / "nope2.json"), "--out", str(pdf2)]) == 0
     src = (tmp_path / "b" / "report.typ").read_text()
     assert "== Accuracy on request" in src and "made by snakemake bench" in src
+
+
+def _convergence_check(name, sizes, deviation, count=20):
+    return {"name": f"{name} mesh convergence, first {count} supported modes", "value": 0.004,
+            "tolerance": 0.005, "passed": True, "mesh_sizes": sizes,
+            "frequencies_hz": [[1.0] * count for _ in sizes], "deviation_per_mode": deviation}
+
+
+def test_study_report_shows_the_mesh_convergence_of_every_mode_from_the_last_verify(study, tmp_path):
+    """fe.json's convergence checks (snakemake verify) become a table and a figure of all modes: the
+    default mesh's largest deviation over the verdict's modes and over all, the worst mode and the
+    count above 1 %, per body (rings: default = the middle level; platform: the coarsest)."""
+    import json
+    rng = np.random.default_rng(0)
+    ring = [list(rng.uniform(1e-3, 2e-2, 100)), list(rng.uniform(1e-4, 4e-3, 100)), [0.0] * 100]
+    ring[1][57] = 0.0123                                    # mode 58, beyond the verdict's 20
+    plate = [list(rng.uniform(1e-4, 9e-3, 100)), list(rng.uniform(1e-5, 1e-3, 100)), [0.0] * 100]
+    fe = {"checks": [_convergence_check("outer_gimbal", [0.5, 0.25, 0.125], ring),
+                     _convergence_check("stable_platform", [0.5, 0.25, 0.125], plate),
+                     {"name": "ring in-plane modes", "value": 1e-3, "tolerance": 3e-3, "passed": True}]}
+    path = tmp_path / "fe.json"
+    path.write_text(json.dumps(fe))
+    pdf = tmp_path / "report.pdf"
+    assert study_report.main(["--scenes", *study["scenes"], "--ranking-tables", *study["rank"],
+                              "--static-tables", *study["static"], "--findings", *study["findings"],
+                              "--figures", *study["figures"], "--fe", str(study["tmp"] / "nope.json"),
+                              "--reduction", str(study["tmp"] / "nope2.json"), "--fe-full", str(path),
+                              "--out", str(pdf)]) == 0
+    src = (tmp_path / "report.typ").read_text()
+    assert "<tab-convergence>" in src and "<fig-convergence>" in src
+    assert (tmp_path / "report_mesh_convergence.png").stat().st_size > 5000
+    outer = src[src.index('#"outer gimbal"'):].split("\n")[0]
+    assert sci(max(ring[1][:20])) in outer and sci(0.0123) in outer and '#"58"' in outer
+    assert f'#"{sum(v > 0.01 for v in ring[1])}"' in outer
+    platform = src[src.index('#"stable platform"'):].split("\n")[0]
+    assert sci(max(plate[0])) in platform              # the platform's default is its coarsest level
+    # without per-mode deviations (an fe.json of before) there is no convergence table
+    fe["checks"][0].pop("deviation_per_mode")
+    fe["checks"][1].pop("deviation_per_mode")
+    path.write_text(json.dumps(fe))
+    assert study_report.main(["--scenes", *study["scenes"], "--ranking-tables", *study["rank"],
+                              "--static-tables", *study["static"], "--findings", *study["findings"],
+                              "--figures", *study["figures"], "--fe", str(study["tmp"] / "nope.json"),
+                              "--reduction", str(study["tmp"] / "nope2.json"), "--fe-full", str(path),
+                              "--out", str(tmp_path / "b" / "report.pdf")]) == 0
+    assert "<tab-convergence>" not in (tmp_path / "b" / "report.typ").read_text()
