@@ -13,11 +13,14 @@ The chain reaches the kernels as ONE argument ``ch``, the named tuple
 ``compiled.PackedChain`` (D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho; see
 ``compiled.pack``); the forward and backward passes share ``recursion.Frames``.
 
-Importing this package raises LLVM's limit of runtime alias checks (below) before
-any kernel is compiled.
+Importing this package raises LLVM's limit of runtime alias checks and sets the
+optimisation level (below) before any kernel is compiled.
 """
 
+import os
+
 import llvmlite.binding
+import numba
 
 # Compiler options of the kernels.  JIT: IEEE arithmetic.  FAST: reassociation only (no
 # "no-NaN/no-Inf" assumptions: a diverging state must stay visible).
@@ -37,3 +40,12 @@ def _allow_runtime_alias_checks(limit=16):
 
 
 _allow_runtime_alias_checks()
+
+# LLVM optimisation level of the kernels: -O2, not Numba's default -O3.  Measured 2026-11-25
+# (cold cache, the workflow's warm-up: solver.dynamics.warmup): 118 CPU-s to compile at 2
+# against 176 at 3; the same run times (alternating processes, CPU time: thesis truth run
+# 57-63 ms at both, right-hand side of the truth 42-46 us at both, freq-10 run 9-11 ms).
+# A NUMBA_OPT given by the user wins.  Set on import, before the first compilation.
+OPT_LEVEL = 2
+if "NUMBA_OPT" not in os.environ:
+    numba.config.OPT = numba.core.config._process_opt_level(str(OPT_LEVEL))
