@@ -365,6 +365,23 @@ class FastChain:
         """T [in lbf] with the case twist w1 (6,)."""
         return _kinetic_energy(np.asarray(y, float), np.asarray(yd, float), w1, *self.data)
 
+    def energy_samples(self, t, Y, Yd, tau, twist, at_rest):
+        """(kinetic (T,), case power (T,)) at the samples t (T,) of Y, Yd (T, n) C-contiguous,
+        with the motor torques tau (T, 4) and the case twist function twist(t) -> (w1, dw1):
+        ``kinetic_energy`` and (unless the case is at rest: zero) ``case_power_at`` per sample,
+        the kernels called directly."""
+        data = self.data
+        unused = np.zeros(3)
+        T, P = np.empty(t.size), np.zeros(t.size)
+        for k in range(t.size):
+            w1, dw1 = twist(t[k])
+            y, yd = Y[k], Yd[k]
+            T[k] = _kinetic_energy(y, yd, w1, *data)
+            if not at_rest:
+                ydd = _rhs(0.0, y, yd, True, unused, unused, unused, unused, w1, dw1, tau[k], *data)
+                P[k] = _case_power_at_acc(y, yd, ydd, w1, dw1, *data)
+        return T, P
+
     def case_power_at(self, y, yd, w1, dw1, tau):
         """case_power at the accelerations of the equations: y'' by ``_rhs`` (w1, dw1 given: at
         rest, so the case arrays are not read), then the power by the inverse dynamics."""

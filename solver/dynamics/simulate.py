@@ -82,9 +82,7 @@ def energy_history(prob, run):
     integrator's monitor when available, else recomputed)."""
     if run.energy and np.all(np.isfinite(run.energy["kinetic"])):
         return run.energy["kinetic"], run.energy["potential"], run.energy["input_work"]
-    T = np.array([prob.kinetic_energy(t, y, v) for t, y, v in zip(run.t, run.y, run.yd)])
-    U = np.array([prob.potential_energy(y) for y in run.y])
-    P = np.array([prob.input_power(t, y, v) for t, y, v in zip(run.t, run.y, run.yd)])
+    T, U, P = prob.energy_history(run.t, run.y, run.yd)
     W = np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1]) * np.diff(run.t))])
     return T, U, W
 

@@ -47,3 +47,29 @@ def test_output_goes_where_the_caller_says(tmp_path, model_file):
         assert f.attrs["scene"] == "thesis_copy" and f.attrs["model"] == "freq-2"
         assert f["gamma_dot"].shape == (101, 4) and np.all(np.isfinite(f["gamma_dot"][()]))
     assert sorted(os.listdir(tmp_path / "elsewhere")) == ["run.h5"]
+
+
+@pytest.mark.parametrize("scene_name, fast", [("thesis", True), ("thesis", False), ("free", True)])
+def test_energy_history_equals_the_per_sample_energies(scene_name, fast):
+    """Problem.energy_history (the simulation file's energies, all samples at once) gives what
+    kinetic_energy, potential_energy and input_power give sample by sample: compiled and NumPy
+    paths, a moving case (thesis: case power from the accelerations) and a case at rest (free)."""
+    from solver.dynamics.problem import Problem
+    from solver.dynamics.synthetic import synthetic_modal_chain
+    scene = scenes.load_scene(scene_name)
+    chain = synthetic_modal_chain(2, seed=1)
+    y0, yd0 = scenes.initial_state(scene, chain.n_coordinates)
+    prob = Problem(chain, case=scene.case, torque=lambda t: np.array([0.3, -0.2, 0.1, 0.05]) * (1 + t),
+                   y0=y0, yd0=yd0, fast=fast)
+    rng = np.random.default_rng(2)
+    t = np.linspace(0.0, 0.01, 7)
+    Y = 1e-3 * rng.standard_normal((t.size, chain.n_coordinates))
+    Yd = 1e-1 * rng.standard_normal((t.size, chain.n_coordinates))
+    T, U, P = prob.energy_history(t, Y, Yd)
+    T1 = [prob.kinetic_energy(tk, y, v) for tk, y, v in zip(t, Y, Yd)]
+    U1 = [prob.potential_energy(y) for y in Y]
+    P1 = [prob.input_power(tk, y, v) for tk, y, v in zip(t, Y, Yd)]
+    for got, want in ((T, T1), (U, U1), (P, P1)):
+        assert got.shape == (t.size,)
+        assert np.allclose(got, want, rtol=1e-12, atol=1e-14 * np.max(np.abs(want)))
+    assert np.ptp(P) > 0 and np.ptp(T) > 0
