@@ -11,6 +11,7 @@ import math
 
 import numba
 import numpy as np
+import scipy.linalg
 
 from reduction.errors import ReductionError
 from solver.dynamics import linearized
@@ -25,6 +26,10 @@ SERIES_LIMIT = 0.1          # |omega h| below which velocity_response uses its T
 # The a-priori curves (the estimates the file records for every count) on at most this many
 # samples: the thesis scene's whole grid; the 1 s scene's every 5th sample (its curves took 87 s).
 CURVE_SAMPLES = 2001
+
+# Singular values of the modal loads below this fraction of the largest are dropped
+# (``load_factors``): 5 units of rounding, the loads' own accuracy.
+LOAD_RANK_RTOL = 1e-15
 
 
 class LoadAwareError(ReductionError):
@@ -156,6 +161,19 @@ def joint_rate_response(omega, V4, g, t):
                                 A1.real.copy(), A1.imag.copy(), A2.real.copy(), A2.imag.copy())
 
 
+def check_model(model):
+    """Raise LoadAwareError unless the linear model's arrays fit together."""
+    M, K, t, g, L = (np.asarray(model[k]) for k in ("M", "K", "t", "rigid_rates", "loads"))
+    n = K.size
+    if M.shape != (n, n) or L.shape != (t.size, n - N_JOINTS) or g.shape != (t.size, N_JOINTS):
+        raise LoadAwareError(f"linear model: shapes M {M.shape}, K {K.shape}, t {t.shape}, "
+                             f"rigid_rates {g.shape}, loads {L.shape} do not fit")
+    if np.any(K[:N_JOINTS] != 0) or np.any(K[N_JOINTS:] <= 0):
+        raise LoadAwareError("linear model: K must be 0 on the 4 joints and > 0 on every mode")
+    if t.size < 2 or np.any(np.diff(t) <= 0):
+        raise LoadAwareError("linear model: t must hold at least 2 strictly increasing samples")
+
+
 def _kept_index(model, keep):
     keep = np.asarray(keep, dtype=int).ravel()
     Q = model["loads"].shape[1]
@@ -182,6 +200,120 @@ def estimate_error(model, keep):
     full set, both in the frozen linear chain (``solver.dynamics.error_measure.error_measure``)."""
     t, g0, full = model["t"], model["rigid_rates"], model["full"]
     return np.asarray(error_measure(t, g0 + full, g0 + rate_response(model, keep)), float)
+
+
+def _phi_pair(a):
+    """(phi_1(a), phi_2(a)) of ``_phi``: one exponential for both when no |a| needs the series."""
+    a = np.asarray(a, complex)
+    if np.any(np.abs(a) < SERIES_LIMIT):
+        return _phi(a, 1), _phi(a, 2)
+    e = np.exp(-a)
+    return (1 - e) / a, (1 - e * (1 + a)) / a ** 2
+
+
+def load_factors(loads, rtol=LOAD_RANK_RTOL):
+    """(F (T, r), W (r, Q)) with loads (T, Q) = F W to rounding: the truncated singular value
+    decomposition, F = U_r Sigma_r, W = V_r^T, keeping the singular values above ``rtol`` times
+    the largest.
+
+    The modal loads of a scene are linear combinations of a few functions of time (the frames'
+    accelerations, products of their rates, the bearing wrenches: ``reduction.load_aware.
+    modal_loads``), so r is small: 4 on the thesis, damped and smooth scenes, 17 on long (400
+    modes); the singular values beyond them are rounding (3e-16 of the largest and less).  The coupled modes' loads
+    L_S X then cost (T + k) r k instead of T k^2."""
+    U, sv, Wt = np.linalg.svd(np.asarray(loads, float), full_matrices=False)
+    r = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+    return np.ascontiguousarray(U[:, :r] * sv[:r]), np.ascontiguousarray(Wt[:r])
+
+
+class FrozenChainEstimator:
+    """``estimate_error`` for many kept sets of one frozen chain (the rankings make thousands of
+    evaluations), with what every kept set shares computed once.
+
+    Keeping the set S of modes, the joints are eliminated by the Schur complement of their
+    block, which is the same 4 x 4 block M_gg for every S, so the kept set's Schur complement is
+    the principal submatrix S_full[S, S] of the whole chain's and its joint motion
+    -M_gg^-1 M_gq the columns S of the whole chain's (``linearized.free_joints``, done once).
+    The pencil (Omega_S^2, S_S) is solved in the standard form of
+    ``linearized.free_joint_basis``: A_S = Omega_S^-1 S_S Omega_S^-1 = P diag(mu) P^T (one
+    symmetric eigenproblem, no Cholesky factor), omega = mu^-1/2 and the mass-normalised
+    shapes X = Omega_S^-1 P diag(omega), so that the scaled loads L Omega^-1 and joint motion
+    (also computed once, per time grid for the loads) give the coupled loads and joint rates
+    by one product each with P diag(omega).  The response and eq. 3.53 are those of
+    ``rate_response`` and ``estimate_error``, which it equals to rounding (the eigensolver
+    differs: tests/reduction/test_load_aware.py).
+
+    model: the linear model (``linear_model``); ``estimate_error(m, keep)`` takes it or any
+    ``decimated`` copy of it (the same M: other chains are refused)."""
+
+    def __init__(self, model):
+        check_model(model)
+        self._M = model["M"]
+        M = np.asarray(model["M"], float)
+        K = np.asarray(model["K"], float)
+        joint_of_mode, S = linearized.free_joints(M)
+        self._scale = np.sqrt(K[N_JOINTS:])                        # Omega (Q,)
+        self._A = S / np.outer(self._scale, self._scale)           # Omega^-1 S Omega^-1
+        self._joints = joint_of_mode / self._scale                  # (4, Q): joint motion, scaled
+        self._grids = {}
+
+    def _grid(self, model):
+        """What a time grid shares: (t, uniform step or None, scaled loads (T, Q),
+        reference rates g0 + full (T, 4), their squares' integral (4,))."""
+        t = model["t"]
+        grid = self._grids.get(id(t))
+        if grid is None or grid[0] is not t:
+            if model["M"] is not self._M:
+                raise LoadAwareError("FrozenChainEstimator: the model is not the estimator's chain "
+                                     "(or a decimated copy of it)")
+            tt = np.asarray(t, float)
+            check_model(model)
+            h = np.diff(tt)
+            step = float(h[0]) if np.allclose(h, h[0], rtol=1e-9, atol=0.0) else None
+            ref = np.asarray(model["rigid_rates"], float) + np.asarray(model["full"], float)
+            loads = load_factors(np.asarray(model["loads"], float) / self._scale)
+            grid = (t, step, loads, ref, np.trapz(ref ** 2, tt, axis=0))
+            self._grids[id(t)] = grid
+        return grid
+
+    def modes(self, keep):
+        """(omega (k,) [rad/s] ascending, B (k, k)) of the kept set (sorted pooled indices):
+        the coupled modes' shapes are X = Omega_S^-1 B, B = P diag(omega)."""
+        A = self._A[np.ix_(keep, keep)]
+        if A.shape[0] == 1:                 # (LAPACK's workspace query of syevd fails at n = 1)
+            mu, P = A[0].copy(), np.ones((1, 1))
+        else:
+            mu, P = scipy.linalg.eigh(A, driver="evd", overwrite_a=True, check_finite=False)
+        if mu[0] <= 0 or mu[0] <= 1e-9 * mu[-1]:
+            raise LoadAwareError(f"linear model: more than {N_JOINTS} zero frequencies "
+                                 f"(mass matrix not positive definite?)")
+        mu, P = mu[::-1], P[:, ::-1]                                   # omega ascending
+        omega = 1.0 / np.sqrt(mu)
+        return omega, P * omega
+
+    def rate_response(self, model, keep):
+        """``rate_response(model, keep)`` (T, 4) [rad/s]."""
+        keep = _kept_index(model, keep)
+        t, step, loads = self._grid(model)[:3]
+        if keep.size == 0:
+            return np.zeros((len(t), N_JOINTS))
+        omega, B = self.modes(keep)
+        g = loads[0] @ (loads[1][:, keep] @ B)                          # load on every coupled mode
+        V4 = self._joints[:, keep] @ B
+        if step is None:
+            return velocity_response(omega, g, np.asarray(t, float)) @ V4.T
+        A1, A2 = _phi_pair(1j * step * omega)
+        A1, A2 = step * A1, step * step * A2
+        return _joint_rates_uniform(omega, V4, g, float(t[0]), step, A1.real.copy(), A1.imag.copy(),
+                                    A2.real.copy(), A2.imag.copy())
+
+    def estimate_error(self, model, keep):
+        """``estimate_error(model, keep)`` (4,): eq. 3.53 of the kept set against the full set."""
+        t, _, _, ref, den = self._grid(model)
+        x = np.asarray(model["rigid_rates"], float) + self.rate_response(model, keep)
+        num = np.trapz((x - ref) ** 2, np.asarray(t, float), axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
 
 
 def decimated(model, stride):

@@ -62,8 +62,8 @@ import h5py
 import numpy as np
 
 from reduction import models
-from reduction.frozen_chain import (CURVE_SAMPLES, FROZEN_ANGLE, FROZEN_RATE, N_JOINTS, LoadAwareError,
-                                    coupled_modes, decimated, estimate_error, rate_response,
+from reduction.frozen_chain import (CURVE_SAMPLES, FROZEN_ANGLE, FROZEN_RATE, N_JOINTS, FrozenChainEstimator,
+                                    LoadAwareError, check_model, coupled_modes, decimated, estimate_error, rate_response,
                                     velocity_response)
 from solver import bodyconfig
 from solver.bodydata import BODIES
@@ -142,19 +142,6 @@ def linear_model(chain, y0, t, gamma_rigid, loads):
     check_model(model)
     model["full"] = rate_response(model, np.arange(model["loads"].shape[1]))
     return model
-
-
-def check_model(model):
-    """Raise LoadAwareError unless the linear model's arrays fit together."""
-    M, K, t, g, L = (np.asarray(model[k]) for k in ("M", "K", "t", "rigid_rates", "loads"))
-    n = K.size
-    if M.shape != (n, n) or L.shape != (t.size, n - N_JOINTS) or g.shape != (t.size, N_JOINTS):
-        raise LoadAwareError(f"linear model: shapes M {M.shape}, K {K.shape}, t {t.shape}, "
-                             f"rigid_rates {g.shape}, loads {L.shape} do not fit")
-    if np.any(K[:N_JOINTS] != 0) or np.any(K[N_JOINTS:] <= 0):
-        raise LoadAwareError("linear model: K must be 0 on the 4 joints and > 0 on every mode")
-    if t.size < 2 or np.any(np.diff(t) <= 0):
-        raise LoadAwareError("linear model: t must hold at least 2 strictly increasing samples")
 
 
 def kept_from_counts(offsets, orders, counts):
@@ -553,7 +540,8 @@ def rank_scene(model, rankings, pool_size=DEFAULT_POOL, n_curve=N_CURVE, search=
         search.get("drop_fraction", 1 / 16), search.get("greedy_prefix", GREEDY_STEPS), global_xmx), None)
     step = "pooled ranking"
     estimate = progress.counted(
-        estimate_error, lambda m, keep: evaluation_work(len(m["t"]), np.size(keep)),
+        FrozenChainEstimator(model).estimate_error,
+        lambda m, keep: evaluation_work(len(m["t"]), np.size(keep)),
         note=lambda: step)
     t0 = time.perf_counter()
     order, info = pooled_ranking(model, part["score"], pool_size, log=log, estimate=estimate, **search)

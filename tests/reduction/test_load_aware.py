@@ -115,6 +115,63 @@ def test_mode_orthogonal_to_every_load_scores_zero_and_is_dropped():
     assert np.allclose(s.sum(axis=1), la.estimate_error(model, []), rtol=0.3)
 
 
+def coupled_model(Q=14, T=301, rank=3, seed=8, t=None):
+    """A frozen chain of 4 joints and Q modes with strong joint coupling (M far from diagonal),
+    frequencies over a decade and loads of the given rank (sums of a few time functions,
+    as the real modal loads are)."""
+    rng = np.random.default_rng(seed)
+    n = Q + 4
+    A = rng.normal(size=(n, n))
+    M = A @ A.T / n + np.eye(n)
+    K = np.concatenate([np.zeros(4), np.geomspace(2e3, 3e4, Q) ** 2])
+    t = np.linspace(0, 0.02, T) if t is None else t
+    basis = np.stack([np.cos(2 * np.pi * (k + 1) * 30 * t + k) for k in range(rank)], axis=1)
+    loads = basis @ rng.normal(size=(rank, Q))
+    rigid = np.outer(np.sin(4 * np.pi * t), [1.0, 0.5, -0.3, 0.2]) * 1e-2
+    model = {"M": M, "K": K, "t": t, "rigid_rates": rigid, "loads": loads,
+             "offsets": np.array([0, 4, 7, 11, Q])}
+    model["full"] = fc.rate_response(model, np.arange(Q))
+    return model
+
+
+@pytest.mark.parametrize("grid", ["uniform", "decimated", "non-uniform"])
+def test_estimator_equals_the_straightforward_estimate(grid):
+    """FrozenChainEstimator (principal submatrices of the whole chain's Schur complement, the
+    standard-form eigenproblem, loads factored) gives estimate_error's numbers to rounding, on
+    any kept set, also on a decimated copy of the model and a non-uniform grid."""
+    t = None
+    if grid == "non-uniform":
+        t = np.sort(np.concatenate([[0.0, 0.02], np.random.default_rng(2).uniform(0, 0.02, 299)]))
+    model = coupled_model(t=t)
+    est = fc.FrozenChainEstimator(model)
+    m = fc.decimated(model, 3) if grid == "decimated" else model
+    rng = np.random.default_rng(4)
+    sets = [[], [5], [0, 13], list(range(14))] + [rng.choice(14, k, replace=False) for k in range(1, 14)]
+    for keep in sets:
+        ref = fc.estimate_error(m, keep)
+        got = est.estimate_error(m, keep)
+        assert np.allclose(got, ref, rtol=1e-9, atol=1e-16), (keep, got, ref)
+        assert np.allclose(est.rate_response(m, keep), fc.rate_response(m, keep), rtol=0,
+                           atol=1e-11 * np.abs(model["full"]).max())
+    with pytest.raises(la.LoadAwareError, match="not the estimator's chain"):
+        est.estimate_error(coupled_model(), [1, 2])
+    with pytest.raises(la.LoadAwareError, match="distinct indices"):
+        est.estimate_error(m, [1, 1])
+
+
+def test_load_factors_are_the_loads_to_rounding():
+    """loads = F W: the rank of a sum of r time functions is r, a full-rank matrix keeps all."""
+    model = coupled_model(rank=3)
+    F, W = fc.load_factors(model["loads"])
+    assert F.shape == (301, 3) and W.shape == (3, 14)
+    assert np.allclose(F @ W, model["loads"], rtol=0, atol=1e-14 * np.abs(model["loads"]).max())
+    full = np.random.default_rng(0).normal(size=(40, 9))
+    F, W = fc.load_factors(full)
+    assert F.shape == (40, 9) and np.allclose(F @ W, full, rtol=0, atol=1e-13)
+    F, W = fc.load_factors(np.zeros((5, 3)))
+    assert F.shape == (5, 0) and W.shape == (0, 3)
+
+
 def test_backward_elimination_recovers_an_additive_order():
     w = {0: 5.0, 1: 1.0, 2: 3.0, 3: 0.5, 4: 4.0}
 
