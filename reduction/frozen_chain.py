@@ -7,12 +7,12 @@ of a kept set, whose rate response is solved in closed form (``velocity_response
 This module holds what both the ranking (``reduction.load_aware``) and the model grammar's
 ``tol-EPS`` (``reduction.models``) use; it imports neither.
 """
-import math
 
 import numba
 import numpy as np
 import scipy.linalg
 
+from reduction import submatrix_eig
 from reduction.errors import ReductionError
 from solver.dynamics import linearized
 from solver.dynamics.error_measure import error_measure
@@ -111,41 +111,53 @@ def velocity_response(omega, g, t):
 
 
 @numba.njit(cache=True)
-def _joint_rates_uniform(omega, V4, g, t0, h, A1r, A1i, A2r, A2i):
-    """sum_j V4[:, j] eta'_j(t) (T, 4) on the uniform grid t_a = t0 + a h: ``velocity_response``
-    projected on the joint rates, fused, mode by mode.
+def _modal_rates_uniform(rot_c, rot_s, Pr, Pi, Qr, Qi, g):
+    """eta'_j(t_a) (T, n) of every mode on a uniform grid (``velocity_response``'s Duhamel sums).
 
-    The same Duhamel sums, with e^{-i omega t_a} advanced by one rotation e^{-i omega h} per
-    sample instead of a cosine and a sine per sample and mode, and no (T, n) arrays: ~25x
-    faster than the NumPy form at n = 404, T = 1501, agreeing to ~1e-12 relative (the
-    rotation's rounding grows like a eps per sample).  omega (n,) [rad/s], V4 (4, n), g (T, n),
-    A1 = h phi_1(i omega h), A2 = h^2 phi_2(i omega h) (n,) split in real and imaginary parts."""
+    With J_a = e^{i omega t_a} I(t_a), the running integral times the phase, the sum of
+    ``velocity_response`` over the interval [t_a, t_a + h] becomes one complex step
+
+        J_{a+1} = e^{i omega h} (J_a + g_a P + g_{a+1} Q),   eta'(t_a) = Re J_a,  J_0 = 0,
+
+    P = h (phi_1 - phi_2)(i omega h), Q = h phi_2(i omega h) (the load g_a + (g_{a+1} - g_a) u / h
+    integrated against e^{-i omega u}): no cosine or sine per sample, no division, and the
+    modes of one sample side by side (contiguous rows of g).  The rotation's rounding grows like
+    a eps per sample (~1e-13 relative on the real chain, 1501 samples).  rot_c + i rot_s =
+    e^{i omega h}, P, Q (n,) split in real and imaginary parts; g (T, n) C-contiguous."""
     T, n = g.shape
-    out = np.zeros((T, V4.shape[0]))
+    R = np.empty((T, n))
+    Jr = np.zeros(n)
+    Ji = np.zeros(n)
     for j in range(n):
-        w = omega[j]
-        rot_c, rot_s = math.cos(w * h), math.sin(w * h)
-        c, s = math.cos(w * t0), math.sin(w * t0)              # e^{i omega t_a} = c + i s
-        re = 0.0                                               # I(t_a) = re + i im
-        im = 0.0
-        for a in range(T):
-            rate = c * re - s * im                             # eta'_j(t_a) = Re[e^{i w t_a} I(t_a)]
-            for k in range(V4.shape[0]):
-                out[a, k] += V4[k, j] * rate
-            if a + 1 < T:
-                slope = (g[a + 1, j] - g[a, j]) / h
-                br = g[a, j] * A1r[j] + slope * A2r[j]         # B = g_a A1 + g' A2
-                bi = g[a, j] * A1i[j] + slope * A2i[j]
-                re += c * br + s * bi                          # I += e^{-i w t_a} B
-                im += c * bi - s * br
-                c, s = c * rot_c - s * rot_s, s * rot_c + c * rot_s
-    return out
+        R[0, j] = 0.0
+    for a in range(T - 1):
+        ga = g[a]
+        gb = g[a + 1]
+        Ra = R[a + 1]
+        for j in range(n):
+            xr = Jr[j] + ga[j] * Pr[j] + gb[j] * Qr[j]
+            xi = Ji[j] + ga[j] * Pi[j] + gb[j] * Qi[j]
+            yr = rot_c[j] * xr - rot_s[j] * xi
+            Ji[j] = rot_s[j] * xr + rot_c[j] * xi
+            Jr[j] = yr
+            Ra[j] = yr
+    return R
+
+
+def modal_rates_uniform(omega, g, h):
+    """eta' (T, n) of eta'' + omega^2 eta = g(t) from rest on a uniform grid of step h [s]
+    (``velocity_response``; by the compiled ``_modal_rates_uniform``).  omega (n,) [rad/s]."""
+    w = np.asarray(omega, float)
+    phi1, phi2 = _phi_pair(1j * h * w)
+    P, Q = h * (phi1 - phi2), h * phi2
+    return _modal_rates_uniform(np.cos(w * h), np.sin(w * h), P.real.copy(), P.imag.copy(),
+                                Q.real.copy(), Q.imag.copy(), np.ascontiguousarray(g, dtype=float))
 
 
 def joint_rate_response(omega, V4, g, t):
     """sum_j V4[:, j] eta'_j(t) (T, 4): the joint rates of the coupled modes driven by g
-    (``velocity_response``); on a uniform grid by the fused ``_joint_rates_uniform``, else by
-    the NumPy form.  omega (n,) [rad/s], V4 (4, n), g (T, n), t (T,) [s]."""
+    (``velocity_response``); on a uniform grid by ``modal_rates_uniform``, else by the NumPy
+    form.  omega (n,) [rad/s], V4 (4, n), g (T, n), t (T,) [s]."""
     t = np.asarray(t, float)
     h = np.diff(t)
     if t.size < 2 or not np.allclose(h, h[0], rtol=1e-9, atol=0.0):
@@ -154,11 +166,7 @@ def joint_rate_response(omega, V4, g, t):
     if np.shape(g) != (t.size, w.size):
         raise LoadAwareError(f"joint_rate_response: g must be (T, n) = ({t.size}, {w.size}), "
                              f"got {np.shape(g)}")
-    a = 1j * h[0] * w
-    A1, A2 = h[0] * _phi(a, 1), h[0] ** 2 * _phi(a, 2)
-    return _joint_rates_uniform(w, np.ascontiguousarray(V4, dtype=float),
-                                np.ascontiguousarray(g, dtype=float), float(t[0]), float(h[0]),
-                                A1.real.copy(), A1.imag.copy(), A2.real.copy(), A2.imag.copy())
+    return modal_rates_uniform(w, g, float(h[0])) @ np.asarray(V4, float).T
 
 
 def check_model(model):
@@ -219,8 +227,8 @@ def load_factors(loads, rtol=LOAD_RANK_RTOL):
     The modal loads of a scene are linear combinations of a few functions of time (the frames'
     accelerations, products of their rates, the bearing wrenches: ``reduction.load_aware.
     modal_loads``), so r is small: 4 on the thesis, damped and smooth scenes, 17 on long (400
-    modes); the singular values beyond them are rounding (3e-16 of the largest and less).  The coupled modes' loads
-    L_S X then cost (T + k) r k instead of T k^2."""
+    modes); the singular values beyond them are rounding (3e-16 of the largest and less).  The
+    coupled modes' loads L_S X then cost (T + k) r k instead of T k^2."""
     U, sv, Wt = np.linalg.svd(np.asarray(loads, float), full_matrices=False)
     r = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
     return np.ascontiguousarray(U[:, :r] * sv[:r]), np.ascontiguousarray(Wt[:r])
@@ -291,6 +299,26 @@ class FrozenChainEstimator:
         omega = 1.0 / np.sqrt(mu)
         return omega, P * omega
 
+    def _response(self, t, step, loads, omega, B, cols):
+        """Joint rates (T, 4) of the coupled modes omega (k,) with shapes X = Omega^-1 (B) on
+        the modes ``cols`` (B (k', k): rows over the kept modes, or given as the products
+        (V4 (4, k), W B (r, k)) when ``cols`` is None)."""
+        if cols is None:
+            V4, WB = B
+        else:
+            V4, WB = self._joints[:, cols] @ B, loads[1][:, cols] @ B
+        g = loads[0] @ WB                                               # load on every coupled mode
+        if step is None:
+            return velocity_response(omega, g, np.asarray(t, float)) @ V4.T
+        return modal_rates_uniform(omega, g, step) @ V4.T
+
+    def _error(self, model, grid, rates):
+        t, _, _, ref, den = grid
+        x = np.asarray(model["rigid_rates"], float) + rates
+        num = np.trapz((x - ref) ** 2, np.asarray(t, float), axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
+
     def rate_response(self, model, keep):
         """``rate_response(model, keep)`` (T, 4) [rad/s]."""
         keep = _kept_index(model, keep)
@@ -298,22 +326,119 @@ class FrozenChainEstimator:
         if keep.size == 0:
             return np.zeros((len(t), N_JOINTS))
         omega, B = self.modes(keep)
-        g = loads[0] @ (loads[1][:, keep] @ B)                          # load on every coupled mode
-        V4 = self._joints[:, keep] @ B
-        if step is None:
-            return velocity_response(omega, g, np.asarray(t, float)) @ V4.T
-        A1, A2 = _phi_pair(1j * step * omega)
-        A1, A2 = step * A1, step * step * A2
-        return _joint_rates_uniform(omega, V4, g, float(t[0]), step, A1.real.copy(), A1.imag.copy(),
-                                    A2.real.copy(), A2.imag.copy())
+        return self._response(t, step, loads, omega, B, keep)
 
     def estimate_error(self, model, keep):
         """``estimate_error(model, keep)`` (4,): eq. 3.53 of the kept set against the full set."""
-        t, _, _, ref, den = self._grid(model)
-        x = np.asarray(model["rigid_rates"], float) + self.rate_response(model, keep)
-        num = np.trapz((x - ref) ** 2, np.asarray(t, float), axis=0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
+        return self._error(model, self._grid(model), self.rate_response(model, keep))
+
+    def removal_errors(self, model, keep, remove):
+        """[``estimate_error(model, keep without m)`` for m in remove]: the trials of a backward
+        elimination step, from one eigendecomposition of the kept set's A_S = P diag(mu) P^T.
+
+        Deleting mode m (row i of A_S) leaves the eigenvalues and eigenvectors P U^T of
+        ``reduction.submatrix_eig.delete_index`` (O(k^2) instead of an O(k^3) eigensolver call);
+        the coupled modes' joint motion and load directions are their products with the scaled
+        joint motion and load factors without mode m, (U P^T)[J_S; W_S]^T with row i of the
+        latter zeroed: one product with P for all m, then a rank-one correction each.  A
+        deletion that ``delete_index`` leaves to an eigensolver (a near-multiple eigenvalue)
+        is evaluated by ``estimate_error``."""
+        keep = _kept_index(model, keep)
+        remove = [int(m) for m in remove]
+        grid = self._grid(model)
+        t, step, loads = grid[:3]
+        pos = np.searchsorted(keep, remove)
+        if np.any(pos >= keep.size) or np.any(keep[np.minimum(pos, keep.size - 1)] != remove):
+            raise LoadAwareError("removal_errors: the modes to remove must be kept modes")
+        if keep.size <= 2:
+            return [self.estimate_error(model, np.delete(keep, i)) for i in pos]
+        mu, P = scipy.linalg.eigh(self._A[np.ix_(keep, keep)], driver="evd", overwrite_a=True,
+                                  check_finite=False)
+        Y = np.hstack([self._joints[:, keep].T, loads[1][:, keep].T])      # (k, 4 + r)
+        PY = P.T @ Y
+        out = []
+        for i in pos:
+            ok, x, U = submatrix_eig.delete_index(mu, P, i)
+            if not ok or x[0] <= 0 or x[0] <= 1e-9 * x[-1]:
+                out.append(self.estimate_error(model, np.delete(keep, i)))
+                continue
+            proj = U[::-1] @ (PY - np.outer(P[i], Y[i]))                   # omega ascending
+            omega = 1.0 / np.sqrt(x[::-1])
+            proj *= omega[:, None]
+            rates = self._response(t, step, loads, omega,
+                                   (np.ascontiguousarray(proj[:, :N_JOINTS].T),
+                                    np.ascontiguousarray(proj[:, N_JOINTS:].T)), None)
+            out.append(self._error(model, grid, rates))
+        return out
+
+
+    def chain_errors(self, model, keep, steps):
+        """[estimate_error of keep, of keep without steps[0], without steps[0] and steps[1], ...]
+        (len(steps) + 1 arrays (4,)): the a-priori curves, which drop modes one after another
+        (steps: lists of kept modes, removed before each further evaluation).
+
+        One eigendecomposition of the kept set, then ``submatrix_eig.delete_index`` for every
+        removal, carrying only what the later steps need: the projections P^T [J_S; W_S]^T of the
+        eigenvectors (the joint motion and load directions of the coupled modes) and the rows of
+        P of the modes still to be removed, each updated by the deletion's coefficients U (O(k^2)
+        per row instead of the O(k^3) of a new eigensolver call).  A deletion that
+        ``delete_index`` leaves to an eigensolver restarts from an eigendecomposition."""
+        keep = _kept_index(model, keep)
+        steps = [[int(m) for m in st] for st in steps]
+        gone = [m for st in steps for m in st]
+        if len(set(gone)) != len(gone) or not set(gone) <= set(keep.tolist()):
+            raise LoadAwareError("chain_errors: the removed modes must be distinct kept modes")
+        grid = self._grid(model)
+        t, step, loads = grid[:3]
+        Yall = np.vstack([self._joints, loads[1]])                          # (4 + r, Q)
+        cur = keep
+        state = None
+
+        def fresh(cur, pending):
+            mu, P = scipy.linalg.eigh(self._A[np.ix_(cur, cur)], driver="evd", overwrite_a=True,
+                                      check_finite=False)
+            pos = np.searchsorted(cur, pending)
+            return mu, P.T @ Yall[:, cur].T, {m: P[i] for m, i in zip(pending, pos)}
+
+        def error(cur, state):
+            if cur.size == 0:
+                return self._error(model, grid, np.zeros((len(t), N_JOINTS)))
+            mu, PY, _ = state
+            if mu[0] <= 0 or mu[0] <= 1e-9 * mu[-1]:
+                raise LoadAwareError(f"linear model: more than {N_JOINTS} zero frequencies "
+                                     f"(mass matrix not positive definite?)")
+            omega = 1.0 / np.sqrt(mu[::-1])                                 # ascending
+            proj = PY[::-1] * omega[:, None]
+            return self._error(model, grid, self._response(
+                t, step, loads, omega, (np.ascontiguousarray(proj[:, :N_JOINTS].T),
+                                        np.ascontiguousarray(proj[:, N_JOINTS:].T)), None))
+
+        if cur.size:
+            state = fresh(cur, gone)
+        out = [error(cur, state)]
+        done = 0
+        for st in steps:
+            for m in st:
+                done += 1
+                i = int(np.searchsorted(cur, m))
+                nxt = np.delete(cur, i)
+                pending = gone[done:]
+                if nxt.size == 0:
+                    cur, state = nxt, None
+                    continue
+                mu, PY, rows = state
+                z = rows.pop(m)
+                ok, x, U = submatrix_eig.delete_index(mu, z[None, :], 0)
+                if not ok:
+                    cur, state = nxt, fresh(nxt, pending)
+                    continue
+                PY = U @ (PY - np.outer(z, Yall[:, m]))
+                if rows:
+                    R = np.array([rows[k] for k in pending]) @ U.T
+                    rows = dict(zip(pending, R))
+                cur, state = nxt, (x, PY, rows)
+            out.append(error(cur, state))
+        return out
 
 
 def decimated(model, stride):

@@ -159,6 +159,76 @@ def test_estimator_equals_the_straightforward_estimate(grid):
         est.estimate_error(m, [1, 1])
 
 
+@pytest.mark.parametrize("grid", ["uniform", "non-uniform"])
+def test_removals_and_chains_equal_the_estimate_of_each_set(grid):
+    """removal_errors (deletions from one eigendecomposition) and chain_errors (successive
+    deletions) give estimate_error's numbers for every set they stand for."""
+    t = None
+    if grid == "non-uniform":
+        t = np.sort(np.concatenate([[0.0, 0.02], np.random.default_rng(2).uniform(0, 0.02, 299)]))
+    model = coupled_model(t=t)
+    est = fc.FrozenChainEstimator(model)
+    m = fc.decimated(model, 2)
+
+    def same(got, keep):
+        ref = fc.estimate_error(m, keep)
+        assert np.allclose(got, ref, rtol=1e-9, atol=1e-16), (keep, got, ref)
+    for keep in ([3, 9], [0, 4, 7, 11], list(range(14)), [13, 2, 8, 5, 6, 1, 10]):
+        for m_out, got in zip(keep, est.removal_errors(m, keep, keep)):
+            same(got, [i for i in keep if i != m_out])
+    order = [6, 2, 13, 0, 9, 4, 11, 7, 1, 12, 3, 8, 5, 10]
+    steps = [[10], [5, 8], [3], [12, 1, 7], [11], [4, 9, 0, 13], [2], [6]]
+    got = est.chain_errors(m, order, steps)
+    assert len(got) == len(steps) + 1
+    keep = list(order)
+    same(got[0], keep)
+    for st, e in zip(steps, got[1:]):
+        keep = [i for i in keep if i not in st]
+        same(e, keep)
+    with pytest.raises(la.LoadAwareError, match="kept modes"):
+        est.removal_errors(m, [1, 2], [3])
+    with pytest.raises(la.LoadAwareError, match="distinct kept modes"):
+        est.chain_errors(m, [1, 2], [[2], [2]])
+
+
+def test_curves_by_chains_equal_the_curves_by_single_estimates():
+    model = coupled_model()
+    est = fc.FrozenChainEstimator(model)
+    orders = [np.array([2, 0, 3, 1]), np.array([1, 2, 0]), np.array([3, 0, 2, 1]), np.array([2, 0, 1])]
+    for fn in (la.estimate_curves, la.body_curves):
+        a = fn(model, orders, 5, est.estimate_error)
+        b = fn(model, orders, 5, est.estimate_error, est.chain_errors)
+        for x, y in (zip(a.values(), b.values()) if isinstance(a, dict) else [(a, b)]):
+            assert np.array_equal(np.isnan(x), np.isnan(y))
+            assert np.allclose(x[~np.isnan(x)], y[~np.isnan(y)], rtol=1e-9, atol=1e-16)
+    layers = [[5], [0], [13, 2], [7]]
+    assert np.allclose(la.nested_errors(model, [1], layers, est.estimate_error),
+                       la.nested_errors(model, [1], layers, est.estimate_error, est.chain_errors),
+                       rtol=1e-9, atol=1e-16)
+    assert la.nested_errors(model, [1], [], est.estimate_error).shape == (0, 4)
+
+
+def test_eliminations_with_a_removals_callback_are_the_same():
+    w = {0: 5.0, 1: 1.0, 2: 3.0, 3: 0.5, 4: 4.0, 10: 0.5, 11: 4.0, 12: 2.0, 13: 1.5, 14: 0.2}
+    calls = []
+
+    def cost(keep):
+        return sum(v for k, v in w.items() if k not in keep)
+
+    def removals(keep, members):
+        calls.append(len(members))
+        return [cost([k for k in keep if k != m]) for m in members]
+    for frac in (0.0, 0.25):
+        a = la.backward_elimination(cost, list(w), protected=[3], drop_fraction=frac, tie_rtol=1e-6)
+        b = la.backward_elimination(cost, list(w), protected=[3], drop_fraction=frac, tie_rtol=1e-6,
+                                    removals=removals)
+        assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1], equal_nan=True)
+    a = la.lockstep_elimination(cost, [[0, 1, 2, 3, 4], [10, 11, 12, 13, 14]])
+    b = la.lockstep_elimination(cost, [[0, 1, 2, 3, 4], [10, 11, 12, 13, 14]], removals=removals)
+    assert all(np.array_equal(x, y) for x, y in zip(a[0], b[0])) and np.array_equal(a[1], b[1])
+    assert calls
+
+
 def test_load_factors_are_the_loads_to_rounding():
     """loads = F W: the rank of a sum of r time functions is r, a full-rank matrix keeps all."""
     model = coupled_model(rank=3)
