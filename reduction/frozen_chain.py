@@ -8,6 +8,9 @@ This module holds what both the ranking (``reduction.load_aware``) and the model
 ``tol-EPS`` (``reduction.models``) use; it imports neither.
 """
 
+import cmath
+import math
+
 import numba
 import numpy as np
 import scipy.linalg
@@ -110,9 +113,10 @@ def velocity_response(omega, g, t):
     return c * re - s * im
 
 
-@numba.njit(cache=True)
-def _modal_rates_uniform(rot_c, rot_s, Pr, Pi, Qr, Qi, g):
-    """eta'_j(t_a) (T, n) of every mode on a uniform grid (``velocity_response``'s Duhamel sums).
+@numba.njit(cache=True, error_model="numpy")
+def _modal_rates_uniform(omega, h, g):
+    """eta'_j(t_a) (T, n) of every mode on a uniform grid of step h (``velocity_response``'s
+    Duhamel sums).
 
     With J_a = e^{i omega t_a} I(t_a), the running integral times the phase, the sum of
     ``velocity_response`` over the interval [t_a, t_a + h] becomes one complex step
@@ -120,11 +124,36 @@ def _modal_rates_uniform(rot_c, rot_s, Pr, Pi, Qr, Qi, g):
         J_{a+1} = e^{i omega h} (J_a + g_a P + g_{a+1} Q),   eta'(t_a) = Re J_a,  J_0 = 0,
 
     P = h (phi_1 - phi_2)(i omega h), Q = h phi_2(i omega h) (the load g_a + (g_{a+1} - g_a) u / h
-    integrated against e^{-i omega u}): no cosine or sine per sample, no division, and the
-    modes of one sample side by side (contiguous rows of g).  The rotation's rounding grows like
-    a eps per sample (~1e-13 relative on the real chain, 1501 samples).  rot_c + i rot_s =
-    e^{i omega h}, P, Q (n,) split in real and imaginary parts; g (T, n) C-contiguous."""
+    integrated against e^{-i omega u}; phi as ``_phi``, by its series where |omega h| <
+    SERIES_LIMIT): no cosine or sine per sample, no division, and the modes of one sample side
+    by side (contiguous rows of g).  The rotation's rounding grows like a eps per sample
+    (~1e-13 relative on the real chain, 1501 samples).  omega (n,) [rad/s]; g (T, n)
+    C-contiguous."""
     T, n = g.shape
+    rc = np.empty(n)
+    rs = np.empty(n)
+    Pr = np.empty(n)
+    Pi = np.empty(n)
+    Qr = np.empty(n)
+    Qi = np.empty(n)
+    for j in range(n):
+        a = 1j * (omega[j] * h)
+        if abs(a) < SERIES_LIMIT:       # sum_k (-a)^k / (k+1)!  and  (-a)^k / (k! (k+2))
+            term = 1.0 + 0.0j
+            p1 = 0.0j
+            p2 = 0.0j
+            for k in range(12):
+                p1 += term / (k + 1)
+                p2 += term / (k + 2)
+                term = term * (-a) / (k + 1)
+        else:
+            e = cmath.exp(-a)
+            p1 = (1 - e) / a
+            p2 = (1 - e * (1 + a)) / (a * a)
+        P = h * (p1 - p2)
+        Q = h * p2
+        rc[j], rs[j] = math.cos(omega[j] * h), math.sin(omega[j] * h)
+        Pr[j], Pi[j], Qr[j], Qi[j] = P.real, P.imag, Q.real, Q.imag
     R = np.empty((T, n))
     Jr = np.zeros(n)
     Ji = np.zeros(n)
@@ -137,8 +166,8 @@ def _modal_rates_uniform(rot_c, rot_s, Pr, Pi, Qr, Qi, g):
         for j in range(n):
             xr = Jr[j] + ga[j] * Pr[j] + gb[j] * Qr[j]
             xi = Ji[j] + ga[j] * Pi[j] + gb[j] * Qi[j]
-            yr = rot_c[j] * xr - rot_s[j] * xi
-            Ji[j] = rot_s[j] * xr + rot_c[j] * xi
+            yr = rc[j] * xr - rs[j] * xi
+            Ji[j] = rs[j] * xr + rc[j] * xi
             Jr[j] = yr
             Ra[j] = yr
     return R
@@ -147,11 +176,8 @@ def _modal_rates_uniform(rot_c, rot_s, Pr, Pi, Qr, Qi, g):
 def modal_rates_uniform(omega, g, h):
     """eta' (T, n) of eta'' + omega^2 eta = g(t) from rest on a uniform grid of step h [s]
     (``velocity_response``; by the compiled ``_modal_rates_uniform``).  omega (n,) [rad/s]."""
-    w = np.asarray(omega, float)
-    phi1, phi2 = _phi_pair(1j * h * w)
-    P, Q = h * (phi1 - phi2), h * phi2
-    return _modal_rates_uniform(np.cos(w * h), np.sin(w * h), P.real.copy(), P.imag.copy(),
-                                Q.real.copy(), Q.imag.copy(), np.ascontiguousarray(g, dtype=float))
+    return _modal_rates_uniform(np.ascontiguousarray(omega, dtype=float), float(h),
+                                np.ascontiguousarray(g, dtype=float))
 
 
 def joint_rate_response(omega, V4, g, t):
@@ -210,15 +236,6 @@ def estimate_error(model, keep):
     return np.asarray(error_measure(t, g0 + full, g0 + rate_response(model, keep)), float)
 
 
-def _phi_pair(a):
-    """(phi_1(a), phi_2(a)) of ``_phi``: one exponential for both when no |a| needs the series."""
-    a = np.asarray(a, complex)
-    if np.any(np.abs(a) < SERIES_LIMIT):
-        return _phi(a, 1), _phi(a, 2)
-    e = np.exp(-a)
-    return (1 - e) / a, (1 - e * (1 + a)) / a ** 2
-
-
 def load_factors(loads, rtol=LOAD_RANK_RTOL):
     """(F (T, r), W (r, Q)) with loads (T, Q) = F W to rounding: the truncated singular value
     decomposition, F = U_r Sigma_r, W = V_r^T, keeping the singular values above ``rtol`` times
@@ -266,8 +283,9 @@ class FrozenChainEstimator:
         self._grids = {}
 
     def _grid(self, model):
-        """What a time grid shares: (t, uniform step or None, scaled loads (T, Q),
-        reference rates g0 + full (T, 4), their squares' integral (4,))."""
+        """What a time grid shares: (t, uniform step or None, load factors (F (T, r), W (r, Q))
+        of the scaled loads, the full set's rates (T, 4), the trapezoidal rule's weights (T,),
+        and the reference rates' squares integrated (4,): eq. 3.53's denominator)."""
         t = model["t"]
         grid = self._grids.get(id(t))
         if grid is None or grid[0] is not t:
@@ -278,9 +296,13 @@ class FrozenChainEstimator:
             check_model(model)
             h = np.diff(tt)
             step = float(h[0]) if np.allclose(h, h[0], rtol=1e-9, atol=0.0) else None
-            ref = np.asarray(model["rigid_rates"], float) + np.asarray(model["full"], float)
+            full = np.asarray(model["full"], float)
+            ref = np.asarray(model["rigid_rates"], float) + full
+            weights = np.zeros(tt.size)
+            weights[:-1] += 0.5 * h
+            weights[1:] += 0.5 * h
             loads = load_factors(np.asarray(model["loads"], float) / self._scale)
-            grid = (t, step, loads, ref, np.trapz(ref ** 2, tt, axis=0))
+            grid = (t, step, loads, full, weights, np.trapz(ref ** 2, tt, axis=0))
             self._grids[id(t)] = grid
         return grid
 
@@ -313,9 +335,10 @@ class FrozenChainEstimator:
         return modal_rates_uniform(omega, g, step) @ V4.T
 
     def _error(self, model, grid, rates):
-        t, _, _, ref, den = grid
-        x = np.asarray(model["rigid_rates"], float) + rates
-        num = np.trapz((x - ref) ** 2, np.asarray(t, float), axis=0)
+        """eq. 3.53 (4,) of the kept set's rates against the full set's: the numerator's
+        difference (g0 + rates) - (g0 + full) taken as rates - full."""
+        _, _, _, full, weights, den = grid
+        num = weights @ (rates - full) ** 2
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
 
