@@ -5,7 +5,9 @@ stores it in the ranking file, ``read_linear_model``); the modal loads drive eve
 of a kept set, whose rate response is solved in closed form (``velocity_response``), so
 ``estimate_error(model, keep)`` is the eq. 3.53 error of keeping ``keep`` against the full set.
 This module holds what both the ranking (``reduction.load_aware``) and the model grammar's
-``tol-EPS`` (``reduction.models``) use; it imports neither.
+``tol-EPS`` (``reduction.models``) use; it imports neither.  ``FrozenChainEstimator`` gives the
+rankings' many evaluations of one chain the same numbers at a fraction of the cost (its
+docstring; docs/selection.md, Section 1).
 """
 
 import cmath
@@ -180,6 +182,20 @@ def modal_rates_uniform(omega, g, h):
                                 np.ascontiguousarray(g, dtype=float))
 
 
+def modal_rates(omega, g, t):
+    """eta' (T, n) of eta'' + omega^2 eta = g(t) from rest (``velocity_response``): on a uniform
+    grid by ``modal_rates_uniform``, else by the NumPy form.  omega (n,) [rad/s], g (T, n),
+    t (T,) [s]."""
+    t = np.asarray(t, float)
+    h = np.diff(t)
+    if t.size < 2 or not np.allclose(h, h[0], rtol=1e-9, atol=0.0):
+        return velocity_response(omega, g, t)
+    if np.shape(g) != (t.size, np.size(omega)):
+        raise LoadAwareError(f"modal_rates: g must be (T, n) = ({t.size}, {np.size(omega)}), "
+                             f"got {np.shape(g)}")
+    return modal_rates_uniform(omega, g, float(h[0]))
+
+
 def joint_rate_response(omega, V4, g, t):
     """sum_j V4[:, j] eta'_j(t) (T, 4): the joint rates of the coupled modes driven by g
     (``velocity_response``); on a uniform grid by ``modal_rates_uniform``, else by the NumPy
@@ -284,11 +300,13 @@ class FrozenChainEstimator:
 
     def _grid(self, model):
         """What a time grid shares: (t, uniform step or None, load factors (F (T, r), W (r, Q))
-        of the scaled loads, the full set's rates (T, 4), the trapezoidal rule's weights (T,),
-        and the reference rates' squares integrated (4,): eq. 3.53's denominator)."""
+        of the scaled loads, Y (Q, 4 + r) = [joint motion, W]^T, the full set's rates (T, 4),
+        the trapezoidal rule's weights (T,), and the reference rates' squares integrated (4,):
+        eq. 3.53's denominator).  Kept per grid (decimated copies of one grid share it)."""
         t = model["t"]
-        grid = self._grids.get(id(t))
-        if grid is None or grid[0] is not t:
+        key = (t.__array_interface__["data"][0], t.strides, t.shape)
+        grid = self._grids.get(key)
+        if grid is None or grid[0] is not t and not np.array_equal(grid[0], t):
             if model["M"] is not self._M:
                 raise LoadAwareError("FrozenChainEstimator: the model is not the estimator's chain "
                                      "(or a decimated copy of it)")
@@ -301,43 +319,52 @@ class FrozenChainEstimator:
             weights = np.zeros(tt.size)
             weights[:-1] += 0.5 * h
             weights[1:] += 0.5 * h
-            loads = load_factors(np.asarray(model["loads"], float) / self._scale)
-            grid = (t, step, loads, full, weights, np.trapz(ref ** 2, tt, axis=0))
-            self._grids[id(t)] = grid
+            F, W = load_factors(np.asarray(model["loads"], float) / self._scale)
+            Y = np.ascontiguousarray(np.vstack([self._joints, W]).T)
+            grid = (t, step, F, Y, full, weights, np.trapz(ref ** 2, tt, axis=0))
+            self._grids[key] = grid
+        elif model["M"] is not self._M:
+            raise LoadAwareError("FrozenChainEstimator: the model is not the estimator's chain "
+                                 "(or a decimated copy of it)")
         return grid
+
+    def _eig(self, keep):
+        """(mu (k,) ascending, P (k, k) C-contiguous) of A_S, S = keep (sorted)."""
+        A = self._A[np.ix_(keep, keep)]
+        if A.shape[0] == 1:                 # (LAPACK's workspace query of syevd fails at n = 1)
+            return A[0].copy(), np.ones((1, 1))
+        mu, P = scipy.linalg.eigh(A, driver="evd", overwrite_a=True, check_finite=False)
+        return mu, np.ascontiguousarray(P)
 
     def modes(self, keep):
         """(omega (k,) [rad/s] ascending, B (k, k)) of the kept set (sorted pooled indices):
         the coupled modes' shapes are X = Omega_S^-1 B, B = P diag(omega)."""
-        A = self._A[np.ix_(keep, keep)]
-        if A.shape[0] == 1:                 # (LAPACK's workspace query of syevd fails at n = 1)
-            mu, P = A[0].copy(), np.ones((1, 1))
-        else:
-            mu, P = scipy.linalg.eigh(A, driver="evd", overwrite_a=True, check_finite=False)
-        if mu[0] <= 0 or mu[0] <= 1e-9 * mu[-1]:
-            raise LoadAwareError(f"linear model: more than {N_JOINTS} zero frequencies "
-                                 f"(mass matrix not positive definite?)")
-        mu, P = mu[::-1], P[:, ::-1]                                   # omega ascending
-        omega = 1.0 / np.sqrt(mu)
-        return omega, P * omega
+        mu, P = self._eig(keep)
+        _check_positive(mu)
+        omega = 1.0 / np.sqrt(mu[::-1])                                # ascending
+        return omega, P[:, ::-1] * omega
 
-    def _response(self, t, step, loads, omega, B, cols):
-        """Joint rates (T, 4) of the coupled modes omega (k,) with shapes X = Omega^-1 (B) on
-        the modes ``cols`` (B (k', k): rows over the kept modes, or given as the products
-        (V4 (4, k), W B (r, k)) when ``cols`` is None)."""
-        if cols is None:
-            V4, WB = B
-        else:
-            V4, WB = self._joints[:, cols] @ B, loads[1][:, cols] @ B
-        g = loads[0] @ WB                                               # load on every coupled mode
+    def _rates(self, grid, mu, PY):
+        """Joint rates (T, 4) of the coupled modes of eigenvalues mu (k,) ascending of A_S and
+        eigenvectors P, given by PY = P^T Y_S (k, 4 + r): omega = mu^-1/2 and the shapes
+        X = Omega_S^-1 P diag(omega) give the joint motion and load directions
+        diag(omega) PY = X^T [J_S; W_S]^T."""
+        t, step, F = grid[:3]
+        if mu.size == 0:
+            return np.zeros((len(t), N_JOINTS))
+        _check_positive(mu)
+        omega = 1.0 / np.sqrt(mu[::-1])                                # ascending
+        proj = PY[::-1] * omega[:, None]
+        g = F @ proj[:, N_JOINTS:].T                                   # load on every coupled mode
         if step is None:
-            return velocity_response(omega, g, np.asarray(t, float)) @ V4.T
-        return modal_rates_uniform(omega, g, step) @ V4.T
+            return velocity_response(omega, g, np.asarray(t, float)) @ proj[:, :N_JOINTS]
+        return modal_rates_uniform(omega, g, step) @ proj[:, :N_JOINTS]
 
-    def _error(self, model, grid, rates):
+    @staticmethod
+    def _error(grid, rates):
         """eq. 3.53 (4,) of the kept set's rates against the full set's: the numerator's
         difference (g0 + rates) - (g0 + full) taken as rates - full."""
-        _, _, _, full, weights, den = grid
+        full, weights, den = grid[4:]
         num = weights @ (rates - full) ** 2
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
@@ -345,15 +372,15 @@ class FrozenChainEstimator:
     def rate_response(self, model, keep):
         """``rate_response(model, keep)`` (T, 4) [rad/s]."""
         keep = _kept_index(model, keep)
-        t, step, loads = self._grid(model)[:3]
+        grid = self._grid(model)
         if keep.size == 0:
-            return np.zeros((len(t), N_JOINTS))
-        omega, B = self.modes(keep)
-        return self._response(t, step, loads, omega, B, keep)
+            return self._rates(grid, np.zeros(0), None)
+        mu, P = self._eig(keep)
+        return self._rates(grid, mu, P.T @ grid[3][keep])
 
     def estimate_error(self, model, keep):
         """``estimate_error(model, keep)`` (4,): eq. 3.53 of the kept set against the full set."""
-        return self._error(model, self._grid(model), self.rate_response(model, keep))
+        return self._error(self._grid(model), self.rate_response(model, keep))
 
     def removal_errors(self, model, keep, remove):
         """[``estimate_error(model, keep without m)`` for m in remove]: the trials of a backward
@@ -362,38 +389,28 @@ class FrozenChainEstimator:
         Deleting mode m (row i of A_S) leaves the eigenvalues and eigenvectors P U^T of
         ``reduction.submatrix_eig.delete_index`` (O(k^2) instead of an O(k^3) eigensolver call);
         the coupled modes' joint motion and load directions are their products with the scaled
-        joint motion and load factors without mode m, (U P^T)[J_S; W_S]^T with row i of the
-        latter zeroed: one product with P for all m, then a rank-one correction each.  A
-        deletion that ``delete_index`` leaves to an eigensolver (a near-multiple eigenvalue)
-        is evaluated by ``estimate_error``."""
+        joint motion and load factors without mode m, U (P^T Y_S - P[i]^T Y_S[i]): one product
+        with P for all m, then a rank-one correction each.  A deletion that ``delete_index``
+        leaves to an eigensolver (a near-multiple eigenvalue) is evaluated by ``estimate_error``."""
         keep = _kept_index(model, keep)
         remove = [int(m) for m in remove]
         grid = self._grid(model)
-        t, step, loads = grid[:3]
         pos = np.searchsorted(keep, remove)
         if np.any(pos >= keep.size) or np.any(keep[np.minimum(pos, keep.size - 1)] != remove):
             raise LoadAwareError("removal_errors: the modes to remove must be kept modes")
         if keep.size <= 2:
             return [self.estimate_error(model, np.delete(keep, i)) for i in pos]
-        mu, P = scipy.linalg.eigh(self._A[np.ix_(keep, keep)], driver="evd", overwrite_a=True,
-                                  check_finite=False)
-        Y = np.hstack([self._joints[:, keep].T, loads[1][:, keep].T])      # (k, 4 + r)
+        mu, P = self._eig(keep)
+        Y = grid[3][keep]
         PY = P.T @ Y
         out = []
         for i in pos:
             ok, x, U = submatrix_eig.delete_index(mu, P, i)
-            if not ok or x[0] <= 0 or x[0] <= 1e-9 * x[-1]:
+            if not ok:
                 out.append(self.estimate_error(model, np.delete(keep, i)))
                 continue
-            proj = U[::-1] @ (PY - np.outer(P[i], Y[i]))                   # omega ascending
-            omega = 1.0 / np.sqrt(x[::-1])
-            proj *= omega[:, None]
-            rates = self._response(t, step, loads, omega,
-                                   (np.ascontiguousarray(proj[:, :N_JOINTS].T),
-                                    np.ascontiguousarray(proj[:, N_JOINTS:].T)), None)
-            out.append(self._error(model, grid, rates))
+            out.append(self._error(grid, self._rates(grid, x, U @ (PY - np.outer(P[i], Y[i])))))
         return out
-
 
     def chain_errors(self, model, keep, steps):
         """[estimate_error of keep, of keep without steps[0], without steps[0] and steps[1], ...]
@@ -401,7 +418,7 @@ class FrozenChainEstimator:
         (steps: lists of kept modes, removed before each further evaluation).
 
         One eigendecomposition of the kept set, then ``submatrix_eig.delete_index`` for every
-        removal, carrying only what the later steps need: the projections P^T [J_S; W_S]^T of the
+        removal, carrying only what the later steps need: the projections P^T Y_S of the
         eigenvectors (the joint motion and load directions of the coupled modes) and the rows of
         P of the modes still to be removed, each updated by the deletion's coefficients U (O(k^2)
         per row instead of the O(k^3) of a new eigensolver call).  A deletion that
@@ -412,33 +429,15 @@ class FrozenChainEstimator:
         if len(set(gone)) != len(gone) or not set(gone) <= set(keep.tolist()):
             raise LoadAwareError("chain_errors: the removed modes must be distinct kept modes")
         grid = self._grid(model)
-        t, step, loads = grid[:3]
-        Yall = np.vstack([self._joints, loads[1]])                          # (4 + r, Q)
-        cur = keep
-        state = None
+        Y = grid[3]
 
         def fresh(cur, pending):
-            mu, P = scipy.linalg.eigh(self._A[np.ix_(cur, cur)], driver="evd", overwrite_a=True,
-                                      check_finite=False)
-            pos = np.searchsorted(cur, pending)
-            return mu, P.T @ Yall[:, cur].T, {m: P[i] for m, i in zip(pending, pos)}
+            mu, P = self._eig(cur)
+            return mu, P.T @ Y[cur], {m: P[i] for m, i in zip(pending, np.searchsorted(cur, pending))}
 
-        def error(cur, state):
-            if cur.size == 0:
-                return self._error(model, grid, np.zeros((len(t), N_JOINTS)))
-            mu, PY, _ = state
-            if mu[0] <= 0 or mu[0] <= 1e-9 * mu[-1]:
-                raise LoadAwareError(f"linear model: more than {N_JOINTS} zero frequencies "
-                                     f"(mass matrix not positive definite?)")
-            omega = 1.0 / np.sqrt(mu[::-1])                                 # ascending
-            proj = PY[::-1] * omega[:, None]
-            return self._error(model, grid, self._response(
-                t, step, loads, omega, (np.ascontiguousarray(proj[:, :N_JOINTS].T),
-                                        np.ascontiguousarray(proj[:, N_JOINTS:].T)), None))
-
-        if cur.size:
-            state = fresh(cur, gone)
-        out = [error(cur, state)]
+        cur = keep
+        state = fresh(cur, gone) if cur.size else (np.zeros(0), None, {})
+        out = [self._error(grid, self._rates(grid, *state[:2]))]
         done = 0
         for st in steps:
             for m in st:
@@ -446,22 +445,27 @@ class FrozenChainEstimator:
                 i = int(np.searchsorted(cur, m))
                 nxt = np.delete(cur, i)
                 pending = gone[done:]
-                if nxt.size == 0:
-                    cur, state = nxt, None
-                    continue
                 mu, PY, rows = state
                 z = rows.pop(m)
                 ok, x, U = submatrix_eig.delete_index(mu, z[None, :], 0)
                 if not ok:
                     cur, state = nxt, fresh(nxt, pending)
                     continue
-                PY = U @ (PY - np.outer(z, Yall[:, m]))
+                PY = U @ (PY - np.outer(z, Y[m]))
                 if rows:
                     R = np.array([rows[k] for k in pending]) @ U.T
                     rows = dict(zip(pending, R))
                 cur, state = nxt, (x, PY, rows)
-            out.append(error(cur, state))
+            out.append(self._error(grid, self._rates(grid, *state[:2])))
         return out
+
+
+def _check_positive(mu):
+    """Raise LoadAwareError unless the eigenvalues mu (ascending) of A_S = Omega^-1 S Omega^-1
+    are positive and within 1e9 of each other (S positive definite)."""
+    if mu[0] <= 0 or mu[0] <= 1e-9 * mu[-1]:
+        raise LoadAwareError(f"linear model: more than {N_JOINTS} zero frequencies "
+                             f"(mass matrix not positive definite?)")
 
 
 def decimated(model, stride):

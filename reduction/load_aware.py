@@ -34,7 +34,12 @@ method, its maths and the measured results are in ``docs/selection.md``; in shor
    to its load is integrated in closed form (``velocity_response``), and
    eq. 3.53 (``solver.dynamics.error_measure.error_measure``) compares the rates
    gamma_dot_rigid + d_S with the full set's gamma_dot_rigid + d_full.  No
-   nonlinear simulation is involved; one evaluation costs 1-20 ms.
+   nonlinear simulation is involved; one evaluation costs 1-20 ms.  The rankings
+   make ~7000 of them per scene, by ``frozen_chain.FrozenChainEstimator``: the
+   same numbers from what the kept sets share (the whole chain's Schur
+   complement, the loads' few time functions), a round's trials and a curve's
+   counts as deletions from one eigendecomposition
+   (``reduction.submatrix_eig``): 0.1-0.5 ms each.
 
 4. **Scores and rankings.**  ``participation_scores``: the share of eq. 3.53 that
    each coupled mode k of the full chain carries in rate n (e_nk), handed to
@@ -64,7 +69,7 @@ import numpy as np
 from reduction import models
 from reduction.frozen_chain import (CURVE_SAMPLES, FROZEN_ANGLE, FROZEN_RATE, N_JOINTS,
                                     FrozenChainEstimator, LoadAwareError, check_model, coupled_modes,
-                                    decimated, estimate_error, rate_response, velocity_response)
+                                    decimated, estimate_error, modal_rates, rate_response)
 from solver import bodyconfig
 from solver.bodydata import BODIES
 from solver.dynamics import compiled, integrators, linearized, multibody, scenes, simulate
@@ -175,9 +180,9 @@ def participation_scores(model):
     t, K, g0 = model["t"], model["K"], model["rigid_rates"]
     omega, V = coupled_modes(model["M"], K)
     g = model["loads"] @ V[N_JOINTS:]
-    eta = velocity_response(omega, g, t)
+    eta = modal_rates(omega, g, t)
     ref = np.trapz((g0 + model["full"]) ** 2, t, axis=0)               # (4,)
-    e = np.stack([np.trapz((eta * V[n]) ** 2, t, axis=0) for n in range(N_JOINTS)])
+    e = V[:N_JOINTS] ** 2 * np.trapz(eta ** 2, t, axis=0)               # int (V_nk eta'_k)^2 dt
     e = e / np.where(ref > 0, ref, 1.0)[:, None]
     elastic = omega > 0
     eps = np.zeros((K.size - N_JOINTS, K.size))
@@ -269,9 +274,9 @@ def lockstep_elimination(evaluate, pools, priority=None, tie_rtol=0.0, log=None,
     per group (body), all of the same length n.  Round by round (n -> n - 1 per
     group), each group in turn drops the member whose removal, with the other
     groups as they stand, gives the smallest cost (ties within ``tie_rtol`` by
-    ``priority``, as in ``backward_elimination``; removals: as there).  Returns (orders, cost): orders
-    a list of (n,) arrays, most important first; cost (n + 1,) with cost[N] the cost
-    of keeping the first N of every group's order."""
+    ``priority``, as in ``backward_elimination``; removals: as there).  Returns (orders,
+    cost): orders a list of (n,) arrays, most important first; cost (n + 1,) with cost[N]
+    the cost of keeping the first N of every group's order."""
     current = [[int(i) for i in p] for p in pools]
     n = len(current[0]) if current else 0
     if any(len(p) != n for p in current) or len({i for p in current for i in p}) != n * len(current):
@@ -469,7 +474,8 @@ def body_curves(model, orders, n_max=N_CURVE, estimate=estimate_error, chain=Non
     out = {}
     for k, b in enumerate(BODIES):
         curve = np.full((n_max, N_JOINTS), np.nan)
-        others = np.concatenate([np.arange(off[j], off[j + 1]) for j in range(len(BODIES)) if j != k])
+        others = np.concatenate([np.arange(off[j], off[j + 1])
+                                 for j in range(len(BODIES)) if j != k])
         n = min(int(n_max), int(off[k + 1] - off[k]))
         layers = [[off[k] + int(i)] for i in np.asarray(orders[k], int)[:n]]
         curve[:n] = nested_errors(model, others, layers, estimate, chain)

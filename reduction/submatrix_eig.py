@@ -49,7 +49,7 @@ MAX_ITER = 60
 def _secular_delete(mu, z):
     """(ok, x (n - 1,) ascending, U (n - 1, n)): the eigenvalues of A_-i and the coefficients of
     its eigenvectors in the basis P, for A = P diag(mu) P^T, mu (n,) ascending, z = P[i] (n,)
-    with sum z^2 = 1 (module docstring).  ok False: not handled (close poles, no convergence).
+    (normalised here; module docstring).  ok False: not handled (close poles, no convergence).
 
     All roots iterate together, pass by pass, so that the inner loops run over the roots
     (contiguous, no reduction: compiled to vector instructions)."""
@@ -57,25 +57,29 @@ def _secular_delete(mu, z):
     x = np.zeros(n - 1)
     U = np.zeros((n - 1, n))
     scale = max(abs(mu[0]), abs(mu[n - 1]))
-    # ---- deflation: undeflated poles idx[0..p-1]
-    idx = np.empty(n, np.int64)
-    p = 0
-    out = 0                      # rows of (x, U) filled (deflated poles first, sorted at the end)
+    znorm = 0.0
     for j in range(n):
-        if abs(z[j]) <= DEFLATE_Z:
-            x[out] = mu[j]
-            U[out, j] = 1.0
-            out += 1
+        znorm += z[j] * z[j]
+    znorm = np.sqrt(znorm)
+    # ---- deflation: undeflated poles idx[0..p-1], deflated ones dfl[0..nd-1]
+    idx = np.empty(n, np.int64)
+    dfl = np.empty(n, np.int64)
+    p = 0
+    nd = 0
+    for j in range(n):
+        if abs(z[j]) <= DEFLATE_Z * znorm:
+            dfl[nd] = j
+            nd += 1
         else:
             idx[p] = j
             p += 1
-    if p == 0:                   # cannot happen with sum z^2 = 1
+    if p == 0:                   # z = 0: not a row of an orthogonal matrix
         return False, x, U
     d = np.empty(p)
     w = np.empty(p)
     for k in range(p):
         d[k] = mu[idx[k]]
-        w[k] = z[idx[k]] * z[idx[k]]
+        w[k] = (z[idx[k]] / znorm) ** 2
     for k in range(p - 1):
         if not d[k + 1] - d[k] > CLOSE_POLES * scale:
             return False, x, U
@@ -180,23 +184,30 @@ def _secular_delete(mu, z):
     for j in range(p):
         v = np.sqrt(max(prod[j], 0.0))
         zh[j] = v if z[idx[j]] >= 0.0 else -v
-    # ---- eigenvectors: u_j = zh_j / (d_j - x_k), normalised
+    # ---- rows in ascending order: the deflated poles merged with the roots (both ascending)
     u = np.empty(p)
-    for k in range(q):
-        xk, tk = dK[k], t[k]
+    a = 0                        # next deflated pole
+    for k in range(q + 1):
+        xk = dK[k] + t[k] if k < q else np.inf
+        while a < nd and mu[dfl[a]] <= xk:
+            x[a + k] = mu[dfl[a]]
+            U[a + k, dfl[a]] = 1.0
+            a += 1
+        if k == q:
+            break
+        # eigenvector of root k: u_j = zh_j / (d_j - x_k), normalised
+        xK, tk = dK[k], t[k]
         nrm = 0.0
         for j in range(p):
-            u[j] = zh[j] / ((d[j] - xk) - tk)
+            u[j] = zh[j] / ((d[j] - xK) - tk)
         for j in range(p):
             nrm += u[j] * u[j]
         nrm = 1.0 / np.sqrt(nrm)
-        row = U[out]
+        row = U[a + k]
         for j in range(p):
             row[idx[j]] = u[j] * nrm
-        x[out] = dK[k] + tk
-        out += 1
-    order = np.argsort(x)
-    return True, x[order], U[order]
+        x[a + k] = xk
+    return True, x, U
 
 
 def delete_index(mu, P, i):
@@ -208,5 +219,4 @@ def delete_index(mu, P, i):
     n = mu.size
     if n == 1:
         return True, np.zeros(0), np.zeros((0, 1))
-    z = np.ascontiguousarray(P[i], dtype=float)
-    return _secular_delete(mu, z / np.sqrt(np.dot(z, z)))
+    return _secular_delete(mu, np.ascontiguousarray(P[i], dtype=float))

@@ -229,6 +229,30 @@ def test_eliminations_with_a_removals_callback_are_the_same():
     assert calls
 
 
+def test_modal_loads_are_minus_the_modal_rows_of_the_inverse_dynamics():
+    """The compiled inverse dynamics of modal_loads against multibody's NumPy reference, with a
+    moving case (its twist at every sample), and the compiled M(y0) of linear_model."""
+    from solver.dynamics import multibody
+    from solver.dynamics.synthetic import synthetic_modal_chain
+    chain = synthetic_modal_chain(3, seed=2)
+    rng = np.random.default_rng(6)
+    t = np.linspace(0.0, 0.01, 7)
+    y, yd, ydd = (rng.normal(size=(t.size, 4)) * s for s in (0.3, 0.05, 0.5))
+    case = multibody.CaseMotion(amplitude=(0.2, -0.1, 0.3), frequency=(5.0, 0.0, 12.0),
+                                phase=(0.1, 0.2, 0.3), omega0=(0.01, 0.0, -0.02))
+    got = la.modal_loads(chain, t, y, yd, ydd, case)
+    n = chain.n_coordinates
+    ref = np.zeros_like(got)
+    for k in range(t.size):
+        Y, V, A = (np.concatenate([v[k], np.zeros(n - 4)]) for v in (y, yd, ydd))
+        ref[k] = -multibody.inverse_dynamics(chain, Y, V, A, t[k], case)[4:]
+    assert np.allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    y0 = np.concatenate([y[0], np.zeros(n - 4)])
+    lin = la.linear_model(chain, y0, t, yd, got)
+    assert np.allclose(lin["M"], multibody.mass_matrix(chain, y0), rtol=0,
+                       atol=1e-13 * np.abs(lin["M"]).max())
+
+
 def test_load_factors_are_the_loads_to_rounding():
     """loads = F W: the rank of a sum of r time functions is r, a full-rank matrix keeps all."""
     model = coupled_model(rank=3)
