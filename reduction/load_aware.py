@@ -34,7 +34,12 @@ method, its maths and the measured results are in ``docs/selection.md``; in shor
    to its load is integrated in closed form (``velocity_response``), and
    eq. 3.53 (``solver.dynamics.error_measure.error_measure``) compares the rates
    gamma_dot_rigid + d_S with the full set's gamma_dot_rigid + d_full.  No
-   nonlinear simulation is involved; one evaluation costs 1-20 ms.
+   nonlinear simulation is involved; one evaluation costs 1-20 ms.  The rankings
+   make ~7000 of them per scene, by ``frozen_chain.FrozenChainEstimator``: the
+   same numbers from what the kept sets share (the whole chain's Schur
+   complement, the loads' few time functions), a round's trials and a curve's
+   counts as deletions from one eigendecomposition
+   (``reduction.submatrix_eig``): 0.1-0.5 ms each.
 
 4. **Scores and rankings.**  ``participation_scores``: the share of eq. 3.53 that
    each coupled mode k of the full chain carries in rate n (e_nk), handed to
@@ -62,12 +67,12 @@ import h5py
 import numpy as np
 
 from reduction import models
-from reduction.frozen_chain import (CURVE_SAMPLES, FROZEN_ANGLE, FROZEN_RATE, N_JOINTS, LoadAwareError,
-                                    coupled_modes, decimated, estimate_error, rate_response,
-                                    velocity_response)
+from reduction.frozen_chain import (CURVE_SAMPLES, FROZEN_ANGLE, FROZEN_RATE, N_JOINTS,
+                                    FrozenChainEstimator, LoadAwareError, check_model, coupled_modes,
+                                    decimated, estimate_error, modal_rates, rate_response)
 from solver import bodyconfig
 from solver.bodydata import BODIES
-from solver.dynamics import integrators, multibody, scenes, simulate
+from solver.dynamics import compiled, integrators, linearized, multibody, scenes, simulate
 from workflow import cli
 from workflow.progress import Progress
 from workflow.provenance import atomic_h5, versions
@@ -110,18 +115,26 @@ def modal_loads(chain, t, y, yd, ydd, case, progress=None):
     the bearing wrench F_child of the inner subtree through the inside-frame
     motion L_i (Psi, Theta).  Unit: lbf / sqrt(lbf s^2/in) = sqrt(mass) in/s^2,
     the generalised force of a mass-normalised modal coordinate.  progress: a
-    ``workflow.progress.Progress`` advanced by one per sample (optional)."""
+    ``workflow.progress.Progress`` advanced by one per sample (optional).
+
+    The inverse dynamics is the compiled one (``solver.dynamics.compiled.FastChain``, the case
+    twist of ``case`` at each sample): the same numbers as ``multibody.inverse_dynamics`` to
+    rounding (9e-16 of the largest load on the thesis scene), ~10 ms instead of ~2 s per 1000
+    samples at 400 modes."""
     t = np.asarray(t, float)
     y, yd, ydd = (np.asarray(a, float) for a in (y, yd, ydd))
     if y.shape != (t.size, N_JOINTS) or yd.shape != y.shape or ydd.shape != y.shape:
         raise LoadAwareError(f"rigid motion must be (T, 4) arrays for T = {t.size} samples, got "
                              f"{y.shape}, {yd.shape}, {ydd.shape}")
     n = chain.n_coordinates
+    fast = compiled.FastChain(chain)
+    case = multibody.CaseMotion() if case is None else case
     out = np.zeros((t.size, n - N_JOINTS))
     Y, V, A = np.zeros(n), np.zeros(n), np.zeros(n)
     for k in range(t.size):
         Y[:N_JOINTS], V[:N_JOINTS], A[:N_JOINTS] = y[k], yd[k], ydd[k]
-        out[k] = -multibody.inverse_dynamics(chain, Y, V, A, t[k], case)[N_JOINTS:]
+        w1, dw1 = case.twist(t[k])
+        out[k] = -fast.inverse_dynamics(Y, V, A, w1, dw1)[N_JOINTS:]
         if progress is not None:
             progress.advance()
     return out
@@ -134,7 +147,7 @@ def linear_model(chain, y0, t, gamma_rigid, loads):
     rigid_rates (T, 4) [rad/s] (gamma_dot of the rigid run), loads (T, n - 4)
     (``modal_loads``), offsets (5,): body b's modes are columns offsets[k]:offsets[k+1]
     of loads (k = b - 2), and the full set's response ``full`` (T, 4) [rad/s]."""
-    M = multibody.mass_matrix(chain, np.asarray(y0, float))
+    M = linearized.mass_matrix_fast(chain, np.asarray(y0, float))
     K = chain.stiffness_diagonal()
     model = {"M": M, "K": K, "t": np.asarray(t, float),
              "rigid_rates": np.asarray(gamma_rigid, float), "loads": np.asarray(loads, float),
@@ -142,19 +155,6 @@ def linear_model(chain, y0, t, gamma_rigid, loads):
     check_model(model)
     model["full"] = rate_response(model, np.arange(model["loads"].shape[1]))
     return model
-
-
-def check_model(model):
-    """Raise LoadAwareError unless the linear model's arrays fit together."""
-    M, K, t, g, L = (np.asarray(model[k]) for k in ("M", "K", "t", "rigid_rates", "loads"))
-    n = K.size
-    if M.shape != (n, n) or L.shape != (t.size, n - N_JOINTS) or g.shape != (t.size, N_JOINTS):
-        raise LoadAwareError(f"linear model: shapes M {M.shape}, K {K.shape}, t {t.shape}, "
-                             f"rigid_rates {g.shape}, loads {L.shape} do not fit")
-    if np.any(K[:N_JOINTS] != 0) or np.any(K[N_JOINTS:] <= 0):
-        raise LoadAwareError("linear model: K must be 0 on the 4 joints and > 0 on every mode")
-    if t.size < 2 or np.any(np.diff(t) <= 0):
-        raise LoadAwareError("linear model: t must hold at least 2 strictly increasing samples")
 
 
 def kept_from_counts(offsets, orders, counts):
@@ -180,9 +180,9 @@ def participation_scores(model):
     t, K, g0 = model["t"], model["K"], model["rigid_rates"]
     omega, V = coupled_modes(model["M"], K)
     g = model["loads"] @ V[N_JOINTS:]
-    eta = velocity_response(omega, g, t)
+    eta = modal_rates(omega, g, t)
     ref = np.trapz((g0 + model["full"]) ** 2, t, axis=0)               # (4,)
-    e = np.stack([np.trapz((eta * V[n]) ** 2, t, axis=0) for n in range(N_JOINTS)])
+    e = V[:N_JOINTS] ** 2 * np.trapz(eta ** 2, t, axis=0)               # int (V_nk eta'_k)^2 dt
     e = e / np.where(ref > 0, ref, 1.0)[:, None]
     elastic = omega > 0
     eps = np.zeros((K.size - N_JOINTS, K.size))
@@ -221,7 +221,7 @@ def _removals(trials, tie_rtol):
 
 
 def backward_elimination(evaluate, pool, protected=(), drop_fraction=0.0, priority=None,
-                         tie_rtol=0.0, log=None):
+                         tie_rtol=0.0, log=None, removals=None):
     """Nested ranking of ``pool`` by backward elimination of a cost.
 
     evaluate: callable(list of kept indices) -> float (smaller is better);
@@ -232,6 +232,9 @@ def backward_elimination(evaluate, pool, protected=(), drop_fraction=0.0, priori
     kept; fewer rounds, a slightly coarser order).  Costs within ``tie_rtol`` of
     the smallest are ties, resolved by ``priority`` (dict member -> number, the
     lower removed first; default: the later member of the pool first).
+    removals: optional callable(kept list, members list) -> their costs, the cost of the kept
+    set without each member in turn (what ``evaluate`` would give, in one call: a round's
+    trials share work).
     Returns (order, cost): order (len(pool),) most important first (the last
     dropped first), cost (len(pool) + 1,) with cost[N] the cost of order[:N]
     (NaN for sizes a multi-drop round skipped)."""
@@ -247,12 +250,11 @@ def backward_elimination(evaluate, pool, protected=(), drop_fraction=0.0, priori
     cost[len(current)] = float(evaluate(current))
     dropped = []
     while len(current) > len(protected):
-        trials = []
-        for pos in range(len(current) - 1, -1, -1):
-            m = current[pos]
-            if m not in keep_set:
-                rank = -pos if priority is None else (priority[m], -pos)
-                trials.append((float(evaluate(current[:pos] + current[pos + 1:])), rank, m))
+        cands = [pos for pos in range(len(current) - 1, -1, -1) if current[pos] not in keep_set]
+        costs = ([evaluate(current[:pos] + current[pos + 1:]) for pos in cands] if removals is None
+                 else removals(current, [current[pos] for pos in cands]))
+        trials = [(float(c), -pos if priority is None else (priority[current[pos]], -pos), current[pos])
+                  for c, pos in zip(costs, cands)]
         trials = _removals(trials, tie_rtol)
         k = max(1, int(drop_fraction * len(current)))
         chosen = [m for _, _, m in trials[:k]]
@@ -265,16 +267,16 @@ def backward_elimination(evaluate, pool, protected=(), drop_fraction=0.0, priori
     return np.array(order, int), cost
 
 
-def lockstep_elimination(evaluate, pools, priority=None, tie_rtol=0.0, log=None):
+def lockstep_elimination(evaluate, pools, priority=None, tie_rtol=0.0, log=None, removals=None):
     """Nested rankings of several groups kept at equal counts (the ``load-N`` models).
 
     evaluate: callable(list of kept indices) -> float; pools: one list of indices
     per group (body), all of the same length n.  Round by round (n -> n - 1 per
     group), each group in turn drops the member whose removal, with the other
     groups as they stand, gives the smallest cost (ties within ``tie_rtol`` by
-    ``priority``, as in ``backward_elimination``).  Returns (orders, cost): orders
-    a list of (n,) arrays, most important first; cost (n + 1,) with cost[N] the cost
-    of keeping the first N of every group's order."""
+    ``priority``, as in ``backward_elimination``; removals: as there).  Returns (orders,
+    cost): orders a list of (n,) arrays, most important first; cost (n + 1,) with cost[N]
+    the cost of keeping the first N of every group's order."""
     current = [[int(i) for i in p] for p in pools]
     n = len(current[0]) if current else 0
     if any(len(p) != n for p in current) or len({i for p in current for i in p}) != n * len(current):
@@ -285,9 +287,11 @@ def lockstep_elimination(evaluate, pools, priority=None, tie_rtol=0.0, log=None)
     for size in range(n, 0, -1):
         for g in range(len(current)):
             others = [i for h, p in enumerate(current) if h != g for i in p]
-            trials = [(float(evaluate(others + current[g][:k] + current[g][k + 1:])),
-                       -k if priority is None else (priority[m], -k), m)
-                      for k, m in enumerate(current[g])]
+            costs = ([evaluate(others + current[g][:k] + current[g][k + 1:])
+                      for k in range(len(current[g]))] if removals is None
+                     else removals(others + current[g], current[g]))
+            trials = [(float(c), -k if priority is None else (priority[m], -k), m)
+                      for k, (c, m) in enumerate(zip(costs, current[g]))]
             best = _removals(trials, tie_rtol)[0]
             current[g].remove(best[2])
             dropped[g].append(best[2])
@@ -333,7 +337,7 @@ def search_stride(duration, output_interval, samples=SEARCH_SAMPLES):
 
 
 def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, stride=3,
-                   greedy_prefix=GREEDY_STEPS, log=None, estimate=estimate_error):
+                   greedy_prefix=GREEDY_STEPS, log=None, estimate=estimate_error, removals=None):
     """Pooled load-aware ranking of every mode of every body.
 
     score (4, Q) from ``participation_scores``.  The cost is J = max_n E_n, the
@@ -346,7 +350,9 @@ def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, s
     modes follow by score, the modes the scene does not excite come last.
     Returns (order (Q,) pooled indices most important first, info dict:
     ``prefix`` (k,), ``search_cost`` (pool + 1,) J on the search grid).  estimate: the
-    a-priori error function (``rank_scene`` passes it counted, for its progress)."""
+    a-priori error function (``rank_scene`` passes it counted, for its progress); removals:
+    optional callable(model, keep, members) -> [estimate(model, keep without m) for m in
+    members] (``frozen_chain.FrozenChainEstimator.removal_errors``), the elimination's trials."""
     s = np.max(np.asarray(score, float), axis=0)
     excited = excited_modes(score)
     by_score = np.lexsort((np.arange(s.size), -s))
@@ -365,7 +371,7 @@ def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, s
     pool = list(prefix) + [i for i in top if i not in set(prefix.tolist())]
     order, cost = backward_elimination(J, pool, protected=prefix, drop_fraction=drop_fraction,
                                        priority={int(i): s[i] for i in pool}, tie_rtol=TIE_RTOL,
-                                       log=log)
+                                       log=log, removals=_max_removals(removals, search))
     ranked = set(order.tolist())
     rest = [i for i in by_score if i not in ranked]
     silent = np.flatnonzero(~excited)
@@ -374,7 +380,7 @@ def pooled_ranking(model, score, pool_size=DEFAULT_POOL, drop_fraction=1 / 16, s
 
 
 def body_rankings(model, pooled_order, score=None, n_lockstep=N_CURVE, stride=3, log=None,
-                  estimate=estimate_error):
+                  estimate=estimate_error, removals=None):
     """Per-body load-aware rankings for equal counts per body (``load-N``).
 
     The first ``n_lockstep`` modes of every body are ordered by ``lockstep_elimination``
@@ -386,7 +392,7 @@ def body_rankings(model, pooled_order, score=None, n_lockstep=N_CURVE, stride=3,
     together with the other bodies' pooled picks: at equal counts its first 5 per
     body ring at frequencies the full chain does not have, J = 0.31 on the thesis
     scene, against 0.04 for the rigid model.)  Returns 4 arrays (D_b,) of local
-    mode indices.  estimate: the a-priori error function (as ``pooled_ranking``)."""
+    mode indices.  estimate, removals: the a-priori error functions (as ``pooled_ranking``)."""
     off = model["offsets"]
     split = split_by_body(pooled_order, off)
     n = min([int(n_lockstep)] + [len(p) for p in split])
@@ -398,9 +404,18 @@ def body_rankings(model, pooled_order, score=None, n_lockstep=N_CURVE, stride=3,
         return float(np.max(estimate(search, keep)))
     pools = [off[k] + p[:n] for k, p in enumerate(split)]
     prio = None if score is None else dict(enumerate(np.max(np.asarray(score), axis=0)))
-    orders, _ = lockstep_elimination(J, pools, priority=prio, tie_rtol=TIE_RTOL, log=log)
+    orders, _ = lockstep_elimination(J, pools, priority=prio, tie_rtol=TIE_RTOL, log=log,
+                                     removals=_max_removals(removals, search))
     return [np.concatenate([o - off[k], p[n:]]).astype(int)
             for k, (o, p) in enumerate(zip(orders, split))]
+
+
+def _max_removals(removals, model):
+    """The eliminations' removals callback (J = max_n E_n of each trial) from an a-priori
+    removals function (model, keep, members) -> E arrays; None stays None."""
+    if removals is None:
+        return None
+    return lambda keep, members: [float(np.max(e)) for e in removals(model, keep, members)]
 
 
 def split_by_body(order, offsets):
@@ -423,29 +438,47 @@ def pooled_xmx_order(radii, offsets):
     return np.lexsort((np.arange(r.size), -r))
 
 
-def estimate_curves(model, orders, n_max=N_CURVE, estimate=estimate_error):
+def nested_errors(model, base, layers, estimate=estimate_error, chain=None):
+    """A-priori errors (L, 4) of the nested kept sets base + layers[0] + ... + layers[N - 1],
+    N = 1..L (each count of a curve adds a layer: one mode, or one mode per body).  chain:
+    optional callable(model, keep, steps) -> the errors of keep and of keep without each step in
+    turn (``frozen_chain.FrozenChainEstimator.chain_errors``: the whole curve from one
+    eigendecomposition); without it, ``estimate`` of every set."""
+    base = [int(i) for i in np.ravel(base)]
+    layers = [[int(i) for i in np.ravel(layer)] for layer in layers]
+    if not layers:
+        return np.zeros((0, N_JOINTS))
+    if chain is None:
+        return np.array([estimate(model, base + [i for layer in layers[:N] for i in layer])
+                         for N in range(1, len(layers) + 1)])
+    keep = base + [i for layer in layers for i in layer]
+    return np.array(chain(model, keep, layers[:0:-1])[::-1])
+
+
+def estimate_curves(model, orders, n_max=N_CURVE, estimate=estimate_error, chain=None):
     """A-priori errors (n_max, 4) of keeping the first N = 1..n_max modes of every body's
-    order (orders: 4 arrays of local indices); estimate: as ``pooled_ranking``."""
-    D = np.diff(model["offsets"])
+    order (orders: 4 arrays of local indices); estimate, chain: as ``nested_errors``."""
+    off = model["offsets"]
+    D = np.diff(off)
     out = np.full((n_max, N_JOINTS), np.nan)
-    for N in range(1, n_max + 1):
-        if N > D.min():
-            break
-        out[N - 1] = estimate(model, kept_from_counts(model["offsets"], orders, [N] * 4))
+    n = min(int(n_max), int(D.min()))
+    layers = [[off[k] + int(np.asarray(o, int)[N]) for k, o in enumerate(orders)] for N in range(n)]
+    out[:n] = nested_errors(model, [], layers, estimate, chain)
     return out
 
 
-def body_curves(model, orders, n_max=N_CURVE, estimate=estimate_error):
+def body_curves(model, orders, n_max=N_CURVE, estimate=estimate_error, chain=None):
     """{body: (n_max, 4)}: a-priori errors of truncating one body to its first N modes
-    (N = 1..n_max), the other bodies keeping every mode; estimate: as ``pooled_ranking``."""
+    (N = 1..n_max), the other bodies keeping every mode; estimate, chain: as ``nested_errors``."""
     off = model["offsets"]
     out = {}
     for k, b in enumerate(BODIES):
         curve = np.full((n_max, N_JOINTS), np.nan)
-        others = [np.arange(off[j], off[j + 1]) for j in range(len(BODIES)) if j != k]
-        for N in range(1, min(n_max, off[k + 1] - off[k]) + 1):
-            keep = np.concatenate(others + [off[k] + np.asarray(orders[k], int)[:N]])
-            curve[N - 1] = estimate(model, keep)
+        others = np.concatenate([np.arange(off[j], off[j + 1])
+                                 for j in range(len(BODIES)) if j != k])
+        n = min(int(n_max), int(off[k + 1] - off[k]))
+        layers = [[off[k] + int(i)] for i in np.asarray(orders[k], int)[:n]]
+        curve[:n] = nested_errors(model, others, layers, estimate, chain)
         out[b] = curve
     return out
 
@@ -552,37 +585,49 @@ def rank_scene(model, rankings, pool_size=DEFAULT_POOL, n_curve=N_CURVE, search=
         model, min(int(pool_size), n_excited), n_curve, search.get("stride", 3),
         search.get("drop_fraction", 1 / 16), search.get("greedy_prefix", GREEDY_STEPS), global_xmx), None)
     step = "pooled ranking"
+    engine = FrozenChainEstimator(model)
     estimate = progress.counted(
-        estimate_error, lambda m, keep: evaluation_work(len(m["t"]), np.size(keep)),
+        engine.estimate_error, lambda m, keep: evaluation_work(len(m["t"]), np.size(keep)),
+        note=lambda: step)
+    removals = progress.counted(
+        engine.removal_errors,
+        lambda m, keep, members: len(members) * evaluation_work(len(m["t"]), np.size(keep) - 1),
+        note=lambda: step)
+    chain = progress.counted(
+        engine.chain_errors,
+        lambda m, keep, steps: sum(evaluation_work(len(m["t"]), size) for size in
+                                   np.size(keep) - np.cumsum([0] + [len(st) for st in steps])),
         note=lambda: step)
     t0 = time.perf_counter()
-    order, info = pooled_ranking(model, part["score"], pool_size, log=log, estimate=estimate, **search)
+    order, info = pooled_ranking(model, part["score"], pool_size, log=log, estimate=estimate,
+                                 removals=removals, **search)
     n_pool = info["pool"]
     log(f"pooled ranking (pool {n_pool}) in {time.perf_counter() - t0:.1f} s")
     step = "per-body ranking"
     t0 = time.perf_counter()
     per_body = body_rankings(model, order, part["score"], n_curve, search.get("stride", 3), log,
-                             estimate=estimate)
+                             estimate=estimate, removals=removals)
     log(f"per-body (equal counts) ranking in {time.perf_counter() - t0:.1f} s")
     step = "a-priori curves"
     t0 = time.perf_counter()
     # the a-priori curves on the full output grid up to CURVE_SAMPLES samples, decimated beyond
     full = model
     model = decimated(model, max(1, int(math.ceil(len(model["t"]) / CURVE_SAMPLES))))
-    pooled_E = np.array([estimate(model, order[:N]) for N in range(1, n_pool + 1)])
+    pooled_E = nested_errors(model, [], [[i] for i in order[:n_pool]], estimate, chain)
     J = np.concatenate([[np.max(estimate(model, []))], pooled_E.max(axis=1)])
-    curves = {"load": estimate_curves(model, per_body, n_curve, estimate)}
+    curves = {"load": estimate_curves(model, per_body, n_curve, estimate, chain)}
     for fam, key in (("freq", "rank_frequency"), ("xmx", "rank_xmx"), ("xmgmx", "rank_xmgmx")):
-        curves[fam] = estimate_curves(model, [rankings[b][key] for b in BODIES], n_curve, estimate)
+        curves[fam] = estimate_curves(model, [rankings[b][key] for b in BODIES], n_curve, estimate,
+                                      chain)
     xmx_pool = None
     if global_xmx:
         xmx_pool = pooled_xmx_order([rankings[b]["rho_xmx"] for b in BODIES], off)
-        curves["global_xmx"] = np.array([estimate(model, xmx_pool[:N])
-                                         for N in range(1, len(J))])
-    curves["global_score"] = np.array([estimate(
-        model, np.lexsort((np.arange(off[-1]), -part["score"].max(axis=0)))[:N])
-        for N in range(1, len(J))])
-    bodies = body_curves(model, per_body, n_curve, estimate)
+        curves["global_xmx"] = nested_errors(model, [], [[i] for i in xmx_pool[:len(J) - 1]],
+                                             estimate, chain)
+    by_score = np.lexsort((np.arange(off[-1]), -part["score"].max(axis=0)))
+    curves["global_score"] = nested_errors(model, [], [[i] for i in by_score[:len(J) - 1]],
+                                           estimate, chain)
+    bodies = body_curves(model, per_body, n_curve, estimate, chain)
     model = full
     rigid_estimate = estimate(model, [])
     log(f"a-priori curves in {time.perf_counter() - t0:.1f} s")

@@ -115,6 +115,157 @@ def test_mode_orthogonal_to_every_load_scores_zero_and_is_dropped():
     assert np.allclose(s.sum(axis=1), la.estimate_error(model, []), rtol=0.3)
 
 
+def coupled_model(Q=14, T=301, rank=3, seed=8, t=None):
+    """A frozen chain of 4 joints and Q modes with strong joint coupling (M far from diagonal),
+    frequencies over a decade and loads of the given rank (sums of a few time functions,
+    as the real modal loads are)."""
+    rng = np.random.default_rng(seed)
+    n = Q + 4
+    A = rng.normal(size=(n, n))
+    M = A @ A.T / n + np.eye(n)
+    K = np.concatenate([np.zeros(4), np.geomspace(2e3, 3e4, Q) ** 2])
+    t = np.linspace(0, 0.02, T) if t is None else t
+    basis = np.stack([np.cos(2 * np.pi * (k + 1) * 30 * t + k) for k in range(rank)], axis=1)
+    loads = basis @ rng.normal(size=(rank, Q))
+    rigid = np.outer(np.sin(4 * np.pi * t), [1.0, 0.5, -0.3, 0.2]) * 1e-2
+    model = {"M": M, "K": K, "t": t, "rigid_rates": rigid, "loads": loads,
+             "offsets": np.array([0, 4, 7, 11, Q])}
+    model["full"] = fc.rate_response(model, np.arange(Q))
+    return model
+
+
+@pytest.mark.parametrize("grid", ["uniform", "decimated", "non-uniform"])
+def test_estimator_equals_the_straightforward_estimate(grid):
+    """FrozenChainEstimator (principal submatrices of the whole chain's Schur complement, the
+    standard-form eigenproblem, loads factored) gives estimate_error's numbers to rounding, on
+    any kept set, also on a decimated copy of the model and a non-uniform grid."""
+    t = None
+    if grid == "non-uniform":
+        t = np.sort(np.concatenate([[0.0, 0.02], np.random.default_rng(2).uniform(0, 0.02, 299)]))
+    model = coupled_model(t=t)
+    est = fc.FrozenChainEstimator(model)
+    m = fc.decimated(model, 3) if grid == "decimated" else model
+    rng = np.random.default_rng(4)
+    sets = [[], [5], [0, 13], list(range(14))] + [rng.choice(14, k, replace=False) for k in range(1, 14)]
+    for keep in sets:
+        ref = fc.estimate_error(m, keep)
+        got = est.estimate_error(m, keep)
+        assert np.allclose(got, ref, rtol=1e-9, atol=1e-16), (keep, got, ref)
+        assert np.allclose(est.rate_response(m, keep), fc.rate_response(m, keep), rtol=0,
+                           atol=1e-11 * np.abs(model["full"]).max())
+    with pytest.raises(la.LoadAwareError, match="not the estimator's chain"):
+        est.estimate_error(coupled_model(), [1, 2])
+    with pytest.raises(la.LoadAwareError, match="distinct indices"):
+        est.estimate_error(m, [1, 1])
+
+
+@pytest.mark.parametrize("grid", ["uniform", "non-uniform"])
+def test_removals_and_chains_equal_the_estimate_of_each_set(grid):
+    """removal_errors (deletions from one eigendecomposition) and chain_errors (successive
+    deletions) give estimate_error's numbers for every set they stand for."""
+    t = None
+    if grid == "non-uniform":
+        t = np.sort(np.concatenate([[0.0, 0.02], np.random.default_rng(2).uniform(0, 0.02, 299)]))
+    model = coupled_model(t=t)
+    est = fc.FrozenChainEstimator(model)
+    m = fc.decimated(model, 2)
+
+    def same(got, keep):
+        ref = fc.estimate_error(m, keep)
+        assert np.allclose(got, ref, rtol=1e-9, atol=1e-16), (keep, got, ref)
+    for keep in ([3, 9], [0, 4, 7, 11], list(range(14)), [13, 2, 8, 5, 6, 1, 10]):
+        for m_out, got in zip(keep, est.removal_errors(m, keep, keep)):
+            same(got, [i for i in keep if i != m_out])
+    order = [6, 2, 13, 0, 9, 4, 11, 7, 1, 12, 3, 8, 5, 10]
+    steps = [[10], [5, 8], [3], [12, 1, 7], [11], [4, 9, 0, 13], [2], [6]]
+    got = est.chain_errors(m, order, steps)
+    assert len(got) == len(steps) + 1
+    keep = list(order)
+    same(got[0], keep)
+    for st, e in zip(steps, got[1:]):
+        keep = [i for i in keep if i not in st]
+        same(e, keep)
+    with pytest.raises(la.LoadAwareError, match="kept modes"):
+        est.removal_errors(m, [1, 2], [3])
+    with pytest.raises(la.LoadAwareError, match="distinct kept modes"):
+        est.chain_errors(m, [1, 2], [[2], [2]])
+
+
+def test_curves_by_chains_equal_the_curves_by_single_estimates():
+    model = coupled_model()
+    est = fc.FrozenChainEstimator(model)
+    orders = [np.array([2, 0, 3, 1]), np.array([1, 2, 0]), np.array([3, 0, 2, 1]), np.array([2, 0, 1])]
+    for fn in (la.estimate_curves, la.body_curves):
+        a = fn(model, orders, 5, est.estimate_error)
+        b = fn(model, orders, 5, est.estimate_error, est.chain_errors)
+        for x, y in (zip(a.values(), b.values()) if isinstance(a, dict) else [(a, b)]):
+            assert np.array_equal(np.isnan(x), np.isnan(y))
+            assert np.allclose(x[~np.isnan(x)], y[~np.isnan(y)], rtol=1e-9, atol=1e-16)
+    layers = [[5], [0], [13, 2], [7]]
+    assert np.allclose(la.nested_errors(model, [1], layers, est.estimate_error),
+                       la.nested_errors(model, [1], layers, est.estimate_error, est.chain_errors),
+                       rtol=1e-9, atol=1e-16)
+    assert la.nested_errors(model, [1], [], est.estimate_error).shape == (0, 4)
+
+
+def test_eliminations_with_a_removals_callback_are_the_same():
+    w = {0: 5.0, 1: 1.0, 2: 3.0, 3: 0.5, 4: 4.0, 10: 0.5, 11: 4.0, 12: 2.0, 13: 1.5, 14: 0.2}
+    calls = []
+
+    def cost(keep):
+        return sum(v for k, v in w.items() if k not in keep)
+
+    def removals(keep, members):
+        calls.append(len(members))
+        return [cost([k for k in keep if k != m]) for m in members]
+    for frac in (0.0, 0.25):
+        a = la.backward_elimination(cost, list(w), protected=[3], drop_fraction=frac, tie_rtol=1e-6)
+        b = la.backward_elimination(cost, list(w), protected=[3], drop_fraction=frac, tie_rtol=1e-6,
+                                    removals=removals)
+        assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1], equal_nan=True)
+    a = la.lockstep_elimination(cost, [[0, 1, 2, 3, 4], [10, 11, 12, 13, 14]])
+    b = la.lockstep_elimination(cost, [[0, 1, 2, 3, 4], [10, 11, 12, 13, 14]], removals=removals)
+    assert all(np.array_equal(x, y) for x, y in zip(a[0], b[0])) and np.array_equal(a[1], b[1])
+    assert calls
+
+
+def test_modal_loads_are_minus_the_modal_rows_of_the_inverse_dynamics():
+    """The compiled inverse dynamics of modal_loads against multibody's NumPy reference, with a
+    moving case (its twist at every sample), and the compiled M(y0) of linear_model."""
+    from solver.dynamics import multibody
+    from solver.dynamics.synthetic import synthetic_modal_chain
+    chain = synthetic_modal_chain(3, seed=2)
+    rng = np.random.default_rng(6)
+    t = np.linspace(0.0, 0.01, 7)
+    y, yd, ydd = (rng.normal(size=(t.size, 4)) * s for s in (0.3, 0.05, 0.5))
+    case = multibody.CaseMotion(amplitude=(0.2, -0.1, 0.3), frequency=(5.0, 0.0, 12.0),
+                                phase=(0.1, 0.2, 0.3), omega0=(0.01, 0.0, -0.02))
+    got = la.modal_loads(chain, t, y, yd, ydd, case)
+    n = chain.n_coordinates
+    ref = np.zeros_like(got)
+    for k in range(t.size):
+        Y, V, A = (np.concatenate([v[k], np.zeros(n - 4)]) for v in (y, yd, ydd))
+        ref[k] = -multibody.inverse_dynamics(chain, Y, V, A, t[k], case)[4:]
+    assert np.allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    y0 = np.concatenate([y[0], np.zeros(n - 4)])
+    lin = la.linear_model(chain, y0, t, yd, got)
+    assert np.allclose(lin["M"], multibody.mass_matrix(chain, y0), rtol=0,
+                       atol=1e-13 * np.abs(lin["M"]).max())
+
+
+def test_load_factors_are_the_loads_to_rounding():
+    """loads = F W: the rank of a sum of r time functions is r, a full-rank matrix keeps all."""
+    model = coupled_model(rank=3)
+    F, W = fc.load_factors(model["loads"])
+    assert F.shape == (301, 3) and W.shape == (3, 14)
+    assert np.allclose(F @ W, model["loads"], rtol=0, atol=1e-14 * np.abs(model["loads"]).max())
+    full = np.random.default_rng(0).normal(size=(40, 9))
+    F, W = fc.load_factors(full)
+    assert F.shape == (40, 9) and np.allclose(F @ W, full, rtol=0, atol=1e-13)
+    F, W = fc.load_factors(np.zeros((5, 3)))
+    assert F.shape == (5, 0) and W.shape == (0, 3)
+
+
 def test_backward_elimination_recovers_an_additive_order():
     w = {0: 5.0, 1: 1.0, 2: 3.0, 3: 0.5, 4: 4.0}
 
