@@ -4,7 +4,8 @@
 ``/usr/bin/python3 -m solver.fe.verify combine part1.json ... --out fe.json --summary fe.md``
 
 CHECK is one of: ring, plate, solid-ring, platform, convergence, body-file,
-hughes, mpi, connection, spectra (see ``solver.fe.checks``).
+hughes, mpi, connection, spectra (see ``solver.fe.checks``); body-file, spectra, mpi and
+hughes read ``--body-file`` (hughes: the coarse body with every mode, ``--all-modes``).
 """
 from __future__ import annotations
 
@@ -38,7 +39,10 @@ def run_check(name: str, config: dict, args) -> dict:
     if name == "body-file":
         return v.check_body_file(args.body_file)
     if name == "hughes":
-        return v.check_hughes_identity(config)
+        if not args.body_file:
+            raise ValueError("hughes checks a body file with every supported mode: give --body-file "
+                             "(solver.fe.modes --all-modes; rule coarse_body_all_modes)")
+        return v.check_hughes_identity(args.body_file)
     if name == "mpi":
         return v.check_mpi(args.body_file, args.mesh, args.config)
     if name == "connection":

@@ -1,14 +1,16 @@
-"""Every finite supported mode by the dense solve (solver.fe.eigen.all_supported_modes).
+"""Every finite supported mode by the dense solve (solver.fe.eigen.all_supported_modes) and the
+Hughes identity check on a body file holding them (solver.fe.checks.check_hughes_identity).
 
 References: the synthetic rings of tests/synthetic_bodies.py (beam elements, their own dense
 solve through the K-inner product), with massless rotations (lumped and shell-like mass: an
-oblique massless direction per node), nearly massless ones and none.
+oblique massless direction per node), nearly massless ones and none; and the check must fail
+on a file that lacks a mode or whose mass matrix is not the one the modes were solved with.
 """
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from solver.fe import eigen
+from solver.fe import checks, eigen
 from tests import synthetic_bodies as sb
 
 RINGS = {
@@ -50,3 +52,42 @@ def test_massless_split_spans_the_null_space():
     assert np.abs(m @ Z).max() < 1e-14
     assert np.linalg.eigvalsh(m[np.ix_(S, S)]).min() > 1e-3
     assert np.linalg.matrix_rank(np.column_stack([np.eye(n)[:, S], Z])) == n
+
+
+@pytest.fixture(scope="module")
+def coarse_ring_file(tmp_path_factory):
+    """A rigid-fit ring with massless rotations and every finite mode, as a body file."""
+    body = sb.ring_body(n_elements=16, **RINGS["shell_like"])
+    return body, sb.write_body_file(tmp_path_factory.mktemp("hughes") / "ring.h5", body)
+
+
+def test_hughes_identity_holds_with_every_mode(coarse_ring_file):
+    body, path = coarse_ring_file
+    result = checks.check_hughes_identity(path)
+    assert result["passed"], result["value"]
+    assert result["value"] < 1e-10 and result["modes"] == result["finite_modes"] == len(body["eigenvalues"])
+
+
+@pytest.mark.parametrize("drop", [0, -1])
+def test_hughes_identity_fails_without_one_mode(coarse_ring_file, tmp_path, drop):
+    """Without the lowest or the highest mode the sum misses its momentum (the value fails) and
+    the file holds one mode fewer than the finite ones (the count fails; on the FE coarse body a
+    third of the modes carry too little momentum to show in the value: tests/fe/test_checks.py)."""
+    body, _ = coarse_ring_file
+    keep = np.delete(np.arange(len(body["eigenvalues"])), drop)
+    short = sb.body_dict(body["M"], body["K"], body["T"], body["modes"][:, keep], body["eigenvalues"][keep],
+                         body["dof_coords"], body["dof_component"], body["bearing_points"],
+                         body["bearing_operator"], mesh_size=1.0)
+    result = checks.check_hughes_identity(sb.write_body_file(tmp_path / "short.h5", short))
+    assert not result["passed"]
+    assert result["modes"] == result["finite_modes"] - 1
+    assert result["value"] > 1e-3
+
+
+def test_hughes_identity_fails_on_another_mass_matrix(coarse_ring_file, tmp_path):
+    """Modes solved with the eccentric mass, checked against a mass matrix without it."""
+    body, _ = coarse_ring_file
+    bare = sb.ring_body(n_elements=16, eccentric_fraction=0.0, **RINGS["shell_like"])
+    mixed = dict(body, M=bare["M"])
+    result = checks.check_hughes_identity(sb.write_body_file(tmp_path / "mixed.h5", mixed))
+    assert not result["passed"] and result["value"] > 1e-3
