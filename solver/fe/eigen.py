@@ -24,9 +24,13 @@ class EigenSolveError(RuntimeError):
 
 
 def lowest_eigenpairs(K: PETSc.Mat, M: PETSc.Mat, count: int, shift: float = 0.0,
-                      tolerance: float = 1e-12, max_iterations: int = 500, label: str = "body"):
+                      tolerance: float = 1e-12, max_iterations: int = 500, label: str = "body",
+                      deflation: list | None = None):
     """The ``count`` eigenpairs nearest above ``shift`` of the pencil (K, M).
 
+    ``deflation``: PETSc Vecs (laid out like K's columns) spanning known eigenvectors, e.g.
+    the lowest modes of an earlier solve: the solve works in their M-orthogonal complement
+    and returns the ``count`` pairs after them.
     Returns ``(eigenvalues (count,), vectors)`` with eigenvalues ascending in
     (rad/s)^2 and vectors a list of PETSc Vecs (distributed like K's columns).
     """
@@ -49,6 +53,8 @@ def lowest_eigenpairs(K: PETSc.Mat, M: PETSc.Mat, count: int, shift: float = 0.0
     pc = ksp.getPC()
     pc.setType(PETSc.PC.Type.CHOLESKY)
     pc.setFactorSolverType("mumps")
+    if deflation:
+        eps.setDeflationSpace(deflation)
     eps.setFromOptions()
     # progress on rank 0 (the job's log): converged pairs of the requested, at each restart
     progress = Progress(f"eigen solve {label}", count, "eigenpairs", quiet=K.getComm().getRank() != 0)
