@@ -203,7 +203,8 @@ def without_zeros(A: PETSc.Mat) -> PETSc.Mat:
 
 
 def gather_matrix(A: PETSc.Mat, comm) -> sp.csr_matrix | None:
-    """The whole matrix as scipy CSR on rank 0 (None elsewhere)."""
+    """The whole matrix as scipy CSR on rank 0 (None elsewhere), without stored zeros (the body
+    file's K and M: every product downstream skips them, ``without_zeros``)."""
     r0, r1 = A.getOwnershipRange()
     indptr, indices, data = A.getValuesCSR()
     parts = comm.gather((r0, indptr.copy(), indices.copy(), data.copy()), root=0)
@@ -213,7 +214,9 @@ def gather_matrix(A: PETSc.Mat, comm) -> sp.csr_matrix | None:
     blocks = []
     for r0_, ip, ix, d in sorted(parts, key=lambda p: p[0]):
         blocks.append(sp.csr_matrix((d, ix, ip), shape=(len(ip) - 1, shape[1])))
-    return sp.vstack(blocks).tocsr()
+    out = sp.vstack(blocks).tocsr()
+    out.eliminate_zeros()
+    return out
 
 
 def gather_vectors(vectors: list[PETSc.Vec], comm) -> np.ndarray | None:
