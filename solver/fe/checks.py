@@ -288,13 +288,18 @@ def check_convergence(config: dict, body: int, count: int | None = None, levels=
 
 
 def _body_and_attrs(path) -> dict:
-    """A body file's datasets with its attributes merged in (unchecked: the checks here recompute)."""
+    """A body file's datasets with its attributes merged in (unchecked: the checks here recompute);
+    a dict already read so is passed through (one read for several checks)."""
+    if isinstance(path, dict):
+        return path
     body = read_body_file(path, check=False)
     return {**body, **body["attrs"]}
 
 
 def check_body_file(path) -> dict:
-    """All modes of a body file: relative residual < 1e-8 and M-orthonormality error < 1e-10 (recomputed)."""
+    """All modes of a body file: relative residual < 1e-8 and M-orthonormality error < 1e-10 (recomputed).
+
+    ``path``: the file, or its dict from ``_body_and_attrs``."""
     body = _body_and_attrs(path)
     residuals = eigen.relative_residuals(body["K"], body["M"], body["eigenvalues"], body["modes"], body["T"])
     ortho = eigen.orthonormality_error(body["M"], body["modes"])
@@ -443,7 +448,8 @@ BEARING_INDEX = {"input_motor": 0, "input_resolver": 1, "output_motor": 2, "outp
 
 
 def body_spectra(body_file, free_count: int = 30, supported_count: int = 30) -> dict:
-    """First free-free (incl. the six rigid) and supported frequencies of a body, from its file's K and M."""
+    """First free-free (incl. the six rigid) and supported frequencies of a body, from its file's K and M
+    (``body_file``: the file, or its dict from ``_body_and_attrs``)."""
     body = _body_and_attrs(body_file)
     K, M = eigen.scipy_to_petsc(body["K"]), eigen.scipy_to_petsc(body["M"])
     shift = -body["eigenvalues"][0] / 10

@@ -85,9 +85,8 @@ rule verify_body:
     benchmark:
         "results/benchmarks/rules/verify_body{n}.tsv"
     shell:
-        "({PY} -m solver.fe.verify body-file --body-file {input.body} --config {CONFIG} --out {output.modes} && "
-        "{PY} -m solver.fe.verify spectra --body-file {input.body} --config {CONFIG} --out {output.spectra}) "
-        "> {log} 2>&1"
+        "OMP_NUM_THREADS=1 {PY} -m solver.fe.verify body --body-file {input.body} --config {CONFIG} "
+        "--out {output.modes} --spectra-out {output.spectra} > {log} 2>&1"
 
 
 rule verify_mpi:
