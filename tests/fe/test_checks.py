@@ -69,6 +69,23 @@ def test_body_file_residuals(inner_gimbal_file):
     assert_passed(v.check_body_file(inner_gimbal_file[0]))
 
 
+def test_body_command_writes_both_parts(inner_gimbal_file, tmp_path):
+    """verify body: the body-file check and the spectra of one read, as the two commands."""
+    import json
+
+    from solver.fe import verify
+
+    path = str(inner_gimbal_file[0])
+    out, spectra = tmp_path / "modes.json", tmp_path / "spectra.json"
+    assert verify.main(["body", "--body-file", path, "--out", str(out), "--spectra-out", str(spectra)]) == 0
+    assert verify.main(["spectra", "--body-file", path, "--out", str(tmp_path / "alone.json")]) == 0
+    modes, both, alone = (json.loads(p.read_text()) for p in (out, spectra, tmp_path / "alone.json"))
+    assert modes["passed"] and modes["value"] == v.check_body_file(path)["value"]
+    assert both["rigid_modes_found"] == 6
+    np.testing.assert_allclose(both["free_free_hz"], alone["free_free_hz"], rtol=1e-12)
+    assert verify.main(["body", "--body-file", path, "--out", str(out)]) == 1
+
+
 @pytest.fixture(scope="module")
 def coarse_body_file(tmp_path_factory, config):
     """The coarse inner gimbal (0.5 in) with every finite supported mode, through the stage's code
