@@ -77,6 +77,30 @@ def lowest_eigenpairs(K: PETSc.Mat, M: PETSc.Mat, count: int, shift: float = 0.0
     return np.asarray(values)[order], [vectors[i] for i in order]
 
 
+def constrained_eigenvalues(K: sp.spmatrix, M: sp.spmatrix, C: sp.spmatrix, count: int,
+                            tolerance: float = 1e-10, max_iterations: int = 500, label: str = "body"):
+    """The ``count`` lowest eigenvalues of K x = lambda M x on C x = 0, by Lagrange multipliers (serial).
+
+    The pencil ([[K, s C^T], [s C, 0]], [[M, 0], [0, 0]]) has the constrained eigenvalues as its
+    finite ones (its multiplier block is massless); shift-and-invert at 0 factorises the
+    symmetric indefinite saddle-point matrix (LDL^T, MUMPS). s = mean |diag K| scales the
+    constraint rows to the stiffness. Unlike the elimination with master DOFs
+    (``bearings.admissible_basis``), whose master rows couple every DOF of a constraint's
+    region with every other (a dense block of the region's size squared in T^T K T), the
+    constraints only add their own rows: a support spread over a wide patch costs no more
+    than a line.
+    """
+    C = sp.csr_matrix(C)
+    scale = float(np.mean(np.abs(K.diagonal())))
+    A = sp.bmat([[K, scale * C.T], [scale * C, None]], format="csr")
+    B = sp.bmat([[M, None], [None, sp.csr_matrix((C.shape[0], C.shape[0]))]], format="csr")
+    values, vectors = lowest_eigenpairs(scipy_to_petsc(A), scipy_to_petsc(B), count, 0.0, tolerance,
+                                        max_iterations, label=label)
+    for vec in vectors:
+        vec.destroy()
+    return values
+
+
 def rayleigh_ritz(K: sp.spmatrix, M: sp.spmatrix, basis: np.ndarray):
     """Re-solve the pencil in span(basis): M-orthonormal vectors, ascending values.
 

@@ -91,3 +91,16 @@ def test_hughes_identity_fails_on_another_mass_matrix(coarse_ring_file, tmp_path
     mixed = dict(body, M=bare["M"])
     result = checks.check_hughes_identity(sb.write_body_file(tmp_path / "mixed.h5", mixed))
     assert not result["passed"] and result["value"] > 1e-3
+
+
+def test_constrained_eigenvalues_equal_the_eliminated_ones(inner_gimbal_file):
+    """The supports as Lagrange multipliers (the connection study's solve) against the modal
+    stage's elimination with master DOFs: the body file's lowest supported eigenvalues."""
+    from solver.bodydata import read_body_file
+    from solver.fe import bearings
+
+    body = read_body_file(inner_gimbal_file[0])
+    B = body["bearing_operator"]
+    C = bearings.support_constraints({"input_motor": B[0:6], "input_resolver": B[6:12]})
+    values = eigen.constrained_eigenvalues(body["K"], body["M"], C, 10, 1e-12)
+    np.testing.assert_allclose(values, body["eigenvalues"][:10], rtol=1e-9)
