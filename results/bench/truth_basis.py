@@ -4,10 +4,13 @@
         --scenes config/scenes/{thesis,damped,smooth,long}.yaml --out results/verification/truth_basis.json
 
 The body files here are the modal stage's with ``--count 200`` on the same meshes
-(rule ``modes_body_large``).  On each scene, two models are reduced from the same files and
-simulated with the workflow's integrator (``reduction.models`` + ``solver.dynamics.simulate``,
-in process, as ``results.study.run_scene``): ``truth`` (the 100 lowest modes per body) and
-``freq-200`` (all 200).  E of eq. 3.53 per gimbal rate of the truth against the larger basis,
+(rule ``modes_body_large``: the study's 100 modes and the next 100).  Two models are reduced
+from the same files and simulated on each scene with the workflow's integrator
+(``reduction.models`` + ``solver.dynamics.simulate``, in process, as ``results.study.run_scene``):
+``truth`` (the 100 lowest modes per body) and ``freq-200`` (all 200).  A reduced-model file
+depends on the scene only through its elastic bodies (the damping is applied when a
+simulation reads it), so each model is reduced once per set of elastic bodies and simulated
+on every scene that has it.  E of eq. 3.53 per gimbal rate of the truth against the larger basis,
 and the platform attitude difference [arcsec], say down to what error the truth can referee;
 the study's ``static-100`` (residual flexibility of the truncated modes) is the other estimate.
 """
@@ -25,6 +28,7 @@ from reduction import models as reduction_models
 from solver import bodyconfig
 from solver.dynamics import simulate
 from solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error, error_measure
+from solver.dynamics.scenes import load_scene
 from solver.dynamics.simfile import read_sim
 from workflow.progress import Progress
 from workflow.provenance import provenance, versions, write_json
@@ -49,16 +53,23 @@ def run(bodies, scenes, log=print, config=None) -> dict:
     results = {}
     progress = Progress("truth_basis", 2 * len(scenes), "simulations")
     checked = ["--config", str(config)] if config else []     # the body files vs the configuration
+    model_files = {}        # (model, elastic bodies) -> reduced-model file
     with tempfile.TemporaryDirectory(prefix="truth_basis_") as tmp:
         for scene in scenes:
             name = os.path.splitext(os.path.basename(scene))[0]
+            elastic = tuple(load_scene(scene).elastic_bodies)
             sims = {}
             t0 = time.perf_counter()
             for model in ("truth", LARGE):
-                mfile = os.path.join(tmp, f"{name}_{model}_model.h5")
+                mfile = model_files.get((model, elastic))
+                rc = 0
+                if mfile is None:
+                    mfile = os.path.join(tmp, f"{name}_{model}_model.h5")
+                    rc = reduction_models.main(["--model", model, "--scene", scene, "--bodies", *bodies,
+                                                "--out", mfile, *checked])
+                    if rc == 0:
+                        model_files[model, elastic] = mfile
                 sfile = os.path.join(tmp, f"{name}_{model}.h5")
-                rc = reduction_models.main(["--model", model, "--scene", scene, "--bodies", *bodies,
-                                            "--out", mfile, *checked])
                 if rc == 0:
                     rc = simulate.main(["--scene", scene, "--model-file", mfile, "--out", sfile, *checked])
                 if rc:

@@ -39,7 +39,7 @@ from petsc4py import PETSc
 from geometry.gimbal import GeometryError, bearing_points, eccentric_mass_point
 from geometry.mesh import MAX_DOFS, check_size
 from solver.fe import bearings, eigen, forms as fe
-from solver.bodydata import BEARING_NAMES, BODY_KEYS, CSR_KEYS, rigid_modes, write_csr
+from solver.bodydata import BEARING_NAMES, BODY_KEYS, CSR_KEYS, read_body_file, rigid_modes, write_csr
 from workflow import cli
 from workflow import config as cfgmod
 from workflow.provenance import atomic_h5, versions
@@ -184,8 +184,27 @@ def admissible_basis_petsc(K: PETSc.Mat, constraints: sp.csr_matrix) -> tuple[PE
     return T_petsc, T
 
 
+def without_zeros(A: PETSc.Mat) -> PETSc.Mat:
+    """A copy of a distributed AIJ matrix without its stored zeros (each rank its own rows).
+
+    The assembled matrices store the forms' full pattern: a solid's mass couples only equal
+    components, so two thirds of its stored entries are zeros. They change no product, but
+    every one costs time in PtAP and in each M-inner product of the eigen solve.
+    """
+    indptr, indices, data = A.getValuesCSR()
+    local = sp.csr_matrix((data, indices, indptr), shape=(len(indptr) - 1, A.getSize()[1]))
+    local.eliminate_zeros()
+    local.sort_indices()
+    out = PETSc.Mat().createAIJ(size=A.getSizes(), comm=A.getComm(),
+                                csr=(local.indptr.astype(PETSc.IntType), local.indices.astype(PETSc.IntType),
+                                     local.data))
+    out.assemble()
+    return out
+
+
 def gather_matrix(A: PETSc.Mat, comm) -> sp.csr_matrix | None:
-    """The whole matrix as scipy CSR on rank 0 (None elsewhere)."""
+    """The whole matrix as scipy CSR on rank 0 (None elsewhere), without stored zeros (the body
+    file's K and M: every product downstream skips them, ``without_zeros``)."""
     r0, r1 = A.getOwnershipRange()
     indptr, indices, data = A.getValuesCSR()
     parts = comm.gather((r0, indptr.copy(), indices.copy(), data.copy()), root=0)
@@ -195,7 +214,9 @@ def gather_matrix(A: PETSc.Mat, comm) -> sp.csr_matrix | None:
     blocks = []
     for r0_, ip, ix, d in sorted(parts, key=lambda p: p[0]):
         blocks.append(sp.csr_matrix((d, ix, ip), shape=(len(ip) - 1, shape[1])))
-    return sp.vstack(blocks).tocsr()
+    out = sp.vstack(blocks).tocsr()
+    out.eliminate_zeros()
+    return out
 
 
 def gather_vectors(vectors: list[PETSc.Vec], comm) -> np.ndarray | None:
@@ -211,20 +232,54 @@ def gather_vectors(vectors: list[PETSc.Vec], comm) -> np.ndarray | None:
     return np.column_stack(columns) if comm.rank == 0 else None
 
 
-def supported_modes(body: BodyModel, count: int, tolerance: float, max_iterations: int, comm):
-    """Lowest ``count`` supported modes: returns (eigenvalues, T scipy, vectors gathered on rank 0)."""
+def supported_modes(body: BodyModel, count: int, tolerance: float, max_iterations: int, comm,
+                    known: tuple[np.ndarray, np.ndarray] | None = None):
+    """Lowest ``count`` supported modes: returns (eigenvalues, T scipy, vectors gathered on rank 0).
+
+    ``known``: (eigenvalues (k,), modes (ndof, k)) of the lowest k < count supported modes of
+    this very model (an earlier solve, on every rank): only the count - k further ones are
+    solved for, in their M-orthogonal complement (``eigen.lowest_eigenpairs`` deflation), and
+    the known ones come first in the result.
+    """
     constraints = bearings.support_constraints(body.operators)
     T_petsc, T = admissible_basis_petsc(body.K, constraints)
-    k_reduced = body.K.PtAP(T_petsc)
-    m_reduced = body.M.PtAP(T_petsc)
-    values, vecs = eigen.lowest_eigenpairs(k_reduced, m_reduced, count, 0.0, tolerance, max_iterations,
-                                           label=body.params["name"])
+    k_reduced = without_zeros(body.K).PtAP(T_petsc)
+    m_reduced = without_zeros(body.M).PtAP(T_petsc)
+    deflation, known_values, known_modes = [], np.zeros(0), np.zeros((body.ndof, 0))
+    if known is not None:
+        known_values, known_modes = np.asarray(known[0], float), np.asarray(known[1], float)
+        deflation = _reduced_vectors(k_reduced, T, constraints, known_modes, body.params["name"])
+    values, vecs = eigen.lowest_eigenpairs(k_reduced, m_reduced, count - len(deflation), 0.0, tolerance,
+                                           max_iterations, label=body.params["name"], deflation=deflation)
     full = []
     for x in vecs:
         phi = body.K.createVecRight()
         T_petsc.mult(x, phi)
         full.append(phi)
-    return values, T, gather_vectors(full, comm)
+    vectors = gather_vectors(full, comm)
+    if comm.rank == 0 and len(deflation):
+        vectors = np.hstack([known_modes, vectors])
+    return np.concatenate([known_values, values]), T, vectors
+
+
+def _reduced_vectors(k_reduced: PETSc.Mat, T: sp.csr_matrix, constraints: sp.csr_matrix,
+                     modes: np.ndarray, name: str) -> list[PETSc.Vec]:
+    """Modes (ndof, k) as PETSc Vecs of the admissible coordinates (T's columns: the non-master
+    DOFs, ``bearings.admissible_basis_matrix``); ValueError if they are not T x (another mesh or
+    connection)."""
+    masters = bearings.admissible_basis(constraints)[0]
+    coordinates = modes[np.setdiff1d(np.arange(T.shape[0]), masters)]
+    mismatch = float(np.max(np.abs(T @ coordinates - modes))) if modes.size else 0.0
+    if mismatch > 1e-8 * float(np.max(np.abs(modes))):
+        raise ValueError(f"{name}: the known modes are not admissible displacements of this model "
+                         f"(mismatch {mismatch:.2e}): another mesh, connection or configuration?")
+    out = []
+    for column in coordinates.T:
+        vec = k_reduced.createVecRight()
+        c0, c1 = vec.getOwnershipRange()
+        vec.array[:] = column[c0:c1]
+        out.append(vec)
+    return out
 
 
 def free_modes(body: BodyModel, count: int, shift: float, tolerance: float, max_iterations: int, comm):
@@ -241,12 +296,17 @@ def bearing_operator_matrix(body: BodyModel) -> sp.csr_matrix:
 
 
 def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: int | None = None,
-                 comm=MPI.COMM_WORLD, log=print, all_modes: bool = False, mesh_size: float | None = None) -> dict | None:
+                 comm=MPI.COMM_WORLD, log=print, all_modes: bool = False, mesh_size: float | None = None,
+                 known: dict | None = None) -> dict | None:
     """Assemble and solve one body; return the body-file payload on rank 0 (None elsewhere).
 
     ``all_modes``: every finite supported mode by a dense solve (coarse meshes,
     serial only), for the discrete Hughes identities. ``mesh_size``: the size the
     mesh was made with (default: the config's), recorded in the body file.
+    ``known``: a body file's dict (``solver.bodydata.read_body_file``) of the same body, mesh
+    and inputs with fewer modes (e.g. results/modes/body{n}.h5 for the 200-mode basis): its
+    modes are kept and only the further ones solved for (``supported_modes``); every mode is
+    then polished together by Rayleigh-Ritz and checked as usual.
     """
     started = time.perf_counter()
     inputs = cfgmod.body_inputs(config, body_number, mesh_size)
@@ -270,16 +330,40 @@ def compute_body(body_number: int, config: dict, mesh_path: str | Path, count: i
     if count > body.ndof - 6:
         raise ValueError(f"{params['name']}: modes.count = {count} exceeds the {body.ndof - 6} "
                          "admissible DOFs of the mesh")
+    start = None
+    if known is not None:
+        start = _known_modes(known, inputs, body, count)
     log(f"[{params['name']}] {body.ndof} DOFs ({params['model']}), assembled in {t_assembled - started:.2f} s; "
-        f"solving {count} modes")
-    values, T, vectors = supported_modes(body, count, tolerance, max_iterations, comm)
+        f"solving {count} modes" + (f" ({count - len(start[0])} after the {len(start[0])} of {known['path']})"
+                                    if start is not None else ""))
+    values, T, vectors = supported_modes(body, count, tolerance, max_iterations, comm, start)
     t_solved = time.perf_counter()
     K, M = gather_matrix(body.K, comm), gather_matrix(body.M, comm)
     if comm.rank != 0:
         return None
     values, vectors = eigen.rayleigh_ritz(K, M, vectors)
-    return _payload(body_number, params, body, values, vectors, K, M, T, comm.size,
-                    {"assembly_s": t_assembled - started, "eigensolve_s": t_solved - t_assembled}, log)
+    timings = {"assembly_s": t_assembled - started, "eigensolve_s": t_solved - t_assembled}
+    if start is not None:
+        timings["known_modes"] = len(start[0])
+    return _payload(body_number, params, body, values, vectors, K, M, T, comm.size, timings, log)
+
+
+def _known_modes(known: dict, inputs: dict, body: BodyModel, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """(eigenvalues, modes) of a body file of the same inputs with fewer than ``count`` modes;
+    ValueError (one line naming the file) otherwise."""
+    where = known.get("path", "the known modes' file")
+    if str(known["attrs"].get("config_hash")) != cfgmod.inputs_hash(inputs):
+        raise ValueError(f"{where}: made from other inputs than this body's (config_hash "
+                         f"{known['attrs'].get('config_hash')!r}): remake it first")
+    if float(known["attrs"].get("mesh_size", math.nan)) != float(inputs["mesh"]["size"]) or \
+            known["modes"].shape[0] != body.ndof:
+        raise ValueError(f"{where}: another mesh ({known['modes'].shape[0]} DOFs, size "
+                         f"{known['attrs'].get('mesh_size')} in) than this one ({body.ndof} DOFs, "
+                         f"{inputs['mesh']['size']} in)")
+    k = len(known["eigenvalues"])
+    if k >= count:
+        raise ValueError(f"{where}: holds {k} modes, not fewer than the {count} requested")
+    return np.asarray(known["eigenvalues"]), np.asarray(known["modes"])
 
 
 def _payload(body_number, params, body, values, vectors, K, M, T, ranks, timings, log) -> dict:
@@ -355,6 +439,9 @@ def main(argv=None) -> int:
                              f"(default {MAX_DOFS:,}; geometry.mesh)")
     parser.add_argument("--all-modes", action="store_true",
                         help="every finite supported mode by a dense solve (coarse meshes only)")
+    parser.add_argument("--known-modes", default=None,
+                        help="a body file of the same body, mesh and config with fewer modes (e.g. "
+                             "results/modes/body2.h5): its modes are kept, only the further ones solved for")
     try:
         args = parser.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, parser))
     except SystemExit as exc:
@@ -370,9 +457,10 @@ def main(argv=None) -> int:
         check_size(cfgmod.body_inputs(config, body_number, mesh_size)["mesh"], args.max_dofs,
                    f"mesh size of {args.mesh_meta or 'the config'}")
         cli.check_writable(args.out)
+        known = read_body_file(args.known_modes) if args.known_modes else None
         payload = compute_body(body_number, config, args.mesh, args.count, comm,
                                log=print if comm.rank == 0 else (lambda *a, **k: None), all_modes=args.all_modes,
-                               mesh_size=mesh_size)
+                               mesh_size=mesh_size, known=known)
     except (ValueError, FileNotFoundError, eigen.EigenSolveError, GeometryError) as exc:
         if comm.rank == 0:
             print(f"error: {' '.join(str(exc).split())}", file=sys.stderr)

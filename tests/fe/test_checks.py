@@ -69,8 +69,61 @@ def test_body_file_residuals(inner_gimbal_file):
     assert_passed(v.check_body_file(inner_gimbal_file[0]))
 
 
-def test_hughes_identity(config):
-    assert_passed(v.check_hughes_identity(config))
+def test_body_command_writes_both_parts(inner_gimbal_file, tmp_path):
+    """verify body: the body-file check and the spectra of one read, as the two commands."""
+    import json
+
+    from solver.fe import verify
+
+    path = str(inner_gimbal_file[0])
+    out, spectra = tmp_path / "modes.json", tmp_path / "spectra.json"
+    assert verify.main(["body", "--body-file", path, "--out", str(out), "--spectra-out", str(spectra)]) == 0
+    assert verify.main(["spectra", "--body-file", path, "--out", str(tmp_path / "alone.json")]) == 0
+    modes, both, alone = (json.loads(p.read_text()) for p in (out, spectra, tmp_path / "alone.json"))
+    assert modes["passed"] and modes["value"] == v.check_body_file(path)["value"]
+    assert both["rigid_modes_found"] == 6
+    np.testing.assert_allclose(both["free_free_hz"], alone["free_free_hz"], rtol=1e-12)
+    assert verify.main(["body", "--body-file", path, "--out", str(out)]) == 1
+
+
+@pytest.fixture(scope="module")
+def coarse_body_file(tmp_path_factory, config):
+    """The coarse inner gimbal (0.5 in) with every finite supported mode, through the stage's code
+    (solver.fe.modes --all-modes, as rule coarse_body_all_modes)."""
+    from geometry.mesh import mesh_from_config
+    from solver.fe import modes
+
+    tmp = tmp_path_factory.mktemp("coarse4")
+    mesh_from_config(config, 4, tmp / "body4.msh", 0.5)
+    payload = modes.compute_body(4, config, tmp / "body4.msh", log=lambda *a, **k: None, all_modes=True,
+                                 mesh_size=0.5)
+    modes.write_body_file(tmp / "body4.h5", payload, "test", 0.0)
+    return tmp / "body4.h5", payload
+
+
+def test_hughes_identity(coarse_body_file):
+    result = v.check_hughes_identity(coarse_body_file[0])
+    assert_passed(result)
+    assert result["modes"] == result["finite_modes"] > 3000
+
+
+def test_hughes_identity_fails_without_a_mode(coarse_body_file, tmp_path):
+    """The mode with the least momentum dropped: its contribution is below the tolerance (as for a
+    third of the coarse body's modes), so the count of the finite modes fails the check."""
+    from solver.bodydata import rigid_modes
+    from solver.fe import modes
+
+    path, payload = coarse_body_file
+    momentum = rigid_modes(payload["dof_coords"], payload["dof_component"]).T @ (payload["M"] @ payload["modes"])
+    weakest = int(np.argmin(np.max(np.abs(momentum), axis=0)))
+    keep = np.delete(np.arange(payload["modes"].shape[1]), weakest)
+    short = {**payload, "modes": payload["modes"][:, keep], "eigenvalues": payload["eigenvalues"][keep],
+             "frequencies_hz": payload["frequencies_hz"][keep], "residuals": payload["residuals"][keep],
+             "bearing_modes": payload["bearing_modes"][keep]}
+    modes.write_body_file(tmp_path / "short.h5", short, "test", 0.0)
+    result = v.check_hughes_identity(tmp_path / "short.h5")
+    assert not result["passed"] and result["value"] < 1e-8
+    assert result["modes"] == result["finite_modes"] - 1
 
 
 @pytest.mark.mpi

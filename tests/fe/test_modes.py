@@ -91,3 +91,31 @@ def test_body_file_records_the_size_its_mesh_was_made_with(tmp_path, config):
     assert modes.main(["--body", "4", "--mesh", str(mesh), "--mesh-meta", str(meta), "--out",
                        str(tmp_path / "x.h5"), "--count", "4"]) == 1
     assert not (tmp_path / "x.h5").exists()
+
+
+def test_further_modes_after_known_ones(tmp_path, config, inner_gimbal_file):
+    """--known-modes: the 12 modes of a body file kept, the next 8 solved in their M-orthogonal
+    complement: the 20 lowest of a direct solve, checked as usual; files of other inputs, another
+    mesh or not fewer modes are refused."""
+    quiet = lambda *a, **k: None  # noqa: E731
+    path, mesh = inner_gimbal_file
+    known_path = tmp_path / "known.h5"
+    modes.write_body_file(known_path, modes.compute_body(4, config, mesh, 12, log=quiet),
+                          cfgmod.inputs_hash(cfgmod.body_inputs(config, 4)), 0.0)
+    known = read_body_file(known_path)
+    further = modes.compute_body(4, config, mesh, 20, log=quiet, known=known)
+    direct = read_body_file(path, check=False)
+    np.testing.assert_allclose(further["eigenvalues"], direct["eigenvalues"], rtol=1e-10)
+    assert further["timings"]["known_modes"] == 12
+    assert further["attrs"]["max_relative_residual"] < 1e-8 and further["attrs"]["orthonormality_error"] < 1e-10
+    np.testing.assert_allclose(np.abs(further["modes"][:, 0] @ (further["M"] @ known["modes"][:, 0])), 1.0,
+                               rtol=1e-9)
+    with pytest.raises(ValueError, match="not fewer"):
+        modes.compute_body(4, config, mesh, 12, log=quiet, known=known)
+    with pytest.raises(ValueError, match="other inputs"):
+        modes.compute_body(4, config, mesh, 20, log=quiet,
+                           known={**known, "attrs": {**known["attrs"], "config_hash": "another"}})
+    coarse = tmp_path / "coarse.msh"
+    meshcli.main(["--body", "4", "--size", "0.5", "--out", str(coarse)])
+    with pytest.raises(ValueError, match="another mesh"):
+        modes.compute_body(4, config, coarse, 20, log=quiet, known=known, mesh_size=0.25)

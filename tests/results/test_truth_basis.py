@@ -25,3 +25,38 @@ def test_bad_body_files_fail_in_one_line(tmp_path, capsys):
     rc = truth_basis.main(["--bodies", *[str(tmp_path / f"b{n}.h5") for n in range(4)],
                            "--scenes", "config/scenes/thesis.yaml", "--out", str(tmp_path / "o.json")])
     assert rc == 2 and not (tmp_path / "o.json").exists()
+
+
+def test_each_model_is_reduced_once_per_set_of_elastic_bodies(tmp_path, monkeypatch):
+    """Scenes with the same elastic bodies share the reduced-model files (the damping is the
+    scene's, applied when a simulation reads one); a scene with other elastic bodies gets its own."""
+    from pathlib import Path
+
+    rigid_platform = tmp_path / "rigid_platform.yaml"
+    rigid_platform.write_text(Path("config/scenes/thesis.yaml").read_text().replace(
+        "bodies: {value: [2, 3, 4, 5]", "bodies: {value: [2, 3, 4]").replace("name: thesis", "name: rigid_platform"))
+    scenes = ["config/scenes/thesis.yaml", "config/scenes/damped.yaml", str(rigid_platform),
+              "config/scenes/smooth.yaml"]
+    reduced, simulated = [], []
+
+    def reduce(argv):
+        reduced.append((argv[argv.index("--model") + 1], argv[argv.index("--scene") + 1]))
+        Path(argv[argv.index("--out") + 1]).write_text("model")
+        return 0
+
+    def simulate(argv):
+        model_file = argv[argv.index("--model-file") + 1]
+        assert Path(model_file).exists()
+        simulated.append((argv[argv.index("--scene") + 1], model_file))
+        return 0
+
+    monkeypatch.setattr(truth_basis.reduction_models, "main", reduce)
+    monkeypatch.setattr(truth_basis.simulate, "main", simulate)
+    monkeypatch.setattr(truth_basis, "read_sim", lambda path: sim([1.0, 1.0, 1.0, 1.0], 0.0))
+    out = truth_basis.run(["b2.h5", "b3.h5", "b4.h5", "b5.h5"], scenes, log=lambda *a: None)
+    assert sorted(out) == ["damped", "rigid_platform", "smooth", "thesis"]
+    assert reduced == [("truth", scenes[0]), (truth_basis.LARGE, scenes[0]),
+                       ("truth", scenes[2]), (truth_basis.LARGE, scenes[2])]
+    assert len(simulated) == 8
+    files = {scene: [f for s, f in simulated if s == scene] for scene in scenes}
+    assert files[scenes[0]] == files[scenes[1]] == files[scenes[3]] != files[scenes[2]]
