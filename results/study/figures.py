@@ -6,10 +6,9 @@
         --static-table results/tables/errors_static.csv \\
         --out-dir results/figures/study
 
-Every figure is written twice, ``<stem>.pdf`` (vector, for the report) and
-``<stem>.png`` (150 dpi, for viewing), and listed in ``<out-dir>/figures.json``
-(``id, kind, pdf, png, caption, thesis_figure, model, group``; paths relative to
-the manifest), which the report reads:
+Every figure is written once, ``<stem>.pdf`` (vector, what the reports include), and
+listed in ``<out-dir>/figures.json`` (``id, kind, pdf, caption, thesis_figure, model,
+group``; paths relative to the manifest), which the reports read:
 
 * ``rates_<model>``: truth (solid) and reduced (dashed) gimbal rates
   gamma_dot_1..4 [rad/s] against time [ms], one panel per rate, with E (eq 3.53)
@@ -66,7 +65,7 @@ GROUP_STYLE = {"freq": ("tab:blue", "o", "-"), "xmx": ("tab:orange", "s", "-"),
 # truth check a single point at 100, so neither is a line; global-N (N in total) is drawn at N/4
 LINE_GROUPS = tuple(g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check"))
 PER_BODY_DIVISOR = {"global": 4}
-PNG_DPI = 150
+PNG_DPI = 150           # ``save``'s PNG (figures of other modules; the study's are PDF only)
 RIGID = "rigid"        # the baseline model: no elastic modes
 ZOOM_S = 2e-3           # zoom windows: the first and the last 2 ms of a run
 ENVELOPE_BINS = 1000    # columns of a min/max envelope (~ pixels of a panel at 600 dpi)
@@ -94,20 +93,60 @@ def run_provenance() -> dict:
 
 
 def save(fig, stem, record=None) -> dict:
-    """Write fig to stem.pdf and stem.png, each with the provenance ``record`` (default
-    ``run_provenance()``) in its metadata; returns {"pdf": path, "png": path}."""
-    plt = _plt()
+    """Write fig to stem.pdf and stem.png (``PNG_DPI``), each with the provenance ``record``
+    (default ``run_provenance()``) in its metadata, the layout solved once for both
+    (``save_pdf``); returns {"pdf": path, "png": path}.  (The study's own figures are PDF only,
+    ``save_pdf``; this is for the figures whose PNG is read: results.study.study_report,
+    results.bench.tolerance.)"""
+    paths = save_pdf(fig, stem, record, close=False)
+    paths["png"] = f"{stem}.png"
+    savefig(fig, paths["png"], record or run_provenance(), dpi=PNG_DPI)
+    _plt().close(fig)
+    return paths
+
+
+def save_pdf(fig, stem, record=None, close=True) -> dict:
+    """Write fig to stem.pdf (the reports' vector figure) with the provenance ``record`` (default
+    ``run_provenance()``) in its metadata, its layout solved once first (``fix_layout``); returns
+    {"pdf": path}.  The study's figures are written this way only: the reports include the PDFs,
+    nothing reads a PNG of them, and one cost a fifth of the figures' time."""
     record = record or run_provenance()
     os.makedirs(os.path.dirname(os.path.abspath(stem)), exist_ok=True)
-    paths = {"pdf": f"{stem}.pdf", "png": f"{stem}.png"}
+    paths = {"pdf": f"{stem}.pdf"}
+    fix_layout(fig)
     savefig(fig, paths["pdf"], record)
-    # the layout is solved once: the PDF's draw placed every axes (figure-relative, so the same at
-    # any dpi); solving it again for the PNG cost ~40 % of the figure's time
-    if fig.get_layout_engine() is not None:
-        fig.set_layout_engine("none")
-    savefig(fig, paths["png"], record, dpi=PNG_DPI)
-    plt.close(fig)
+    if close:
+        _plt().close(fig)
     return paths
+
+
+def fix_layout(fig) -> None:
+    """Solve fig's layout (constrained) once, here, and drop its layout engine: the positions are
+    figure-relative, so every later draw at any dpi reuses them.  Without an engine ``savefig``
+    draws once; with one (even matplotlib's 'none' placeholder) it walks the whole figure an extra
+    time before drawing it."""
+    engine = fig.get_layout_engine()
+    if engine is None:
+        return
+    solve_layout(fig, engine)
+    plt = _plt()
+    with plt.rc_context({"figure.autolayout": False, "figure.constrained_layout.use": False}):
+        fig.set_layout_engine(None)
+
+
+def solve_layout(fig, engine) -> None:
+    """Run the layout ``engine`` on fig with text measured as the PDF draws it (unhinted glyphs
+    at 72 dpi): on a PDF canvas, as ``savefig`` itself would lay the figure out before the PDF's
+    draw.  (Measured on the figure's own Agg canvas, hinted glyphs come out a little larger and
+    every panel ~2 % smaller, which can change a tick count.)"""
+    from matplotlib.backends.backend_pdf import FigureCanvasPdf  # heavy, optional: figures only
+    canvas, dpi = fig.canvas, fig.dpi
+    FigureCanvasPdf(fig)
+    try:
+        engine.execute(fig)
+    finally:
+        fig.set_canvas(canvas)
+        fig.dpi = dpi
 
 
 def envelope(t, y, t0=None, t1=None, bins=ENVELOPE_BINS):
@@ -155,7 +194,7 @@ def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rig
     last ``zoom_s`` (shaded in the second panel).  E (eq 3.53) of the model and of the rigid model
     are in each row's heading, outside the axes.  Long runs are drawn as min/max envelopes
     (``envelope``).  truth, case, rigid: dicts of ``read_sim`` on one grid; returns
-    {"pdf", "png", "E", "E_rigid", "windows_s"}."""
+    {"pdf", "E", "E_rigid", "windows_s"}."""
     check_same_grid(truth["t"], case["t"], case.get("path", case.get("model", "case")))
     if rigid is not None:
         check_same_grid(truth["t"], rigid["t"], rigid.get("path", "rigid"))
@@ -223,7 +262,7 @@ def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rig
         top.suptitle(heading, fontsize=9)
         top.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False,
                    handlelength=2.2, columnspacing=1.2)
-        paths = save(fig, stem)
+        paths = save_pdf(fig, stem)
     return {**paths, "E": [float(e) for e in E],
             "E_rigid": None if E_r is None else [float(e) for e in E_r],
             "windows_s": [list(early), list(late)]}
@@ -285,7 +324,7 @@ def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=
             low = 0.025 + 0.032 * ((len(handles) + 1) // 2)      # legend rows at 8 pt in 5.6 in
             fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         fig.suptitle(title)
-        return save(fig, stem)
+        return save_pdf(fig, stem)
 
 
 def _short_load_case(case):
@@ -322,7 +361,7 @@ def plot_load_cases(rows: list[dict], stem: str, controls=()) -> dict:
                    frameon=False, bbox_to_anchor=(0.5, 0.935))
         fig.get_layout_engine().set(rect=(0, 0, 1, 0.88))
         fig.suptitle("Error for the seven static-mode load cases and their controls", fontsize=9)
-        return save(fig, stem)
+        return save_pdf(fig, stem)
 
 
 def pareto_front(cost, err):
@@ -386,7 +425,7 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
         low = 0.02 + ((len(handles) + 1) // 2) * 9 * 1.55 / 72 / fig.get_figheight()
         fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         ax.set_title("Model size against error (eq 3.53)")
-        return save(fig, stem)
+        return save_pdf(fig, stem)
 
 
 def _rigid_E(rows, rigid, truth):
@@ -439,7 +478,7 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
                             "headings.")
             else:
                 baseline = "Rigid-model baseline not available (no simulation of model rigid given)."
-            add({"pdf": out["pdf"], "png": out["png"]}, id=stem, kind="rates", model=case["model"],
+            add({"pdf": out["pdf"]}, id=stem, kind="rates", model=case["model"],
                 group=d["group"], thesis_figure=d["thesis_figure"], scene=scene or "",
                 E=dict(zip(RATE_COLUMNS, out["E"])),
                 E_rigid=None if out["E_rigid"] is None else dict(zip(RATE_COLUMNS, out["E_rigid"])),
