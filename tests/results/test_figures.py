@@ -99,6 +99,38 @@ def test_layout_solved_as_the_pdf_draws_it(tmp_path):
     plt.close(fixed)
 
 
+def test_font_subsets_made_once_per_font_and_grown(monkeypatch, tmp_path):
+    """Within glyph_subsets_cached the PDF backend subsets a font file again only for a character
+    no earlier subset holds, and then keeps every earlier one; matplotlib's own function is back
+    after it."""
+    from matplotlib.backends import _backend_pdf_ps as pdf_ps
+    real, calls = pdf_ps.get_glyphs_subset, []
+
+    def spy(fontfile, characters):
+        calls.append(set(characters))
+        return real(fontfile, characters)
+
+    monkeypatch.setattr(pdf_ps, "get_glyphs_subset", spy)
+    monkeypatch.setattr(figures, "_SUBSETS", {})
+    plt = figures._plt()
+
+    def pdf(text):
+        with plt.rc_context(figures.STYLE), figures.glyph_subsets_cached():
+            fig = plt.figure(figsize=(2, 1))
+            fig.text(0.1, 0.5, text)
+            fig.savefig(tmp_path / "t.pdf")
+            plt.close(fig)
+        return (tmp_path / "t.pdf").read_bytes()
+
+    assert pdf("abc 12")[:5] == b"%PDF-" and len(calls) == 1
+    assert set("abc") | set(figures.SUBSET_BASE) <= calls[0]
+    pdf("cab 21.5")
+    assert len(calls) == 1                                   # a hit: nothing new
+    pdf("xyz")
+    assert len(calls) == 2 and set("abcxyz") <= calls[1]     # grown, the old characters kept
+    assert pdf_ps.get_glyphs_subset is spy
+
+
 def test_envelope_keeps_every_peak():
     rng = np.random.default_rng(1)
     t = np.linspace(0.0, 1.0, 100_001)
