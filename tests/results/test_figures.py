@@ -3,6 +3,7 @@ runs, the manifest) and results.study.mode_shapes (print figures of a small synt
 from __future__ import annotations
 
 import json
+import os
 
 import h5py
 import meshio
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from results.study import figures, mode_shapes, tables
+from solver.dynamics.simfile import read_sim
 from tests.results.synthetic_study import DT, T_END, truth_rates, write_sim, write_study
 
 CASES = ("freq-5", "static-4")                      # rate figures drawn
@@ -72,6 +74,49 @@ def test_missing_rigid_is_skipped_and_stated(sims, tmp_path):
     assert m["rigid"] is None and any("missing" in n for n in m["notes"])
     (f,) = m["figures"]
     assert f["baseline"] is None and f["E_rigid"] is None and "not available" in f["caption"]
+
+
+def _pixels(fig):
+    """fig drawn on its Agg canvas: (H, W, 4) uint8."""
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba()).copy()
+
+
+def test_reused_rate_panels_draw_as_a_fresh_figure(sims, tmp_path):
+    """A case drawn on panels that showed other cases first (the rate figures of a run after the
+    first) looks pixel for pixel as on panels of its own: no data, limit, unit, baseline, title
+    height or layout is left over."""
+    truth, rigid = read_sim(sims["truth"]), read_sim(sims["rigid"])
+    first, second = (read_sim(p) for p in sims["cases"])
+    assert not np.allclose(first["gamma_dot"], second["gamma_dot"])
+    long_title = "Truth vs " + "a title long enough to take two lines " * 4
+    draws = [(first, rigid, "Truth vs x"), (second, None, long_title), (first, rigid, "Truth vs x")]
+    reused = {}
+    try:
+        for n, (case, base, title) in enumerate(draws):
+            out = figures.plot_rates(truth, case, str(tmp_path / f"r{n}"), title, rigid=base, panels=reused)
+            assert os.path.exists(out["pdf"]) and (out["E_rigid"] is None) == (base is None)
+            (panels,) = reused.values()
+            shown = [t.get_text() for leg in panels.top.legends if leg.get_visible() for t in leg.get_texts()]
+            assert ("rigid model" in shown) == (base is not None) and len(shown) == 3 + (base is not None)
+            lines = 2 if title == long_title else 1                  # the heading row fits the title
+            assert panels.grid.get_height_ratios()[0] == pytest.approx(0.15 + 0.11 * lines)
+            if n == 0:
+                continue
+            fresh = {}
+            figures.plot_rates(truth, case, str(tmp_path / f"f{n}"), title, rigid=base, panels=fresh)
+            (r,), (f,) = reused.values(), fresh.values()
+            with figures._plt().rc_context(figures.RATE_RC):
+                assert np.array_equal(_pixels(r.fig), _pixels(f.fig)), n
+            f.close()
+            for ax in r.fig.get_axes():                      # every curve inside its panel
+                lo, hi = ax.get_ylim()
+                for line in ax.get_lines():
+                    y = np.asarray(line.get_ydata(), float)
+                    assert y.size == 0 or lo < y.min() <= y.max() < hi
+    finally:
+        for p in reused.values():
+            p.close()
 
 
 def _panels_figure():
