@@ -144,6 +144,21 @@ def test_layout_solved_as_the_pdf_draws_it(tmp_path):
     plt.close(fixed)
 
 
+def test_pinning_empty_decorations_changes_no_pixel():
+    """Empty titles and axis labels pinned in place: the figure draws the same (the non-empty
+    ones still move clear of the tick labels)."""
+    plt = figures._plt()
+    free, pinned = _panels_figure(), _panels_figure()
+    figures.pin_empty_decorations(pinned)
+    for fig in (free, pinned):
+        figures.solve_layout(fig, fig.get_layout_engine())
+        fig.set_layout_engine(None)
+    assert pinned.get_axes()[3].get_title() == "" and pinned.get_axes()[0].get_title() == "a title"
+    assert np.array_equal(_pixels(free), _pixels(pinned))
+    plt.close(free)
+    plt.close(pinned)
+
+
 def test_font_subsets_made_once_per_font_and_grown(monkeypatch, tmp_path):
     """Within glyph_subsets_cached the PDF backend subsets a font file again only for a character
     no earlier subset holds, and then keeps every earlier one; matplotlib's own function is back
