@@ -6,10 +6,9 @@
         --static-table results/tables/errors_static.csv \\
         --out-dir results/figures/study
 
-Every figure is written twice, ``<stem>.pdf`` (vector, for the report) and
-``<stem>.png`` (150 dpi, for viewing), and listed in ``<out-dir>/figures.json``
-(``id, kind, pdf, png, caption, thesis_figure, model, group``; paths relative to
-the manifest), which the report reads:
+Every figure is written once, ``<stem>.pdf`` (vector, what the reports include), and
+listed in ``<out-dir>/figures.json`` (``id, kind, pdf, caption, thesis_figure, model,
+group``; paths relative to the manifest), which the reports read:
 
 * ``rates_<model>``: truth (solid) and reduced (dashed) gimbal rates
   gamma_dot_1..4 [rad/s] against time [ms], one panel per rate, with E (eq 3.53)
@@ -29,7 +28,9 @@ the manifest lists what was made.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
+import io
 import os
 import re
 import sys
@@ -66,7 +67,7 @@ GROUP_STYLE = {"freq": ("tab:blue", "o", "-"), "xmx": ("tab:orange", "s", "-"),
 # truth check a single point at 100, so neither is a line; global-N (N in total) is drawn at N/4
 LINE_GROUPS = tuple(g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check"))
 PER_BODY_DIVISOR = {"global": 4}
-PNG_DPI = 150
+PNG_DPI = 150           # ``save``'s PNG (figures of other modules; the study's are PDF only)
 RIGID = "rigid"        # the baseline model: no elastic modes
 ZOOM_S = 2e-3           # zoom windows: the first and the last 2 ms of a run
 ENVELOPE_BINS = 1000    # columns of a min/max envelope (~ pixels of a panel at 600 dpi)
@@ -93,21 +94,115 @@ def run_provenance() -> dict:
     return provenance()
 
 
+# Characters every embedded font subset holds whether a figure uses them or not: those of numbers
+# (tick labels, E values), which differ from figure to figure (``glyph_subsets_cached``)
+SUBSET_BASE = "0123456789.,:;=+-\u2212()[]/ "
+_SUBSETS: dict[str, tuple[frozenset, bytes]] = {}     # font file -> (characters, subset font)
+
+
+@contextlib.contextmanager
+def glyph_subsets_cached():
+    """Within: matplotlib's PDF backend takes the TrueType font subsets it embeds from a cache
+    instead of subsetting the font file again for every figure (fontTools, ~0.07 s per font and
+    file: nearly half of a rate figure's PDF).  One subset per font file, of every character a
+    figure of this process has used so far plus ``SUBSET_BASE``; a figure needing a new
+    character makes it again, grown.  The PDF's glyph widths and text map come from the
+    characters it uses, as before, so its pages are the same and its font files a few kB
+    larger.  Without matplotlib's hook (``_backend_pdf_ps.get_glyphs_subset``) nothing changes."""
+    from matplotlib.backends import _backend_pdf_ps as pdf_ps   # heavy, optional: figures only
+    original = getattr(pdf_ps, "get_glyphs_subset", None)
+    if original is None or getattr(original, "study_cache", False):
+        yield
+        return
+
+    def cached(fontfile, characters):
+        chars, data = _SUBSETS.get(fontfile, (frozenset(), b""))
+        need = set(characters) | set(SUBSET_BASE)
+        if not need <= chars:
+            chars = frozenset(need | chars)
+            data = original(fontfile, "".join(sorted(chars))).getvalue()
+            _SUBSETS[fontfile] = (chars, data)
+        return io.BytesIO(data)
+
+    cached.study_cache = True
+    pdf_ps.get_glyphs_subset = cached
+    try:
+        yield
+    finally:
+        pdf_ps.get_glyphs_subset = original
+
+
 def save(fig, stem, record=None) -> dict:
-    """Write fig to stem.pdf and stem.png, each with the provenance ``record`` (default
-    ``run_provenance()``) in its metadata; returns {"pdf": path, "png": path}."""
-    plt = _plt()
+    """Write fig to stem.pdf and stem.png (``PNG_DPI``), each with the provenance ``record``
+    (default ``run_provenance()``) in its metadata, the layout solved once for both
+    (``save_pdf``); returns {"pdf": path, "png": path}.  (The study's own figures are PDF only,
+    ``save_pdf``; this is for the figures whose PNG is read: results.study.study_report,
+    results.bench.tolerance.)"""
+    paths = save_pdf(fig, stem, record, close=False)
+    paths["png"] = f"{stem}.png"
+    savefig(fig, paths["png"], record or run_provenance(), dpi=PNG_DPI)
+    _plt().close(fig)
+    return paths
+
+
+def save_pdf(fig, stem, record=None, close=True) -> dict:
+    """Write fig to stem.pdf (the reports' vector figure) with the provenance ``record`` (default
+    ``run_provenance()``) in its metadata, its layout solved once first (``fix_layout``); returns
+    {"pdf": path}.  The study's figures are written this way only: the reports include the PDFs,
+    nothing reads a PNG of them, and one cost a fifth of the figures' time."""
     record = record or run_provenance()
     os.makedirs(os.path.dirname(os.path.abspath(stem)), exist_ok=True)
-    paths = {"pdf": f"{stem}.pdf", "png": f"{stem}.png"}
-    savefig(fig, paths["pdf"], record)
-    # the layout is solved once: the PDF's draw placed every axes (figure-relative, so the same at
-    # any dpi); solving it again for the PNG cost ~40 % of the figure's time
-    if fig.get_layout_engine() is not None:
-        fig.set_layout_engine("none")
-    savefig(fig, paths["png"], record, dpi=PNG_DPI)
-    plt.close(fig)
+    paths = {"pdf": f"{stem}.pdf"}
+    fix_layout(fig)
+    with glyph_subsets_cached():
+        savefig(fig, paths["pdf"], record)
+    if close:
+        _plt().close(fig)
     return paths
+
+
+def fix_layout(fig) -> None:
+    """Solve fig's layout (constrained) once, here, and drop its layout engine: the positions are
+    figure-relative, so every later draw at any dpi reuses them.  Without an engine ``savefig``
+    draws once; with one (even matplotlib's 'none' placeholder) it walks the whole figure an extra
+    time before drawing it."""
+    engine = fig.get_layout_engine()
+    if engine is None:
+        return
+    pin_empty_decorations(fig)
+    solve_layout(fig, engine)
+    plt = _plt()
+    with plt.rc_context({"figure.autolayout": False, "figure.constrained_layout.use": False}):
+        fig.set_layout_engine(None)
+
+
+def pin_empty_decorations(fig) -> None:
+    """Pin the place of every empty title and axis label of fig's axes: matplotlib otherwise
+    moves each clear of the tick labels at every layout pass and draw (an axis label's move
+    solves the axis's ticks again), ~12 % of a rate figure's time, for text that draws nothing
+    and, being empty, takes no room in the layout either.  Call it once the texts are set."""
+    for ax in fig.get_axes():
+        if not any(ax.get_title(loc) for loc in ("left", "center", "right")):
+            ax.set_title("", y=1.0)          # an explicit y turns the automatic placement off
+        if not ax.get_xlabel():
+            ax.xaxis.set_label_coords(0.5, 0.0)
+        if not ax.get_ylabel():
+            ax.yaxis.set_label_coords(0.0, 0.5)
+
+
+def solve_layout(fig, engine) -> None:
+    """Run the layout ``engine`` on fig with text measured as the PDF draws it (unhinted glyphs
+    at 72 dpi): on a PDF canvas, as ``savefig`` itself would lay the figure out before the PDF's
+    draw.  (Measured on the figure's own Agg canvas, hinted glyphs come out a little larger and
+    every panel ~2 % smaller, which can change a tick count.)"""
+    from matplotlib.backends.backend_pdf import FigureCanvasPdf  # heavy, optional: figures only
+    canvas, dpi = fig.canvas, fig.dpi
+    FigureCanvasPdf(fig)
+    try:
+        engine.execute(fig)
+    finally:
+        fig.set_canvas(canvas)
+        fig.dpi = dpi
 
 
 def envelope(t, y, t0=None, t1=None, bins=ENVELOPE_BINS):
@@ -146,61 +241,46 @@ def _ms_label(w):
     return f"{ms:.3g} ms"
 
 
-def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rigid: dict | None = None,
-               zoom_s: float = ZOOM_S) -> dict:
-    """Truth vs reduced (vs rigid) gimbal rates and their errors against time, 4 rows x 4 columns.
+RATE_RC = {**STYLE, "font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8, "xtick.labelsize": 8,
+           "ytick.labelsize": 8, "axes.grid": True}
+RED, GREY = "tab:red", "0.6"
+CASE_DASH = (0, (4, 2))
 
-    Row n: gamma_dot_n over the run (truth, reduced, rigid baseline), the error e_n = reduced -
-    truth [rad/s] over the run (rigid - truth in grey behind), and e_n zoomed on the first and the
-    last ``zoom_s`` (shaded in the second panel).  E (eq 3.53) of the model and of the rigid model
-    are in each row's heading, outside the axes.  Long runs are drawn as min/max envelopes
-    (``envelope``).  truth, case, rigid: dicts of ``read_sim`` on one grid; returns
-    {"pdf", "png", "E", "E_rigid", "windows_s"}."""
-    check_same_grid(truth["t"], case["t"], case.get("path", case.get("model", "case")))
-    if rigid is not None:
-        check_same_grid(truth["t"], rigid["t"], rigid.get("path", "rigid"))
-    t = truth["t"]
-    E = error_measure(t, truth["gamma_dot"], case["gamma_dot"])
-    E_r = error_measure(t, truth["gamma_dot"], rigid["gamma_dot"]) if rigid is not None else None
-    early, late = zoom_windows(t, zoom_s)
-    plt = _plt()
-    red, grey = "tab:red", "0.6"
-    with plt.rc_context({**STYLE, "font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8,
-                         "xtick.labelsize": 8, "ytick.labelsize": 8, "axes.grid": True}):
-        fig = plt.figure(figsize=(7.0, 8.8), constrained_layout=True)
-        heading = textwrap.fill(title or f"Gimbal rates: truth vs {case['model']}", 105)
-        lines = heading.count("\n") + 1
-        top, *rows = fig.subfigures(5, 1, hspace=0.0, height_ratios=[0.15 + 0.11 * lines, 1, 1, 1, 1.08])
-        for k, (sub, b) in enumerate(zip(rows, BODIES)):
-            head = f"{RATE_LABELS[b]}:   E = {_fmt_e(E[k])}"
-            if E_r is not None:
-                head += f"   (rigid model: E = {_fmt_e(E_r[k])})"
-            sub.suptitle(head, x=0.01, ha="left", fontsize=8.5, fontweight="bold")
+
+class RatePanels:
+    """The 4 x 4 panels of the rate figures (``plot_rates``), built once and drawn again for every
+    case of a run: axes, lines, headings, zoom shading and legends stay; data, units, limits,
+    texts, the heading row's height and whether the rigid baseline shows change.  A fresh figure
+    per case cost its construction and the first layout of hundreds of new tick artists each
+    time (a third of a rate figure's time).  One per pair of zoom windows; draw and save inside
+    ``RATE_RC``."""
+
+    def __init__(self, early, late):
+        plt = _plt()
+        self.fig = fig = plt.figure(figsize=(7.0, 8.8), constrained_layout=True)
+        # as fig.subfigures(5, 1, hspace=0, height_ratios=...), keeping the grid to resize its rows
+        self.grid = plt.GridSpec(5, 1, figure=fig, hspace=0.0, height_ratios=_row_ratios(1))
+        self.top, *rows = [fig.add_subfigure(self.grid[j, 0]) for j in range(5)]
+        self.rows = []
+        for k, sub in enumerate(rows):
             axes = sub.subplots(1, 4, gridspec_kw={"width_ratios": [1.25, 1.25, 1, 1]})
-            tr, cs = truth["gamma_dot"][:, k], case["gamma_dot"][:, k]
-            err = cs - tr
-            err_r = rigid["gamma_dot"][:, k] - tr if rigid is not None else None
             ax = axes[0]
-            fr, ur = rate_unit(max(np.abs(tr).max(), np.abs(cs).max()))
-            fe, ue = rate_unit(max(np.abs(err).max(), 0.0 if err_r is None else np.abs(err_r).max()))
-            if rigid is not None:
-                ax.plot(*_ms(envelope(t, rigid["gamma_dot"][:, k]), fr), color=grey, lw=1.6,
-                        label="rigid model")
-            ax.plot(*_ms(envelope(t, tr), fr), color="black", lw=0.9, label="truth")
-            ax.plot(*_ms(envelope(t, cs), fr), color=red, lw=0.9, ls=(0, (4, 2)), label=case["model"])
-            ax.set_ylabel(f"rate [{ur}]")
-            for j, (ax, win) in enumerate(zip(axes[1:], ((t[0], t[-1]), early, late))):
-                if err_r is not None:
-                    ax.plot(*_ms(envelope(t, err_r, *win), fe), color=grey, lw=0.9)
-                ax.plot(*_ms(envelope(t, err, *win), fe), color=red, lw=0.8)
+            row = {"sub": sub, "axes": axes, "err_rigid": [], "err": []}
+            row["rigid"], = ax.plot([], [], color=GREY, lw=1.6, label="rigid model")
+            row["truth"], = ax.plot([], [], color="black", lw=0.9, label="truth")
+            row["case"], = ax.plot([], [], color=RED, lw=0.9, ls=CASE_DASH)
+            for j, (ax, win) in enumerate(zip(axes[1:], (None, early, late))):
+                row["err_rigid"].append(ax.plot([], [], color=GREY, lw=0.9)[0])
+                row["err"].append(ax.plot([], [], color=RED, lw=0.8)[0])
                 ax.axhline(0.0, color="black", lw=0.5)
-                ax.set_xlim(1e3 * win[0], 1e3 * win[1])
                 ax.margins(y=0.08)
                 if j:
+                    ax.set_xlim(1e3 * win[0], 1e3 * win[1])
                     ax.set_xticks(np.linspace(1e3 * win[0], 1e3 * win[1], 3))
+            axes[0].set_ylabel("rate")           # units: per case (``draw``)
+            axes[1].set_ylabel("error")
             for w in (early, late):
                 axes[1].axvspan(1e3 * w[0], 1e3 * w[1], color="tab:blue", alpha=0.12, lw=0)
-            axes[1].set_ylabel(f"error [{ue}]")
             for j, ax in enumerate(axes):
                 if j < 2:
                     ax.xaxis.set_major_locator(plt.MaxNLocator(nbins=4))
@@ -214,16 +294,117 @@ def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rig
             if k == 3:
                 for ax in axes:
                     ax.set_xlabel("time t [ms]")
-        handles = [plt.Line2D([], [], color="black", lw=0.9, label="truth (100 modes/body)"),
-                   plt.Line2D([], [], color=red, lw=0.9, ls=(0, (4, 2)),
-                              label="reduced model; error = reduced - truth")]
-        if rigid is not None:
-            handles.append(plt.Line2D([], [], color=grey, lw=1.6, label="rigid model"))
-        handles.append(plt.matplotlib.patches.Patch(color="tab:blue", alpha=0.12, label="zoom windows"))
-        top.suptitle(heading, fontsize=9)
-        top.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False,
-                   handlelength=2.2, columnspacing=1.2)
-        paths = save(fig, stem)
+            self.rows.append(row)
+        self.legends = {}                        # with the rigid baseline or without
+        for with_rigid in (True, False):
+            handles = [plt.Line2D([], [], color="black", lw=0.9, label="truth (100 modes/body)"),
+                       plt.Line2D([], [], color=RED, lw=0.9, ls=CASE_DASH,
+                                  label="reduced model; error = reduced - truth")]
+            if with_rigid:
+                handles.append(plt.Line2D([], [], color=GREY, lw=1.6, label="rigid model"))
+            handles.append(plt.matplotlib.patches.Patch(color="tab:blue", alpha=0.12, label="zoom windows"))
+            self.legends[with_rigid] = self.top.legend(
+                handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False,
+                handlelength=2.2, columnspacing=1.2)
+        # the layout is solved again for every case (tick labels change), each time from the
+        # positions of a fresh figure, so it comes out as on a figure of its own
+        self.start = [(ax, ax.get_position(original=True).frozen()) for ax in fig.get_axes()]
+        pin_empty_decorations(fig)
+        self.engine = fig.get_layout_engine()
+        with plt.rc_context({"figure.autolayout": False, "figure.constrained_layout.use": False}):
+            fig.set_layout_engine(None)          # no engine: savefig draws once (``fix_layout``)
+
+    def draw(self, t, truth, case, rigid, heading, E, E_r, early, late) -> None:
+        """Put one case's rates and errors into the panels.  t (T,); truth, case, rigid (T, 4)
+        gimbal rates (rigid None: no baseline drawn); heading: the title (its lines set the
+        heading row's height); E, E_r (4,)."""
+        self.grid.set_height_ratios(_row_ratios(heading.count("\n") + 1))
+        self.top.suptitle(heading, fontsize=9)
+        for with_rigid, legend in self.legends.items():
+            legend.set_visible(with_rigid == (rigid is not None))
+        for k, (row, b) in enumerate(zip(self.rows, BODIES)):
+            head = f"{RATE_LABELS[b]}:   E = {_fmt_e(E[k])}"
+            if E_r is not None:
+                head += f"   (rigid model: E = {_fmt_e(E_r[k])})"
+            row["sub"].suptitle(head, x=0.01, ha="left", fontsize=8.5, fontweight="bold")
+            tr, cs = truth[:, k], case[:, k]
+            err = cs - tr
+            err_r = rigid[:, k] - tr if rigid is not None else None
+            fr, ur = rate_unit(max(np.abs(tr).max(), np.abs(cs).max()))
+            fe, ue = rate_unit(max(np.abs(err).max(), 0.0 if err_r is None else np.abs(err_r).max()))
+            row["truth"].set_data(*_ms(envelope(t, tr), fr))
+            row["case"].set_data(*_ms(envelope(t, cs), fr))
+            for j, win in enumerate(((t[0], t[-1]), early, late)):
+                row["err"][j].set_data(*_ms(envelope(t, err, *win), fe))
+                base = row["err_rigid"][j]
+                base.set_data(*(([], []) if err_r is None else _ms(envelope(t, err_r, *win), fe)))
+            row["rigid"].set_data(*(([], []) if rigid is None else _ms(envelope(t, rigid[:, k]), fr)))
+            for line in (row["rigid"], *row["err_rigid"]):
+                line.set_visible(rigid is not None)
+            axes = row["axes"]
+            axes[1].set_xlim(1e3 * t[0], 1e3 * t[-1])
+            axes[0].set_ylabel(f"rate [{ur}]")
+            axes[1].set_ylabel(f"error [{ue}]")
+            for ax in axes:
+                ax.relim()
+                ax.autoscale_view()
+        for sub, box in zip(self.fig.subfigs, _grid_boxes(self.grid)):
+            sub.bbox_relative.set_points(box)
+        for ax, start in self.start:
+            ax.set_position(start)
+            ax.set_in_layout(True)
+        solve_layout(self.fig, self.engine)
+
+    def close(self) -> None:
+        _plt().close(self.fig)
+
+
+def _row_ratios(heading_lines: int) -> list[float]:
+    """Heights of the rate figure's rows: the heading (title and legend), then the four rates."""
+    return [0.15 + 0.11 * heading_lines, 1, 1, 1, 1.08]
+
+
+def _grid_boxes(grid) -> list[np.ndarray]:
+    """[[x0, y0], [x1, y1]] (figure fractions) of each row of a one-column grid, as a new subfigure
+    in it starts (matplotlib's SubFigure places itself by the ratios alone, before any layout)."""
+    hr = np.asarray(grid.get_height_ratios())
+    out = []
+    for j in range(len(hr)):
+        dy = hr[j:j + 1].sum() / hr.sum()
+        y0 = 1 - hr[:j + 1].sum() / hr.sum()
+        out.append(np.array([[0.0, y0], [1.0, y0 + dy]]))
+    return out
+
+
+def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rigid: dict | None = None,
+               zoom_s: float = ZOOM_S, panels: dict | None = None) -> dict:
+    """Truth vs reduced (vs rigid) gimbal rates and their errors against time, 4 rows x 4 columns.
+
+    Row n: gamma_dot_n over the run (truth, reduced, rigid baseline), the error e_n = reduced -
+    truth [rad/s] over the run (rigid - truth in grey behind), and e_n zoomed on the first and the
+    last ``zoom_s`` (shaded in the second panel).  E (eq 3.53) of the model and of the rigid model
+    are in each row's heading, outside the axes.  Long runs are drawn as min/max envelopes
+    (``envelope``).  truth, case, rigid: dicts of ``read_sim`` on one grid; panels: a dict of
+    ``RatePanels`` kept between calls (the caller closes them; None: a figure of its own);
+    returns {"pdf", "E", "E_rigid", "windows_s"}."""
+    check_same_grid(truth["t"], case["t"], case.get("path", case.get("model", "case")))
+    if rigid is not None:
+        check_same_grid(truth["t"], rigid["t"], rigid.get("path", "rigid"))
+    t = truth["t"]
+    E = error_measure(t, truth["gamma_dot"], case["gamma_dot"])
+    E_r = error_measure(t, truth["gamma_dot"], rigid["gamma_dot"]) if rigid is not None else None
+    early, late = zoom_windows(t, zoom_s)
+    heading = textwrap.fill(title or f"Gimbal rates: truth vs {case['model']}", 105)
+    key = (early, late)
+    own = panels is None
+    panels = {} if own else panels
+    with _plt().rc_context(RATE_RC):
+        if key not in panels:
+            panels[key] = RatePanels(early, late)
+        fig = panels[key]
+        fig.draw(t, truth["gamma_dot"], case["gamma_dot"], None if rigid is None else rigid["gamma_dot"],
+                 heading, E, E_r, early, late)
+        paths = save_pdf(fig.fig, stem, close=own)
     return {**paths, "E": [float(e) for e in E],
             "E_rigid": None if E_r is None else [float(e) for e in E_r],
             "windows_s": [list(early), list(late)]}
@@ -285,7 +466,7 @@ def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=
             low = 0.025 + 0.032 * ((len(handles) + 1) // 2)      # legend rows at 8 pt in 5.6 in
             fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         fig.suptitle(title)
-        return save(fig, stem)
+        return save_pdf(fig, stem)
 
 
 def _short_load_case(case):
@@ -322,7 +503,7 @@ def plot_load_cases(rows: list[dict], stem: str, controls=()) -> dict:
                    frameon=False, bbox_to_anchor=(0.5, 0.935))
         fig.get_layout_engine().set(rect=(0, 0, 1, 0.88))
         fig.suptitle("Error for the seven static-mode load cases and their controls", fontsize=9)
-        return save(fig, stem)
+        return save_pdf(fig, stem)
 
 
 def pareto_front(cost, err):
@@ -386,7 +567,7 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
         low = 0.02 + ((len(handles) + 1) // 2) * 9 * 1.55 / 72 / fig.get_figheight()
         fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         ax.set_title("Model size against error (eq 3.53)")
-        return save(fig, stem)
+        return save_pdf(fig, stem)
 
 
 def _rigid_E(rows, rigid, truth):
@@ -424,34 +605,40 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
         t = truth["t"]
         dt = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
         thinned = t.size > 2 * ENVELOPE_BINS
-        for case in sorted(cases, key=lambda c: order.get(c["model"], len(order))):
-            d = describe_model(case["model"])
-            fig = f" (thesis Fig {d['thesis_figure']})" if d["thesis_figure"] else ""
-            base = rigid if rigid is not None and case["model"] != RIGID else None
-            stem = f"rates_{safe_name(case['model'])}"
-            out = plot_rates(truth, case, os.path.join(out_dir, stem),
-                             f"Truth vs {d['title']}{on}", rigid=base, zoom_s=zoom_s)
-            early, late = out["windows_s"]
-            if case["model"] == RIGID:
-                baseline = "This is the rigid model itself."
-            elif base is not None:
-                baseline = ("Grey: the rigid model (no elastic modes) as a baseline, its E in the row "
-                            "headings.")
-            else:
-                baseline = "Rigid-model baseline not available (no simulation of model rigid given)."
-            add({"pdf": out["pdf"], "png": out["png"]}, id=stem, kind="rates", model=case["model"],
-                group=d["group"], thesis_figure=d["thesis_figure"], scene=scene or "",
-                E=dict(zip(RATE_COLUMNS, out["E"])),
-                E_rigid=None if out["E_rigid"] is None else dict(zip(RATE_COLUMNS, out["E_rigid"])),
-                baseline=RIGID if base is not None else None,
-                zoom_windows_ms=[[1e3 * a for a in early], [1e3 * a for a in late]],
-                envelope=thinned,
-                caption=f"Gimbal rates{on} of the truth model (black) and of model {case['model']}, "
-                        f"{d['title']} (red dashed){fig}, and the error model - truth against time: "
-                        f"whole run, first {_ms_label(early)} and last {_ms_label(late)} (shaded in the "
-                        f"whole-run panel). {baseline} E per rate from eq 3.53 in the row headings."
-                        + (f" {t.size} samples ({dt:.2g} s apart) drawn as min/max envelopes of "
-                           f"{ENVELOPE_BINS} columns per panel (no peak dropped)." if thinned else ""))
+        panels = {}      # rate-figure skeletons, drawn again for each case (RatePanels)
+        try:
+            for case in sorted(cases, key=lambda c: order.get(c["model"], len(order))):
+                d = describe_model(case["model"])
+                fig = f" (thesis Fig {d['thesis_figure']})" if d["thesis_figure"] else ""
+                base = rigid if rigid is not None and case["model"] != RIGID else None
+                stem = f"rates_{safe_name(case['model'])}"
+                out = plot_rates(truth, case, os.path.join(out_dir, stem),
+                                 f"Truth vs {d['title']}{on}", rigid=base, zoom_s=zoom_s,
+                                 panels=panels)
+                early, late = out["windows_s"]
+                if case["model"] == RIGID:
+                    baseline = "This is the rigid model itself."
+                elif base is not None:
+                    baseline = ("Grey: the rigid model (no elastic modes) as a baseline, its E in the row "
+                                "headings.")
+                else:
+                    baseline = "Rigid-model baseline not available (no simulation of model rigid given)."
+                add({"pdf": out["pdf"]}, id=stem, kind="rates", model=case["model"],
+                    group=d["group"], thesis_figure=d["thesis_figure"], scene=scene or "",
+                    E=dict(zip(RATE_COLUMNS, out["E"])),
+                    E_rigid=None if out["E_rigid"] is None else dict(zip(RATE_COLUMNS, out["E_rigid"])),
+                    baseline=RIGID if base is not None else None,
+                    zoom_windows_ms=[[1e3 * a for a in early], [1e3 * a for a in late]],
+                    envelope=thinned,
+                    caption=f"Gimbal rates{on} of the truth model (black) and of model {case['model']}, "
+                            f"{d['title']} (red dashed){fig}, and the error model - truth against time: "
+                            f"whole run, first {_ms_label(early)} and last {_ms_label(late)} (shaded in the "
+                            f"whole-run panel). {baseline} E per rate from eq 3.53 in the row headings."
+                            + (f" {t.size} samples ({dt:.2g} s apart) drawn as min/max envelopes of "
+                               f"{ENVELOPE_BINS} columns per panel (no peak dropped)." if thinned else ""))
+        finally:
+            for p in panels.values():
+                p.close()
     rigid_note = ("black dashed: the rigid model (no elastic modes)." if E_rigid is not None else
                   "rigid-model baseline not available (no rigid simulation or table row).")
     if any(r["group"] in RANKING_TABLE_GROUPS for r in ranking_rows):

@@ -3,6 +3,7 @@ runs, the manifest) and results.study.mode_shapes (print figures of a small synt
 from __future__ import annotations
 
 import json
+import os
 
 import h5py
 import meshio
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from results.study import figures, mode_shapes, tables
+from solver.dynamics.simfile import read_sim
 from tests.results.synthetic_study import DT, T_END, truth_rates, write_sim, write_study
 
 CASES = ("freq-5", "static-4")                      # rate figures drawn
@@ -43,7 +45,7 @@ def test_rate_figures_have_rigid_baseline_and_zoom(sims):
     rates = [f for f in m["figures"] if f["kind"] == "rates"]
     assert sorted(f["model"] for f in rates) == sorted(CASES)
     for f in m["figures"]:
-        assert (d / f["pdf"]).read_bytes()[:5] == b"%PDF-" and (d / f["png"]).exists() and f["caption"]
+        assert (d / f["pdf"]).read_bytes()[:5] == b"%PDF-" and "png" not in f and f["caption"]
     for f in rates:
         assert f["baseline"] == "rigid" and "rigid model" in f["caption"]
         # synthetic rates: E = a^2 exactly; the rigid case has a = 0.2 on every rate
@@ -72,6 +74,121 @@ def test_missing_rigid_is_skipped_and_stated(sims, tmp_path):
     assert m["rigid"] is None and any("missing" in n for n in m["notes"])
     (f,) = m["figures"]
     assert f["baseline"] is None and f["E_rigid"] is None and "not available" in f["caption"]
+
+
+def _pixels(fig):
+    """fig drawn on its Agg canvas: (H, W, 4) uint8."""
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba()).copy()
+
+
+def test_reused_rate_panels_draw_as_a_fresh_figure(sims, tmp_path):
+    """A case drawn on panels that showed other cases first (the rate figures of a run after the
+    first) looks pixel for pixel as on panels of its own: no data, limit, unit, baseline, title
+    height or layout is left over."""
+    truth, rigid = read_sim(sims["truth"]), read_sim(sims["rigid"])
+    first, second = (read_sim(p) for p in sims["cases"])
+    assert not np.allclose(first["gamma_dot"], second["gamma_dot"])
+    long_title = "Truth vs " + "a title long enough to take two lines " * 4
+    draws = [(first, rigid, "Truth vs x"), (second, None, long_title), (first, rigid, "Truth vs x")]
+    reused = {}
+    try:
+        for n, (case, base, title) in enumerate(draws):
+            out = figures.plot_rates(truth, case, str(tmp_path / f"r{n}"), title, rigid=base, panels=reused)
+            assert os.path.exists(out["pdf"]) and (out["E_rigid"] is None) == (base is None)
+            (panels,) = reused.values()
+            shown = [t.get_text() for leg in panels.top.legends if leg.get_visible() for t in leg.get_texts()]
+            assert ("rigid model" in shown) == (base is not None) and len(shown) == 3 + (base is not None)
+            lines = 2 if title == long_title else 1                  # the heading row fits the title
+            assert panels.grid.get_height_ratios()[0] == pytest.approx(0.15 + 0.11 * lines)
+            if n == 0:
+                continue
+            fresh = {}
+            figures.plot_rates(truth, case, str(tmp_path / f"f{n}"), title, rigid=base, panels=fresh)
+            (r,), (f,) = reused.values(), fresh.values()
+            with figures._plt().rc_context(figures.RATE_RC):
+                assert np.array_equal(_pixels(r.fig), _pixels(f.fig)), n
+            f.close()
+            for ax in r.fig.get_axes():                      # every curve inside its panel
+                lo, hi = ax.get_ylim()
+                for line in ax.get_lines():
+                    y = np.asarray(line.get_ydata(), float)
+                    assert y.size == 0 or lo < y.min() <= y.max() < hi
+    finally:
+        for p in reused.values():
+            p.close()
+
+
+def _panels_figure():
+    plt = figures._plt()
+    fig, axes = plt.subplots(2, 2, figsize=(7.0, 5.6), constrained_layout=True)
+    for k, ax in enumerate(axes.flat):
+        ax.plot([0.0, 10.0 ** k], [0.0, 3e-4 * 10.0 ** k])
+    axes[0, 0].set_title("a title")
+    axes[0, 0].set_ylabel("a y label")
+    axes[1, 1].set_xlabel("an x label")
+    return fig
+
+
+def test_layout_solved_as_the_pdf_draws_it(tmp_path):
+    """fix_layout places the axes exactly where savefig's own layout pass for the PDF would, and
+    leaves the figure without a layout engine (so savefig draws it once)."""
+    plt = figures._plt()
+    own, fixed = _panels_figure(), _panels_figure()
+    own.savefig(tmp_path / "own.pdf")
+    figures.fix_layout(fixed)
+    assert own.get_layout_engine() is not None and fixed.get_layout_engine() is None
+    for a, b in zip(own.get_axes(), fixed.get_axes()):
+        assert np.allclose(a.get_position().bounds, b.get_position().bounds, rtol=0.0, atol=1e-12)
+    plt.close(own)
+    plt.close(fixed)
+
+
+def test_pinning_empty_decorations_changes_no_pixel():
+    """Empty titles and axis labels pinned in place: the figure draws the same (the non-empty
+    ones still move clear of the tick labels)."""
+    plt = figures._plt()
+    free, pinned = _panels_figure(), _panels_figure()
+    figures.pin_empty_decorations(pinned)
+    for fig in (free, pinned):
+        figures.solve_layout(fig, fig.get_layout_engine())
+        fig.set_layout_engine(None)
+    assert pinned.get_axes()[3].get_title() == "" and pinned.get_axes()[0].get_title() == "a title"
+    assert np.array_equal(_pixels(free), _pixels(pinned))
+    plt.close(free)
+    plt.close(pinned)
+
+
+def test_font_subsets_made_once_per_font_and_grown(monkeypatch, tmp_path):
+    """Within glyph_subsets_cached the PDF backend subsets a font file again only for a character
+    no earlier subset holds, and then keeps every earlier one; matplotlib's own function is back
+    after it."""
+    from matplotlib.backends import _backend_pdf_ps as pdf_ps
+    real, calls = pdf_ps.get_glyphs_subset, []
+
+    def spy(fontfile, characters):
+        calls.append(set(characters))
+        return real(fontfile, characters)
+
+    monkeypatch.setattr(pdf_ps, "get_glyphs_subset", spy)
+    monkeypatch.setattr(figures, "_SUBSETS", {})
+    plt = figures._plt()
+
+    def pdf(text):
+        with plt.rc_context(figures.STYLE), figures.glyph_subsets_cached():
+            fig = plt.figure(figsize=(2, 1))
+            fig.text(0.1, 0.5, text)
+            fig.savefig(tmp_path / "t.pdf")
+            plt.close(fig)
+        return (tmp_path / "t.pdf").read_bytes()
+
+    assert pdf("abc 12")[:5] == b"%PDF-" and len(calls) == 1
+    assert set("abc") | set(figures.SUBSET_BASE) <= calls[0]
+    pdf("cab 21.5")
+    assert len(calls) == 1                                   # a hit: nothing new
+    pdf("xyz")
+    assert len(calls) == 2 and set("abcxyz") <= calls[1]     # grown, the old characters kept
+    assert pdf_ps.get_glyphs_subset is spy
 
 
 def test_envelope_keeps_every_peak():
