@@ -65,16 +65,17 @@ def mesh_size(config: dict, params: dict, level: int = 0) -> float:
     return cfgmod.value(config, key) * cfgmod.value(config, "mesh.refinement_ratio") ** level
 
 
-def mesh_from_config(config: dict, body, path, size: float | None = None) -> dict:
-    """Mesh a body with the config's geometry; ``size`` overrides the default mesh size."""
-    return mesh_from_inputs(cfgmod.body_inputs(config, body, size)["mesh"], path)
+def mesh_from_config(config: dict, body, path, size: float | None = None, coarse: bool = False) -> dict:
+    """Mesh a body with the config's geometry; ``size`` overrides the default mesh size
+    (``coarse``: a ring's size may exceed its width, ``geometry.gimbal.build_ring``)."""
+    return mesh_from_inputs(cfgmod.body_inputs(config, body, size)["mesh"], path, coarse)
 
 
-def mesh_from_inputs(inputs: dict, path) -> dict:
+def mesh_from_inputs(inputs: dict, path, coarse: bool = False) -> dict:
     """Mesh a body from its resolved mesh inputs (``workflow.config.body_inputs(...)["mesh"]``)."""
     patches = {"bearing_half_angle_deg": inputs["bearing_half_angle"],
                "mass_half_angle_deg": inputs["mass_half_angle"]} if "bearing_half_angle" in inputs else {}
-    return mesh_body(inputs["body"], inputs["mass_angle"], inputs["size"], path, **patches)
+    return mesh_body(inputs["body"], inputs["mass_angle"], inputs["size"], path, coarse=coarse, **patches)
 
 
 def main(argv=None) -> int:
@@ -84,6 +85,9 @@ def main(argv=None) -> int:
     parser.add_argument("--size", type=cli.positive_number("--size"), default=None,
                         help="mesh size in inches (default: config)")
     parser.add_argument("--meta", default=None, help="write the mesh metadata (size used, nodes, cells) here")
+    parser.add_argument("--coarse", action="store_true",
+                        help="a ring's size may exceed its width (up to its radius): a mesh for checks "
+                             "that hold on any mesh (the discrete Hughes identities), not for results")
     parser.add_argument("--config", default=str(cfgmod.DEFAULT_CONFIG))
     parser.add_argument("--max-dofs", type=cli.positive_int("--max-dofs"), default=MAX_DOFS,
                         help=f"refuse a mesh whose model would exceed this many DOFs (default {MAX_DOFS:,})")
@@ -100,7 +104,7 @@ def main(argv=None) -> int:
         cli.check_writable(args.out)
         if args.meta:
             cli.check_writable(args.meta)
-        meta = mesh_from_inputs(inputs, args.out)
+        meta = mesh_from_inputs(inputs, args.out, args.coarse)
         if args.meta:   # the mesh's sidecar: its provenance too (config hash: the mesh's inputs)
             write_json(args.meta, meta, provenance(cfgmod.inputs_hash(inputs)))
     except (GeometryError, cfgmod.ConfigError, ValueError) as exc:

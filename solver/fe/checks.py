@@ -313,7 +313,8 @@ def check_hughes_identity(body_file, rcond: float = 1e-10) -> dict:
     """Hughes's first modal identity on a body file that holds every finite supported mode.
 
     The file is the coarse body of ``solver.fe.modes --all-modes`` (rule coarse_body_all_modes:
-    body 4 at 0.5 in, every mode by a dense solve), read rather than solved again.
+    body 4 on the coarsest mesh, ``geometry.mesh --coarse``, every mode by a dense solve), read
+    rather than solved again.
     sum_i Mbar_i = M_inf, Mbar_i = (X^T M phi_i)(X^T M phi_i)^T (thesis eqs 3.32-3.34),
     with M_inf the rigid mass matrix over the admissible (unsupported) displacements:
     X^T M T (T^T M T)^+ T^T M X - the M-orthogonal projection of the rigid modes on

@@ -160,8 +160,8 @@ def massless_split(m_red: np.ndarray, rtol: float = MASSLESS_RTOL):
     remainder whose entries are below that. Returns ``(S, Z)``: S (r,) the pivoted (massive)
     coordinates, m_red[S][:, S] = L11 L11^T definite, and Z (n, n - r) the null basis
     (Z[R] = I on the other coordinates R, Z[S] = -L11^-T L21^T, so m_red Z vanishes to the
-    remainder). On the coarse body of the Hughes identities the kept pivots end at 1e-6 and
-    the remainder is 1e-19 of the largest diagonal entry: the cut at ``rtol`` is clear.
+    remainder). On the coarse bodies of the Hughes identities (0.5 and 0.75 in) the kept pivots
+    end at 1e-6 and the remainder is 2e-19 of the largest diagonal entry: the cut is clear.
     """
     n = m_red.shape[0]
     scale = float(np.max(np.diag(m_red))) if n else 0.0

@@ -1,4 +1,5 @@
 """The modal stage end to end on the inner gimbal: the body-file contract and bad input."""
+import json
 import math
 
 import h5py
@@ -119,3 +120,15 @@ def test_further_modes_after_known_ones(tmp_path, config, inner_gimbal_file):
     meshcli.main(["--body", "4", "--size", "0.5", "--out", str(coarse)])
     with pytest.raises(ValueError, match="another mesh"):
         modes.compute_body(4, config, coarse, 20, log=quiet, known=known, mesh_size=0.25)
+
+
+def test_coarse_ring_mesh_may_exceed_the_width(tmp_path):
+    """geometry.mesh --coarse (the Hughes identities' mesh): a ring's size up to its radius, not only
+    its width; the mesh stops coarsening at the cut lines. Without it the width bounds the size."""
+    out, meta = tmp_path / "c.msh", tmp_path / "c.json"
+    assert meshcli.main(["--body", "4", "--size", "0.75", "--out", str(out)]) == 1 and not out.exists()
+    assert meshcli.main(["--body", "4", "--size", "0.75", "--coarse", "--out", str(out), "--meta", str(meta)]) == 0
+    coarse = json.loads(meta.read_text())
+    assert meshcli.main(["--body", "4", "--size", "0.5", "--out", str(out), "--meta", str(meta)]) == 0
+    assert coarse["mesh_size"] == 0.75 and coarse["cells"] < json.loads(meta.read_text())["cells"]
+    assert meshcli.main(["--body", "4", "--size", "3", "--coarse", "--out", str(out)]) == 1   # beyond the radius

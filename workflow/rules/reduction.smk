@@ -2,8 +2,10 @@
 # (reduction/load_aware.py is the scene-dependent ranking, dynamics.smk)
 # Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG, COARSE_SIZE from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
-# the coarse mesh of the discrete Hughes identities (every supported mode, dense solve)
-COARSE_SIZE = 0.5
+# the coarse mesh of the discrete Hughes identities (every supported mode, dense solve), in: they hold
+# on any mesh, so the coarsest gmsh makes of body 4 (geometry.mesh --coarse: 192 cells from 0.65 in up,
+# 2538 modes; 0.5 in, the band's width, gave 256 cells and 3386 modes at 3x the dense solve's cost)
+COARSE_SIZE = 0.75
 
 
 rule reduction_body:
@@ -43,9 +45,9 @@ rule coarse_body_all_modes:
         code=code_hash("solver.fe.modes"),
         cfg=body_hash(body=4, mesh_size=COARSE_SIZE),
     resources:
-        # records: coarse_body_all_modes.tsv 73.0 s, 995.1 MB (max of 2)
-        mem_mb=mem_mb(995.1),
-        runtime=runtime_min(73.0),
+        # no record at 0.75 in: 6.9 s, 655.8 MB measured (max of 3, /usr/bin/time)
+        mem_mb=mem_mb(655.8),
+        runtime=runtime_min(6.9),
     log:
         "logs/reduction/coarse_body4.log",
     benchmark:
@@ -71,7 +73,7 @@ rule coarse_mesh:
     benchmark:
         "results/benchmarks/rules/coarse_mesh.tsv"
     shell:
-        "{PY} -m geometry.mesh --body 4 --size {COARSE_SIZE} --out {output.mesh} --meta {output.meta} "
+        "{PY} -m geometry.mesh --body 4 --size {COARSE_SIZE} --coarse --out {output.mesh} --meta {output.meta} "
         "--config {CONFIG} > {log} 2>&1"
 
 
