@@ -81,3 +81,18 @@ def write_study(folder, good=True, cases=None, scene="thesis"):
         paths.append(write_sim(os.path.join(root, c["model"] + ".h5"), c["model"], t, r * (1 + a),
                                wall_time_s=2.0 + 0.5 * n, scene=scene))
     return truth, paths
+
+
+def write_tables(folder, tables_dir):
+    """A synthetic study under folder/sim with its error tables and findings in tables_dir
+    (results.study.tables and .findings, as the workflow runs them): (truth, cases, ranking
+    table, static table, findings JSON)."""
+    from results.study import findings, tables
+    truth, cases = write_study(os.path.join(folder, "sim"))
+    rt, st = os.path.join(tables_dir, "errors_ranking.csv"), os.path.join(tables_dir, "errors_static.csv")
+    assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", rt,
+                        "--static-table", st]) == 0
+    fj = os.path.join(tables_dir, "findings.json")
+    assert findings.main(["--ranking-table", rt, "--static-table", st,
+                          "--csv", os.path.join(tables_dir, "findings.csv"), "--json", fj]) == 0
+    return truth, cases, rt, st, fj

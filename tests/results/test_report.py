@@ -10,9 +10,9 @@ import subprocess
 import numpy as np
 import pytest
 
-from results.study import figures, findings, report, tables
+from results.study import figures, report
 from results.study.cases import GROUPS, GROUP_LABELS
-from tests.results.synthetic_study import write_study
+from tests.results.synthetic_study import write_tables
 
 pytest.importorskip("typst")
 POPPLER = all(shutil.which(t) for t in ("pdftotext", "pdfinfo", "pdftoppm"))
@@ -24,13 +24,7 @@ RATE_CASES = ("freq-5", "xmx-10", "static-4", "static-10@2:input_motor_my")
 def study_outputs(tmp_path_factory):
     """Synthetic study -> tables, findings, figures (rate figures for RATE_CASES only)."""
     tmp = tmp_path_factory.mktemp("results")
-    truth, cases = write_study(tmp / "sim")
-    rt, st = tmp / "tables" / "errors_ranking.csv", tmp / "tables" / "errors_static.csv"
-    assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
-                        "--static-table", str(st)]) == 0
-    fj = tmp / "tables" / "findings.json"
-    assert findings.main(["--ranking-table", str(rt), "--static-table", str(st),
-                          "--csv", str(tmp / "tables" / "findings.csv"), "--json", str(fj)]) == 0
+    truth, cases, rt, st, fj = write_tables(str(tmp), str(tmp / "tables"))
     rate_files = [p for p in cases if any(p.endswith(f"/{m}.h5") for m in RATE_CASES)]
     fig_dir = tmp / "figures"
     assert figures.main(["--truth", truth, "--cases", *rate_files, "--ranking-table", str(rt),

@@ -135,16 +135,10 @@ def test_a_failed_write_leaves_neither_the_file_nor_its_sidecar(tmp_path):
 def test_the_study_writers_outputs_carry_it(tmp_path):
     """Tables, findings and the scene report of a synthetic study: every file carries provenance,
     the tables' and findings' config hash that of the simulations they were made from."""
-    from results.study import figures, findings, report, tables
-    from tests.results.synthetic_study import write_study
-    truth, cases = write_study(tmp_path / "sim")
+    from results.study import figures, report
+    from tests.results.synthetic_study import write_tables
     out = tmp_path / "out"
-    rt, st = out / "tables" / "errors_ranking.csv", out / "tables" / "errors_static.csv"
-    assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
-                        "--static-table", str(st)]) == 0
-    fj = out / "tables" / "findings.json"
-    assert findings.main(["--ranking-table", str(rt), "--static-table", str(st),
-                          "--csv", str(out / "tables" / "findings.csv"), "--json", str(fj)]) == 0
+    truth, cases, rt, st, fj = write_tables(str(tmp_path), str(out / "tables"))
     assert figures.main(["--truth", truth, "--cases", *cases[:2], "--ranking-table", str(rt),
                          "--static-table", str(st), "--out-dir", str(out / "figures")]) == 0
     pytest.importorskip("typst")
