@@ -310,6 +310,12 @@ class RatePanels:
         # positions of a fresh figure, so it comes out as on a figure of its own
         self.start = [(ax, ax.get_position(original=True).frozen()) for ax in fig.get_axes()]
         pin_empty_decorations(fig)
+        # every panel has tick labels left and below, beyond its frame's tick marks: the frame
+        # (spines) never widens a panel's margins, so the layout need not measure it (~7 % of a
+        # rate figure's time); ``test_rate_panels_layout_ignores_no_frame`` checks it
+        for ax in fig.get_axes():
+            for spine in ax.spines.values():
+                spine.set_in_layout(False)
         self.engine = fig.get_layout_engine()
         with plt.rc_context({"figure.autolayout": False, "figure.constrained_layout.use": False}):
             fig.set_layout_engine(None)          # no engine: savefig draws once (``fix_layout``)

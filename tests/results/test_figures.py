@@ -119,6 +119,31 @@ def test_reused_rate_panels_draw_as_a_fresh_figure(sims, tmp_path):
             p.close()
 
 
+def test_rate_panels_layout_ignores_no_frame(sims, tmp_path):
+    """The rate panels' layout leaves their frames (spines) out: it places every panel where the
+    layout with the frames measured does (to rounding)."""
+    truth, rigid = read_sim(sims["truth"]), read_sim(sims["rigid"])
+    panels = {}
+    figures.plot_rates(truth, read_sim(sims["cases"][0]), str(tmp_path / "r"), "Truth vs x", rigid=rigid,
+                       panels=panels)
+    (p,) = panels.values()
+    try:
+        without = [ax.get_position().bounds for ax in p.fig.get_axes()]
+        assert not any(s.get_in_layout() for ax in p.fig.get_axes() for s in ax.spines.values())
+        for ax in p.fig.get_axes():
+            for spine in ax.spines.values():
+                spine.set_in_layout(True)
+        with figures._plt().rc_context(figures.RATE_RC):
+            for ax, start in p.start:                       # from the same start, frames measured
+                ax.set_position(start)
+                ax.set_in_layout(True)
+            figures.solve_layout(p.fig, p.engine)
+        measured = [ax.get_position().bounds for ax in p.fig.get_axes()]
+        assert np.allclose(measured, without, rtol=0.0, atol=1e-12)     # up to rounding
+    finally:
+        p.close()
+
+
 def _panels_figure():
     plt = figures._plt()
     fig, axes = plt.subplots(2, 2, figsize=(7.0, 5.6), constrained_layout=True)
