@@ -30,7 +30,7 @@ WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "report_scene"}
 # rules whose stage checks the body files it reads (directly, or through the reduction, ranking and
 # reduced-model files made from them) against the configuration (--config {CONFIG},
 # solver/bodyconfig.py): params.cfg is what it compares them with, every body file's config hash
-BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "reduced_model", "simulate", "study_scene", "truth_basis",
+BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "load_ranking_first", "study_scene_first", "reduced_model", "simulate", "study_scene", "truth_basis",
                  "reference_simulation", "dynamics_verification", "stability", "pareto", "selection",
                  "exponential_bench", "exponential_accuracy", "integrator_tables"}
 # ... and those that check one body's files (params.cfg = that body file's config hash)
@@ -298,3 +298,20 @@ def test_modes_rule_hash_is_the_body_files_config_hash(workflow, config):
     modes = workflow.get_rule("modes_body")
     for n in BODIES:
         assert modes.params.cfg(Wildcards(fromdict={"n": str(n)})) == cfgmod.inputs_hash(cfgmod.body_inputs(config, n))
+
+
+def test_the_longest_scenes_chain_has_the_priority(workflow):
+    """The scene with the longest duration (`long`) is made by the *_first copies of load_ranking and
+    study_scene, whose priority is higher, and only that scene (results.smk, FIRST_SCENE)."""
+    scenes = workflow.globals["STUDY_SCENES"]
+    durations = {s: workflow.globals["dag_scene"](s).duration for s in scenes}
+    assert workflow.globals["FIRST_SCENE"] == max(durations, key=durations.get) == "long"
+    for name in ("load_ranking", "study_scene"):
+        general, first = workflow.get_rule(name), workflow.get_rule(f"{name}_first")
+        assert first.priority > general.priority
+        assert first.wildcard_constraints == {"scene": "long"}
+        # both could make long's files: the ruleorder picks the first copy (compare > 0: preferred)
+        output = "results/reduction/load/long.h5" if name == "load_ranking" else "results/study/long/sim/truth.h5"
+        assert first.is_producer(output) and general.is_producer(output)
+        assert workflow._ruleorder.compare(first, general) > 0
+        assert not first.is_producer(output.replace("long", "thesis"))
