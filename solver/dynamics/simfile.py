@@ -3,7 +3,7 @@
 This module owns the contract.  Datasets: ``t`` (T,) [s], ``gamma`` (T, 4)
 [rad], ``gamma_dot`` (T, 4) [rad/s], optionally ``q``, ``q_dot`` (T, sum D)
 modal coordinates (``--store-modal``), ``energy/{kinetic, potential, total,
-input_work}`` (T,) [in lbf], ``platform_attitude`` (T, 3, 3) the stable platform's frame
+input_work}`` (T,) [in lbf] (unless the run was told ``--no-energy``), ``platform_attitude`` (T, 3, 3) the stable platform's frame
 in case axes (``multibody.platform_attitude``; rotation matrices, dimensionless).  Attributes: scene, model, integrator, step [s],
 steps, wall_time_s, integration_time_s [s], config_hash, omega_max [rad/s],
 modal_omega_max, stability_limit [s], n_modes (4,), units, created, the
@@ -23,9 +23,9 @@ from workflow.provenance import atomic_h5
 
 def write_sim(path, run, energies, attrs, store_modal=False, attitude=None):
     """Write a run atomically.  run: ``integrators.Run`` (t, y, yd, stats);
-    energies: (kinetic, potential, input_work) (T,) each [in lbf]; attrs: file attributes;
+    energies: (kinetic, potential, input_work) (T,) each [in lbf], or None (no energy group);
+    attrs: file attributes;
     attitude: the platform's frame (T, 3, 3) in case axes, if computed."""
-    T, U, W = energies
     with atomic_h5(path) as f:
         f["t"] = run.t
         f["gamma"] = run.y[:, :4]
@@ -35,8 +35,10 @@ def write_sim(path, run, energies, attrs, store_modal=False, attitude=None):
         if store_modal:
             f["q"] = run.y[:, 4:]
             f["q_dot"] = run.yd[:, 4:]
-        g = f.create_group("energy")
-        g["kinetic"], g["potential"], g["total"], g["input_work"] = T, U, T + U, W
+        if energies is not None:
+            T, U, W = energies
+            g = f.create_group("energy")
+            g["kinetic"], g["potential"], g["total"], g["input_work"] = T, U, T + U, W
         for k, v in attrs.items():
             f.attrs[k] = v
         for k, v in run.stats.items():

@@ -214,6 +214,10 @@ def build_parser():
                     help=f"refuse a scene with more output samples (default {MAX_SAMPLES:g}, and "
                          f"{MAX_OUTPUT_GIB:g} GiB of outputs)")
     ap.add_argument("--store-modal", action="store_true", help="also store q(t), q'(t)")
+    ap.add_argument("--no-energy", action="store_true",
+                    help="leave the energy history out of the file (one right-hand side and the case "
+                         "power per output sample: as long as the run itself on a reduced model of "
+                         "the 1 s scene long)")
     return ap
 
 
@@ -296,7 +300,8 @@ def main(argv=None):
     attrs.update({f"version_{k}": str(v) for k, v in versions().items()})
     attrs["version_numba"] = numba.__version__      # the compiled right-hand side
     try:
-        simfile.write_sim(out, run, energy_history(prob, run), attrs, args.store_modal,
+        energies = None if args.no_energy else energy_history(prob, run)
+        simfile.write_sim(out, run, energies, attrs, args.store_modal,
                           platform_attitude(chain, run))
     except OSError as exc:
         print(f"simulate: {cli.write_failure(out, exc)}", file=sys.stderr)

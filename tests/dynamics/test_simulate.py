@@ -49,6 +49,22 @@ def test_output_goes_where_the_caller_says(tmp_path, model_file):
     assert sorted(os.listdir(tmp_path / "elsewhere")) == ["run.h5"]
 
 
+def test_no_energy_leaves_out_only_the_energy_group(tmp_path, model_file):
+    """--no-energy (the study's reduced models): the same run, the energy group left out, and the
+    file still reads (simfile.read_sim has no energy then)."""
+    from solver.dynamics import simfile
+    scene = copied_scene(tmp_path, "thesis_copy", "thesis_copy")
+    paths = {flag: tmp_path / f"run{k}.h5" for k, flag in enumerate(((), ("--no-energy",)))}
+    for flag, out in paths.items():
+        assert simulate.main(["--scene", str(scene), "--model-file", str(model_file), "--out", str(out),
+                              *flag]) == 0
+    full, bare = (simfile.read_sim(paths[f]) for f in ((), ("--no-energy",)))
+    assert "energy" in full and "energy" not in bare
+    assert np.all(np.isfinite(full["energy"]["kinetic"])) and np.ptp(full["energy"]["kinetic"]) > 0
+    np.testing.assert_array_equal(full["gamma_dot"], bare["gamma_dot"])
+    np.testing.assert_array_equal(full["platform_attitude"], bare["platform_attitude"])
+
+
 @pytest.mark.parametrize("scene_name, fast", [("thesis", True), ("thesis", False), ("free", True)])
 def test_energy_history_equals_the_per_sample_energies(scene_name, fast):
     """Problem.energy_history (the simulation file's energies, all samples at once) gives what
