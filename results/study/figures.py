@@ -531,11 +531,26 @@ def _size(r):
     return float(r["n_elastic"]) if r.get("n_elastic") not in (None, "") else float("nan")
 
 
+def log_ticks_for(ax, values, plt) -> None:
+    """Readable log-axis ticks on y for data ``values`` (positive ones used): a span under three
+    decades gets labels at 1, 2 and 5 of each decade (a single "10^-2" otherwise), plain numbers."""
+    pos = np.asarray(values, float)
+    pos = pos[np.isfinite(pos) & (pos > 0)]
+    if pos.size and pos.max() < 1e3 * pos.min():
+        ax.yaxis.set_major_locator(plt.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+        # (a span under a decade falls back to linear ticks such as 0.00125: three digits)
+        ax.yaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: f"{v:.3g}"))
+        ax.yaxis.set_minor_formatter(plt.NullFormatter())
+
+
 def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal", rigid_E=None) -> dict:
     """Scatter of each case's size (elastic coordinates) against E (log) of one rate, the Pareto
-    front, the truth's size as a vertical line and the rigid model's E (``rigid_E``, optional) as
-    a horizontal one; legend below the axes.  (Sizes, not the study's single-run wall times: run
-    times come from the benchmark's medians, ``snakemake bench``.)"""
+    front and the rigid model's E (``rigid_E``, optional) as a horizontal line; the truth's size is
+    named in the legend (it is far right of the cases: 400 against at most 100 coordinates, so a line
+    there would squeeze them into a quarter of the axes); legend below the axes.  The front's points
+    are labelled with their model, except the rigid one (at size 0, its line is labelled).  (Sizes,
+    not the study's single-run wall times: run times come from the benchmark's medians,
+    ``snakemake bench``.)"""
     plt = _plt()
     # the truth check (the truth + residual flexibility) referees the truth: not a case
     cases = [r for r in rows if r["group"] not in ("truth", "truth-check") and np.isfinite(_size(r))]
@@ -554,23 +569,24 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
             ax.step(cost[front], err[front], where="post", color="0.3", lw=1, ls="--",
                     label="Pareto front", zorder=2)
             for i in front:
-                ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=9, xytext=(4, 3),
-                            textcoords="offset points")
+                if cases[i]["model"] != RIGID:
+                    ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=9, xytext=(-5, -11),
+                                textcoords="offset points", ha="right")
         if truth and np.isfinite(_size(truth[0])):
-            ax.axvline(_size(truth[0]), color="black", lw=1,
-                       label=f"truth: {_size(truth[0]):.0f} coordinates")
+            ax.plot([], [], ls="none", label=f"truth (off the axis): {_size(truth[0]):.0f} coordinates")
         if rigid_E is not None and np.isfinite(rigid_E) and rigid_E > 0:
             ax.axhline(rigid_E, color="black", lw=1, ls=":", label=f"rigid model: E = {rigid_E:.3g}")
         ax.set_yscale("log")
-        pos = err[np.isfinite(err) & (err > 0)]
-        if pos.size and pos.max() < 10 * pos.min():      # within a decade: label the minor ticks
-            ax.yaxis.set_minor_formatter(plt.FormatStrFormatter("%.2g"))
-            ax.tick_params(axis="y", which="minor", labelsize=9)
+        log_ticks_for(ax, err, plt)
+        finite = cost[np.isfinite(cost)]
+        if finite.size:
+            ax.set_xlim(-0.04 * finite.max() - 1, 1.12 * finite.max() + 1)
         ax.set_xlabel("elastic coordinates of the model")
         ax.set_ylabel(f"E of {RATE_LABELS[2]} [-]")
         handles, labels = ax.get_legend_handles_labels()
-        fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=9, frameon=False)
-        low = 0.02 + ((len(handles) + 1) // 2) * 9 * 1.55 / 72 / fig.get_figheight()
+        fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False,
+                   columnspacing=1.0, handlelength=1.6)
+        low = 0.02 + ((len(handles) + 1) // 2) * 8 * 1.55 / 72 / fig.get_figheight()
         fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         ax.set_title("Model size against error (eq 3.53)")
         return save_pdf(fig, stem)
@@ -700,8 +716,8 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
             baseline=RIGID if E_rigid is not None else None,
             caption=f"Size of each case (elastic coordinates){on} against the error E of the outer "
                     "gimbal rate; dashed: the Pareto front (no case is both smaller and more "
-                    "accurate); vertical line: the truth model's size. Run times: the benchmark's "
-                    "medians (snakemake bench), not single runs"
+                    "accurate), each of its points labelled with its model; the truth's size is named "
+                    "in the legend. Run times: the benchmark's medians (snakemake bench), not single runs"
                     + ("; dotted: the rigid model's E." if E_rigid is not None else
                        "; rigid-model baseline not available."))
     return entries

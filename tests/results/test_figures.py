@@ -297,3 +297,20 @@ def test_mode_shape_figures_and_captions(tmp_path):
     import matplotlib.image as mpimg
     h, w = mpimg.imread(out / "m.png").shape[:2]
     assert w == 7 * mode_shapes.PNG_DPI                        # A4 text width at print resolution
+
+
+@pytest.mark.parametrize("low, high, at_least", [(3.5e-3, 0.08, 4), (1.1e-3, 2.9e-3, 4)])
+def test_log_axis_labels_several_values_over_a_short_span(low, high, at_least):
+    """Errors spanning 1.4 decades (thesis) or under one (long) get several labelled y ticks, not a
+    lone "10^-2"; the labels are the tick values to three digits (no 0.00125 shown as 0.0013)."""
+    plt = figures._plt()
+    fig, ax = plt.subplots()
+    ax.semilogy([0, 1], [low, high])
+    figures.log_ticks_for(ax, [low, high], plt)
+    fig.canvas.draw()
+    ymin, ymax = ax.get_ylim()
+    shown = [(tick, label.get_text()) for tick, label in zip(ax.get_yticks(), ax.get_yticklabels())
+             if ymin <= tick <= ymax and label.get_text()]
+    plt.close(fig)
+    assert len(shown) >= at_least, shown
+    assert all(float(text) == pytest.approx(tick, rel=5e-3) for tick, text in shown), shown
