@@ -132,3 +132,18 @@ def test_report_builds_without_inputs(tmp_path):
 
 def test_study_groups_have_labels():
     assert set(GROUPS) <= set(GROUP_LABELS) and set(GROUPS) <= set(figures.GROUP_STYLE)
+
+
+def test_summary_names_the_rigid_baseline_and_the_best_reduced_model():
+    """The scene summary counts the reduced models that beat the rigid one on the outer rate and
+    names the most accurate reduced model; the truth check (truth + residual flexibility, here the
+    smallest E) referees the truth and is neither."""
+    def row(group, model, e, n):
+        return {"group": group, "model": model, "E_outer_gimbal": e, "n_elastic": n}
+    rows = [row("rigid", "rigid", 0.04, 0), row("freq", "freq-5", 0.05, 20), row("freq", "freq-25", 0.03, 100),
+            row("global", "global-40", 0.02, 40), row("truth-check", "static-100", 2e-12, 404)]
+    text = "".join(report._summary({"ranking_rows": rows, "static_rows": [], "findings": [],
+                                    "truth": True, "missing": {}}))
+    assert '#"2" of #"3" reduced models beat it' in text           # Typst source: #"..." is text
+    assert 'Most accurate reduced model on the outer gimbal rate: #"global-40"' in text
+    assert "static-100" not in text

@@ -60,8 +60,18 @@ rule mode_shapes_body:
         mesh="results/mesh/body{n}.msh",
         reduction="results/reduction/body{n}.h5",
     output:
-        png="results/figures/mode_shapes_body{n}.png",
-        static_png="results/figures/static_modes_body{n}.png",
+        png=report(
+            "results/figures/mode_shapes_body{n}.png",
+            category="Figures",
+            subcategory="Mode shapes",
+            caption="../report/mode_shapes.rst",
+        ),
+        static_png=report(
+            "results/figures/static_modes_body{n}.png",
+            category="Figures",
+            subcategory="Mode shapes",
+            caption="../report/static_modes.rst",
+        ),
         manifest="results/figures/mode_shapes_body{n}.json",
         vtu="results/modes/shapes/body{n}.vtu",
     params:

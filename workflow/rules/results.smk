@@ -131,7 +131,32 @@ rule study_figures:
         ranking="results/tables/{scene}/errors_ranking.csv",
         static="results/tables/{scene}/errors_static.csv",
     output:
-        "results/figures/study/{scene}/figures.json",
+        manifest="results/figures/study/{scene}/figures.json",
+        # the summary figures, for `snakemake --report` (the rate figures are in the scene's PDF)
+        error_ranking=report(
+            "results/figures/study/{scene}/error_ranking.pdf",
+            category="Figures",
+            subcategory="{scene}",
+            caption="../report/error_ranking.rst",
+        ),
+        error_static=report(
+            "results/figures/study/{scene}/error_static.pdf",
+            category="Figures",
+            subcategory="{scene}",
+            caption="../report/error_static.rst",
+        ),
+        error_load_cases=report(
+            "results/figures/study/{scene}/error_load_cases.pdf",
+            category="Figures",
+            subcategory="{scene}",
+            caption="../report/error_load_cases.rst",
+        ),
+        runtime_error=report(
+            "results/figures/study/{scene}/runtime_error.pdf",
+            category="Figures",
+            subcategory="{scene}",
+            caption="../report/runtime_error.rst",
+        ),
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
