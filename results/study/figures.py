@@ -531,6 +531,17 @@ def _size(r):
     return float(r["n_elastic"]) if r.get("n_elastic") not in (None, "") else float("nan")
 
 
+def tick_number(v) -> str:
+    """A tick value to three digits: plain between 1e-3 and 1e3 (0.005), else m x 10^e in mathtext."""
+    if v == 0 or 1e-3 <= abs(v) < 1e3:
+        return f"{v:.3g}"
+    exponent = int(np.floor(np.log10(abs(v))))
+    mantissa = float(f"{v / 10.0 ** exponent:.3g}")
+    if mantissa == 10.0:
+        mantissa, exponent = 1.0, exponent + 1
+    return f"$10^{{{exponent}}}$" if mantissa == 1.0 else f"${mantissa:g}\\times10^{{{exponent}}}$"
+
+
 def log_ticks_for(ax, values, plt) -> None:
     """Readable log-axis ticks on y for data ``values`` (positive ones used): a span under three
     decades gets labels at 1, 2 and 5 of each decade (a single "10^-2" otherwise), plain numbers."""
@@ -539,8 +550,35 @@ def log_ticks_for(ax, values, plt) -> None:
     if pos.size and pos.max() < 1e3 * pos.min():
         ax.yaxis.set_major_locator(plt.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
         # (a span under a decade falls back to linear ticks such as 0.00125: three digits)
-        ax.yaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: f"{v:.3g}"))
+        ax.yaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: tick_number(v)))
         ax.yaxis.set_minor_formatter(plt.NullFormatter())
+
+
+# where a point's label may go, tried in this order: (dx, dy) in points and the text's alignment
+LABEL_SPOTS = ((-5, -12, "right"), (5, -12, "left"), (5, 4, "left"), (-5, 4, "right"),
+               (-5, -22, "right"), (5, -22, "left"), (5, 14, "left"), (-5, 14, "right"))
+
+
+def label_points(ax, points, fontsize=9) -> None:
+    """Label each point (text, x, y) in data coordinates at the first of ``LABEL_SPOTS`` where the
+    text neither overlaps a label already placed nor leaves the axes; a point with no free spot
+    keeps no label (the legend names its group).  Measured after the axes' limits are final."""
+    fig = ax.figure
+    fig.canvas.draw()                            # the limits and the transforms are set
+    renderer = fig.canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    placed = []
+    for text, x, y in points:
+        for dx, dy, ha in LABEL_SPOTS:
+            label = ax.annotate(text, (x, y), fontsize=fontsize, xytext=(dx, dy),
+                                textcoords="offset points", ha=ha)
+            box = label.get_window_extent(renderer)
+            inside = (box.x0 >= frame.x0 and box.x1 <= frame.x1 and box.y0 >= frame.y0
+                      and box.y1 <= frame.y1)
+            if inside and not any(box.overlaps(other) for other in placed):
+                placed.append(box)
+                break
+            label.remove()
 
 
 def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal", rigid_E=None) -> dict:
@@ -568,10 +606,6 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
         if front:
             ax.step(cost[front], err[front], where="post", color="0.3", lw=1, ls="--",
                     label="Pareto front", zorder=2)
-            for i in front:
-                if cases[i]["model"] != RIGID:
-                    ax.annotate(cases[i]["model"], (cost[i], err[i]), fontsize=9, xytext=(-5, -11),
-                                textcoords="offset points", ha="right")
         if truth and np.isfinite(_size(truth[0])):
             ax.plot([], [], ls="none", label=f"truth (off the axis): {_size(truth[0]):.0f} coordinates")
         if rigid_E is not None and np.isfinite(rigid_E) and rigid_E > 0:
@@ -581,6 +615,9 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
         finite = cost[np.isfinite(cost)]
         if finite.size:
             ax.set_xlim(-0.04 * finite.max() - 1, 1.12 * finite.max() + 1)
+        pos = err[np.isfinite(err) & (err > 0)]
+        if pos.size:                             # room below the lowest point for its label
+            ax.set_ylim(pos.min() / 1.6, pos.max() * 1.3)
         ax.set_xlabel("elastic coordinates of the model")
         ax.set_ylabel(f"E of {RATE_LABELS[2]} [-]")
         handles, labels = ax.get_legend_handles_labels()
@@ -589,6 +626,8 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
         low = 0.02 + ((len(handles) + 1) // 2) * 8 * 1.55 / 72 / fig.get_figheight()
         fig.get_layout_engine().set(rect=(0, low, 1, 1 - low))
         ax.set_title("Model size against error (eq 3.53)")
+        # last: the labels are placed in the final axes
+        label_points(ax, [(cases[i]["model"], cost[i], err[i]) for i in front if cases[i]["model"] != RIGID])
         return save_pdf(fig, stem)
 
 
