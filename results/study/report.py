@@ -46,7 +46,7 @@ from results.study.cases import (
 from results.study.tables import RATE_COLUMNS, read_table
 from solver.bodydata import BODIES
 from solver.dynamics.simfile import read_sim
-from workflow import yamlfile
+from workflow import units, yamlfile
 from workflow.config import BODY_NAMES, load_config
 from workflow.provenance import atomic_path, provenance, typst_metadata, versions
 
@@ -455,10 +455,8 @@ def _methods_section(ctx):
                "translation and rotation of its inner bearings. The kinetic energy with the modal "
                "integrals of each body gives Lagrange's equations "
                "$M(y) dot.double(y) = f(t, y, dot(y))$ for $y = (gamma_1..gamma_4, q)$, solved by an "
-               "articulated-body recursion (docs/dynamics.md). The case is driven by the angular "
-               "acceleration $cos(2 pi dot 2 t)$ rad/s#super[2] about X from rest; the middle gimbal "
-               "starts at $-pi\\/2$; motor torques are zero; the scene lasts 15 ms (thesis Tables 2.4, "
-               "2.5 and Section 3.1).\n\n== Integrator\n\n")
+               "articulated-body recursion (docs/dynamics.md). " + _scene_sentence(ctx.get("scene")) +
+               "\n\n== Integrator\n\n")
     integ = _integrators(ctx)
     if integ:
         out.append(f"Integrators used: {s(integ)}. The exponential integrator (the workflow's "
@@ -476,6 +474,46 @@ def _methods_section(ctx):
                "Both integrals use the trapezoid rule on the common output grid. $E = 1$ is an "
                "error as large as the signal itself.\n\n")
     return "".join(out)
+
+
+def duration_text(seconds) -> str:
+    """A duration for the text: 15 ms, 1 s."""
+    return f"{seconds * 1e3:.4g} ms" if seconds < 1.0 else f"{seconds:.4g} s"
+
+
+def _scene_sentence(scene) -> str:
+    """What drives the chain on this scene, from its file (values read in their units): the case's
+    angular acceleration a cos(2 pi f t + phase) per axis, the initial angles, the motor torques,
+    the modal damping and the duration; the thesis scene's sources (Tables 2.4, 2.5, Section 3.1)."""
+    if not scene:
+        return "The scene file was not given."
+    motion = scene.get("case_motion", {})
+    amp = units.convert(motion["angular_acceleration_amplitude"], "rad/s^2", "angular_acceleration_amplitude")
+    freq = units.convert(motion["angular_acceleration_frequency"], "Hz", "angular_acceleration_frequency")
+    phase = units.convert(motion["angular_acceleration_phase"], "rad", "angular_acceleration_phase")
+    terms = []
+    for axis, a, f, ph in zip("XYZ", amp, freq, phase):
+        if a:
+            shift = "" if ph == 0 else f" {'+' if ph > 0 else '-'} {abs(ph):.4g}"
+            scale = "" if a == 1 else f"{a:g} "
+            terms.append(f"${scale}cos(2 pi dot {f:g} t{shift})$ rad/s#super[2] about {axis}")
+    drive = " and ".join(terms) if terms else "no angular acceleration (the case at rest)"
+    # the acceleration at t = 0 (rad/s^2): a step there sets off the ringing of the coupled modes
+    at_start = max((abs(a * np.cos(ph)) for a, ph in zip(amp, phase)), default=0.0)
+    steps = at_start > 1e-9 * max((abs(a) for a in amp), default=0.0)
+    angles = units.convert(scene["initial_angles"], "rad", "initial_angles")
+    torques = units.convert(scene["motor_torques"], "in*lbf", "motor_torques")
+    damping = units.convert(scene["damping_ratio"], "1", "damping_ratio")
+    duration = units.convert(scene["duration"], "s", "duration")
+    gimbal_angles = ", ".join(f"{a:.4g}" for a in angles)
+    return (f"On this scene ({s(scene.get('name', ''))}: {s(scene.get('description', ''))}) the case is "
+            f"driven by the angular acceleration {drive}, "
+            + (f"which steps from zero to {at_start:.3g} rad/s#super[2] at $t = 0$" if steps
+               else "which rises from zero at $t = 0$ (no step)")
+            + f"; the joint angles start at ({gimbal_angles}) rad; the motor torques are "
+            + ("zero" if not any(torques) else ", ".join(f"{t:g}" for t in torques) + " in lbf")
+            + f"; modal damping ratio {damping:g}; the scene lasts {duration_text(duration)} "
+            "(the thesis's scene: its Tables 2.4, 2.5 and Section 3.1).")
 
 
 def _integrators(ctx):
@@ -636,13 +674,16 @@ def _runtime_section(ctx, root):
         out.append(note(s(ctx["missing"].get("exponential_bench", "no benchmark") + ";") +
                         " no run time is quoted from single runs."))
     if rows:
-        body = [[s(r["model"]), s(r["n_elastic"]), sci(r["E_outer_gimbal"]), sci(r["E_middle_gimbal"]),
+        body = [[s(r["model"] + (" (truth check)" if r["group"] == "truth-check" else "")),
+                 s(r["n_elastic"]), sci(r["E_outer_gimbal"]), sci(r["E_middle_gimbal"]),
                  sci(r["E_inner_gimbal"]), sci(r["E_stable_platform"]),
                  sci(r.get("attitude_max_arcsec", float("nan"))), s(r["steps"])] for r in rows]
         out.append(table(["model", "elastic coord.", "E outer", "E middle", "E inner", "E platform",
                           "attitude [arcsec]", "steps"], body,
                          "Every case by its size (elastic coordinates): E per rate, the largest "
-                         "platform attitude error against the truth, and the integrator's steps.",
+                         "platform attitude error against the truth, and the integrator's steps. "
+                         "The truth check (the truth + 1 static mode per body) measures the truth's "
+                         "truncation, not a reduced model.",
                          "tab-runtime", size="6.5pt"))
     elif not rt:
         out.append(note(ctx["missing"].get("ranking_table", "error tables")))

@@ -147,3 +147,17 @@ def test_summary_names_the_rigid_baseline_and_the_best_reduced_model():
     assert '#"2" of #"3" reduced models beat it' in text           # Typst source: #"..." is text
     assert 'Most accurate reduced model on the outer gimbal rate: #"global-40"' in text
     assert "static-100" not in text
+
+
+@pytest.mark.parametrize("name, duration, start", [("thesis", "lasts 15 ms", "steps from zero to 1 rad"),
+                                                   ("smooth", "lasts 15 ms", "rises from zero"),
+                                                   ("long", "lasts 1 s", "steps from zero to 1 rad"),
+                                                   ("damped", "damping ratio 0.01", "steps from zero")])
+def test_methods_describe_the_scene_from_its_file(name, duration, start):
+    """The scene report's methods say what drives the chain on its own scene, read from the scene file
+    (the text said "the scene lasts 15 ms" on the 1 s scene long)."""
+    import os
+    from solver.dynamics.scenes import SCENES_DIR
+    from workflow import yamlfile
+    text = report._scene_sentence(yamlfile.load_file(os.path.join(SCENES_DIR, f"{name}.yaml")))
+    assert duration in text and start in text
