@@ -131,8 +131,8 @@ def changed_value(path, value):
 def full(n):
     """Readers of a body's resolved inputs beyond its mesh (workflow.config.body_inputs(n))."""
     out = {f"modes_body[{n}]", f"verify_convergence[{n}]", f"modes_body_large[{n}]"}
-    if n == 4:   # the coarse body of the Hughes identities: body 4 at 0.5 in
-        out |= {"coarse_body_all_modes", "verify_check[hughes]"}
+    if n == 4:   # the coarse body of the Hughes identities: body 4 at COARSE_SIZE (0.75 in); the
+        out |= {"coarse_body_all_modes"}      # check itself reads only that file (its input)
     if n == 2:   # the connection study and the MPI check use body 2
         out |= {"verify_check[connection]", "verify_mpi"}
     return out
@@ -149,8 +149,8 @@ def mesh_part(n):
 
 
 def mesh_size(n):
-    """Readers of the body's configured mesh size (the coarse rules and the Hughes check use 0.5 in)."""
-    return mesh_part(n) - {"coarse_mesh", "coarse_body_all_modes", "verify_check[hughes]"}
+    """Readers of the body's configured mesh size (the coarse rules use COARSE_SIZE instead)."""
+    return mesh_part(n) - {"coarse_mesh", "coarse_body_all_modes"}
 
 
 RINGS = (2, 3, 4)
