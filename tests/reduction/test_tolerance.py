@@ -47,12 +47,17 @@ def test_grammar(name, eps):
     assert m.needs_load_ranking(name) and m.needs_reduction_rankings(name)
 
 
-@pytest.mark.parametrize("name, message", [("tol-", "positive number"), ("tol-abc", "positive number"),
-                                           ("tol--1e-3", "positive number"), ("tol-0", "positive"),
-                                           ("tol-1e-4@2:output_motor_fz", "no static modes")])
-def test_grammar_errors(name, message):
+@pytest.mark.parametrize("parse, name, message", [
+    ("parse_tolerance", "tol-", "positive number"), ("parse_tolerance", "tol-abc", "positive number"),
+    ("parse_tolerance", "tol--1e-3", "positive number"), ("parse_tolerance", "tol-0", "positive"),
+    ("parse_tolerance", "tol-1e-4@2:output_motor_fz", "no static modes"),
+    ("parse_request", "tol-1e-4-att-", "positive number"), ("parse_request", "tol-1e-4-att-0", "attitude"),
+    ("parse_request", "tol-1e-4-att-x", "positive number"),
+    ("parse_request", "tol-1e-4-att-2-att-3", "positive number")])
+def test_grammar_errors(parse, name, message):
+    """A bad accuracy request (tol-EPS, and tol-EPS-att-ARCSEC) is refused in one line naming why."""
     with pytest.raises(m.ModelError, match=message):
-        m.parse_tolerance(name)
+        getattr(m, parse)(name)
 
 
 def test_choice_on_synthetic_ranking(tmp_path):
@@ -297,14 +302,6 @@ def test_attitude_grammar(name, request_):
     assert m.parse_request(name) == request_
     assert m.parse_tolerance(name) == request_[0] and m.parse_attitude(name) == request_[1]
     assert m.needs_load_ranking(name) and m.parse_request("global-40") is None
-
-
-@pytest.mark.parametrize("name, message", [("tol-1e-4-att-", "positive number"), ("tol-1e-4-att-0", "attitude"),
-                                           ("tol-1e-4-att-x", "positive number"),
-                                           ("tol-1e-4-att-2-att-3", "positive number")])
-def test_attitude_grammar_errors(name, message):
-    with pytest.raises(m.ModelError, match=message):
-        m.parse_request(name)
 
 
 def test_attitude_request_has_no_a_priori_answer(tmp_path):
