@@ -50,9 +50,11 @@ import numba
 import numpy as np
 
 from solver.dynamics.kernels import JIT
-from solver.dynamics.kernels.exponential import advance_diagonal, modal_xi, phi_table
+from solver.dynamics.kernels.exponential import advance_diagonal, dense_diagonal, modal_xi, phi_table
 
 N_JOINTS = 4
+# the undamped bank's dense outputs by the particular polynomial (dense_diagonal), not per-output weights
+DENSE_POLYNOMIAL = True
 
 # what pece_run returns: a request to Python, or DONE (module docstring)
 DONE = 0
@@ -809,6 +811,18 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             coef = work.coef[:ints[COEF_ROWS]]
             first = i // tpo + 1
             last = (i + m) // tpo
+            inside = last - first + 1 if (i + m) % tpo else last - first   # outputs before t + h
+            if DENSE_POLYNOMIAL and b.P_eta.shape[0] == 0 and i % tpo == 0 and inside >= 1:
+                # the undamped bank: particular polynomial + free oscillation, one set of weights
+                # (one output interval) for all outputs (kernels.exponential.dense_diagonal)
+                c = weights(*cache, *bank[:2], grid[0], tick, grid[2], grid[3], tpo, tpo)
+                dense_diagonal(eta, etad, work.xi_re, work.xi_im, coef, b.mu, b.delta, h, tpo * tick,
+                               inside, w.E_re[c], w.E_im[c], cfg.series_radius, cfg.series_terms,
+                               w.inv_fact, w.fact, out.eta[first:first + inside],
+                               out.etad[first:first + inside])
+                for k in range(first, first + inside):
+                    out.segment[k] = ints[SEGMENT]
+                first += inside
             for k in range(first, last + 1):
                 offset = k * tpo - i
                 if offset < m:
