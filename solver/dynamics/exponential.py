@@ -577,7 +577,7 @@ class ExponentialAdams:
                               rate_scales=np.zeros(j), phase=np.zeros(m), kappa=np.zeros(m),
                               phase_ref=np.zeros(j))
         self.work = pece.Work(*(np.zeros(n) for _ in range(11)), coef=np.zeros((K + 2, n)),
-                              xi_re=np.zeros(m), xi_im=np.zeros(m))
+                              xi_re=np.zeros(m), xi_im=np.zeros(m), omega2_old=np.zeros(n))
         H = self.order + 1
         self.hist = pece.History(t=np.zeros(H), y=np.zeros((H, n)), yd=np.zeros((H, n)),
                                  a=np.zeros((H, n)), g=np.zeros((H, n)),

@@ -111,11 +111,13 @@ def test_issue_table_judges_every_check():
     rows = bench.issue_table(cases, _comparison(), reduced)
     met = {r["check"]: r["met"] for r in rows}
     assert [r["check"] for r in rows] == ["thesis_error", "thesis_integration", "thesis_end_to_end",
-                                          "dop853_speedup", "stress_error", "stress_end_to_end",
+                                          "dop853_speedup", "fastest_integration", "fastest_speedup",
+                                          "stress_error", "stress_end_to_end",
                                           "long_error", "long_end_to_end", "reduced_end_to_end"]
     assert met["thesis_error"] == "yes" and met["thesis_integration"] == "yes"
     assert met["thesis_end_to_end"] == "no"                       # 0.2 s > 0.1 s
     assert met["dop853_speedup"] == "yes"
+    assert met["fastest_integration"] == "not run" and met["fastest_speedup"] == "not run"  # no sweep
     assert met["stress_error"].startswith("failed: exponential") and met["stress_end_to_end"].startswith("failed")
     assert met["long_error"] == "no reference" and met["long_end_to_end"] == "goal met"
     assert met["reduced_end_to_end"] == "no"                      # global-100 over 50 ms
@@ -134,7 +136,7 @@ def test_dop853_ratio_counts_only_at_equal_or_better_error():
     assert (ok["met"], worse["met"], slow["met"]) == ("yes", "no", "no")
     assert "not at equal E" in worse["measured"]
     missing = bench.issue_table(cases, None, [])
-    assert missing[3]["met"] == "not run" and missing[4]["met"] == "not run"   # stress case not run
+    assert missing[3]["met"] == "not run" and missing[6]["met"] == "not run"   # stress case not run
     assert missing[-1]["met"] == "not run"
 
 
@@ -161,6 +163,27 @@ def test_rest_functions_leave_out_what_only_the_parts_call():
                "kernel": {"rhs": 1}, "dot": {"rhs": 1, "integrate": 1}, "advance": {"integrate": 1}}
     rest = set(bench.rest_functions(callers, {"linearise", "rhs"}))
     assert rest == {"main", "integrate", "dot", "advance"}
+
+
+def test_tolerance_sweep_fastest_and_pareto_front():
+    """The fastest swept tolerance meeting E <= 1e-8 (not the fastest overall), its own rows beside
+    the default's, and the Pareto front of (integration, E)."""
+    sweep = [dict(_case("thesis", E=3e-9, integ=0.011), tol=1e-3),
+             dict(_case("thesis", E=2e-8, integ=0.009), tol=3e-3),       # fastest, misses E
+             dict(_case("thesis", E=2e-9, integ=0.014), tol=1e-4),
+             dict(_case("thesis", E=2.5e-9, integ=0.02), tol=3e-5),      # dominated by 1e-4
+             dict(_case("thesis", status="failed: boom"), tol=1e-6)]
+    fastest = bench.fastest_meeting(sweep)
+    assert fastest["tol"] == 1e-3
+    assert bench.pareto_front(sweep) == [1e-3, 3e-3, 1e-4]
+    assert bench.fastest_meeting([dict(_case("thesis", E=None), tol=1e-3)]) is None
+    comp = dict(_comparison(300.0, 2e-10, 3e-9), tol=1e-3)
+    rows = bench.issue_table({"thesis": _case("thesis")}, _comparison(), [], fastest, comp)
+    met = {r["check"]: r for r in rows}
+    assert met["fastest_integration"]["met"] == "yes" and "tol 0.001" in met["fastest_integration"]["measured"]
+    assert met["fastest_speedup"]["met"] == "no" and "exponential tol 0.001" in met["fastest_speedup"]["measured"]
+    md = bench.format_markdown(rows, {}, None, [], None, {}, {"title": "T"}, sweep)
+    assert "| 0.001 (*fastest*) | 11 ms |" in md and "| 1e-06 | failed: boom |" in md
 
 
 def test_markdown_and_csv_formats():
@@ -262,7 +285,7 @@ def test_cli_smoke_on_a_synthetic_chain(tmp_path, synthetic_files):
     model, ref = synthetic_files
     assert bench.main(_args(tmp_path, "--reference", f"thesis={ref}", "--scenes", "thesis",
                             "--models", str(model), "--repeats", "1", "--duration", "2e-4",
-                            truth=model)) == 0
+                            "--sweep-tols", "1e-4", truth=model)) == 0
     data = json.loads((tmp_path / "e.json").read_text())
     assert len(data["table"]) == len(bench.TARGETS) and data["targets"] == bench.TARGETS
     thesis = data["truth_cases"]["thesis"]
@@ -283,4 +306,8 @@ def test_cli_smoke_on_a_synthetic_chain(tmp_path, synthetic_files):
     assert "| truth on `stress_rates_10` | E ≤ 1e-8 | not run | not run |" in md
     assert "--duration" in md
     rows = list(csv.DictReader(io.StringIO((tmp_path / "e.csv").read_text())))
-    assert [r["method"] for r in rows] == ["exponential", "dop853", "exponential", "exponential"]
+    swept = data["tolerance_sweep"]
+    assert [c["tol"] for c in swept["cases"]] == [1e-4] and swept["cases"][0]["status"] == "ok"
+    compared = ["dop853", "exponential"] if swept["fastest_meeting_E_1e-8"] == 1e-4 else []
+    assert [r["method"] for r in rows] == ["exponential", "dop853", "exponential", "exponential",
+                                           *compared, "exponential"]

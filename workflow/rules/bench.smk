@@ -17,7 +17,9 @@ SELECTION_MODELS = (
 )
 # Exponential integrator speed (issue 13): one reduced model per family of the study on thesis
 # (each ~50-120 ms a run). The benchmark's cost (loaded 2-core machine, 2026-11-24): the DOP853
-# comparison ~3 min (6 DOP853 runs of 25-40 s), `long` ~2.5 min (6 runs of ~25 s), the rest < 1 min.
+# comparison ~3 min (6 DOP853 runs of 25-40 s), `long` ~2.5 min (6 runs of ~25 s), the rest < 1 min;
+# since 2026-11-25 a second DOP853 comparison at the tolerance sweep's fastest tolerance (~80 s) and
+# the sweep itself (7 tolerances, ~5 s): the whole rule took 167 s there that evening (one core).
 EXPONENTIAL_MODELS = [
     "freq-10",
     "xmx-10",

@@ -96,3 +96,101 @@ def phi_table(z, order, radius, terms, inv_fact, out):
             for j in range(order - 1, 0, -1):
                 acc = zi * acc + inv_fact[j]
                 out[j, i] = acc
+
+
+@numba.njit(**JIT)
+def dense_diagonal(eta, etad, xi_re, xi_im, coef, mu, delta, h, dt, count, Ed_re, Ed_im, radius, terms,
+                   inv_fact, fact, out_eta, out_etad):
+    """The undamped bank's dense outputs at s = k dt, k = 1..count, inside a step of h [s] from
+    (eta, eta') (n,) (xi_re, xi_im: its ``modal_xi``) with the forcing polynomial
+    p(s) = sum_r coef[r] (s / h)^r (coef (kk, n)), into out_eta, out_etad (count, n): the same
+    exact solution as ``advance_diagonal`` with the weights of each length, written as the
+    polynomial particular solution plus the free oscillation, so that no weights per output
+    time are needed.  Mode i (eta'' - 2 Re(mu_i) eta' + |mu_i|^2 eta = p): in u = s / h the
+    particular solution P(u) = sum_k d_k u^k solves W^2 d_k + b (k + 1) d_{k+1}
+    + (k + 2)(k + 1) d_{k+2} = h^2 c_k (W^2 = |mu_i|^2 h^2, b = -2 Re(mu_i) h; backwards from
+    the top degree); the free part xi_h = xi - (P'(0) / h - conj(mu) P(0)) / delta turns by
+    Ed = e^{mu dt} (Ed_re, Ed_im (m,): the weights of one output interval) from output to
+    output; eta = 2 Re xi_h + P(u), eta' = 2 Re(mu xi_h) + P'(u) / h.  The recursion divides
+    by W^2 and its terms grow by (k + 2)(k + 1) / W^2: modes with W < radius (slow against
+    the step) take the phi-function formula of ``advance_diagonal`` instead, per output
+    (``phi_table`` of those modes only).  Joints: eta + H eta' + sum_r H^2 r!/(r+2)! theta^r
+    c_r, eta' + sum_r H r!/(r+1)! theta^r c_r, H = k dt, theta = H / h.  inv_fact, fact
+    (>= terms + kk + 2,) 1/k!, k!."""
+    kk = coef.shape[0]
+    m = mu.shape[0]
+    j = N_JOINTS
+    d = np.zeros((kk + 2, m))
+    h2 = h * h
+    slow = np.zeros(m, dtype=np.int64)
+    n_slow = 0
+    for i in range(m):
+        W2 = (mu[i].real ** 2 + mu[i].imag ** 2) * h2
+        if W2 < radius * radius:
+            slow[n_slow] = i
+            n_slow += 1
+    for k in range(kk - 1, -1, -1):
+        for i in range(m):
+            W2 = (mu[i].real ** 2 + mu[i].imag ** 2) * h2
+            if W2 < radius * radius:
+                continue                    # a slow mode: the phi formula below
+            bb = -2.0 * mu[i].real * h
+            d[k, i] = (h2 * coef[k, j + i] - bb * (k + 1) * d[k + 1, i]
+                       - (k + 2) * (k + 1) * d[k + 2, i]) / W2
+    h_re = np.empty(m)
+    h_im = np.empty(m)
+    for i in range(m):
+        # xi_P(0) = (P'(0) / h - conj(mu) P(0)) / delta
+        p0 = d[0, i]
+        p1 = d[1, i] / h if kk > 1 else 0.0
+        xp = (p1 - np.conj(mu[i]) * p0) / delta[i]
+        h_re[i] = xi_re[i] - xp.real
+        h_im[i] = xi_im[i] - xp.imag
+    mu_re = mu.real.copy()
+    mu_im = mu.imag.copy()
+    if n_slow:
+        zs = np.empty(n_slow, dtype=np.complex128)
+        phis = np.empty((kk + 1, n_slow), dtype=np.complex128)
+    for k in range(count):
+        H = (k + 1) * dt
+        u = H / h
+        for i in range(m):
+            t = Ed_re[i] * h_re[i] - Ed_im[i] * h_im[i]
+            h_im[i] = Ed_re[i] * h_im[i] + Ed_im[i] * h_re[i]
+            h_re[i] = t
+        oe = out_eta[k, j:]
+        od = out_etad[k, j:]
+        for i in range(m):
+            oe[i] = d[kk - 1, i]
+            od[i] = 0.0
+        for r in range(kk - 2, -1, -1):
+            for i in range(m):
+                od[i] = od[i] * u + oe[i]
+                oe[i] = oe[i] * u + d[r, i]
+        for i in range(m):
+            oe[i] += 2.0 * h_re[i]
+            od[i] = od[i] / h + 2.0 * (mu_re[i] * h_re[i] - mu_im[i] * h_im[i])
+        if n_slow:
+            # the slow modes by the phi-function formula (advance_diagonal's, theta^r unfolded)
+            for s in range(n_slow):
+                zs[s] = H * mu[slow[s]]
+            phi_table(zs, kk, radius, terms, inv_fact, phis)
+            for s in range(n_slow):
+                i = slow[s]
+                acc = phis[0, s] * (xi_re[i] + 1j * xi_im[i])
+                tp = 1.0
+                for r in range(kk):
+                    acc += H * fact[r] * phis[r + 1, s] * (tp * coef[r, j + i]) / delta[i]
+                    tp *= u
+                oe[i] = 2.0 * acc.real
+                od[i] = 2.0 * (mu[i] * acc).real
+        for a in range(j):
+            p = eta[a] + H * etad[a]
+            v = etad[a]
+            tp = 1.0
+            for r in range(kk):
+                p += H * H * (fact[r] / fact[r + 2]) * tp * coef[r, a]
+                v += H * (fact[r] / fact[r + 1]) * tp * coef[r, a]
+                tp *= u
+            out_eta[k, a] = p
+            out_etad[k, a] = v

@@ -50,9 +50,11 @@ import numba
 import numpy as np
 
 from solver.dynamics.kernels import JIT
-from solver.dynamics.kernels.exponential import advance_diagonal, modal_xi, phi_table
+from solver.dynamics.kernels.exponential import advance_diagonal, dense_diagonal, modal_xi, phi_table
 
 N_JOINTS = 4
+# the undamped bank's dense outputs by the particular polynomial (dense_diagonal), not per-output weights
+DENSE_POLYNOMIAL = True
 
 # what pece_run returns: a request to Python, or DONE (module docstring)
 DONE = 0
@@ -229,7 +231,8 @@ class Work(NamedTuple):
     etad_q the first step's midpoint and quadratic states; g_p, g_m, g_1 the modal forcing at
     the predicted state, the midpoint and the accepted state; coef (K + 2, n) the corrector's
     polynomial (st.ints[COEF_ROWS] rows), which the dense outputs reuse; xi_re, xi_im (m,) the
-    undamped bank's complex coordinates of the step's start (``modal_xi``; unused damped)."""
+    undamped bank's complex coordinates of the step's start (``modal_xi``; unused damped);
+    omega2_old (n,) Lambda before a frequency update (the history's g follows the change)."""
     eta: np.ndarray
     etad: np.ndarray
     eta_p: np.ndarray
@@ -244,6 +247,7 @@ class Work(NamedTuple):
     coef: np.ndarray
     xi_re: np.ndarray
     xi_im: np.ndarray
+    omega2_old: np.ndarray
 
 
 class History(NamedTuple):
@@ -638,7 +642,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
              st_rate_scales, st_phase, st_kappa, st_phase_ref, hist_t, hist_y, hist_yd, hist_a,
              hist_g, hist_length, ev_t, ev_y, ev_yd, ev_a, out_eta, out_etad, out_segment,
              work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
-             work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im):
+             work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im,
+             work_omega2_old):
     """The exponential Adams PECE loop from where it stopped (st.ints[STAGE]) to the next
     request or to the end (module docstring); returns DONE or the request.
 
@@ -679,7 +684,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
     ev = Evaluation(ev_t, ev_y, ev_yd, ev_a)
     out = Outputs(out_eta, out_etad, out_segment)
     work = Work(work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
-                work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im)
+                work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im,
+                work_omega2_old)
     j = N_JOINTS
     n = work.eta.shape[0]
     nm = n - j
@@ -809,6 +815,18 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             coef = work.coef[:ints[COEF_ROWS]]
             first = i // tpo + 1
             last = (i + m) // tpo
+            inside = last - first + 1 if (i + m) % tpo else last - first   # outputs before t + h
+            if DENSE_POLYNOMIAL and b.P_eta.shape[0] == 0 and i % tpo == 0 and inside >= 1:
+                # the undamped bank: particular polynomial + free oscillation, one set of weights
+                # (one output interval) for all outputs (kernels.exponential.dense_diagonal)
+                c = weights(*cache, *bank[:2], grid[0], tick, grid[2], grid[3], tpo, tpo)
+                dense_diagonal(eta, etad, work.xi_re, work.xi_im, coef, b.mu, b.delta, h, tpo * tick,
+                               inside, w.E_re[c], w.E_im[c], cfg.series_radius, cfg.series_terms,
+                               w.inv_fact, w.fact, out.eta[first:first + inside],
+                               out.etad[first:first + inside])
+                for k in range(first, first + inside):
+                    out.segment[k] = ints[SEGMENT]
+                first += inside
             for k in range(first, last + 1):
                 offset = k * tpo - i
                 if offset < m:
@@ -866,6 +884,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                                 and nm >= cfg.update_min_modes):
                             ev.y[:] = hist.y[0]
                             ev.t[0] = hist.t[0]
+                            work.omega2_old[:] = b.omega2
                             ints[STAGE] = UPDATED
                             return NEED_FREQUENCIES
                         ints[PHASE_RELINEARISATIONS] += 1
@@ -879,8 +898,15 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                     reals[EVENT_TIME], reals[EVENT_VALUE] = hist.t[0], drift
                     return FAILED
         elif stage == UPDATED:
-            carry_history(b.y_ref, *projection, *linear, hist.y, hist.yd, hist.a, hist.g,
-                          hist.length[0])
+            # new frequencies of the same shapes (undamped bank): X, y_ref and the projection
+            # are kept, so g = phi^-1 a + Lambda eta of each node moves by (Lambda_new -
+            # Lambda_old) eta_k, eta_k from one projection (carry_history's three projections
+            # per node give the same to rounding)
+            d_lambda = b.omega2 - work.omega2_old
+            eta_k = np.empty(n)
+            for k in range(hist.length[0]):
+                project(*projection, hist.y[k] - b.y_ref, eta_k)
+                hist.g[k] += d_lambda * eta_k
             reals[DRIFT_PREVIOUS] = 0.0
             ints[STAGE] = GROW
         elif stage == REBASED or stage == RETRY:
