@@ -96,6 +96,16 @@ def git_revision() -> str:
         return "unknown"
 
 
+def other_revision(path: str | Path) -> str | None:
+    """The git revision ``path`` was made at (its provenance, ``read_provenance``) if it is not the
+    revision of this process's code, else None (the same revision, or none recorded).  A report
+    that shows a file made by another target (``bench``, ``verify``) says so: the file may be stale.
+    A ``-dirty`` suffix is ignored (uncommitted edits cannot be compared)."""
+    made = str(read_provenance(path).get("git") or "unknown").removesuffix("-dirty")
+    now = git_revision().removesuffix("-dirty")
+    return None if "unknown" in (made, now) or made == now else made
+
+
 def run_config() -> Path:
     """The configuration file of the run: ``config/config.yaml`` of the working directory (the
     workflow's convention, with ``--directory`` too), else the project's."""

@@ -48,7 +48,8 @@ from solver.bodydata import BODIES
 from solver.dynamics.simfile import read_sim
 from workflow import units, yamlfile
 from workflow.config import BODY_NAMES, load_config
-from workflow.provenance import atomic_path, provenance, typst_metadata, versions
+from workflow.provenance import (atomic_path, git_revision, other_revision, provenance, typst_metadata,
+                                 versions)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DEFAULTS = {
@@ -85,6 +86,9 @@ MAKES = {"ranking_table": "python -m results.study.tables", "static_table": "pyt
          "dynamics": "snakemake verify", "exponential": "snakemake verify",
          "exponential_bench": "snakemake bench", "fe_full": "snakemake verify",
          "coupled_modes": "snakemake study (results.study.run_scene --coupled-modes)"}
+# The inputs made by other targets than the report's (bench, verify): the report names their revision
+OPTIONAL_KEYS = ("stability", "pareto", "scaling", "selection", "integrators", "dynamics", "exponential",
+                 "exponential_bench", "fe_full")
 # Lists of files (the rule hands over each file, never a folder)
 LIST_DEFAULTS = {
     "mode_shapes": [f"results/figures/mode_shapes_body{b}.json" for b in (2, 3, 4, 5)],
@@ -143,7 +147,7 @@ def gather(paths: dict) -> dict:
     is missing or unreadable is recorded in ``missing`` ({key: reason}) and left None."""
     p = {k: _abs(paths.get(k) or v) for k, v in DEFAULTS.items()}
     p.update({k: [_abs(f) for f in (paths.get(k) or v)] for k, v in LIST_DEFAULTS.items()})
-    ctx = {"paths": p, "missing": {}, "status": {}}
+    ctx = {"paths": p, "missing": {}, "status": {}, "stale": {}}
 
     def load(key, reader):
         path = p[key]
@@ -159,6 +163,11 @@ def gather(paths: dict) -> dict:
             ctx["status"][key] = "unreadable"
             return None
         ctx["status"][key] = time.strftime("%Y-%m-%d %H:%M", time.localtime(os.path.getmtime(path)))
+        made = other_revision(path) if key in OPTIONAL_KEYS else None
+        if made:
+            ctx["status"][key] += f", revision {made}"
+            ctx["stale"][key] = (f"{os.path.relpath(path, ROOT)} was made at revision {made}, this report "
+                                 f"at {git_revision()}: rerun {MAKES[key]} if the code changed since")
         return out
 
     ctx["ranking_rows"] = load("ranking_table", read_table) or []
@@ -316,6 +325,11 @@ def _summary(ctx):
         out.append("\n*Incomplete report.* These inputs are missing, so the sections that need them "
                    "say so:\n")
         for k, why in ctx["missing"].items():
+            out.append(f"- {s(why)}\n")
+    if ctx.get("stale"):
+        out.append("\n*Made at another revision.* These inputs come from another version of the code "
+                   "than this report, so they may be stale:\n")
+        for k, why in ctx["stale"].items():
             out.append(f"- {s(why)}\n")
     return "".join(out) + "\n"
 

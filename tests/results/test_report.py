@@ -161,3 +161,18 @@ def test_methods_describe_the_scene_from_its_file(name, duration, start):
     from workflow import yamlfile
     text = report._scene_sentence(yamlfile.load_file(os.path.join(SCENES_DIR, f"{name}.yaml")))
     assert duration in text and start in text
+
+
+def test_report_names_inputs_made_at_another_revision(study_outputs, tmp_path):
+    """A bench result made by other code (another git revision) is listed as possibly stale, with its
+    revision, in the summary and in the inputs table."""
+    old = tmp_path / "exponential.json"
+    old.write_text(json.dumps({"rows": [], "provenance": {"git": "0000000"}}))
+    so = study_outputs
+    ctx = report.gather({"ranking_table": str(so["ranking"]), "static_table": str(so["static"]),
+                         "findings": str(so["findings"]), "exponential_bench": str(old)})
+    if report.git_revision() == "unknown":
+        pytest.skip("no git revision here to compare with")
+    assert "0000000" in ctx["stale"]["exponential_bench"] and "revision 0000000" in ctx["status"]["exponential_bench"]
+    text = "".join(report._summary(ctx))
+    assert "Made at another revision" in text and "0000000" in text

@@ -153,3 +153,15 @@ def test_the_study_writers_outputs_carry_it(tmp_path):
     assert not missing, missing
     sims = P.combined_hash(P.read_provenance(p)["config_hash"] for p in [truth, *cases])
     assert P.read_provenance(rt)["config_hash"] == sims
+
+
+def test_other_revision_names_a_file_made_by_other_code(tmp_path):
+    """A report input made at another git revision is named by its revision (the report says it
+    may be stale); one made at this revision, or with none recorded, is not."""
+    from workflow.provenance import git_revision, other_revision
+    now = git_revision().removesuffix("-dirty")
+    for name, git, expected in (("old.json", "0000000", "0000000"), ("same.json", now + "-dirty", None),
+                                ("none.json", None, None)):
+        record = {"value": 1} if git is None else {"value": 1, "provenance": {"git": git}}
+        (tmp_path / name).write_text(json.dumps(record))
+        assert other_revision(tmp_path / name) == (expected if now != "unknown" else None), name
