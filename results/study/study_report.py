@@ -348,6 +348,19 @@ def truth_referee(an, basis) -> dict:
     return out
 
 
+def unrefereed_scenes(an, basis) -> list[tuple[str, float, float]]:
+    """[(scene, the truth's E against the larger basis, the rigid model's E)] on the outer gimbal rate,
+    for the scenes where the truth's own error is at least the rigid model's: there the truth cannot
+    separate the reduced models (every one of them lies within the truth's error of the rigid one or
+    beyond it)."""
+    out = []
+    for name, b in ((basis or {}).get("scenes") or {}).items():
+        a = an.get(name)
+        if a and a["rigid"] is not None and b["E"][0] >= a["rigid"][0]:
+            out.append((name, float(b["E"][0]), float(a["rigid"][0])))
+    return out
+
+
 def truth_error_section(ctx, an) -> str:
     out = ["== The truth's own error\n\n"]
     basis = ctx.get("truth_basis")
@@ -383,6 +396,15 @@ def truth_error_section(ctx, an) -> str:
                    + (f" (without the step, on the smooth scene, the two truths differ by E = "
                       f"{sci(basis['scenes']['smooth']['E_max'])})" if "smooth" in basis.get("scenes", {})
                       else "") + ". Reduced-model errors near that level are not resolved by this truth.")
+    unresolved = unrefereed_scenes(an, basis)
+    if unresolved:
+        out.append(" " + " ".join(
+            f"On the {s(name)} scene the truth's own error on the outer gimbal rate "
+            f"(E = {sci(own)} against {s(basis.get('larger_basis', 'the larger basis'))}) is larger than "
+            f"the rigid model's error ({sci(rigid)}): the differences between that scene's reduced models "
+            "are below what this truth resolves, so its rankings and verdicts compare models with a "
+            "truncated truth, not with the chain."
+            for name, own, rigid in unresolved))
     out.append("\n\n")
     out.append(table(["scene", "compared with", "E outer", "E middle", "E inner", "E platform",
                       "attitude [arcsec]"], rows,
@@ -509,6 +531,11 @@ def discussion_section(ctx, an) -> str:
             out.append("Undamped ringing that a reduced model gets slightly wrong in frequency drifts out "
                        "of phase with the truth's as the window lengthens, so its error keeps growing, "
                        "while the rigid model's stays the amplitude of the truth's ringing.")
+        own = next((e for name, e, _ in unrefereed_scenes(an, ctx.get("truth_basis")) if name == "long"), None)
+        if own is not None:
+            out.append(f" The truth itself is E = {sci(own)} from the 200-mode truth on this scene, more "
+                       "than the rigid model's error: on long no reduced model can be judged better than "
+                       "another at this truth's resolution (@tab-truth-error).")
         out.append("\n\n")
     # findings that change with the scene
     changing = []

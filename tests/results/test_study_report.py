@@ -285,3 +285,18 @@ def test_study_report_shows_the_mesh_convergence_of_every_mode_from_the_last_ver
                               "--reduction", str(study["tmp"] / "nope2.json"), "--fe-full", str(path),
                               "--out", str(tmp_path / "b" / "report.pdf")]) == 0
     assert "<tab-convergence>" not in (tmp_path / "b" / "report.typ").read_text()
+
+
+def test_a_truth_whose_own_error_exceeds_the_rigid_models_is_said_not_to_referee():
+    """On a scene where the truth against the larger basis is farther (outer rate) than the rigid
+    model is from the truth (long: 2.3e-3 against 1.1e-3), the report says the truth cannot separate
+    that scene's reduced models; below the rigid model's error it says nothing."""
+    an = {"long": study_report.analyse_scene(ROWS)}
+    rigid = an["long"]["rigid"][0]
+    basis = {"larger_basis": "freq-200", "scenes": {"long": {"E": [2 * rigid, 0, 0, 0], "E_max": 2 * rigid}}}
+    assert study_report.unrefereed_scenes(an, basis) == [("long", 2 * rigid, rigid)]
+    ctx = {"scenes": [{"name": "long"}], "truth_basis": basis, "dates": {}, "missing": {}}
+    assert "below what this truth resolves" in study_report.truth_error_section(ctx, an)
+    basis["scenes"]["long"]["E"][0] = 0.5 * rigid
+    assert study_report.unrefereed_scenes(an, basis) == []
+    assert "below what this truth resolves" not in study_report.truth_error_section(ctx, an)
