@@ -39,8 +39,8 @@ The scheme: exponential Adams in PECE form.  The predictor's p interpolates g at
 last q accepted times (order q), the corrector's adds the predicted g at t_n + h
 (order q + 1); every node pattern is handled by a q x q Vandermonde solve, so variable
 steps cost nothing extra.  The difference corrector - predictor estimates the local
-error (``kernels.pece.local_error``); the step is halved or doubled on a dyadic grid of the
-output interval, so dense outputs reuse cached weights.  The basis is rebuilt
+error in the gimbal rates (``kernels.pece.local_error``); the step is halved or doubled on a
+dyadic grid of the output interval, so dense outputs reuse cached weights.  The basis is rebuilt
 (re-linearised) when the gimbal angles drift from y_r by more than ``drift`` [rad], or when
 steps keep failing in an aged basis; the stored history of accelerations is carried over.
 A run that cannot hold (steps below the floor, a singular joint mass matrix, an overdamped
@@ -82,6 +82,7 @@ PHASE_LIMIT = 1.0          # re-linearise when the estimated phase error exceeds
 FREQUENCY_UPDATE_DRIFT = 0.02  # a phase error at a drift <= this x drift: new frequencies, same shapes (Sec. 6)
 FREQUENCY_UPDATE_MIN_MODES = 200   # ... if the chain has this many elastic modes (else a new basis is cheaper)
 RATE_FLOOR = 1e-3          # a gimbal rate's error scale is at least this fraction of the largest
+ERROR_ENERGY_WEIGHT = 0.0  # local error: the gimbal rates alone (what E measures); 1: and the energy norm
 WEIGHT_CACHE_ENTRIES = 128  # step weights kept per basis by the compiled loop (step, offset pairs)
 
 
@@ -708,7 +709,8 @@ class ExponentialAdams:
             phase_limit=PHASE_LIMIT, update_drift=FREQUENCY_UPDATE_DRIFT,
             update_min_modes=FREQUENCY_UPDATE_MIN_MODES, max_rejections=MAX_REJECTIONS_IN_BASIS,
             grow_safety=GROW_SAFETY, rate_floor=RATE_FLOOR, series_radius=SERIES_RADIUS,
-            series_terms=SERIES_TERMS, watch=on_outputs is not None)
+            series_terms=SERIES_TERMS, watch=on_outputs is not None,
+            error_energy_weight=ERROR_ENERGY_WEIGHT)
         outputs = pece.Outputs(self.out_eta, self.out_etad, self.out_segment)
         self._drive((*self.kb, *self.kw, *settings, *st, *self.hist, *self.ev, *outputs, *self.work))
         return self._result()

@@ -55,6 +55,12 @@ from solver.dynamics.kernels.exponential import advance_diagonal, dense_diagonal
 N_JOINTS = 4
 # the undamped bank's dense outputs by the particular polynomial (dense_diagonal), not per-output weights
 DENSE_POLYNOMIAL = True
+# adaptive runs: the last step takes the rest of the run when that is whole output intervals
+# (28 of them on thesis, instead of 16 + 8 + 4); before the run's first rejection the step may
+# double after one accepted step at its size, not two (thesis truth: 41 -> 34 steps, the same
+# E; docs/exponential.md Sec. 8 item 9)
+LAST_STEP_REST = True
+RAMP_UNTIL_REJECTION = True
 
 # what pece_run returns: a request to Python, or DONE (module docstring)
 DONE = 0
@@ -187,7 +193,8 @@ class Settings(NamedTuple):
     this gimbal drift), frozen_validity [rad], probe_drift [rad], phase_limit, update_drift
     (a phase error at a drift <= update_drift x drift: new frequencies), update_min_modes,
     max_rejections (in a basis that is not fresh), grow_safety, rate_floor, series_radius and
-    series_terms (``phi_functions``), watch (bool: return OUTPUTS).  The first step and the
+    series_terms (``phi_functions``), watch (bool: return OUTPUTS), error_energy_weight (the
+    energy norm's weight in ``local_error``, 0: the gimbal rates alone).  The first step and the
     tick the run starts at are st.ints[STEP_TICKS], st.ints[TICK], set by Python."""
     tol: float
     tick: float
@@ -208,6 +215,7 @@ class Settings(NamedTuple):
     series_radius: float
     series_terms: int
     watch: bool
+    error_energy_weight: float
 
 
 class State(NamedTuple):
@@ -446,16 +454,20 @@ def gimbal_rates(rates, v, out):
 
 
 @numba.njit(**JIT)
-def local_error(omega2, rates, scales, eta_c, etad_c, eta_p, etad_p):
-    """The relative local error of a step: the larger of (i) the energy norm of corrector -
-    predictor over the largest energy norm of the solution (scales[ENERGY_SCALE], or the
-    corrector's) and (ii) the largest gimbal-rate difference (rates (4, n) = phi[:4]) over the
-    largest gimbal rate so far (scales[RATE_SCALE], or the corrector's): all four rates
-    share that scale, so a rate that stays ~0 does not demand an absolute accuracy."""
-    d_eta = eta_c - eta_p
+def local_error(omega2, rates, scales, eta_c, etad_c, eta_p, etad_p, energy_weight):
+    """The relative local error of a step: the largest gimbal-rate difference of corrector -
+    predictor (rates (4, n) = phi[:4]) over the largest gimbal rate so far (scales[RATE_SCALE],
+    or the corrector's): all four rates share that scale, so a rate that stays ~0 does not
+    demand an absolute accuracy.  With energy_weight > 0, the larger of that and energy_weight
+    x the energy norm of corrector - predictor over the largest energy norm of the solution
+    (scales[ENERGY_SCALE], or the corrector's): every modal coordinate weighted by its energy
+    (the default until 2026-11-25, weight 1; docs/exponential.md Sec. 5)."""
     d_etad = etad_c - etad_p
-    e_scale = max(scales[ENERGY_SCALE], energy_norm(omega2, eta_c, etad_c), 1e-300)
-    err = energy_norm(omega2, d_eta, d_etad) / e_scale
+    err = 0.0
+    if energy_weight > 0.0:
+        d_eta = eta_c - eta_p
+        e_scale = max(scales[ENERGY_SCALE], energy_norm(omega2, eta_c, etad_c), 1e-300)
+        err = energy_weight * energy_norm(omega2, d_eta, d_etad) / e_scale
     r = np.empty(N_JOINTS)
     gimbal_rates(rates, etad_c, r)
     r_scale = max(scales[RATE_SCALE], np.abs(r).max(), 1e-300)
@@ -638,8 +650,9 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
              cfg_tol, cfg_tick, cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise,
              cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift, cfg_phase_limit,
              cfg_update_drift, cfg_update_min_modes, cfg_max_rejections, cfg_grow_safety,
-             cfg_rate_floor, cfg_series_radius, cfg_series_terms, cfg_watch, st_ints, st_reals,
-             st_rate_scales, st_phase, st_kappa, st_phase_ref, hist_t, hist_y, hist_yd, hist_a,
+             cfg_rate_floor, cfg_series_radius, cfg_series_terms, cfg_watch,
+             cfg_error_energy_weight, st_ints, st_reals, st_rate_scales, st_phase, st_kappa,
+             st_phase_ref, hist_t, hist_y, hist_yd, hist_a,
              hist_g, hist_length, ev_t, ev_y, ev_yd, ev_a, out_eta, out_etad, out_segment,
              work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
              work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im,
@@ -668,8 +681,10 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
       the node joins the history, the gimbal drift; PHASE: the first basis's frequency
       probe once it has drifted probe_drift; PHASE_ERROR: the phase error, new frequencies
       (UPDATED) or a new basis (REBASED) when due;
-    * GROW: the step doubles after two accepted steps when err 2^(q+1) <= grow_safety tol on
-      a tick that is a multiple of 2 m."""
+    * GROW: the step doubles after two accepted steps (one before the run's first rejection,
+      ``RAMP_UNTIL_REJECTION``) when err 2^(q+1) <= grow_safety tol on a tick that is a
+      multiple of 2 m; the last step takes the rest in whole output intervals
+      (``LAST_STEP_REST``)."""
     b = Basis(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J, b_Lg, b_rates,
               b_mu, b_delta, b_P_eta, b_P_vel, b_V_eta, b_V_vel, b_Ct, b_version)
     w = WeightCache(w_keys, w_E_re, w_E_im, w_F_re, w_F_im, w_wpos, w_wvel, w_H, w_used,
@@ -678,7 +693,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                    cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift,
                    cfg_phase_limit, cfg_update_drift, cfg_update_min_modes, cfg_max_rejections,
                    cfg_grow_safety, cfg_rate_floor, cfg_series_radius, cfg_series_terms,
-                   cfg_watch)
+                   cfg_watch, cfg_error_energy_weight)
     st = State(st_ints, st_reals, st_rate_scales, st_phase, st_kappa, st_phase_ref)
     hist = History(hist_t, hist_y, hist_yd, hist_a, hist_g, hist_length)
     ev = Evaluation(ev_t, ev_y, ev_yd, ev_a)
@@ -718,6 +733,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
         if stage == STEP:
             if i >= cfg.i_end:
                 return DONE
+            if LAST_STEP_REST and m > cfg.i_end - i and i % tpo == 0 and not fixed:
+                m = cfg.i_end - i                   # the last step: the rest (output intervals)
             while m > cfg.i_end - i:
                 m //= 2
             ints[STEP_TICKS] = m
@@ -744,7 +761,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             ints[COEF_ROWS] = q + 1
             advance_over(m, m, eta, etad, xi, work.coef[:q + 1], eta_c, etad_c, grid, *cache, *bank)
             finite = all_finite(work.g_p) and all_finite(eta_c) and all_finite(etad_c)
-            reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_c, etad_c, eta_p, etad_p) \
+            reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_c, etad_c, eta_p, etad_p,
+                                       cfg.error_energy_weight) \
                 if finite else np.inf
             ints[STAGE] = DECIDE
             if finite and not fixed and q == 1 and m >= 2:
@@ -772,7 +790,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             ints[COEF_ROWS] = q + 2
             advance_over(m, m, eta, etad, xi, work.coef[:q + 2], eta_q, etad_q, grid, *cache, *bank)
             finite = all_finite(eta_q) and all_finite(etad_q)
-            reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_q, etad_q, eta_c, etad_c) \
+            reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_q, etad_q, eta_c, etad_c,
+                                       cfg.error_energy_weight) \
                 if finite else np.inf
             eta_c[:] = eta_q
             etad_c[:] = etad_q
@@ -918,8 +937,10 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             ints[BASIS_TICK] = i
             reals[DRIFT_PREVIOUS] = 0.0
             ints[STAGE] = GROW if stage == REBASED else STEP
-        else:                               # GROW (dyadic, aligned, after >= 2 steps at this size)
-            if not fixed and ints[SINCE_CHANGE] >= 2 and i % (2 * m) == 0 \
+        else:                               # GROW (dyadic, aligned, after >= 2 steps at this size,
+            #                                   >= 1 before the run's first rejection)
+            wait = 1 if RAMP_UNTIL_REJECTION and ints[REJECTED] == 0 else 2
+            if not fixed and ints[SINCE_CHANGE] >= wait and i % (2 * m) == 0 \
                     and reals[ERROR] * 2.0 ** (q + 1) <= cfg.grow_safety * cfg.tol:
                 ints[STEP_TICKS] = 2 * m
                 ints[SINCE_CHANGE] = 0
