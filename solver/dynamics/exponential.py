@@ -82,7 +82,10 @@ PHASE_LIMIT = 1.0          # re-linearise when the estimated phase error exceeds
 FREQUENCY_UPDATE_DRIFT = 0.02  # a phase error at a drift <= this x drift: new frequencies, same shapes (Sec. 6)
 FREQUENCY_UPDATE_MIN_MODES = 200   # ... if the chain has this many elastic modes (else a new basis is cheaper)
 RATE_FLOOR = 1e-3          # a gimbal rate's error scale is at least this fraction of the largest
-ERROR_ENERGY_WEIGHT = 0.0  # local error: the gimbal rates alone (what E measures); 1: and the energy norm
+ERROR_ENERGY_WEIGHT = 1.0  # local error: the energy norm of every modal coordinate and the gimbal rates (0: the
+#                            rates alone, what E measures: 2x fewer steps on thesis, but the truth's platform
+#                            attitude on long moved by 0.15 arcsec, 10x the rigid model's difference; measured
+#                            2026-11-25, docs/exponential.md Section 8)
 WEIGHT_CACHE_ENTRIES = 128  # step weights kept per basis by the compiled loop (step, offset pairs)
 
 
