@@ -142,6 +142,26 @@ def _num(text, default=np.nan):
         return default
 
 
+def note_revision(stale: dict, key: str, path: str, shown: str, makes: str) -> str:
+    """If ``path`` (named ``shown`` in the text) was made at another git revision than this report
+    (``other_revision``), record why it may be stale in ``stale[key]`` and return ", revision X" for
+    its date; else return ""."""
+    made = other_revision(path)
+    if not made:
+        return ""
+    stale[key] = f"{shown} was made at revision {made}, this report at {git_revision()}: rerun {makes} if " \
+                 "the code changed since"
+    return f", revision {made}"
+
+
+def stale_list(stale: dict, keyed=False) -> str:
+    """The report's paragraph on the inputs made at another revision (``note_revision``), each named
+    by its key too if ``keyed``."""
+    return ("*Made at another revision.* These inputs come from another version of the code than this "
+            "report, so they may be stale:\n"
+            + "".join(f"- {s(k) + ': ' if keyed else ''}{s(why)}\n" for k, why in stale.items()))
+
+
 def gather(paths: dict) -> dict:
     """Everything the report shows, from the input files (keys of DEFAULTS); each input that
     is missing or unreadable is recorded in ``missing`` ({key: reason}) and left None."""
@@ -163,11 +183,8 @@ def gather(paths: dict) -> dict:
             ctx["status"][key] = "unreadable"
             return None
         ctx["status"][key] = time.strftime("%Y-%m-%d %H:%M", time.localtime(os.path.getmtime(path)))
-        made = other_revision(path) if key in OPTIONAL_KEYS else None
-        if made:
-            ctx["status"][key] += f", revision {made}"
-            ctx["stale"][key] = (f"{os.path.relpath(path, ROOT)} was made at revision {made}, this report "
-                                 f"at {git_revision()}: rerun {MAKES[key]} if the code changed since")
+        if key in OPTIONAL_KEYS:
+            ctx["status"][key] += note_revision(ctx["stale"], key, path, os.path.relpath(path, ROOT), MAKES[key])
         return out
 
     ctx["ranking_rows"] = load("ranking_table", read_table) or []
@@ -327,10 +344,7 @@ def _summary(ctx):
         for k, why in ctx["missing"].items():
             out.append(f"- {s(why)}\n")
     if ctx.get("stale"):
-        out.append("\n*Made at another revision.* These inputs come from another version of the code "
-                   "than this report, so they may be stale:\n")
-        for k, why in ctx["stale"].items():
-            out.append(f"- {s(why)}\n")
+        out.append("\n" + stale_list(ctx["stale"]))
     return "".join(out) + "\n"
 
 

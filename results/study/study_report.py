@@ -32,9 +32,9 @@ from results.bench.equal_error import FAMILIES, cheapest_within, max_error
 from results.study.cases import GROUP_LABELS, MODE_COUNTS, TRUTH, TRUTH_CHECK
 from results.study.figures import GROUP_STYLE, STYLE, _plt, save
 from results.study.findings import THESIS, THESIS_TABLE_4_1
-from results.study.report import ROOT, _json, _versions, _yaml, compile_pdf, figure, note, s, sci, table
+from results.study.report import (ROOT, _json, _versions, _yaml, compile_pdf, figure, note, note_revision, s,
+                                  sci, stale_list, table)
 from results.study.tables import RATE_COLUMNS, read_table
-from workflow.provenance import git_revision, other_revision
 
 RATES = ("outer", "middle", "inner", "platform")
 RATE_NAMES = {"outer": "outer gimbal", "middle": "middle gimbal", "inner": "inner gimbal",
@@ -61,11 +61,8 @@ def _load(path, reader, ctx, key, makes):
         ctx["missing"][key] = f"{path} unreadable ({exc.__class__.__name__})"
         return None
     ctx["dates"][key] = time.strftime("%Y-%m-%d %H:%M", time.localtime(os.path.getmtime(path)))
-    made = other_revision(path) if key in OPTIONAL else None
-    if made:
-        ctx["dates"][key] += f", revision {made}"
-        ctx.setdefault("stale", {})[key] = (f"{path} was made at revision {made}, this report at "
-                                           f"{git_revision()}: rerun {makes} if the code changed since")
+    if key in OPTIONAL:
+        ctx["dates"][key] += note_revision(ctx.setdefault("stale", {}), key, path, path, makes)
     return out
 
 
@@ -240,11 +237,7 @@ def summary_section(ctx, an) -> str:
             out.append(f"- {s(k)}: {s(why)}\n")
         out.append("\n")
     if ctx.get("stale"):
-        out.append("*Made at another revision.* These inputs come from another version of the code than "
-                   "this report, so they may be stale:\n")
-        for k, why in ctx["stale"].items():
-            out.append(f"- {s(k)}: {s(why)}\n")
-        out.append("\n")
+        out.append(stale_list(ctx["stale"], keyed=True) + "\n")
     return "".join(out)
 
 

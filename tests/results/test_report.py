@@ -87,7 +87,9 @@ def test_report_pdf_has_sections_tables_and_figures(study_outputs, tmp_path):
     so = study_outputs
     code = report.main(["--ranking-table", str(so["ranking"]), "--static-table", str(so["static"]),
                         "--findings", str(so["findings"]), "--figures", str(so["figures"] / "figures.json"),
-                        "--truth", so["truth"], "--out", str(out)])
+                        "--truth", so["truth"], "--out", str(out),
+                        # no benchmark, whatever the project's results/ holds
+                        "--exponential-bench", str(tmp_path / "no_benchmark.json")])
     assert code == 0 and out.read_bytes()[:5] == b"%PDF-"
     assert (tmp_path / "report" / "report.typ").exists()
     text = _pdf_text(out)
