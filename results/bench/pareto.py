@@ -102,8 +102,8 @@ class Setting:
 
 
 def default_settings(rk4_fractions=(1.0, 0.5), rtols=(1e-6, 1e-8, 1e-10),
-                     galpha_steps=(1e-5, 5e-6, 2.5e-6), exp_tols=(5e-6, 5e-8)):
-    """The integrator settings: the modal exponential integrator at each tolerance (5e-6:
+                     galpha_steps=(1e-5, 5e-6, 2.5e-6), exp_tols=(1e-5, 5e-8)):
+    """The integrator settings: the modal exponential integrator at each tolerance (1e-5:
     the workflow's default), RK4 at each fraction of its stability limit (1.0 = the
     largest stable step dividing the output interval; 0.5 = the thesis's setting),
     DOP853 at each rtol, generalised-alpha at each step [s]."""
@@ -375,7 +375,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rk4-fractions", type=float, nargs="+", default=[1.0, 0.5])
     ap.add_argument("--rtols", type=float, nargs="+", default=[1e-6, 1e-8, 1e-10])
     ap.add_argument("--galpha-steps", type=float, nargs="+", default=[1e-5, 5e-6, 2.5e-6])
-    ap.add_argument("--exp-tols", type=float, nargs="+", default=[5e-6, 5e-8])
+    ap.add_argument("--exp-tols", type=float, nargs="+", default=[1e-5, 5e-8])
     ap.add_argument("--dense-duration", type=float, default=None,
                     help=f"simulated seconds the dense baseline runs, then extrapolated "
                          f"(default {DENSE_DURATION:g}; --quick {QUICK_DENSE_DURATION:g})")

@@ -3,7 +3,7 @@
     python -m results.study.run_scene --scene config/scenes/thesis.yaml \\
         --bodies results/modes/body{2,3,4,5}.h5 --reductions results/reduction/body{2,3,4,5}.h5 \\
         --load-ranking results/reduction/load/thesis.h5 --models truth rigid freq-10 ... \\
-        --out-dir results/study/thesis/sim [--integrator exponential --tol 5e-6]
+        --out-dir results/study/thesis/sim [--integrator exponential --tol 1e-5]
 
 Why one process: a study scene holds ~50 models whose simulations take milliseconds to a
 second each with the exponential integrator, while a workflow job costs ~1 s of interpreter

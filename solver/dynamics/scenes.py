@@ -19,6 +19,11 @@ workflow computes nothing else):
   their body file);
 * ``needs.models``: the reduced models whose simulations make up the scene's
   results (``snakemake results/sim/{scene}/needs.done`` builds exactly those).
+A scene may also state the accuracy it needs (optional ``exponential_tolerance``,
+unit ``1``): the exponential integrator's tolerance for every simulation of the
+scene (``simulate.run_scene``) unless one is given (``--tol``, a fixed ``--step``).
+A long scene needs it: the platform attitude integrates the rates' errors over the
+whole run (``long``: docs/exponential.md Section 5).
 """
 
 import hashlib
@@ -69,6 +74,7 @@ class Scene:
     raw: dict
     elastic_bodies: tuple = ALL_BODIES
     models: tuple = ()
+    exponential_tolerance: float = None     # [1] the scene's exponential tolerance (None: the default)
 
     @property
     def physics(self):
@@ -145,7 +151,7 @@ def parse_scene(raw, origin="scene"):
     """Scene from a parsed YAML mapping; SceneError on anything invalid."""
     if not isinstance(raw, dict):
         raise SceneError(f"{origin}: a scene is a mapping, got {type(raw).__name__}")
-    allowed = set(_TOP) | {"name", "description", "case_motion", "needs"}
+    allowed = set(_TOP) | {"name", "description", "case_motion", "needs", "exponential_tolerance"}
     unknown = set(raw) - allowed
     if unknown:
         raise SceneError(f"{origin}: unknown key(s) {', '.join(sorted(unknown))} "
@@ -183,8 +189,13 @@ def parse_scene(raw, origin="scene"):
     if any(f < 0 for f in case["angular_acceleration_frequency"]):
         raise SceneError(f"{origin}: case frequencies must be >= 0 Hz")
     elastic_bodies, models = _needs(origin, raw.get("needs"))
+    tolerance = None
+    if "exponential_tolerance" in raw:
+        tolerance = _number(origin, "exponential_tolerance", raw["exponential_tolerance"], None, "1")
+        if not tolerance > 0:
+            raise SceneError(f"{origin}: exponential_tolerance must be > 0, got {tolerance:g}")
     return Scene(
-        elastic_bodies=elastic_bodies, models=models,
+        elastic_bodies=elastic_bodies, models=models, exponential_tolerance=tolerance,
         name=str(raw["name"]), description=str(raw.get("description", "")),
         duration=vals["duration"], output_interval=vals["output_interval"],
         initial_angles=vals["initial_angles"], initial_rates=vals["initial_rates"],

@@ -64,11 +64,23 @@ def scene_problem(chain, scene):
 def run_scene(chain, scene, integrator=DEFAULT_INTEGRATOR, step=None, model_name="", problem=None,
               **options):
     """Integrate a chain through a scene; returns (Run, Problem).  options: the integrator's
-    own (``integrators.METHOD_OPTIONS``: tol, fraction, rtol, rho_inf, ...)."""
+    own (``integrators.METHOD_OPTIONS``: tol, fraction, rtol, rho_inf, ...).  The exponential
+    integrator without a tolerance or a fixed step takes the scene's ``exponential_tolerance``
+    if it states one (``scenes``), else its default."""
     prob = scene_problem(chain, scene) if problem is None else problem
+    options = scene_options(scene, integrator, step, options)
     run = integrators.integrate(prob, scene.duration, scene.output_interval, method=integrator,
                                 step=step, model=model_name, **options)
     return run, prob
+
+
+def scene_options(scene, integrator, step, options):
+    """The integrator options with the scene's exponential tolerance added where it applies
+    (exponential, neither tol nor a fixed step given; ``run_scene``)."""
+    if (integrator == "exponential" and step is None and options.get("tol") is None
+            and scene.exponential_tolerance is not None):
+        return {**options, "tol": scene.exponential_tolerance}
+    return options
 
 
 def integrator_options(args):
@@ -265,7 +277,7 @@ def main(argv=None):
             chainfile.check_body_hashes(model_file, info, expected_body_hashes(args.config))
         if args.integrator is None:
             args.integrator = DEFAULT_INTEGRATOR
-        options = integrator_options(args)
+        options = scene_options(scene, args.integrator, args.step, integrator_options(args))
         integrators.check_options(args.integrator, args.step, options)
         prob = scene_problem(chain, scene)
         check_size(scene, chain, args.integrator, args.step, options, prob, args.max_steps,

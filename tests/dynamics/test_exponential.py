@@ -325,6 +325,24 @@ def test_phase_error_is_met_by_frequency_updates_not_new_bases(monkeypatch):
     assert E_max(r, r_dense) <= 1e-12
 
 
+def test_the_phase_is_held_to_its_own_bound_not_the_step_tolerance(monkeypatch):
+    """The frozen frequencies' phase error asks for new frequencies beyond min(tol, PHASE_TOL)
+    (``exponential.phase_bound``): a looser step tolerance does not loosen it.  STIFF_REDUCED on
+    thesis at tol 1e-4: with the bound, 4 frequency updates and E 9.5e-9; with the bound at the
+    tolerance itself (PHASE_TOL raised) 2 updates and E 2.9e-8 (measured 2026-11-26)."""
+    monkeypatch.setattr(exponential, "FREQUENCY_UPDATE_MIN_MODES", 1)
+    assert exponential.phase_bound(1e-4) == exponential.PHASE_TOL
+    assert exponential.phase_bound(1e-7) == 1e-7
+    assert exponential.phase_bound(None) == exponential.PHASE_TOL
+    scene, prob, ref = dop853_reference("thesis", "STIFF_REDUCED")
+    bound = run(prob, scene, tol=1e-4)
+    monkeypatch.setattr(exponential, "PHASE_TOL", 1.0)
+    at_tol = run(prob, scene, tol=1e-4)
+    assert bound.stats["frequency_updates"] > at_tol.stats["frequency_updates"], \
+        (bound.stats["frequency_updates"], at_tol.stats["frequency_updates"])
+    assert E_max(ref, bound) < E_max(ref, at_tol), (E_max(ref, bound), E_max(ref, at_tol))
+
+
 # -------------------------------------------------- 3. against the converged DOP853
 @pytest.mark.parametrize("scene_name, chain_name", [
     ("thesis", "FULL"),              # measured E: 2.5e-9 at the default tol, 6.5e-15 at tol/100

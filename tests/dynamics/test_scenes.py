@@ -70,3 +70,30 @@ def test_model_selection_sources_and_body_restriction():
     rigid_outer = models.restrict_to_bodies(spec, (3, 4, 5))
     assert rigid_outer.n_modes(2) == 0 and rigid_outer.n_modes(3) == 3
     assert rigid_outer.kept[3].tolist() == [1, 2] and rigid_outer.name == spec.name
+
+
+def test_a_scene_may_state_its_exponential_tolerance():
+    """The optional exponential_tolerance (unit 1): long states 1e-6 (its attitude integrates the
+    rates' errors over 1 s); a scene without it leaves the integrator's default."""
+    assert scenes.load_scene("long").exponential_tolerance == 1e-6
+    assert scenes.load_scene("thesis").exponential_tolerance is None
+    raw = _thesis_raw()
+    raw["exponential_tolerance"] = {"value": 2e-6, "unit": "1", "source": "test"}
+    assert scenes.parse_scene(raw).exponential_tolerance == 2e-6
+    base = scenes.parse_scene(_thesis_raw()).config_hash()
+    assert scenes.parse_scene(raw).config_hash() != base          # it changes the simulations
+
+
+@pytest.mark.parametrize("entry, message", [
+    ({"value": 0.0, "unit": "1"}, "exponential_tolerance must be > 0"),
+    ({"value": -1e-6, "unit": "1"}, "exponential_tolerance must be > 0"),
+    ({"value": float("nan"), "unit": "1"}, "exponential_tolerance: non-finite value"),
+    ({"value": 1e-6, "unit": "rad"}, "exponential_tolerance"),
+    (1e-6, "exponential_tolerance: expected {value, unit, source}"),
+])
+def test_bad_exponential_tolerance_gives_one_line_errors(entry, message):
+    raw = _thesis_raw()
+    raw["exponential_tolerance"] = entry
+    with pytest.raises(scenes.SceneError) as err:
+        scenes.parse_scene(raw, origin="thesis.yaml")
+    assert message in str(err.value) and "\n" not in str(err.value)

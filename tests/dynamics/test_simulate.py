@@ -89,3 +89,27 @@ def test_energy_history_equals_the_per_sample_energies(scene_name, fast):
         assert got.shape == (t.size,)
         assert np.allclose(got, want, rtol=1e-12, atol=1e-14 * np.max(np.abs(want)))
     assert np.ptp(P) > 0 and np.ptp(T) > 0
+
+
+def test_the_scene_tolerance_applies_unless_one_is_given(tmp_path, model_file):
+    """A scene's exponential_tolerance is the exponential integrator's tolerance of its
+    simulations; an explicit --tol wins, and neither a fixed --step nor rk4 takes it."""
+    raw = yaml.safe_load(open(os.path.join(scenes.SCENES_DIR, "thesis.yaml")))
+    raw.update(name="tight", exponential_tolerance={"value": 3e-7, "unit": "1", "source": "test"})
+    raw["duration"]["value"] = 1e-3
+    scene = tmp_path / "tight.yaml"
+    scene.write_text(yaml.safe_dump(raw))
+
+    def tol_of(*flags):
+        out = tmp_path / f"run{len(list(tmp_path.glob('run*.h5')))}.h5"
+        assert simulate.main(["--scene", str(scene), "--model-file", str(model_file), "--out", str(out),
+                              "--no-energy", *flags]) == 0
+        with h5py.File(out, "r") as f:
+            return float(f.attrs["stat_tol"])
+    assert tol_of() == 3e-7 and tol_of("--tol", "1e-4") == 1e-4
+    assert np.isnan(tol_of("--step", "1e-5"))
+    s = scenes.load_scene(str(scene))
+    assert simulate.scene_options(s, "exponential", None, {}) == {"tol": 3e-7}
+    assert simulate.scene_options(s, "rk4", None, {}) == {}
+    assert simulate.scene_options(s, "exponential", 1e-5, {}) == {}
+    assert simulate.scene_options(scenes.load_scene("thesis"), "exponential", None, {}) == {}

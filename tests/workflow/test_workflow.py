@@ -88,8 +88,8 @@ def test_a_scene_target_plans_exactly_its_declared_simulations():
     assert _planned_jobs(run.stdout)["reduced_model"] == len(declared)
 
 
-def _simulate_command(*args):
-    run = snakemake("--dry-run", "--forceall", "--printshellcmds", "results/sim/thesis/freq-10.h5", *args)
+def _simulate_command(*args, target="results/sim/thesis/freq-10.h5"):
+    run = snakemake("--dry-run", "--forceall", "--printshellcmds", target, *args)
     assert run.returncode == 0, run.stderr[-2000:]
     return [line for line in run.stdout.splitlines() if "-m solver.dynamics.simulate" in line]
 
@@ -98,13 +98,27 @@ def test_the_config_switch_runs_the_simulations_with_rk4(tmp_path):
     """simulation.integrator (issue 13): exponential with its tolerance by default; rk4 (the
     thesis's method) at its default step when switched."""
     (default,) = _simulate_command()
-    assert "--integrator exponential --tol 5e-06" in default
+    assert "--integrator exponential --tol 1e-05" in default
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     config["simulation"]["integrator"]["value"] = "rk4"
     rk4 = tmp_path / "rk4.yaml"
     rk4.write_text(yaml.safe_dump(config))
     (switched,) = _simulate_command("--configfile", str(rk4))
     assert "--integrator rk4" in switched and "--tol" not in switched
+
+
+def test_a_scene_that_states_a_tighter_tolerance_gets_it(tmp_path):
+    """config/scenes/long.yaml states exponential_tolerance 1e-6, tighter than the config's
+    1e-5: its simulations run at 1e-6; a config tolerance tighter still wins (the tighter of the
+    two, common.smk integrator_options)."""
+    (long_sim,) = _simulate_command(target="results/sim/long/freq-10.h5")
+    assert "--integrator exponential --tol 1e-06" in long_sim
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    config["simulation"]["tolerance"]["value"] = 1e-7
+    tight = tmp_path / "tight.yaml"
+    tight.write_text(yaml.safe_dump(config))
+    (long_sim,) = _simulate_command("--configfile", str(tight), target="results/sim/long/freq-10.h5")
+    assert "--tol 1e-07" in long_sim
 
 
 def test_an_unknown_integrator_in_the_config_stops_with_one_line(tmp_path):

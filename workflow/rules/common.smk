@@ -228,9 +228,14 @@ def model_file(wildcards):
 
 def integrator_options(wildcards):
     """The command-line options of the configured integrator (simulation.tolerance is the
-    exponential integrator's; rk4 runs at its default, half its stability limit)."""
+    exponential integrator's, or the scene's exponential_tolerance where it is tighter: a
+    scene states the accuracy it needs; rk4 runs at its default, half its stability limit).
+    """
     if cfgmod.value(config, "simulation.integrator") == "exponential":
-        return f"--tol {cfgmod.value(config, 'simulation.tolerance')!r}"
+        tol = cfgmod.value(config, "simulation.tolerance")
+        scene = wildcards.get("scene") if hasattr(wildcards, "get") else None
+        stated = dag_scene(scene).exponential_tolerance if scene else None
+        return f"--tol {(tol if stated is None else min(tol, stated))!r}"
     return ""
 
 

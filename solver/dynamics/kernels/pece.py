@@ -190,7 +190,8 @@ class Settings(NamedTuple):
     step grid: dt_out / ticks_per_output), ticks_per_output, i_end (the last tick), order (Adams
     predictor order), relinearise (bool), every_ticks
     (fixed steps: re-linearise every this many ticks, 0: never), drift [rad] (new basis beyond
-    this gimbal drift), frozen_validity [rad], probe_drift [rad], phase_limit, update_drift
+    this gimbal drift), frozen_validity [rad], probe_drift [rad], phase_bound (the phase error
+    that asks for new frequencies or a new basis: ``exponential.phase_bound``), update_drift
     (a phase error at a drift <= update_drift x drift: new frequencies), update_min_modes,
     max_rejections (in a basis that is not fresh), grow_safety, rate_floor, series_radius and
     series_terms (``phi_functions``), watch (bool: return OUTPUTS), error_energy_weight (the
@@ -206,7 +207,7 @@ class Settings(NamedTuple):
     drift: float
     frozen_validity: float
     probe_drift: float
-    phase_limit: float
+    phase_bound: float
     update_drift: float
     update_min_modes: int
     max_rejections: int
@@ -648,7 +649,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
              b_mu, b_delta, b_P_eta, b_P_vel, b_V_eta, b_V_vel, b_Ct, b_version, w_keys, w_E_re,
              w_E_im, w_F_re, w_F_im, w_wpos, w_wvel, w_H, w_used, w_inv_fact, w_fact, w_z, w_phis,
              cfg_tol, cfg_tick, cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise,
-             cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift, cfg_phase_limit,
+             cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift, cfg_phase_bound,
              cfg_update_drift, cfg_update_min_modes, cfg_max_rejections, cfg_grow_safety,
              cfg_rate_floor, cfg_series_radius, cfg_series_terms, cfg_watch,
              cfg_error_energy_weight, st_ints, st_reals, st_rate_scales, st_phase, st_kappa,
@@ -691,7 +692,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                     w_inv_fact, w_fact, w_z, w_phis)
     cfg = Settings(cfg_tol, cfg_tick, cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise,
                    cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift,
-                   cfg_phase_limit, cfg_update_drift, cfg_update_min_modes, cfg_max_rejections,
+                   cfg_phase_bound, cfg_update_drift, cfg_update_min_modes, cfg_max_rejections,
                    cfg_grow_safety, cfg_rate_floor, cfg_series_radius, cfg_series_terms,
                    cfg_watch, cfg_error_energy_weight)
     st = State(st_ints, st_reals, st_rate_scales, st_phase, st_kappa, st_phase_ref)
@@ -897,7 +898,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                     due = cfg.every_ticks > 0 and i - ints[BASIS_TICK] >= cfg.every_ticks
                 else:
                     due = cfg.relinearise and (drift > cfg.drift
-                                               or phase_err > cfg.phase_limit * cfg.tol)
+                                               or phase_err > cfg.phase_bound)
                     if due and drift <= cfg.drift:
                         if (drift <= cfg.update_drift * cfg.drift and b.P_eta.shape[0] == 0
                                 and nm >= cfg.update_min_modes):
