@@ -127,6 +127,15 @@ def test_issue_table_judges_every_check():
     assert {r["target"] for r in rows} == {t["text"] for t in bench.TARGETS.values()}
 
 
+def test_a_case_at_the_scene_tolerance_says_so():
+    """The truth on long runs at the scene's exponential_tolerance (as the workflow runs it); the
+    table names that tolerance, and a case at the default does not."""
+    at_scene = dict(_case("long", E=1e-8, e2e=6.8), tol=1e-6, scene_tol=True)
+    text = bench._measured(at_scene, "long_end_to_end")
+    assert "tol 1e-06, the scene's exponential_tolerance" in text
+    assert "exponential_tolerance" not in bench._measured(_case("thesis"), "thesis_integration")
+
+
 def test_dop853_ratio_counts_only_at_equal_or_better_error():
     """A large ratio against a DOP853 run less accurate than the exponential one is not met."""
     cases = {"thesis": _case("thesis")}
