@@ -54,8 +54,17 @@ def test_a_missing_reference_is_refused_by_the_cli(tmp_path, capsys):
 
 
 def test_markdown_has_a_row_per_scene():
-    case = {"E_max": 1e-9, "steps": 10, "bases": 2, "wall_s": 0.1}
+    case = {"tol": 1e-5, "E_max": 1e-9, "steps": 10, "bases": 2, "wall_s": 0.1}
     text = ea.markdown([{"scene": "thesis", "default": case, "tight": case},
                         {"scene": "free", "default": case, "tight": case}])
     assert text.count("\n| thesis |") + text.count("| thesis |") >= 1
     assert len(text.strip().splitlines()) == 4
+
+
+def test_a_scene_is_checked_at_the_tolerance_the_workflow_runs_it_at():
+    """long states exponential_tolerance 1e-6: checked at the tighter of it and the default, as
+    the workflow simulates it; a scene without one at the default."""
+    from solver.dynamics import scenes
+    assert ea.scene_tolerance(scenes.load_scene("long"), 1e-5) == 1e-6
+    assert ea.scene_tolerance(scenes.load_scene("long"), 1e-7) == 1e-7
+    assert ea.scene_tolerance(scenes.load_scene("thesis"), 1e-5) == 1e-5
