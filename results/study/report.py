@@ -553,7 +553,9 @@ def _integrators(ctx):
         steps = truth.get("steps") or 0
         duration = (ctx["scene"] or {}).get("duration", {}).get("value") if ctx.get("scene") else None
         mean = f", mean step {float(duration) / steps:.3g} s" if steps and duration else ""
-        seen[f"truth: {truth.get('integrator')} ({steps} steps{mean})"] = 1
+        tol = truth.get("stat_tol")
+        tol = f", tolerance {float(tol):g}" if tol is not None and np.isfinite(float(tol)) else ""
+        seen[f"truth: {truth.get('integrator')} ({steps} steps{mean}{tol})"] = 1
     for r in rows:
         if r["group"] != "truth" and r["integrator"]:
             seen[f"{r['integrator']}"] = seen.get(r["integrator"], 0) + 1

@@ -178,3 +178,13 @@ def test_report_names_inputs_made_at_another_revision(study_outputs, tmp_path):
     assert "0000000" in ctx["stale"]["exponential_bench"] and "revision 0000000" in ctx["status"]["exponential_bench"]
     text = "".join(report._summary(ctx))
     assert "Made at another revision" in text and "0000000" in text
+
+
+def test_the_methods_name_the_truth_integrators_tolerance():
+    """The truth's tolerance (its simulation file's stat_tol: the scene's own on long) is in the
+    methods' list of integrators; a fixed-step run (NaN) has none."""
+    ctx = {"truth": {"integrator": "exponential", "steps": 12301, "stat_tol": 1e-6},
+           "scene": {"duration": {"value": 1.0}}, "ranking_rows": [], "static_rows": []}
+    assert "tolerance 1e-06" in report._integrators(ctx)
+    ctx["truth"]["stat_tol"] = float("nan")
+    assert "tolerance" not in report._integrators(ctx)
