@@ -73,9 +73,9 @@ def test_model_selection_sources_and_body_restriction():
 
 
 def test_a_scene_may_state_its_exponential_tolerance():
-    """The optional exponential_tolerance (unit 1): long states 1e-6 (its attitude integrates the
+    """The optional exponential_tolerance (unit 1): long states 5e-7 (its attitude integrates the
     rates' errors over 1 s); a scene without it leaves the integrator's default."""
-    assert scenes.load_scene("long").exponential_tolerance == 1e-6
+    assert scenes.load_scene("long").exponential_tolerance == 5e-7
     assert scenes.load_scene("thesis").exponential_tolerance is None
     raw = _thesis_raw()
     raw["exponential_tolerance"] = {"value": 2e-6, "unit": "1", "source": "test"}

@@ -62,9 +62,9 @@ def test_markdown_has_a_row_per_scene():
 
 
 def test_a_scene_is_checked_at_the_tolerance_the_workflow_runs_it_at():
-    """long states exponential_tolerance 1e-6: checked at the tighter of it and the default, as
+    """long states exponential_tolerance 5e-7: checked at the tighter of it and the default, as
     the workflow simulates it; a scene without one at the default."""
     from solver.dynamics import scenes
-    assert ea.scene_tolerance(scenes.load_scene("long"), 1e-5) == 1e-6
+    assert ea.scene_tolerance(scenes.load_scene("long"), 1e-5) == 5e-7
     assert ea.scene_tolerance(scenes.load_scene("long"), 1e-7) == 1e-7
     assert ea.scene_tolerance(scenes.load_scene("thesis"), 1e-5) == 1e-5

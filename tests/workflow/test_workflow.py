@@ -108,11 +108,11 @@ def test_the_config_switch_runs_the_simulations_with_rk4(tmp_path):
 
 
 def test_a_scene_that_states_a_tighter_tolerance_gets_it(tmp_path):
-    """config/scenes/long.yaml states exponential_tolerance 1e-6, tighter than the config's
-    1e-5: its simulations run at 1e-6; a config tolerance tighter still wins (the tighter of the
+    """config/scenes/long.yaml states exponential_tolerance 5e-7, tighter than the config's
+    1e-5: its simulations run at 5e-7; a config tolerance tighter still wins (the tighter of the
     two, common.smk integrator_options)."""
     (long_sim,) = _simulate_command(target="results/sim/long/freq-10.h5")
-    assert "--integrator exponential --tol 1e-06" in long_sim
+    assert "--integrator exponential --tol 5e-07" in long_sim
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     config["simulation"]["tolerance"]["value"] = 1e-7
     tight = tmp_path / "tight.yaml"
