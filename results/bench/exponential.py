@@ -911,7 +911,7 @@ def main(argv=None) -> int:
         scene_options = simulate.scene_options(scene, "exponential", None, exp_options)
         case, run, prob = time_case(f"{name}: truth", args.truth_model, scene, duration, "exponential",
                                     scene_options, args.repeats, refs.get(name), "truth")
-        case["scene_tol"] = scene_options is not exp_options
+        case["scene_tol"] = "tol" in scene_options and "tol" not in exp_options
         truth_cases[name] = case
         rows.append(case)
         if name != "thesis":

@@ -89,13 +89,6 @@ def scene_case(chain, scene, t_ref, rates_ref, tol):
             "wall_s": wall, "basis_s": float(st["basis_time_s"])}
 
 
-def scene_tolerance(scene, tol):
-    """The tolerance a scene's simulations run at in the workflow: the tighter of tol and the
-    scene's own exponential_tolerance (``scenes``; workflow/rules/common.smk)."""
-    stated = scene.exponential_tolerance
-    return tol if stated is None else min(tol, stated)
-
-
 def markdown(rows):
     lines = ["| scene | tol | E max | steps | bases | wall [s] | E max, tol / 100 | steps |",
              "|---|---|---|---|---|---|---|---|"]
@@ -135,7 +128,7 @@ def main(argv=None) -> int:
         return 2
     rows, checks = [], []
     for name, (scene, chain, t_ref, rates_ref) in loaded.items():
-        tol = scene_tolerance(scene, args.tol)
+        tol = scene.tighter_tolerance(args.tol)         # as the workflow runs the scene
         default = scene_case(chain, scene, t_ref, rates_ref, tol)
         tight = scene_case(chain, scene, t_ref, rates_ref, tol / TIGHT_FACTOR)
         rows.append({"scene": name, "reference": refs[name], "default": default, "tight": tight})

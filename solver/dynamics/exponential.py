@@ -39,7 +39,8 @@ The scheme: exponential Adams in PECE form.  The predictor's p interpolates g at
 last q accepted times (order q), the corrector's adds the predicted g at t_n + h
 (order q + 1); every node pattern is handled by a q x q Vandermonde solve, so variable
 steps cost nothing extra.  The difference corrector - predictor estimates the local
-error in the gimbal rates (``kernels.pece.local_error``); the step is halved or doubled on a
+error, in the energy norm of every modal coordinate and in the gimbal rates
+(``kernels.pece.local_error``); the step is halved or doubled on a
 dyadic grid of the output interval, so dense outputs reuse cached weights.  The basis is rebuilt
 (re-linearised) when the gimbal angles drift from y_r by more than ``drift`` [rad], or when
 steps keep failing in an aged basis; the stored history of accelerations is carried over.

@@ -81,6 +81,12 @@ class Scene:
         """The raw scene without ``needs`` and ``description``: what a simulation depends on."""
         return {k: v for k, v in self.raw.items() if k not in ("needs", "description")}
 
+    def tighter_tolerance(self, tol):
+        """The tighter of an exponential tolerance tol and the scene's own exponential_tolerance
+        (tol when the scene states none): the tolerance the workflow simulates the scene at
+        (workflow/rules/common.smk) and ``results.bench.exponential_accuracy`` checks it at."""
+        return tol if self.exponential_tolerance is None else min(tol, self.exponential_tolerance)
+
     def config_hash(self):
         """Hash of ``physics``: editing what the scene needs does not invalidate its simulations."""
         return hashlib.sha256(json.dumps(self.physics, sort_keys=True, default=str).encode()).hexdigest()[:16]

@@ -41,8 +41,13 @@ def test_needs_default_to_all_bodies_and_no_models():
     ([2, 3], "needs must be a mapping"),
 ])
 def test_bad_needs_give_one_line_errors(needs, message):
+    _assert_refused("needs", needs, message)
+
+
+def _assert_refused(key, entry, message):
+    """The thesis scene with raw[key] = entry is refused in one line holding message."""
     raw = _thesis_raw()
-    raw["needs"] = needs
+    raw[key] = entry
     with pytest.raises(scenes.SceneError) as err:
         scenes.parse_scene(raw, origin="thesis.yaml")
     assert message in str(err.value) and "\n" not in str(err.value)
@@ -92,8 +97,4 @@ def test_a_scene_may_state_its_exponential_tolerance():
     (1e-6, "exponential_tolerance: expected {value, unit, source}"),
 ])
 def test_bad_exponential_tolerance_gives_one_line_errors(entry, message):
-    raw = _thesis_raw()
-    raw["exponential_tolerance"] = entry
-    with pytest.raises(scenes.SceneError) as err:
-        scenes.parse_scene(raw, origin="thesis.yaml")
-    assert message in str(err.value) and "\n" not in str(err.value)
+    _assert_refused("exponential_tolerance", entry, message)

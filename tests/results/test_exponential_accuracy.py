@@ -65,6 +65,6 @@ def test_a_scene_is_checked_at_the_tolerance_the_workflow_runs_it_at():
     """long states exponential_tolerance 5e-7: checked at the tighter of it and the default, as
     the workflow simulates it; a scene without one at the default."""
     from solver.dynamics import scenes
-    assert ea.scene_tolerance(scenes.load_scene("long"), 1e-5) == 5e-7
-    assert ea.scene_tolerance(scenes.load_scene("long"), 1e-7) == 1e-7
-    assert ea.scene_tolerance(scenes.load_scene("thesis"), 1e-5) == 1e-5
+    assert scenes.load_scene("long").tighter_tolerance(1e-5) == 5e-7
+    assert scenes.load_scene("long").tighter_tolerance(1e-7) == 1e-7
+    assert scenes.load_scene("thesis").tighter_tolerance(1e-5) == 1e-5

@@ -234,8 +234,7 @@ def integrator_options(wildcards):
     if cfgmod.value(config, "simulation.integrator") == "exponential":
         tol = cfgmod.value(config, "simulation.tolerance")
         scene = wildcards.get("scene") if hasattr(wildcards, "get") else None
-        stated = dag_scene(scene).exponential_tolerance if scene else None
-        return f"--tol {(tol if stated is None else min(tol, stated))!r}"
+        return f"--tol {(dag_scene(scene).tighter_tolerance(tol) if scene else tol)!r}"
     return ""
 
 

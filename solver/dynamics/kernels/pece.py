@@ -460,7 +460,7 @@ def local_error(omega2, rates, scales, eta_c, etad_c, eta_p, etad_p, energy_weig
     demand an absolute accuracy.  With energy_weight > 0, the larger of that and energy_weight
     x the energy norm of corrector - predictor over the largest energy norm of the solution
     (scales[ENERGY_SCALE], or the corrector's): every modal coordinate weighted by its energy
-    (the default until 2026-11-25, weight 1; docs/exponential.md Sec. 5)."""
+    (the default, weight 1: it holds the platform attitude too; docs/exponential.md Sec. 8)."""
     d_etad = etad_c - etad_p
     err = 0.0
     if energy_weight > 0.0:
