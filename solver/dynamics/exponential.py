@@ -91,6 +91,11 @@ ERROR_ENERGY_WEIGHT = 1.0  # local error: the energy norm of every modal coordin
 #                            rates alone, what E measures: 2x fewer steps on thesis, but the truth's platform
 #                            attitude on long moved by 0.15 arcsec, 10x the rigid model's difference; measured
 #                            2026-11-25, docs/exponential.md Section 8)
+EVALUATE_ACCEPTED = False  # adaptive runs: PEC, the accepted node keeps the predicted state's g (one
+#                            evaluation per step; True: PECE, two).  The same E on every scene of the
+#                            verification within 10 % (thesis 6.20e-10 against 6.13e-10, 43 against 81
+#                            evaluations); fixed steps keep PECE (their start-up block and order study).
+#                            Measured 2026-11-26, docs/exponential.md Section 5
 WEIGHT_CACHE_ENTRIES = 128  # step weights kept per basis by the compiled loop (step, offset pairs)
 
 
@@ -733,7 +738,7 @@ class ExponentialAdams:
             update_min_modes=FREQUENCY_UPDATE_MIN_MODES, max_rejections=MAX_REJECTIONS_IN_BASIS,
             grow_safety=GROW_SAFETY, rate_floor=RATE_FLOOR, series_radius=SERIES_RADIUS,
             series_terms=SERIES_TERMS, watch=on_outputs is not None,
-            error_energy_weight=ERROR_ENERGY_WEIGHT)
+            error_energy_weight=ERROR_ENERGY_WEIGHT, evaluate_accepted=fixed or EVALUATE_ACCEPTED)
         outputs = pece.Outputs(self.out_eta, self.out_etad, self.out_segment)
         self._drive((*self.kb, *self.kw, *settings, *st, *self.hist, *self.ev, *outputs, *self.work))
         return self._result()

@@ -102,7 +102,8 @@ PROBED = 13                 # 1 once the current basis knows its frequency sensi
 OUT_FIRST = 14              # OUTPUTS: the first and last new output index
 OUT_LAST = 15
 FAILURE = 16                # FAILED: one of the FAIL_* causes below
-N_INTS = 17
+PREDICTED_NODE = 17         # 1: the newest history node is the predicted state's (PEC, no final evaluation)
+N_INTS = 18
 # st.reals
 SMALLEST_STEP = 0           # [s]
 LARGEST_STEP = 1            # [s]
@@ -195,7 +196,9 @@ class Settings(NamedTuple):
     (a phase error at a drift <= update_drift x drift: new frequencies), update_min_modes,
     max_rejections (in a basis that is not fresh), grow_safety, rate_floor, series_radius and
     series_terms (``phi_functions``), watch (bool: return OUTPUTS), error_energy_weight (the
-    energy norm's weight in ``local_error``, 0: the gimbal rates alone).  The first step and the
+    energy norm's weight in ``local_error``, 0: the gimbal rates alone), evaluate_accepted (bool:
+    PECE, g at every accepted state; False: PEC, the accepted node keeps the predicted state's g,
+    one evaluation per step; docs/exponential.md Section 5).  The first step and the
     tick the run starts at are st.ints[STEP_TICKS], st.ints[TICK], set by Python."""
     tol: float
     tick: float
@@ -217,6 +220,7 @@ class Settings(NamedTuple):
     series_terms: int
     watch: bool
     error_energy_weight: float
+    evaluate_accepted: bool
 
 
 class State(NamedTuple):
@@ -262,7 +266,10 @@ class Work(NamedTuple):
 class History(NamedTuple):
     """The accepted nodes, newest first (row 0): t (order + 1,) [s], y, yd, a (order + 1, n) the
     physical state and accelerations (to carry g into a new basis), g (order + 1, n) the modal
-    forcing in the current basis; length (1,) int the rows in use."""
+    forcing in the current basis; length (1,) int the rows in use.  A node's y, y', a and g
+    belong to one state: the accepted (corrected) state's with a final evaluation (PECE), the
+    predicted state's of the same time without (PEC, st.ints[PREDICTED_NODE]); the accepted
+    state itself is (work.eta, work.etad)."""
     t: np.ndarray
     y: np.ndarray
     yd: np.ndarray
@@ -631,6 +638,36 @@ def all_finite(x):
     return True
 
 
+@numba.njit(**JIT)
+def accepted_joints(y_ref, rates, eta, etad, node_y, node_yd, predicted_node):
+    """(2, 4): the accepted state's joint angles [rad] and rates [rad/s]: the newest node's
+    (node_y, node_yd (n,)) when it is the accepted state (PECE), else from the modal state
+    (eta, eta') (n,) by the gimbal rows of phi, rates (4, n): y[:4] = y_ref[:4] + phi[:4] eta."""
+    out = np.empty((2, N_JOINTS))
+    if predicted_node:
+        gimbal_rates(rates, eta, out[0])
+        gimbal_rates(rates, etad, out[1])
+        for k in range(N_JOINTS):
+            out[0, k] += y_ref[k]
+    else:
+        out[0] = node_y[:N_JOINTS]
+        out[1] = node_yd[:N_JOINTS]
+    return out
+
+
+@numba.njit(**JIT)
+def accepted_state(physical_map, hist, predicted_node, eta, etad, ev):
+    """ev.t, ev.y, ev.yd: the accepted state (its time is the newest node's): the newest node
+    under PECE, else (PEC) the modal state (eta, eta') (n,) in physical coordinates
+    (``to_physical`` of physical_map = (y_ref, Lt, J, X))."""
+    ev.t[0] = hist.t[0]
+    if predicted_node:
+        to_physical(*physical_map, eta, etad, ev.y, ev.yd)
+    else:
+        ev.y[:] = hist.y[0]
+        ev.yd[:] = hist.yd[0]
+
+
 # ------------------------------------------------------------ the loop
 @numba.njit(**JIT)
 def history_nodes(hist, q, t, h, lead):
@@ -650,7 +687,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
              cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift, cfg_phase_bound,
              cfg_update_drift, cfg_update_min_modes, cfg_max_rejections, cfg_grow_safety,
              cfg_rate_floor, cfg_series_radius, cfg_series_terms, cfg_watch,
-             cfg_error_energy_weight, st_ints, st_reals, st_rate_scales, st_phase, st_kappa,
+             cfg_error_energy_weight, cfg_evaluate_accepted, st_ints, st_reals, st_rate_scales, st_phase, st_kappa,
              st_phase_ref, hist_t, hist_y, hist_yd, hist_a,
              hist_g, hist_length, ev_t, ev_y, ev_yd, ev_a, out_eta, out_etad, out_segment,
              work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
@@ -692,7 +729,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                    cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift,
                    cfg_phase_bound, cfg_update_drift, cfg_update_min_modes, cfg_max_rejections,
                    cfg_grow_safety, cfg_rate_floor, cfg_series_radius, cfg_series_terms,
-                   cfg_watch, cfg_error_energy_weight)
+                   cfg_watch, cfg_error_energy_weight, cfg_evaluate_accepted)
     st = State(st_ints, st_reals, st_rate_scales, st_phase, st_kappa, st_phase_ref)
     hist = History(hist_t, hist_y, hist_yd, hist_a, hist_g, hist_length)
     ev = Evaluation(ev_t, ev_y, ev_yd, ev_a)
@@ -819,13 +856,24 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                 ints[FAILURE] = FAIL_NON_FINITE_STATE
                 reals[EVENT_TIME] = t + h
                 return FAILED
+            ints[STAGE] = ACCEPTED
+            if not cfg.evaluate_accepted and ints[COEF_ROWS] == q + 1:
+                # PEC: the node at t + h keeps g, y, y', a of the predicted state (ev still
+                # holds them; not after the first step's midpoint, which overwrote ev).  The
+                # final evaluation at the corrected state would change g by dg/dy (y_c - y_p),
+                # the corrector's own O(h^(q+1)) difference: the same order, one evaluation
+                # and two passes through X fewer per step (docs/exponential.md Section 5)
+                work.g_1[:] = work.g_p
+                ints[PREDICTED_NODE] = 1
+                continue
             to_physical(*physical_map, eta_c, etad_c, ev.y, ev.yd)
             ev.t[0] = t + h
             ints[EVALUATIONS] += 1
-            ints[STAGE] = ACCEPTED
+            ints[PREDICTED_NODE] = 0
             return NEED_RHS
         elif stage == ACCEPTED:
-            modal_forcing(*projection, *linear, eta_c, etad_c, ev.a, work.g_1)
+            if not ints[PREDICTED_NODE]:
+                modal_forcing(*projection, *linear, eta_c, etad_c, ev.a, work.g_1)
             if not all_finite(work.g_1):
                 ints[FAILURE] = FAIL_NON_FINITE_RHS
                 reals[EVENT_TIME] = t + h
@@ -858,7 +906,9 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                          ev.y, ev.yd, ev.a, work.g_1)
             eta[:] = eta_c
             etad[:] = etad_c
-            accept_scales(b.omega2, eta, etad, hist.yd[0], reals, st.rate_scales)
+            joints = accepted_joints(b.y_ref, b.rates, eta, etad, hist.y[0], hist.yd[0],
+                                     ints[PREDICTED_NODE])
+            accept_scales(b.omega2, eta, etad, joints[1], reals, st.rate_scales)
             ints[STEPS] += 1
             reals[SMALLEST_STEP] = min(reals[SMALLEST_STEP], h)
             reals[LARGEST_STEP] = max(reals[LARGEST_STEP], h)
@@ -867,8 +917,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             drift = 0.0
             phase_drift = 0.0
             for k in range(j):
-                drift = max(drift, abs(hist.y[0, k] - b.y_ref[k]))
-                phase_drift = max(phase_drift, abs(hist.y[0, k] - st.phase_ref[k]))
+                drift = max(drift, abs(joints[0, k] - b.y_ref[k]))
+                phase_drift = max(phase_drift, abs(joints[0, k] - st.phase_ref[k]))
             reals[DRIFT], reals[PHASE_DRIFT] = drift, phase_drift
             ints[STAGE] = PHASE
             if cfg.watch and last >= first:
@@ -879,8 +929,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             ints[STAGE] = PHASE_ERROR
             if not fixed and cfg.relinearise and nm > 0 and not ints[PROBED] \
                     and reals[DRIFT] >= cfg.probe_drift:
-                ev.y[:] = hist.y[0]
-                ev.t[0] = hist.t[0]
+                accepted_state(physical_map, hist, ints[PREDICTED_NODE], eta, etad, ev)
                 reals[EVENT_VALUE] = reals[DRIFT]
                 return NEED_PROBE
         elif stage == PHASE_ERROR:
@@ -900,8 +949,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                     if due and drift <= cfg.drift:
                         if (drift <= cfg.update_drift * cfg.drift and b.P_eta.shape[0] == 0
                                 and nm >= cfg.update_min_modes):
-                            ev.y[:] = hist.y[0]
-                            ev.t[0] = hist.t[0]
+                            accepted_state(physical_map, hist, ints[PREDICTED_NODE], eta, etad, ev)
                             work.omega2_old[:] = b.omega2
                             ints[STAGE] = UPDATED
                             return NEED_FREQUENCIES
@@ -932,7 +980,10 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                           hist.length[0])
             ints[SEGMENT] += 1
             ints[REJECTIONS_IN_BASIS] = 0
-            to_modal(b.y_ref, *projection, hist.y[0], hist.yd[0], eta, etad)
+            # the accepted state (eta, eta') in the new basis, from its physical form that
+            # to_physical wrote into ev before NEED_BASIS (not the newest node: under PEC
+            # that is the predicted state)
+            to_modal(b.y_ref, *projection, ev.y, ev.yd, eta, etad)
             ints[BASIS_TICK] = i
             reals[DRIFT_PREVIOUS] = 0.0
             ints[STAGE] = GROW if stage == REBASED else STEP
