@@ -464,8 +464,9 @@ def profile_limits(profile, n_coordinates, bases, steps, samples, top=(), freque
                              f"(one eigenproblem each, set by the gimbal drift)" if later else
                              ", no new basis")),
         "rhs_evaluations_s": (f"{profile['evaluations']} evaluations x "
-                              f"{profile['per_evaluation_s'] * 1e6:.3g} us: the count (2 per step, "
-                              f"{steps} steps, + rejected ones) is set by the tolerance and the smoothness "
+                              f"{profile['per_evaluation_s'] * 1e6:.3g} us: the count (one per step "
+                              f"attempt, {steps} steps, + rejected ones, + the first step's midpoint and "
+                              f"final evaluation and the start's) is set by the tolerance and the smoothness "
                               f"of the slow forcing; the cost by the articulated-body recursion (O(n))"),
         "rest_s": (f"the integrator's compiled step loop (kernels.pece) and its requests to Python, "
                    f"{format_seconds(profile['rest_s'] / max(steps, 1))} per step ({steps} steps, "

@@ -35,10 +35,12 @@ p(s) = sum_j c_j (s / h)^j the variation-of-constants formula is exact:
 phi_0(z) = e^z, phi_{j+1}(z) = (phi_j(z) - 1/j!) / z (``phi_functions``).  H = h is the
 step, H < h the dense output at the scene's output times.
 
-The scheme: exponential Adams in PECE form.  The predictor's p interpolates g at the
-last q accepted times (order q), the corrector's adds the predicted g at t_n + h
+The scheme: exponential Adams, predict-evaluate-correct.  The predictor's p interpolates g
+at the last q accepted times (order q), the corrector's adds the predicted g at t_n + h
 (order q + 1); every node pattern is handled by a q x q Vandermonde solve, so variable
-steps cost nothing extra.  The difference corrector - predictor estimates the local
+steps cost nothing extra.  Adaptive runs end the step there (PEC): the accepted node keeps
+the predicted state's g, one right-hand side per step; fixed steps evaluate again at the
+corrected state (PECE; ``EVALUATE_ACCEPTED``, docs/exponential.md Sec. 5).  The difference corrector - predictor estimates the local
 error, in the energy norm of every modal coordinate and in the gimbal rates
 (``kernels.pece.local_error``); the step is halved or doubled on a
 dyadic grid of the output interval, so dense outputs reuse cached weights.  The basis is rebuilt
@@ -545,7 +547,8 @@ def check_options(tol=None, step=None, relinearise_every=None, order=DEFAULT_ORD
 
 
 class ExponentialAdams:
-    """Exponential Adams PECE in the coupled modal basis (module docstring).
+    """Exponential Adams (PEC adaptive, PECE fixed steps) in the coupled modal basis (module
+    docstring).
 
     problem: the integrators' problem interface (rhs, mass_matrix, stiffness_diagonal,
     damping_diagonal).  Adaptive (tol) or fixed step (step, optional relinearise_every

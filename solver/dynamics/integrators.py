@@ -4,7 +4,7 @@ Four methods, one interface (``integrate``):
 
 * ``exponential``: the modal exponential integrator (``solver.dynamics.exponential``,
   docs/exponential.md), the default.  The linearised chain's modes are solved in closed
-  form and only the slow remainder is stepped (exponential Adams PECE, error control
+  form and only the slow remainder is stepped (exponential Adams, error control
   from ``tol``, re-linearisation as the gimbals turn), so its step is not bounded by
   omega_max: ~30 steps for the thesis window where RK4 needs 1e5.
 * ``rk4``: the classical fixed-step fourth-order Runge-Kutta method, as the

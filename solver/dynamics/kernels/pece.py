@@ -1,8 +1,9 @@
 """The exponential integrator's step loop, compiled (``solver.dynamics.exponential``).
 
-Why: the exponential Adams PECE step of ``docs/exponential.md`` (Sections 4-6) is a few
+Why: the exponential Adams step of ``docs/exponential.md`` (Sections 4-6) is a few
 dozen small array operations per step -- two polynomial fits, two phi-weighted advances
-of the modal state, two physical transforms and projections, the error norm, the dense
+of the modal state, one or two physical transforms and projections (PEC or PECE), the
+error norm, the dense
 outputs, the phase-error estimate and the step-size decisions.  As NumPy calls from a
 Python loop that cost ~0.3 ms per step on the truth model (~60 calls of ~5 us overhead
 each) besides the arithmetic.  Here the whole loop is one compiled function, ``pece_run``.
@@ -11,7 +12,7 @@ go on from where it stopped (st.ints[STAGE]):
 
 * ``NEED_RHS``: the right-hand side a(t, y, y') at (ev.t, ev.y, ev.yd), written into ev.a by
   Python (the problem's own, compiled or not, wrapped or overridden: the loop never needs to
-  know which); twice per step;
+  know which); once per step attempt, and at the accepted state too under PECE;
 * ``NEED_PROBE``, ``NEED_FREQUENCIES``, ``NEED_BASIS``: the first basis's frequency
   sensitivity, new frequencies of the same shapes, a new basis (eigenproblem) at the
   accepted state in ev (Section 6); Python rewrites the basis arrays ``b`` and the phase
@@ -693,7 +694,7 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
              work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
              work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im,
              work_omega2_old):
-    """The exponential Adams PECE loop from where it stopped (st.ints[STAGE]) to the next
+    """The exponential Adams PEC / PECE loop from where it stopped (st.ints[STAGE]) to the next
     request or to the end (module docstring); returns DONE or the request.
 
     Arguments: the fields of the eight containers in order,
@@ -710,7 +711,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
     * PREDICTED, correct: p through the predicted g at t + h and the same nodes, the local
       error of corrector - predictor; the first step (one node) adds a midpoint evaluation
       (MIDPOINT) and the quadratic fit, its estimate quadratic - linear;
-    * DECIDE: accepted when the error is <= tol (g at the accepted state, ACCEPTED); a
+    * DECIDE: accepted when the error is <= tol (ACCEPTED; with g at the accepted state
+      under PECE, the predicted state's under PEC: cfg.evaluate_accepted); a
       rejection halves m and, after max_rejections in an aged basis, asks for a new basis
       (RETRY);
     * ACCEPTED: the outputs at the output ticks inside the step by the exact formula (dense),
