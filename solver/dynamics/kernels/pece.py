@@ -656,19 +656,6 @@ def accepted_joints(y_ref, rates, eta, etad, node_y, node_yd, predicted_node):
     return out
 
 
-@numba.njit(**JIT)
-def accepted_state(physical_map, hist, predicted_node, eta, etad, ev):
-    """ev.t, ev.y, ev.yd: the accepted state (its time is the newest node's): the newest node
-    under PECE, else (PEC) the modal state (eta, eta') (n,) in physical coordinates
-    (``to_physical`` of physical_map = (y_ref, Lt, J, X))."""
-    ev.t[0] = hist.t[0]
-    if predicted_node:
-        to_physical(*physical_map, eta, etad, ev.y, ev.yd)
-    else:
-        ev.y[:] = hist.y[0]
-        ev.yd[:] = hist.yd[0]
-
-
 # ------------------------------------------------------------ the loop
 @numba.njit(**JIT)
 def history_nodes(hist, q, t, h, lead):
@@ -931,7 +918,11 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
             ints[STAGE] = PHASE_ERROR
             if not fixed and cfg.relinearise and nm > 0 and not ints[PROBED] \
                     and reals[DRIFT] >= cfg.probe_drift:
-                accepted_state(physical_map, hist, ints[PREDICTED_NODE], eta, etad, ev)
+                # the accepted state in ev, as for NEED_BASIS (under PECE the newest node's
+                # y, y' to the bit: the same transform of the same eta; under PEC that node is
+                # the predicted state)
+                to_physical(*physical_map, eta, etad, ev.y, ev.yd)
+                ev.t[0] = hist.t[0]
                 reals[EVENT_VALUE] = reals[DRIFT]
                 return NEED_PROBE
         elif stage == PHASE_ERROR:
@@ -951,7 +942,8 @@ def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J
                     if due and drift <= cfg.drift:
                         if (drift <= cfg.update_drift * cfg.drift and b.P_eta.shape[0] == 0
                                 and nm >= cfg.update_min_modes):
-                            accepted_state(physical_map, hist, ints[PREDICTED_NODE], eta, etad, ev)
+                            to_physical(*physical_map, eta, etad, ev.y, ev.yd)
+                            ev.t[0] = hist.t[0]
                             work.omega2_old[:] = b.omega2
                             ints[STAGE] = UPDATED
                             return NEED_FREQUENCIES
