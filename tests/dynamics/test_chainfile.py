@@ -43,7 +43,7 @@ def test_damping_is_the_scenes_and_follows_make_body(written):
     damped, _ = chainfile.read_chain(path, damping_ratio=0.01)
     for body in damped.bodies:
         # independent of the reader: modal damping 2 zeta Omega
-        np.testing.assert_array_equal(body.damping, 2 * 0.01 * np.sqrt(body.omega2))
+        np.testing.assert_allclose(body.damping, 2 * 0.01 * np.sqrt(body.omega2), rtol=1e-15)
     assert isinstance(damped, multibody.Chain)
 
 

@@ -61,8 +61,13 @@ def test_no_energy_leaves_out_only_the_energy_group(tmp_path, model_file):
     full, bare = (simfile.read_sim(paths[f]) for f in ((), ("--no-energy",)))
     assert "energy" in full and "energy" not in bare
     assert np.all(np.isfinite(full["energy"]["kinetic"])) and np.ptp(full["energy"]["kinetic"]) > 0
-    np.testing.assert_array_equal(full["gamma_dot"], bare["gamma_dot"])
-    np.testing.assert_array_equal(full["platform_attitude"], bare["platform_attitude"])
+    # The same integration, but not one code path: the two runs may take differently aligned
+    # arrays through BLAS, which on some CPUs rounds differently (3.6e-15 relative seen on an
+    # AMD EPYC).  So the bound is a few hundred roundings of each quantity's own scale: a real
+    # change of the run (a step more or less) moves these by far more than 1e-12 relative.
+    for key in ("gamma_dot", "platform_attitude"):
+        scale = np.max(np.abs(full[key]))
+        np.testing.assert_allclose(full[key], bare[key], rtol=0, atol=1e-13 * scale, err_msg=key)
 
 
 @pytest.mark.parametrize("scene_name, fast", [("thesis", True), ("thesis", False), ("free", True)])
