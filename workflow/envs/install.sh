@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
-# Idempotent installation of everything the project needs on Debian bookworm:
-#   1. the Debian packages in apt-packages.txt (only the missing ones are installed);
-#   2. a virtual environment .venv made from /usr/bin/python3 with the system
-#      site packages (DOLFINx, PETSc, SLEPc, gmsh, snakemake come from Debian),
-#      holding the pinned PyPI-only packages of requirements.txt.
+# Idempotent installation of everything the project needs:
+#   1. the few Debian packages of apt-packages.txt that PyPI cannot give (only the missing ones);
+#   2. a virtual environment .venv on a Python >= 3.12, holding every pin of requirements.txt
+#      (and constraints.txt) from PyPI: DOLFINx 0.11 with PETSc, SLEPc, MUMPS and MPICH included.
+#      No system site packages: the venv is all a compute node needs.
+#   3. the project itself into that venv (editable), with its command-line entry points.
 # Re-running it is cheap: it only checks, and installs what is missing or changed.
+# PYTHON=/path/to/python3.12 picks the interpreter; otherwise the first Python >= 3.12 found.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
+venv="$root/.venv"
 
 mapfile -t wanted < <(grep -v '^\s*#' "$here/apt-packages.txt" | sed '/^\s*$/d')
 missing=()
@@ -22,24 +25,45 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-venv="$root/.venv"
-if [ ! -x "$venv/bin/python" ]; then
-  echo "install: creating $venv (system site packages)"
-  /usr/bin/python3 -m venv --system-site-packages "$venv"
-fi
-stamp="$venv/.requirements.sha256"
-want="$(cat "$here/requirements.txt" "$here/constraints.txt" | sha256sum | cut -d' ' -f1)"
-if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
-  if grep -qv '^\s*\(#.*\)\?$' "$here/requirements.txt"; then
-    echo "install: pip installing workflow/envs/requirements.txt"
-    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -c "$here/constraints.txt" -r "$here/requirements.txt"
+# The interpreter: a Python >= 3.12 (the DOLFINx wheel's floor).
+recent() { "$1" -c 'import sys; sys.exit(0 if sys.version_info >= (3, 12) else 1)' 2>/dev/null; }
+venv_ok() {   # an existing .venv on a recent Python, not made with the system's site packages
+  [ -x "$venv/bin/python" ] && recent "$venv/bin/python" &&
+    ! grep -qi '^include-system-site-packages *= *true' "$venv/pyvenv.cfg" 2>/dev/null
+}
+if ! venv_ok; then
+  python=""
+  for cand in "${PYTHON:-}" python3.14 python3.13 python3.12 \
+              $(ls -d "${PYENV_ROOT:-$HOME/.pyenv}"/versions/3.1[2-9]*/bin/python3 2>/dev/null | sort -rV) \
+              python3 /usr/bin/python3; do
+    [ -n "$cand" ] || continue
+    path="$(command -v "$cand" 2>/dev/null || true)"
+    if [ -n "$path" ] && recent "$path" && "$path" -c 'import venv, ensurepip' 2>/dev/null; then
+      python="$path"; break
+    fi
+  done
+  if [ -z "$python" ]; then
+    echo "install: no Python >= 3.12 with venv found: install one (e.g. 'pyenv install 3.12' or Debian's python3.12-venv) or set PYTHON=/path/to/python3.12" >&2
+    exit 1
   fi
+  [ -e "$venv" ] && { echo "install: replacing $venv (older Python or system site packages)"; rm -rf "$venv"; }
+  echo "install: creating $venv with $python ($("$python" -c 'import sys; print(sys.version.split()[0])'))"
+  "$python" -m venv "$venv"
+fi
+
+stamp="$venv/.requirements.sha256"
+want="$(cat "$here/requirements.txt" "$here/constraints.txt" "$root/pyproject.toml" | sha256sum | cut -d' ' -f1)"
+if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+  echo "install: pip installing workflow/envs/requirements.txt into $venv (a few minutes the first time)"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+    -c "$here/constraints.txt" -r "$here/requirements.txt"
+  # the project itself, editable: its packages and entry points; its dependencies are the pins above
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation \
+    -e "$root"
   echo "$want" > "$stamp"
 fi
-"$venv/bin/python" -c "import dolfinx, slepc4py, gmsh, snakemake" || {
-  echo "install: the environment is incomplete (dolfinx/slepc4py/gmsh/snakemake not importable)" >&2; exit 1; }
-"$venv/bin/python" -c "import numpy, sys; sys.exit(0 if numpy.__file__.startswith('/usr/lib/python3/') else 1)" || {
-  echo "install: .venv shadows Debian's numpy (DOLFINx needs it): check workflow/envs/constraints.txt" >&2; exit 1; }
+"$venv/bin/python" -c "import dolfinx_solver, dolfinx, slepc4py, gmsh, snakemake, numba, typst" || {
+  echo "install: the environment is incomplete (dolfinx/slepc4py/gmsh/snakemake/numba/typst not importable)" >&2; exit 1; }
 # The literal `snakemake` command (README): a small launcher in $SNAKEMAKE_BINDIR (default
 # /usr/local/bin, on PATH) that runs the .venv's Snakemake of the project in the working directory
 # or above (workflow/envs/snakemake-launcher.sh). It replaces no other `snakemake` (only a file
@@ -57,4 +81,4 @@ elif ! cmp -s "$here/snakemake-launcher.sh" "$launcher" 2>/dev/null; then
     echo "install: $bindir not writable: no snakemake launcher (use '. .venv/bin/activate' before snakemake)"
   fi
 fi
-echo "install: environment ready ($venv)"
+echo "install: environment ready ($venv, $("$venv/bin/python" -c 'import sys; print("Python", sys.version.split()[0])'))"
