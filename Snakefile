@@ -1,5 +1,5 @@
 # The gimbal study as a Snakemake workflow (8.20.5, pinned in the venv; README): stages are wired
-# here, the work is done by the importable packages geometry/, solver/, reduction/, results/.
+# here, the work is done by the importable packages gimbal_reduction/geometry/, gimbal_reduction/solver/, gimbal_reduction/reduction/, results/.
 # Every job reruns when the code its stage runs or the config values it reads change
 # (params.code and params.cfg, workflow/rules/common.smk).
 #   snakemake --cores 2 all        everything that exists so far

@@ -5,7 +5,7 @@ import copy
 
 import pytest
 
-from workflow import config as cfgmod
+from gimbal_reduction.workflow import config as cfgmod
 
 
 @pytest.fixture(scope="session")
@@ -21,8 +21,8 @@ def config_copy(config) -> dict:
 @pytest.fixture(scope="session")
 def inner_gimbal_file(tmp_path_factory, config):
     """Body file of the inner gimbal (default mesh, 20 modes), written through the stage's own code."""
-    from geometry.mesh import mesh_from_config
-    from solver.fe import modes
+    from gimbal_reduction.geometry.mesh import mesh_from_config
+    from gimbal_reduction.solver.fe import modes
 
     tmp = tmp_path_factory.mktemp("body4")
     mesh = tmp / "body4.msh"

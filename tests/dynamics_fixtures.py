@@ -1,15 +1,15 @@
 """The workflow's real body files, for the tests that use them (they skip in a clean clone).
 
-The synthetic bodies and the JAX oracle live in ``results.bench.oracle`` (the
+The synthetic bodies and the JAX oracle live in ``gimbal_reduction.results.bench.oracle`` (the
 dynamics verification runs them too)."""
 
 import os
 
 import pytest
 
-from reduction import models
-from results.bench.verify_dynamics import reduce_and_simulate
-from solver.bodydata import BODIES
+from gimbal_reduction.reduction import models
+from gimbal_reduction.results.bench.verify_dynamics import reduce_and_simulate
+from gimbal_reduction.solver.bodydata import BODIES
 
 # The real body files of the workflow (FE and reduction stages), for the tests that use
 # them; those tests skip in a clean clone, before `make all` has run.
@@ -32,8 +32,8 @@ def load_real_bodies():
 
 def run_model(scene, model, modes_dir, reduction_dir, out_dir, options=(), load_ranking=None):
     """The workflow's two jobs for one simulation, in process: reduce (python -m
-    reduction.models, into out_dir/models/SCENE/MODEL.h5), then simulate (python -m
-    solver.dynamics.simulate, into out_dir/SCENE/MODEL.h5).  Returns the exit status of the
+    gimbal_reduction.reduction.models, into out_dir/models/SCENE/MODEL.h5), then simulate (python -m
+    gimbal_reduction.solver.dynamics.simulate, into out_dir/SCENE/MODEL.h5).  Returns the exit status of the
     first job that fails, or 0."""
     stem = os.path.splitext(os.path.basename(scene))[0]
     return reduce_and_simulate(

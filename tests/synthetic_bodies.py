@@ -68,7 +68,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
-from solver.bodydata import write_csr
+from gimbal_reduction.solver.bodydata import write_csr
 
 E_STEEL_LIKE = 3.0e8  # lbf/in^2 (the project's material)
 NU = 0.3

@@ -2,7 +2,7 @@
 
 docs/examples/one_ring.py (~10 s once the FFCx forms and the Numba kernels are cached): the free
 ring's first elastic frequency against the thin-ring formula with its first-order Timoshenko
-correction (the tolerance of solver.fe.checks.check_ring_formula), and the conservation of
+correction (the tolerance of gimbal_reduction.solver.fe.checks.check_ring_formula), and the conservation of
 energy and of the outer-axis momentum in a free 15 ms run of a reduced chain.
 """
 
@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from solver.fe import checks
+from gimbal_reduction.solver.fe import checks
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "docs" / "examples"
 
@@ -32,7 +32,7 @@ def one_ring():
 def test_free_ring_matches_the_thin_ring_formula_with_timoshenko_correction(one_ring):
     """The FE n = 2 frequency deviates from Hoppe's thin-ring formula by the predicted
     shear/rotary-inertia correction, within 0.3 % (and lies within 2 % of the formula):
-    the criteria of solver.fe.checks.check_ring_formula."""
+    the criteria of gimbal_reduction.solver.fe.checks.check_ring_formula."""
     ring = one_ring.FREE_RING
     assert abs(ring["deviation"] - ring["expected_deviation"]) < 0.003
     assert abs(ring["deviation"]) < 0.02

@@ -1,14 +1,14 @@
-"""The package layering, read from the source (workflow.imports builds the import graph with ast).
+"""The package layering, read from the source (gimbal_reduction.workflow.imports builds the import graph with ast).
 
 Imports point only downward:
 
-    workflow  <  geometry  <  solver.bodydata  <  solver.fe, solver.dynamics  <  reduction  <  results.study, results.bench
+    workflow  <  geometry  <  gimbal_reduction.solver.bodydata  <  gimbal_reduction.solver.fe, gimbal_reduction.solver.dynamics  <  reduction  <  gimbal_reduction.results.study, gimbal_reduction.results.bench
 
-solver.fe and solver.dynamics never import each other; no two files import each other, directly or
+gimbal_reduction.solver.fe and gimbal_reduction.solver.dynamics never import each other; no two files import each other, directly or
 through others; and no project module is imported inside a function (optional heavy third-party
 packages such as jax, matplotlib or typst may be, each with a comment saying why).
 """
-from workflow import imports
+from gimbal_reduction.workflow import imports
 
 
 def _lines(found):

@@ -3,11 +3,11 @@
     .venv/bin/python docs/examples/control_export.py [MODEL.mat]
 
 Without an argument the example makes its own: the reduced model freq-3 on the thesis
-scene (``python -m reduction.models``), exported about the scene's initial state with
-``python -m solver.dynamics.export`` into a temporary folder.  The .mat holds A, B, C, D
+scene (``python -m gimbal_reduction.reduction.models``), exported about the scene's initial state with
+``python -m gimbal_reduction.solver.dynamics.export`` into a temporary folder.  The .mat holds A, B, C, D
 (x = [dy; dy'], u = 4 motor torques [in lbf] + case angular acceleration [rad/s^2],
 z = 4 gimbal rates [rad/s] + platform small-angle attitude [rad]; docstring of
-solver/dynamics/export.py) and the state, input and output names.
+gimbal_reduction/solver/dynamics/export.py) and the state, input and output names.
 
 python-control (pinned control==0.10.2 in workflow/envs/requirements.txt) builds the
 state-space system; its step response to a unit torque on the outer-gimbal motor over 3 ms
@@ -26,8 +26,8 @@ sys.path.insert(0, ROOT)
 
 def make_model(tmp):
     """Reduce freq-3 on the thesis scene and export it; returns the .mat path."""
-    from reduction import models
-    from solver.dynamics import export
+    from gimbal_reduction.reduction import models
+    from gimbal_reduction.solver.dynamics import export
     bodies = [os.path.join(ROOT, "results", "modes", f"body{b}.h5") for b in models.BODIES]
     model_file = os.path.join(tmp, "freq-3.h5")
     if models.main(["--model", "freq-3", "--scene", "thesis", "--bodies", *bodies,

@@ -12,13 +12,13 @@
 #
 # 1. a bare ring (the outer gimbal's band, no bearings) is meshed with the project's
 #    geometry code and its free vibration computed with the shell model of
-#    `solver.fe`; its first elastic frequency is checked against the classical
+#    `gimbal_reduction.solver.fe`; its first elastic frequency is checked against the classical
 #    thin-ring formula;
 # 2. the four bodies of the gimbal are meshed coarsely and their first *supported*
-#    modes computed by the FE stage (`solver.fe.modes`), written to body files and
-#    read back through the one checked reader (`solver.bodydata`);
-# 3. a tiny reduced model (two modes per body) is built by `reduction.models`, and
-# 4. released with initial gimbal rates for 15 ms (`solver.dynamics`, scene `free`):
+#    modes computed by the FE stage (`gimbal_reduction.solver.fe.modes`), written to body files and
+#    read back through the one checked reader (`gimbal_reduction.solver.bodydata`);
+# 3. a tiny reduced model (two modes per body) is built by `gimbal_reduction.reduction.models`, and
+# 4. released with initial gimbal rates for 15 ms (`gimbal_reduction.solver.dynamics`, scene `free`):
 #    the case is at rest and nothing drives the chain, so its energy and its angular
 #    momentum about the outer drive axis must stay constant.
 #
@@ -35,13 +35,13 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from geometry.mesh import mesh_from_config
-from geometry.verification import band_surface
-from reduction import models
-from solver.bodydata import BODIES, read_body_file
-from solver.dynamics import multibody, scenes, simulate
-from solver.fe import eigen, forms, modes
-from workflow import config as cfgmod
+from gimbal_reduction.geometry.mesh import mesh_from_config
+from gimbal_reduction.geometry.verification import band_surface
+from gimbal_reduction.reduction import models
+from gimbal_reduction.solver.bodydata import BODIES, read_body_file
+from gimbal_reduction.solver.dynamics import multibody, scenes, simulate
+from gimbal_reduction.solver.fe import eigen, forms, modes
+from gimbal_reduction.workflow import config as cfgmod
 
 COMM = MPI.COMM_SELF                  # serial: the example runs inside the test suite
 START = time.perf_counter()
@@ -66,7 +66,7 @@ params = cfgmod.body_parameters(config, 2)   # the outer gimbal (thesis body 2)
 # $$\frac{f}{f_\text{thin}} - 1 \approx -\frac{n^2}{2}\,\frac{t^2}{12 R^2}
 #   \Bigl(1 + \frac{E}{\kappa G}\Bigr), \qquad \frac{E}{G} = 2(1 + \nu),$$
 #
-# about -0.4 % for $n = 2$. The project's verification (`solver.fe.checks`,
+# about -0.4 % for $n = 2$. The project's verification (`gimbal_reduction.solver.fe.checks`,
 # `check_ring_formula`) demands that the finite-element deviation match this
 # prediction within 0.3 %.
 
@@ -86,8 +86,8 @@ f_thin = thin_ring_hz(2)
 expected_deviation = -0.5 * 2**2 * t**2 / (12 * R**2) * (1 + 2 * (1 + nu) / kappa)
 # -
 
-# The band's mid-surface is meshed by gmsh (`geometry.verification.band_surface`) with
-# flat triangles of size $h = 0.5$ in (twice the production size). On it `solver.fe.forms`
+# The band's mid-surface is meshed by gmsh (`gimbal_reduction.geometry.verification.band_surface`) with
+# flat triangles of size $h = 0.5$ in (twice the production size). On it `gimbal_reduction.solver.fe.forms`
 # builds the Reissner-Mindlin shell: P2 displacement $u$ and rotation $\theta$, so the
 # stiffness and mass forms
 #
@@ -129,11 +129,11 @@ print(f"free ring: f(n=2) = {FREE_RING['fe_hz']:.1f} Hz (pair {FREE_RING['pair_h
 # $$T^T K T\, \bar\phi = \omega^2\, T^T M T\, \bar\phi, \qquad \phi = T \bar\phi, \quad
 #   \phi^T M \phi = 1 .$$
 #
-# `solver.fe.modes.compute_body` does all of this for one body of the config (shell
+# `gimbal_reduction.solver.fe.modes.compute_body` does all of this for one body of the config (shell
 # rings, curved P3 tetrahedra for the platform); here with three modes each on coarse
 # meshes (0.5 in for the rings, 1 in for the platform, which its 1 in rim patches turn
 # into the production mesh anyway). Each result is written as a body file
-# (`docs/body-data.md`) and read back by `solver.bodydata.read_body_file`, which
+# (`docs/body-data.md`) and read back by `gimbal_reduction.solver.bodydata.read_body_file`, which
 # checks the contract: shapes, ascending positive eigenvalues, mass normalisation,
 # rigid modes matching the DOF layout.
 
@@ -168,7 +168,7 @@ for number in BODIES:
 # the linear and angular momentum a unit modal rate carries ($X$: the six rigid
 # motions), and through the modes' motion at the bearings, which moves the next body.
 # The model name `freq-2` keeps each body's two lowest supported modes
-# (`reduction.models` holds the grammar: `xmx-10`, `static-8`, ...).
+# (`gimbal_reduction.reduction.models` holds the grammar: `xmx-10`, `static-8`, ...).
 
 # +
 spec = models.parse_model("freq-2", models.frequency_rankings(body_data))

@@ -1,12 +1,12 @@
-"""The reduced-model file (solver/dynamics/chainfile.py, docs/models.md): a round trip keeps
+"""The reduced-model file (gimbal_reduction/solver/dynamics/chainfile.py, docs/models.md): a round trip keeps
 every array bit for bit, damping is applied as multibody.make_body applies it, and a bad
 file is refused in one line naming the file and the dataset."""
 import h5py
 import numpy as np
 import pytest
 
-from results.bench.oracle import synthetic_chain
-from solver.dynamics import chainfile, multibody
+from gimbal_reduction.results.bench.oracle import synthetic_chain
+from gimbal_reduction.solver.dynamics import chainfile, multibody
 
 FIELDS = ("rigid_mass", "momentum", "inertia_gradient", "coriolis", "omega2", "damping",
           "inside_translation", "inside_rotation")

@@ -1,4 +1,4 @@
-"""Verification of the modal exponential integrator (``solver.dynamics.exponential``).
+"""Verification of the modal exponential integrator (``gimbal_reduction.solver.dynamics.exponential``).
 
 What is checked, each against something computed independently of the module:
 
@@ -35,12 +35,12 @@ import pytest
 import scipy.linalg
 from scipy.integrate import quad, solve_ivp
 
-from results.bench.oracle import synthetic_chain
-from solver.dynamics import exponential, integrators, scenes, simulate
-from solver.dynamics.error_measure import error_measure
+from gimbal_reduction.results.bench.oracle import synthetic_chain
+from gimbal_reduction.solver.dynamics import exponential, integrators, scenes, simulate
+from gimbal_reduction.solver.dynamics.error_measure import error_measure
 
 # ----------------------------------------------------------------------------- helpers
-# Synthetic chains (results.bench.oracle): keyword sets of ``synthetic_chain``.
+# Synthetic chains (gimbal_reduction.results.bench.oracle): keyword sets of ``synthetic_chain``.
 # FULL: 13 coordinates, coupled omega_max 3.9e4 rad/s (the exponential steps at
 #   h omega_max ~ 12, beyond RK4's limit 2.785).
 # STIFF_REDUCED: 9 coordinates, strongly coupled (coupled omega_max 9.8e4 rad/s, ten
@@ -248,7 +248,7 @@ def test_factored_basis_matches_the_generalised_eigenproblem():
     turned configuration: the same frequencies, X^T S X = I, Y = S X = X^-T, and phi^-1 as
     applied by ``ModalBasis.project`` inverts ``to_physical``.  Measured: frequencies 9e-15
     relative, X^T S X - I 1e-14, Y^T X - I 1e-15."""
-    from solver.dynamics import linearized
+    from gimbal_reduction.solver.dynamics import linearized
     chain, _ = synthetic_chain(**STIFF_REDUCED)
     prob = simulate.scene_problem(chain, scenes.load_scene("thesis"))
     y = prob.y0.copy()

@@ -13,11 +13,11 @@ import pytest
 import scipy.io
 from scipy.linalg import expm
 
-from reduction import models
-from solver.dynamics import export, simulate
-from solver.dynamics.simfile import read_sim
+from gimbal_reduction.reduction import models
+from gimbal_reduction.solver.dynamics import export, simulate
+from gimbal_reduction.solver.dynamics.simfile import read_sim
 from tests.dynamics_fixtures import REAL_MODES, real_bodies_only
-from workflow.provenance import read_provenance
+from gimbal_reduction.workflow.provenance import read_provenance
 
 RTOL = 1e-4          # of each output's peak over the run (measured: <= 1.4e-5)
 TORQUE = (0.02, -0.01, 0.01, 0.005)      # in lbf

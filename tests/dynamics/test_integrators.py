@@ -1,20 +1,20 @@
 """Verification of the chain dynamics on small synthetic bodies (no JAX needed).
 
-Each check is a pure function of solver.dynamics.checks returning
+Each check is a pure function of gimbal_reduction.solver.dynamics.checks returning
 check records {name, value, tolerance, passed}; the tests assert them.
 """
 
 import numpy as np
 import pytest
 
-from solver.dynamics.error_measure import error_measure
-from solver.dynamics import checks as dc
-from solver.dynamics import integrators, linearized, multibody
-from solver.dynamics.problem import Problem, make_rhs
-from results.bench.oracle import synthetic_chain
+from gimbal_reduction.solver.dynamics.error_measure import error_measure
+from gimbal_reduction.solver.dynamics import checks as dc
+from gimbal_reduction.solver.dynamics import integrators, linearized, multibody
+from gimbal_reduction.solver.dynamics.problem import Problem, make_rhs
+from gimbal_reduction.results.bench.oracle import synthetic_chain
 
 try:
-    from solver.dynamics import compiled  # noqa: F401
+    from gimbal_reduction.solver.dynamics import compiled  # noqa: F401
     HAS_NUMBA = True
 except ImportError:
     HAS_NUMBA = False
@@ -98,7 +98,7 @@ def test_rk4_order():
 def test_rigid_limit_case_spin_about_outer_axis():
     chain, _ = synthetic_chain(seed=3)            # elastic: the closed form holds as well
     assert_checks(dc.rigid_spin_about_outer_axis("elastic synthetic", chain))
-    from results.bench.oracle import rigid_body
+    from gimbal_reduction.results.bench.oracle import rigid_body
     rigid = multibody.Chain(tuple(rigid_body(n, 0.1, (0.3, 0.5, 0.4), com=(0.2, -0.1, 0.3))
                                   for n in (2, 3, 4, 5)))
     assert_checks(dc.rigid_spin_about_outer_axis("rigid, offset centres of mass", rigid))

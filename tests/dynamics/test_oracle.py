@@ -2,7 +2,7 @@
 
 The oracle (results/bench/oracle.Oracle) differentiates, with JAX, the
 Lagrangian written directly from nodal masses and nodal kinematics of small
-synthetic bodies; the fast model (solver.dynamics.multibody) uses only modal
+synthetic bodies; the fast model (gimbal_reduction.solver.dynamics.multibody) uses only modal
 integrals and a recursive Newton-Euler / articulated-body formulation.
 At random states they must agree to 1e-10 relative.
 """
@@ -10,8 +10,8 @@ At random states they must agree to 1e-10 relative.
 import numpy as np
 import pytest
 
-from solver.dynamics import checks as dynamics_checks, multibody
-from results.bench.oracle import Oracle, jax_available, synthetic_chain
+from gimbal_reduction.solver.dynamics import checks as dynamics_checks, multibody
+from gimbal_reduction.results.bench.oracle import Oracle, jax_available, synthetic_chain
 
 pytestmark = pytest.mark.skipif(
     not jax_available(),
@@ -85,7 +85,7 @@ def test_large_elastic_coordinates_still_exact(damped_case):
 def test_rotation_blocks_fixed_in_body_axes_variant():
     """The alternative treatment of rotation DOF blocks (frame rotation on translation
     blocks only) is also exactly what its oracle says."""
-    from results.bench.oracle import chain_body, synthetic_body
+    from gimbal_reduction.results.bench.oracle import chain_body, synthetic_body
     rng = np.random.default_rng(21)
     datas = [synthetic_body(rng, n, n_modes=2, rotations=True, consistent=(n % 2 == 0))
              for n in (2, 3, 4, 5)]
@@ -116,7 +116,7 @@ def test_platform_attitude_matches_the_oracles_poses(damped_case):
         A_platform = np.asarray(oracle.poses(Y[k], t)[3][0])
         assert np.abs(A_case.T @ A_platform - R[k]).max() < 1e-12
     # the attitude error of two histories is the angle between them (here: a known rotation)
-    from solver.dynamics.error_measure import attitude_error
+    from gimbal_reduction.solver.dynamics.error_measure import attitude_error
     turn = multibody._rotations(2, np.array([1e-6, 0.3, 2.0]))
     angle = attitude_error(R[:3], R[:3] @ turn)
     assert np.allclose(angle, [1e-6, 0.3, 2.0], rtol=1e-9, atol=1e-15)

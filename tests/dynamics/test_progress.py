@@ -1,9 +1,9 @@
 """Issue 16: a long integration reports its progress with the time left (integrators.PROGRESS_EVERY)."""
 import re
 
-from results.bench.oracle import synthetic_chain
-from solver.dynamics import integrators, multibody
-from solver.dynamics.problem import Problem
+from gimbal_reduction.results.bench.oracle import synthetic_chain
+from gimbal_reduction.solver.dynamics import integrators, multibody
+from gimbal_reduction.solver.dynamics.problem import Problem
 
 
 def test_a_long_run_prints_progress_with_time_left(monkeypatch, capsys):

@@ -7,8 +7,8 @@ import h5py
 import numpy as np
 import pytest
 
-from solver.dynamics import compiled, dense_baseline, integrators, multibody, scenes, simulate
-from reduction import models
+from gimbal_reduction.solver.dynamics import compiled, dense_baseline, integrators, multibody, scenes, simulate
+from gimbal_reduction.reduction import models
 from tests.dynamics_fixtures import REAL_MODES as MODES, REAL_REDUCTION as REDUCTION
 from tests.dynamics_fixtures import load_real_bodies, real_bodies_only, run_model
 

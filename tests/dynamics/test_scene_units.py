@@ -8,7 +8,7 @@ import os
 import pytest
 import yaml
 
-from solver.dynamics import scenes
+from gimbal_reduction.solver.dynamics import scenes
 
 
 def _thesis_raw():

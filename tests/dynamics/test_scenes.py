@@ -6,8 +6,8 @@ import os
 import numpy as np
 import pytest
 
-from reduction import models
-from solver.dynamics import scenes
+from gimbal_reduction.reduction import models
+from gimbal_reduction.solver.dynamics import scenes
 
 
 def _thesis_raw():

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import yaml
 
-from results.bench.oracle import synthetic_chain
-from solver.dynamics import chainfile, scenes, simulate
+from gimbal_reduction.results.bench.oracle import synthetic_chain
+from gimbal_reduction.solver.dynamics import chainfile, scenes, simulate
 
 
 @pytest.fixture
@@ -52,7 +52,7 @@ def test_output_goes_where_the_caller_says(tmp_path, model_file):
 def test_no_energy_leaves_out_only_the_energy_group(tmp_path, model_file):
     """--no-energy (the study's reduced models): the same run, the energy group left out, and the
     file still reads (simfile.read_sim has no energy then)."""
-    from solver.dynamics import simfile
+    from gimbal_reduction.solver.dynamics import simfile
     scene = copied_scene(tmp_path, "thesis_copy", "thesis_copy")
     paths = {flag: tmp_path / f"run{k}.h5" for k, flag in enumerate(((), ("--no-energy",)))}
     for flag, out in paths.items():
@@ -75,8 +75,8 @@ def test_energy_history_equals_the_per_sample_energies(scene_name, fast):
     """Problem.energy_history (the simulation file's energies, all samples at once) gives what
     kinetic_energy, potential_energy and input_power give sample by sample: compiled and NumPy
     paths, a moving case (thesis: case power from the accelerations) and a case at rest (free)."""
-    from solver.dynamics.problem import Problem
-    from solver.dynamics.synthetic import synthetic_modal_chain
+    from gimbal_reduction.solver.dynamics.problem import Problem
+    from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
     scene = scenes.load_scene(scene_name)
     chain = synthetic_modal_chain(2, seed=1)
     y0, yd0 = scenes.initial_state(scene, chain.n_coordinates)

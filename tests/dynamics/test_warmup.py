@@ -1,4 +1,4 @@
-"""solver.dynamics.warmup: the one compilation before the workflow's simulations runs the
+"""gimbal_reduction.solver.dynamics.warmup: the one compilation before the workflow's simulations runs the
 synthetic chain through the simulate command line on every scene, and says so in one line
 when it cannot."""
 import json
@@ -6,8 +6,8 @@ import os
 
 import numpy as np
 
-from solver.dynamics import chainfile, scenes, warmup
-from solver.dynamics.synthetic import synthetic_modal_chain
+from gimbal_reduction.solver.dynamics import chainfile, scenes, warmup
+from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
 
 
 def test_warmup_simulates_the_elastic_chain_per_scene_and_the_rigid_chain_with_dop853(tmp_path):

@@ -1,5 +1,5 @@
-"""Every finite supported mode by the dense solve (solver.fe.eigen.all_supported_modes) and the
-Hughes identity check on a body file holding them (solver.fe.checks.check_hughes_identity).
+"""Every finite supported mode by the dense solve (gimbal_reduction.solver.fe.eigen.all_supported_modes) and the
+Hughes identity check on a body file holding them (gimbal_reduction.solver.fe.checks.check_hughes_identity).
 
 References: the synthetic rings of tests/synthetic_bodies.py (beam elements, their own dense
 solve through the K-inner product), with massless rotations (lumped and shell-like mass: an
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from solver.fe import checks, eigen
+from gimbal_reduction.solver.fe import checks, eigen
 from tests import synthetic_bodies as sb
 
 RINGS = {
@@ -96,8 +96,8 @@ def test_hughes_identity_fails_on_another_mass_matrix(coarse_ring_file, tmp_path
 def test_constrained_eigenvalues_equal_the_eliminated_ones(inner_gimbal_file):
     """The supports as Lagrange multipliers (the connection study's solve) against the modal
     stage's elimination with master DOFs: the body file's lowest supported eigenvalues."""
-    from solver.bodydata import read_body_file
-    from solver.fe import bearings
+    from gimbal_reduction.solver.bodydata import read_body_file
+    from gimbal_reduction.solver.fe import bearings
 
     body = read_body_file(inner_gimbal_file[0])
     B = body["bearing_operator"]

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from solver.fe import bearings
+from gimbal_reduction.solver.fe import bearings
 
 
 def random_region(rng, n=7, bs=6):

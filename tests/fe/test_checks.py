@@ -8,7 +8,7 @@ discrete Hughes identity, and a second (MPI) run.
 import numpy as np
 import pytest
 
-from solver.fe import checks as v
+from gimbal_reduction.solver.fe import checks as v
 
 
 def assert_passed(result):
@@ -73,7 +73,7 @@ def test_body_command_writes_both_parts(inner_gimbal_file, tmp_path):
     """verify body: the body-file check and the spectra of one read, as the two commands."""
     import json
 
-    from solver.fe import verify
+    from gimbal_reduction.solver.fe import verify
 
     path = str(inner_gimbal_file[0])
     out, spectra = tmp_path / "modes.json", tmp_path / "spectra.json"
@@ -88,11 +88,11 @@ def test_body_command_writes_both_parts(inner_gimbal_file, tmp_path):
 
 @pytest.fixture(scope="module")
 def coarse_body_file(tmp_path_factory, config):
-    """The coarse inner gimbal (0.75 in, geometry.mesh --coarse) with every finite supported mode,
-    through the stage's code (solver.fe.modes --all-modes), as rules coarse_mesh and
+    """The coarse inner gimbal (0.75 in, gimbal_reduction.geometry.mesh --coarse) with every finite supported mode,
+    through the stage's code (gimbal_reduction.solver.fe.modes --all-modes), as rules coarse_mesh and
     coarse_body_all_modes."""
-    from geometry.mesh import mesh_from_config
-    from solver.fe import modes
+    from gimbal_reduction.geometry.mesh import mesh_from_config
+    from gimbal_reduction.solver.fe import modes
 
     tmp = tmp_path_factory.mktemp("coarse4")
     mesh_from_config(config, 4, tmp / "body4.msh", 0.75, coarse=True)
@@ -111,8 +111,8 @@ def test_hughes_identity(coarse_body_file):
 def test_hughes_identity_fails_without_a_mode(coarse_body_file, tmp_path):
     """The mode with the least momentum dropped: its contribution is below the tolerance (as for a
     fifth of the coarse body's modes), so the count of the finite modes fails the check."""
-    from solver.bodydata import rigid_modes
-    from solver.fe import modes
+    from gimbal_reduction.solver.bodydata import rigid_modes
+    from gimbal_reduction.solver.fe import modes
 
     path, payload = coarse_body_file
     momentum = rigid_modes(payload["dof_coords"], payload["dof_component"]).T @ (payload["M"] @ payload["modes"])
@@ -129,7 +129,7 @@ def test_hughes_identity_fails_without_a_mode(coarse_body_file, tmp_path):
 
 @pytest.mark.mpi
 def test_modal_stage_under_mpi(inner_gimbal_file, tmp_path):
-    from workflow.config import DEFAULT_CONFIG
+    from gimbal_reduction.workflow.config import DEFAULT_CONFIG
 
     result = v.check_mpi(inner_gimbal_file[0], inner_gimbal_file[1], DEFAULT_CONFIG)
     assert_passed(result)

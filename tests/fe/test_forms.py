@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from geometry import verification as shapes
-from geometry.mesh import mesh_from_config
-from solver.bodydata import rigid_modes
-from solver.fe import forms as fe, modes
-from workflow import config as cfgmod
+from gimbal_reduction.geometry import verification as shapes
+from gimbal_reduction.geometry.mesh import mesh_from_config
+from gimbal_reduction.solver.bodydata import rigid_modes
+from gimbal_reduction.solver.fe import forms as fe, modes
+from gimbal_reduction.workflow import config as cfgmod
 
 COMM = MPI.COMM_SELF
 

@@ -6,10 +6,10 @@ import h5py
 import numpy as np
 import pytest
 
-from geometry import mesh as meshcli
-from solver.bodydata import BodyFileError, read_body_file
-from solver.fe import eigen, modes
-from workflow import config as cfgmod
+from gimbal_reduction.geometry import mesh as meshcli
+from gimbal_reduction.solver.bodydata import BodyFileError, read_body_file
+from gimbal_reduction.solver.fe import eigen, modes
+from gimbal_reduction.workflow import config as cfgmod
 
 
 def test_body_file_contract(inner_gimbal_file):
@@ -78,8 +78,8 @@ def test_missing_and_corrupt_inputs(tmp_path, config):
 
 
 def test_body_file_records_the_size_its_mesh_was_made_with(tmp_path, config):
-    """The coarse body (meshed at 0.5 in, not the config's 0.25 in): geometry.mesh --meta records
-    the size, solver.fe.modes --mesh-meta reads it into the body file; the body file's config_hash
+    """The coarse body (meshed at 0.5 in, not the config's 0.25 in): gimbal_reduction.geometry.mesh --meta records
+    the size, gimbal_reduction.solver.fe.modes --mesh-meta reads it into the body file; the body file's config_hash
     is the hash of the inputs the stage read."""
     mesh, meta, out = tmp_path / "b4.msh", tmp_path / "b4.json", tmp_path / "b4.h5"
     assert meshcli.main(["--body", "4", "--size", "0.5", "--out", str(mesh), "--meta", str(meta)]) == 0
@@ -123,7 +123,7 @@ def test_further_modes_after_known_ones(tmp_path, config, inner_gimbal_file):
 
 
 def test_coarse_ring_mesh_may_exceed_the_width(tmp_path):
-    """geometry.mesh --coarse (the Hughes identities' mesh): a ring's size up to its radius, not only
+    """gimbal_reduction.geometry.mesh --coarse (the Hughes identities' mesh): a ring's size up to its radius, not only
     its width; the mesh stops coarsening at the cut lines. Without it the width bounds the size."""
     out, meta = tmp_path / "c.msh", tmp_path / "c.json"
     assert meshcli.main(["--body", "4", "--size", "0.75", "--out", str(out)]) == 1 and not out.exists()

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import yaml
 
-from geometry.mesh import mesh_from_config
-from solver.fe import modes
-from workflow import config as cfgmod
-from workflow.config import ROOT
+from gimbal_reduction.geometry.mesh import mesh_from_config
+from gimbal_reduction.solver.fe import modes
+from gimbal_reduction.workflow import config as cfgmod
+from gimbal_reduction.workflow.config import ROOT
 
 LBF, INCH = 0.45359237 * 9.80665, 0.0254     # N, m (exact)
 

@@ -5,9 +5,9 @@ import meshio
 import numpy as np
 import pytest
 
-from geometry.gimbal import GeometryError, bearing_points
-from geometry.mesh import main as mesh_cli, mesh_from_config
-from workflow import config as cfgmod
+from gimbal_reduction.geometry.gimbal import GeometryError, bearing_points
+from gimbal_reduction.geometry.mesh import main as mesh_cli, mesh_from_config
+from gimbal_reduction.workflow import config as cfgmod
 
 
 @pytest.mark.parametrize("body", [2, 4, 5])
@@ -46,7 +46,7 @@ def test_bad_mesh_size(tmp_path, config, size):
 
 
 def test_mesh_cli_writes_its_metadata(tmp_path):
-    """geometry.mesh --meta: the size used (here the --size override), node and cell counts."""
+    """gimbal_reduction.geometry.mesh --meta: the size used (here the --size override), node and cell counts."""
     out, meta = tmp_path / "b.msh", tmp_path / "b.json"
     assert mesh_cli(["--body", "4", "--size", "0.5", "--out", str(out), "--meta", str(meta)]) == 0
     data = json.loads(meta.read_text())

@@ -11,11 +11,11 @@ import scipy.sparse.linalg
 
 from tests import synthetic_bodies as sb  # noqa: E402
 
-from reduction import modal_integrals as mi  # noqa: E402
-from reduction import static_modes as st  # noqa: E402
-from reduction import stage  # noqa: E402
-from solver.bodydata import read_body_file  # noqa: E402
-from reduction.errors import (  # noqa: E402
+from gimbal_reduction.reduction import modal_integrals as mi  # noqa: E402
+from gimbal_reduction.reduction import static_modes as st  # noqa: E402
+from gimbal_reduction.reduction import stage  # noqa: E402
+from gimbal_reduction.solver.bodydata import read_body_file  # noqa: E402
+from gimbal_reduction.reduction.errors import (  # noqa: E402
     BearingIndexError,
     BodyFileError,
     ModeCountError,
@@ -29,7 +29,7 @@ def one_line(exc_info):
     message = str(exc_info.value)
     assert "\n" not in message and message
     assert isinstance(exc_info.value, ValueError)
-    # body-file errors belong to the contract's owner (solver.bodydata), the rest to the reduction
+    # body-file errors belong to the contract's owner (gimbal_reduction.solver.bodydata), the rest to the reduction
     assert isinstance(exc_info.value, (ReductionError, BodyFileError))
     return message
 

@@ -22,10 +22,10 @@ import scipy.sparse as sp
 
 from tests import synthetic_bodies as sb  # noqa: E402
 
-from reduction import modal_integrals as mi  # noqa: E402
-from reduction import ranking as rk  # noqa: E402
-from reduction import static_modes as st  # noqa: E402
-from reduction.errors import StaticModeError  # noqa: E402
+from gimbal_reduction.reduction import modal_integrals as mi  # noqa: E402
+from gimbal_reduction.reduction import ranking as rk  # noqa: E402
+from gimbal_reduction.reduction import static_modes as st  # noqa: E402
+from gimbal_reduction.reduction.errors import StaticModeError  # noqa: E402
 
 m = 0.5
 POS = np.array([[2.0, 0, 0], [-1.0, 1.0, 0], [-1.0, -1.0, 0]])

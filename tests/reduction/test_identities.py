@@ -14,9 +14,9 @@ import scipy.sparse as sp
 
 from tests import synthetic_bodies as sb  # noqa: E402
 
-from reduction import modal_integrals as mi  # noqa: E402
-from reduction import verification as vf  # noqa: E402
-from solver.bodydata import rigid_modes
+from gimbal_reduction.reduction import modal_integrals as mi  # noqa: E402
+from gimbal_reduction.reduction import verification as vf  # noqa: E402
+from gimbal_reduction.solver.bodydata import rigid_modes
 
 
 def integrals(body):

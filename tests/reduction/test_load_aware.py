@@ -1,7 +1,7 @@
-"""Load-aware mode selection (reduction.load_aware), the load-N / global-N grammar, the
-simulate --load-ranking path and the selection table (results.bench.selection).
+"""Load-aware mode selection (gimbal_reduction.reduction.load_aware), the load-N / global-N grammar, the
+simulate --load-ranking path and the selection table (gimbal_reduction.results.bench.selection).
 
-Synthetic chains only (results/bench/oracle.py), except the last test, which checks
+Synthetic chains only (gimbal_reduction/results/bench/oracle.py), except the last test, which checks
 the stored a-priori estimate against a measured error on the real data when present."""
 
 import json
@@ -12,12 +12,12 @@ import h5py
 import numpy as np
 import pytest
 
-from reduction import frozen_chain as fc
-from reduction import load_aware as la
-from results.bench import selection
-from reduction import models
-from solver.dynamics import scenes, simulate
-from results.bench.oracle import synthetic_body
+from gimbal_reduction.reduction import frozen_chain as fc
+from gimbal_reduction.reduction import load_aware as la
+from gimbal_reduction.results.bench import selection
+from gimbal_reduction.reduction import models
+from gimbal_reduction.solver.dynamics import scenes, simulate
+from gimbal_reduction.results.bench.oracle import synthetic_body
 from tests.dynamics_fixtures import run_model
 from tests.reduction.test_models import write_body
 
@@ -233,8 +233,8 @@ def test_eliminations_with_a_removals_callback_are_the_same():
 def test_modal_loads_are_minus_the_modal_rows_of_the_inverse_dynamics():
     """The compiled inverse dynamics of modal_loads against multibody's NumPy reference, with a
     moving case (its twist at every sample), and the compiled M(y0) of linear_model."""
-    from solver.dynamics import multibody
-    from solver.dynamics.synthetic import synthetic_modal_chain
+    from gimbal_reduction.solver.dynamics import multibody
+    from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
     chain = synthetic_modal_chain(3, seed=2)
     rng = np.random.default_rng(6)
     t = np.linspace(0.0, 0.01, 7)
@@ -491,8 +491,8 @@ REAL_SIM = os.path.join(ROOT, "results", "sim", "thesis")
                          os.path.exists(os.path.join(REAL_SIM, "truth.h5"))),
                     reason="real ranking file or simulations absent")
 def test_real_apriori_estimate_matches_measured_freq_10():
-    from solver.dynamics.error_measure import error_measure
-    from results.study.tables import read_sim
+    from gimbal_reduction.solver.dynamics.error_measure import error_measure
+    from gimbal_reduction.results.study.tables import read_sim
     lin = fc.read_linear_model(REAL_RANKING)
     rk = models.load_rankings(os.path.join(ROOT, "results", "reduction"))
     spec = models.parse_model("freq-10", rk)
@@ -523,7 +523,7 @@ def test_ranking_progress_counts_the_work_it_planned(synthetic, monkeypatch, cap
     """Issue 16: rank_scene prints progress lines whose share of the work is exact: the work it
     plans (ranking_work) is the work its a-priori evaluations add up to (an upper bound with a
     greedy prefix, whose length the plan cannot know: it protects modes from the elimination)."""
-    from workflow import progress
+    from gimbal_reduction.workflow import progress
     monkeypatch.setattr(progress, "EVERY", 0.0)
     root, out = synthetic
     model = fc.read_linear_model(out)

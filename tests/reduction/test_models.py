@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from reduction import models
-from solver.dynamics import multibody, scenes, simulate
-from results.bench.oracle import synthetic_body
+from gimbal_reduction.reduction import models
+from gimbal_reduction.solver.dynamics import multibody, scenes, simulate
+from gimbal_reduction.results.bench.oracle import synthetic_body
 from tests.dynamics_fixtures import run_model
 
 
@@ -107,7 +107,7 @@ def write_csr(group, A):
 
 def write_body(path, d, number=None, config_hash="synthetic"):
     """A body file in the contract's layout (docs/body-data.md) from a synthetic body dict
-    (``results.bench.oracle.synthetic_body``); the body number from ``d`` unless given."""
+    (``gimbal_reduction.results.bench.oracle.synthetic_body``); the body number from ``d`` unless given."""
     with h5py.File(path, "w") as f:
         lam = d["eigenvalues"]
         f["frequencies_hz"] = np.sqrt(lam) / (2 * np.pi)
@@ -145,7 +145,7 @@ def test_body_file_roundtrip_gives_same_chain(files):
     data = models.load_body_file(str(root / "modes" / "body2.h5"))
     assert data["number"] == 2
     body = models.build_body(2, data, np.arange(6))
-    from results.bench.oracle import chain_body
+    from gimbal_reduction.results.bench.oracle import chain_body
     ref = chain_body(datas[2])
     assert np.allclose(body.rigid_mass, ref.rigid_mass, rtol=1e-13, atol=1e-16)
     assert np.allclose(body.coriolis, ref.coriolis, rtol=1e-12, atol=1e-16)
@@ -156,7 +156,7 @@ def test_selected_integrals_equal_those_computed_for_the_subset(files, rotate):
     """build_body without static modes selects from the body's all-mode integrals (kept in its
     dict); they must equal chain_integrals computed on the kept modes alone, for a permuted
     subset, on a body with output bearings (body 2) and on the platform (body 5)."""
-    from reduction import modal_integrals
+    from gimbal_reduction.reduction import modal_integrals
     root, _ = files
     kept = np.array([4, 0, 3])
     for b in (2, 5):

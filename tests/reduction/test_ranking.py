@@ -7,9 +7,9 @@ import pytest
 
 from tests import synthetic_bodies as sb  # noqa: E402
 
-from reduction import modal_integrals as mi  # noqa: E402
-from reduction import ranking as rk  # noqa: E402
-from reduction import verification as vf  # noqa: E402
+from gimbal_reduction.reduction import modal_integrals as mi  # noqa: E402
+from gimbal_reduction.reduction import ranking as rk  # noqa: E402
+from gimbal_reduction.reduction import verification as vf  # noqa: E402
 
 
 def rankings(body):

@@ -1,6 +1,6 @@
-"""``python -m reduction.report``: ranking table, verification record, benchmark, one-line errors.
+"""``python -m gimbal_reduction.reduction.report``: ranking table, verification record, benchmark, one-line errors.
 
-Small synthetic bodies (tests/synthetic_bodies.py) go through ``reduction.stage``
+Small synthetic bodies (tests/synthetic_bodies.py) go through ``gimbal_reduction.reduction.stage``
 and then the report; a ring with every finite supported mode is the coarse body.
 """
 
@@ -16,8 +16,8 @@ import pytest
 
 from tests import synthetic_bodies as sb  # noqa: E402
 
-from reduction import report  # noqa: E402
-from reduction import stage  # noqa: E402
+from gimbal_reduction.reduction import report  # noqa: E402
+from gimbal_reduction.reduction import stage  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -157,7 +157,7 @@ def one_line_error(inputs, capsys, tmp_path, **kwargs):
     out = {k: tmp_path / v.name for k, v in inputs["out"].items()}
     assert report.main(argv(inputs, out=out, **kwargs)) == 2
     err = capsys.readouterr().err
-    assert err.startswith("reduction.report: error: ") and err.count("\n") == 1
+    assert err.startswith("gimbal_reduction.reduction.report: error: ") and err.count("\n") == 1
     assert not any(p.exists() for p in out.values())  # nothing written
     return err
 
@@ -223,11 +223,11 @@ def test_unequal_lists(inputs, capsys, tmp_path):
 
 def test_command_line_module(inputs, tmp_path):
     out = {k: tmp_path / v.name for k, v in inputs["out"].items()}
-    proc = subprocess.run([sys.executable, "-m", "reduction.report", *argv(inputs, out=out)],
+    proc = subprocess.run([sys.executable, "-m", "gimbal_reduction.reduction.report", *argv(inputs, out=out)],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "checks passed" in proc.stdout and all(p.exists() for p in out.values())
-    bad = subprocess.run([sys.executable, "-m", "reduction.report",
+    bad = subprocess.run([sys.executable, "-m", "gimbal_reduction.reduction.report",
                           *argv(inputs, coarse=tmp_path / "none.h5", out=out)],
                          cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "none.h5" in bad.stderr

@@ -13,7 +13,7 @@ import pytest
 
 from tests import synthetic_bodies as sb  # noqa: E402
 
-from reduction import stage  # noqa: E402
+from gimbal_reduction.reduction import stage  # noqa: E402
 
 
 @pytest.mark.slow

@@ -1,4 +1,4 @@
-"""End to end: a synthetic body file through ``python -m reduction.stage``."""
+"""End to end: a synthetic body file through ``python -m gimbal_reduction.reduction.stage``."""
 
 import json
 import os
@@ -11,11 +11,11 @@ import pytest
 
 from tests import synthetic_bodies as sb  # noqa: E402
 
-from reduction import modal_integrals as mi  # noqa: E402
-from reduction import ranking as rk  # noqa: E402
-from reduction import stage  # noqa: E402
-from reduction import static_modes as st  # noqa: E402
-from workflow.provenance import atomic_h5
+from gimbal_reduction.reduction import modal_integrals as mi  # noqa: E402
+from gimbal_reduction.reduction import ranking as rk  # noqa: E402
+from gimbal_reduction.reduction import stage  # noqa: E402
+from gimbal_reduction.reduction import static_modes as st  # noqa: E402
+from gimbal_reduction.workflow.provenance import atomic_h5
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -145,14 +145,14 @@ def test_failed_write_leaves_old_file_and_no_temp(files, monkeypatch):
 def test_command_line_module(files):
     out = files["folder"] / "cli.h5"
     proc = subprocess.run(
-        [sys.executable, "-m", "reduction.stage", "--body-file", str(files["ring_file"]),
+        [sys.executable, "-m", "gimbal_reduction.reduction.stage", "--body-file", str(files["ring_file"]),
          "--out", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "static modes" in proc.stdout
     with h5py.File(out, "r") as f:
         assert f["rank_xmx"].shape == (50,)
     bad = subprocess.run(
-        [sys.executable, "-m", "reduction.stage", "--body-file", str(files["folder"] / "x.h5"),
+        [sys.executable, "-m", "gimbal_reduction.reduction.stage", "--body-file", str(files["folder"] / "x.h5"),
          "--out", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "x.h5" in bad.stderr

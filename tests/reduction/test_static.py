@@ -7,11 +7,11 @@ import pytest
 
 from tests import synthetic_bodies as sb  # noqa: E402
 
-from reduction import modal_integrals as mi  # noqa: E402
-from reduction import ranking as rk  # noqa: E402
-from reduction import static_modes as st  # noqa: E402
-from reduction import verification as vf  # noqa: E402
-from reduction.errors import MissingBearingError, StaticModeError  # noqa: E402
+from gimbal_reduction.reduction import modal_integrals as mi  # noqa: E402
+from gimbal_reduction.reduction import ranking as rk  # noqa: E402
+from gimbal_reduction.reduction import static_modes as st  # noqa: E402
+from gimbal_reduction.reduction import verification as vf  # noqa: E402
+from gimbal_reduction.reduction.errors import MissingBearingError, StaticModeError  # noqa: E402
 
 
 @pytest.fixture(scope="module", params=["rods", "rigid_fit"])

@@ -1,10 +1,10 @@
-"""Eigenpairs of a principal submatrix from the matrix's own (reduction.submatrix_eig), against
+"""Eigenpairs of a principal submatrix from the matrix's own (gimbal_reduction.reduction.submatrix_eig), against
 an eigensolver called on the submatrix."""
 import numpy as np
 import pytest
 import scipy.linalg
 
-from reduction import submatrix_eig as se
+from gimbal_reduction.reduction import submatrix_eig as se
 
 
 def deleted(A, i):

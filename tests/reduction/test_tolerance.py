@@ -6,10 +6,10 @@ import h5py
 import numpy as np
 import pytest
 
-from reduction import models as m
-from reduction import frozen_chain as fc
-from reduction import verified_search as vs
-from solver.bodydata import BODIES
+from gimbal_reduction.reduction import models as m
+from gimbal_reduction.reduction import frozen_chain as fc
+from gimbal_reduction.reduction import verified_search as vs
+from gimbal_reduction.solver.bodydata import BODIES
 
 D = 5   # modes per body in the synthetic ranking
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -163,11 +163,11 @@ def test_search_uses_known_values_and_fails_inf_and_nan():
 
 # ------------------------------------------------ verified search, end to end (synthetic bodies)
 def synthetic_inputs(root):
-    """In folder ``root``: synthetic bodies (6 modes each: modes/, reduction/) and their load-aware
+    """In folder ``root``: synthetic bodies (6 modes each: modes/, gimbal_reduction/reduction/) and their load-aware
     ranking on the thesis scene (load/valid.h5), and a copy flagged as outside the frozen chain,
     gimbals moving 0.05 rad (load/invalid.h5).  Returns (valid, invalid, the a-priori max-E curve
     of global-1..24)."""
-    from reduction import load_aware as la
+    from gimbal_reduction.reduction import load_aware as la
     from tests.reduction.test_load_aware import write_synthetic_bodies
     write_synthetic_bodies(root)
     valid = root / "load" / "valid.h5"
@@ -200,8 +200,8 @@ def _tol_args(root, ranking, model, out, *extra):
 def _measured(root, ranking, model, tmp_path):
     """Max E (eq. 3.53, 4 rates) of ``model`` against the truth (global-24: every synthetic mode),
     each reduced and simulated by the workflow's two stages (not the search's own simulations)."""
-    from solver.dynamics.error_measure import error_measure
-    from solver.dynamics.simfile import read_sim
+    from gimbal_reduction.solver.dynamics.error_measure import error_measure
+    from gimbal_reduction.solver.dynamics.simfile import read_sim
     from tests.dynamics_fixtures import run_model
     out = {}
     for name in ("global-24", model):
@@ -214,8 +214,8 @@ def _measured(root, ranking, model, tmp_path):
 
 def _measured_attitude(tmp_path, model):
     """Largest platform attitude error [arcsec] of a model simulated by ``_measured`` in tmp_path."""
-    from solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error
-    from solver.dynamics.simfile import read_sim
+    from gimbal_reduction.solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error
+    from gimbal_reduction.solver.dynamics.simfile import read_sim
     truth, case = (read_sim(str(tmp_path / "thesis" / f"{m}.h5")) for m in ("global-24", model))
     return float(np.max(attitude_error(truth["platform_attitude"], case["platform_attitude"]))) * ARCSEC_PER_RAD
 
@@ -268,7 +268,7 @@ def test_valid_frozen_chain_keeps_the_a_priori_choice(invalid_scene, tmp_path):
 
 # ------------------------------------------------ the fast-spinning scene (config/scenes/spin.yaml)
 def test_spin_scene_spins_at_a_constant_10_rev_per_s_about_x():
-    from solver.dynamics import scenes
+    from gimbal_reduction.solver.dynamics import scenes
     s = scenes.load_scene("spin")
     for t in np.linspace(0.0, s.duration, 7):
         assert np.allclose(s.case.angular_velocity(t), [20 * np.pi, 0.0, 0.0], rtol=0, atol=1e-12)
@@ -281,10 +281,10 @@ REAL_BODIES = [os.path.join(ROOT, "results", "modes", f"body{b}.h5") for b in BO
 
 @pytest.mark.skipif(not all(os.path.exists(p) for p in REAL_BODIES), reason="no real body files (snakemake modes)")
 def test_spin_scene_is_outside_the_frozen_chain_on_the_real_bodies():
-    """The rigid chain through `spin` (what reduction.load_aware records as the validity): the
+    """The rigid chain through `spin` (what gimbal_reduction.reduction.load_aware records as the validity): the
     gimbals swing far beyond FROZEN_ANGLE, so tol-EPS there is a verified search, not a promise."""
-    from reduction import load_aware as la
-    from solver.dynamics import scenes
+    from gimbal_reduction.reduction import load_aware as la
+    from gimbal_reduction.solver.dynamics import scenes
     body_data = {b: m.load_body_file(p) for b, p in zip(BODIES, REAL_BODIES)}
     rigid = m.build_chain(m.ModelSpec("rigid", {b: np.zeros(0, int) for b in BODIES}, dict.fromkeys(BODIES, ()),
                                       "freq"), body_data)

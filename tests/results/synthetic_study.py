@@ -1,4 +1,4 @@
-"""Synthetic simulation files in the solver.dynamics.simulate output contract (for the results tests).
+"""Synthetic simulation files in the gimbal_reduction.solver.dynamics.simulate output contract (for the results tests).
 
 A truth run has rates r_n(t) (rad/s); a synthetic reduced case has rates
 (1 + a_n) r_n(t), so eq 3.53 gives exactly E_n = a_n^2 (also for the
@@ -12,7 +12,7 @@ import os
 import h5py
 import numpy as np
 
-from results.study.cases import LOAD_CASES, describe_model, study_cases
+from gimbal_reduction.results.study.cases import LOAD_CASES, describe_model, study_cases
 
 T_END, DT = 0.015, 1.0e-5
 
@@ -26,7 +26,7 @@ def truth_rates(t):
 
 def write_sim(path, model, t, gamma_dot, wall_time_s=1.0, scene="thesis", n_modes=None,
               integrator="rk4", step=1e-6):
-    """Write a simulation file with the datasets and attributes of solver.dynamics.simulate.write_result."""
+    """Write a simulation file with the datasets and attributes of gimbal_reduction.solver.dynamics.simulate.write_result."""
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     t = np.asarray(t, float)
     gd = np.asarray(gamma_dot, float)
@@ -85,9 +85,9 @@ def write_study(folder, good=True, cases=None, scene="thesis"):
 
 def write_tables(folder, tables_dir):
     """A synthetic study under folder/sim with its error tables and findings in tables_dir
-    (results.study.tables and .findings, as the workflow runs them): (truth, cases, ranking
+    (gimbal_reduction.results.study.tables and .findings, as the workflow runs them): (truth, cases, ranking
     table, static table, findings JSON)."""
-    from results.study import findings, tables
+    from gimbal_reduction.results.study import findings, tables
     truth, cases = write_study(os.path.join(folder, "sim"))
     rt, st = os.path.join(tables_dir, "errors_ranking.csv"), os.path.join(tables_dir, "errors_static.csv")
     assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", rt,

@@ -12,9 +12,9 @@ import os
 import numpy as np
 import pytest
 
-from results.bench import pareto, scaling
-from solver.dynamics import compiled, dense_baseline, integrators, multibody
-from results.bench.oracle import synthetic_chain
+from gimbal_reduction.results.bench import pareto, scaling
+from gimbal_reduction.solver.dynamics import compiled, dense_baseline, integrators, multibody
+from gimbal_reduction.results.bench.oracle import synthetic_chain
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 REAL = {"truth": os.path.join(ROOT, "results", "sim", "thesis", "truth.h5"),

@@ -1,11 +1,11 @@
-"""results.bench.exponential_accuracy: its argument and reference checks (one-line errors
+"""gimbal_reduction.results.bench.exponential_accuracy: its argument and reference checks (one-line errors
 before any integration) and its table."""
 
 import h5py
 import numpy as np
 import pytest
 
-from results.bench import exponential_accuracy as ea
+from gimbal_reduction.results.bench import exponential_accuracy as ea
 
 
 def write_reference(path, **attrs):
@@ -64,7 +64,7 @@ def test_markdown_has_a_row_per_scene():
 def test_a_scene_is_checked_at_the_tolerance_the_workflow_runs_it_at():
     """long states exponential_tolerance 5e-7: checked at the tighter of it and the default, as
     the workflow simulates it; a scene without one at the default."""
-    from solver.dynamics import scenes
+    from gimbal_reduction.solver.dynamics import scenes
     assert scenes.load_scene("long").tighter_tolerance(1e-5) == 5e-7
     assert scenes.load_scene("long").tighter_tolerance(1e-7) == 1e-7
     assert scenes.load_scene("thesis").tighter_tolerance(1e-5) == 1e-5

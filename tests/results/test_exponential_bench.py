@@ -14,10 +14,10 @@ import json
 import numpy as np
 import pytest
 
-from results.bench import exponential as bench
-from results.bench.oracle import synthetic_chain
-from results.study.tables import RATE_COLUMNS
-from solver.dynamics import chainfile, integrators, scenes, simfile, simulate
+from gimbal_reduction.results.bench import exponential as bench
+from gimbal_reduction.results.bench.oracle import synthetic_chain
+from gimbal_reduction.results.study.tables import RATE_COLUMNS
+from gimbal_reduction.solver.dynamics import chainfile, integrators, scenes, simfile, simulate
 
 
 # ------------------------------------------------------------------ pure helpers

@@ -1,5 +1,5 @@
-"""results.study.figures (rate figures with the rigid baseline and zoom windows, envelopes of long
-runs, the manifest) and results.study.mode_shapes (print figures of a small synthetic body)."""
+"""gimbal_reduction.results.study.figures (rate figures with the rigid baseline and zoom windows, envelopes of long
+runs, the manifest) and gimbal_reduction.results.study.mode_shapes (print figures of a small synthetic body)."""
 from __future__ import annotations
 
 import json
@@ -10,8 +10,8 @@ import meshio
 import numpy as np
 import pytest
 
-from results.study import figures, mode_shapes, tables
-from solver.dynamics.simfile import read_sim
+from gimbal_reduction.results.study import figures, mode_shapes, tables
+from gimbal_reduction.solver.dynamics.simfile import read_sim
 from tests.results.synthetic_study import DT, T_END, truth_rates, write_sim, write_study
 
 CASES = ("freq-5", "static-4")                      # rate figures drawn

@@ -1,4 +1,4 @@
-"""results.study.findings: every rule on a synthetic table where it must pass and one where it
+"""gimbal_reduction.results.study.findings: every rule on a synthetic table where it must pass and one where it
 must fail, per rate; the thesis's own tables; missing inputs; the CLI and its one-scene check."""
 from __future__ import annotations
 
@@ -6,10 +6,10 @@ import json
 
 import pytest
 
-from results.study import findings, tables
-from results.study.cases import BODY_NAMES, LOAD_CASES
-from results.study.tables import RATE_COLUMNS
-from solver.bodydata import BODIES
+from gimbal_reduction.results.study import findings, tables
+from gimbal_reduction.results.study.cases import BODY_NAMES, LOAD_CASES
+from gimbal_reduction.results.study.tables import RATE_COLUMNS
+from gimbal_reduction.solver.bodydata import BODIES
 from tests.results.synthetic_study import write_study
 
 RATE_FACTORS = (1.0, 0.3, 1e-3, 1e-3)     # outer > middle >> inner, platform (finding 5 holds)

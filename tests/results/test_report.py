@@ -1,4 +1,4 @@
-"""results.study.figures and results.study.report: files written, manifest, the Typst PDF rendered and inspected.
+"""gimbal_reduction.results.study.figures and gimbal_reduction.results.study.report: files written, manifest, the Typst PDF rendered and inspected.
 
 The PDF checks use Debian's poppler-utils (pdftotext, pdfinfo, pdftoppm)."""
 from __future__ import annotations
@@ -10,8 +10,8 @@ import subprocess
 import numpy as np
 import pytest
 
-from results.study import figures, report
-from results.study.cases import GROUPS, GROUP_LABELS
+from gimbal_reduction.results.study import figures, report
+from gimbal_reduction.results.study.cases import GROUPS, GROUP_LABELS
 from tests.results.synthetic_study import write_tables
 
 pytest.importorskip("typst")
@@ -159,8 +159,8 @@ def test_methods_describe_the_scene_from_its_file(name, duration, start):
     """The scene report's methods say what drives the chain on its own scene, read from the scene file
     (the text said "the scene lasts 15 ms" on the 1 s scene long)."""
     import os
-    from solver.dynamics.scenes import SCENES_DIR
-    from workflow import yamlfile
+    from gimbal_reduction.solver.dynamics.scenes import SCENES_DIR
+    from gimbal_reduction.workflow import yamlfile
     text = report._scene_sentence(yamlfile.load_file(os.path.join(SCENES_DIR, f"{name}.yaml")))
     assert duration in text and start in text
 

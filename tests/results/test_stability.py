@@ -9,11 +9,11 @@ excitation, the drift measure or the hard-case judgement is wrong.
 import numpy as np
 import pytest
 
-from results.bench import chain_stability, hard_cases, rk4_theory, stability
-from solver.dynamics import integrators, linearized, multibody, scenes
-from solver.dynamics.problem import Problem
-from reduction import models
-from results.bench.oracle import synthetic_chain
+from gimbal_reduction.results.bench import chain_stability, hard_cases, rk4_theory, stability
+from gimbal_reduction.solver.dynamics import integrators, linearized, multibody, scenes
+from gimbal_reduction.solver.dynamics.problem import Problem
+from gimbal_reduction.reduction import models
+from gimbal_reduction.results.bench.oracle import synthetic_chain
 from tests.dynamics_fixtures import load_real_bodies
 from tests.dynamics_fixtures import real_bodies_only as real_only
 

@@ -1,12 +1,12 @@
-"""results.study.study_report: the numbers of the text from the tables, the sections, the PDF."""
+"""gimbal_reduction.results.study.study_report: the numbers of the text from the tables, the sections, the PDF."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from results.study import findings, study_report, tables
-from results.study.report import sci
-from results.study.tables import RATE_COLUMNS
+from gimbal_reduction.results.study import findings, study_report, tables
+from gimbal_reduction.results.study.report import sci
+from gimbal_reduction.results.study.tables import RATE_COLUMNS
 from tests.results.synthetic_study import write_study
 
 

@@ -1,14 +1,14 @@
-"""results.study.cases and results.study.tables: case list, eq 3.53 against closed forms, tables, one-line errors."""
+"""gimbal_reduction.results.study.cases and gimbal_reduction.results.study.tables: case list, eq 3.53 against closed forms, tables, one-line errors."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from results.study import tables
-from results.study.cases import LOAD_CASES, check_models, describe_model, study_cases, study_models
-from results.study.tables import TABLE_COLUMNS, build_tables, read_table
-from solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
-from solver.dynamics.simfile import read_sim
+from gimbal_reduction.results.study import tables
+from gimbal_reduction.results.study.cases import LOAD_CASES, check_models, describe_model, study_cases, study_models
+from gimbal_reduction.results.study.tables import TABLE_COLUMNS, build_tables, read_table
+from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
+from gimbal_reduction.solver.dynamics.simfile import read_sim
 from tests.results.synthetic_study import T_END, truth_rates, write_sim, write_study
 
 
@@ -28,14 +28,14 @@ def test_study_cases_cover_the_thesis_figures_and_parse():
     assert [c["thesis_figure"] for c in lc] == [f"4-{k}" for k in range(21, 28)]
     assert {c["load_case"] for c in lc} == {c for c, _ in LOAD_CASES}
     assert all(c["model"] == f"static-10@2:{c['load_case']}" for c in lc)
-    check_models(study_models(include_truth=True))   # reduction.models grammar
+    check_models(study_models(include_truth=True))   # gimbal_reduction.reduction.models grammar
     assert describe_model("static-10@2:output_motor_my")["n_elastic"] == 41
     assert describe_model("static-xmx-8")["n_elastic"] == 36
     assert describe_model("freq-10,10,5,5")["group"] == "other"
 
 
 def test_check_models_refuses_bad_names():
-    from reduction.models import ModelError
+    from gimbal_reduction.reduction.models import ModelError
     with pytest.raises(ModelError):
         check_models(["static-10@2:output_motor_qq"])
 
@@ -95,7 +95,7 @@ def test_cli_missing_and_nonfinite_inputs(tmp_path, capsys):
         code = tables.main(["--truth", truth, "--cases", *cases, "--ranking-table",
                             str(tmp_path / "r.csv"), "--static-table", str(tmp_path / "s.csv")])
         err = capsys.readouterr().err.strip()
-        assert code == 2 and len(err.splitlines()) == 1 and err.startswith("results.study.tables: error:")
+        assert code == 2 and len(err.splitlines()) == 1 and err.startswith("gimbal_reduction.results.study.tables: error:")
 
 
 def test_tables_of_the_synthetic_study(tmp_path):

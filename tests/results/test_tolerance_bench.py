@@ -1,5 +1,5 @@
-"""The tolerance bench (results.bench.tolerance) and its equal-error comparison
-(results.bench.equal_error): pure parts on hand-made rows, the whole bench on synthetic bodies
+"""The tolerance bench (gimbal_reduction.results.bench.tolerance) and its equal-error comparison
+(gimbal_reduction.results.bench.equal_error): pure parts on hand-made rows, the whole bench on synthetic bodies
 (6 modes each, the thesis scene), one scene with the frozen chain valid and one flagged invalid."""
 import csv
 import json
@@ -10,9 +10,9 @@ import shutil
 import numpy as np
 import pytest
 
-from results.bench import equal_error as ee
-from results.bench import tolerance as tb
-from results.study.tables import RATE_COLUMNS
+from gimbal_reduction.results.bench import equal_error as ee
+from gimbal_reduction.results.bench import tolerance as tb
+from gimbal_reduction.results.study.tables import RATE_COLUMNS
 from tests.reduction.test_tolerance import synthetic_inputs
 
 

@@ -1,9 +1,9 @@
-"""results.bench.truth_basis: the comparison of the truth with a larger basis."""
+"""gimbal_reduction.results.bench.truth_basis: the comparison of the truth with a larger basis."""
 import numpy as np
 import pytest
 
-from results.bench import truth_basis
-from solver.dynamics import multibody
+from gimbal_reduction.results.bench import truth_basis
+from gimbal_reduction.solver.dynamics import multibody
 
 
 def sim(rates, angle):

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 import yaml
 
-from reduction import models
-from results.bench.oracle import synthetic_body
-from solver.bodydata import BODIES
-from solver.dynamics import scenes
+from gimbal_reduction.reduction import models
+from gimbal_reduction.results.bench.oracle import synthetic_body
+from gimbal_reduction.solver.bodydata import BODIES
+from gimbal_reduction.solver.dynamics import scenes
 from tests.reduction.test_models import write_body
 
 D = 6            # modes per synthetic body
@@ -35,8 +35,8 @@ def write_reduction(path, config_hash="synthetic"):
 
 @pytest.fixture(scope="session")
 def pristine(tmp_path_factory):
-    """A folder of good inputs, never modified: modes/body{n}.h5, reduction/body{n}.h5,
-    scene.yaml (the thesis scene, 1 ms) and models/scene/xmx-2.h5 (made by reduction.models)."""
+    """A folder of good inputs, never modified: modes/body{n}.h5, gimbal_reduction/reduction/body{n}.h5,
+    scene.yaml (the thesis scene, 1 ms) and models/scene/xmx-2.h5 (made by gimbal_reduction.reduction.models)."""
     root = tmp_path_factory.mktemp("pristine")
     rng = np.random.default_rng(3)
     (root / "modes").mkdir()

@@ -1,10 +1,10 @@
-"""Bad body files (the modal stage's output) given to reduction.models: each refused in one line
+"""Bad body files (the modal stage's output) given to gimbal_reduction.reduction.models: each refused in one line
 naming the file (and the dataset), before any reduction, and no reduced-model file written."""
 import h5py
 import numpy as np
 import pytest
 
-from reduction import models
+from gimbal_reduction.reduction import models
 
 from .conftest import body_args, reduction_args
 
@@ -128,7 +128,7 @@ def test_garbage_in_the_middle_of_a_body_file(work, refused):
 def test_body_file_of_another_config_refused_with_config(work, refused):
     """The synthetic body files carry config_hash 'synthetic': against the project config
     they come from another configuration; the message names the file and the target."""
-    from workflow.config import DEFAULT_CONFIG
+    from gimbal_reduction.workflow.config import DEFAULT_CONFIG
     path = work / "modes" / "body2.h5"
     refused(models.main, run_args(work) + ["--config", DEFAULT_CONFIG],
             (str(path), "another configuration", "snakemake"), work / "out", work / "modes")
@@ -136,7 +136,7 @@ def test_body_file_of_another_config_refused_with_config(work, refused):
 
 def test_body_file_of_the_current_config_accepted(work, capsys):
     """The control: body files whose config_hash is the current configuration's pass."""
-    from workflow import config as cfgmod
+    from gimbal_reduction.workflow import config as cfgmod
     for b in models.BODIES:
         with h5py.File(work / "modes" / f"body{b}.h5", "r+") as f:
             f.attrs["config_hash"] = models.expected_body_hashes(cfgmod.load_config())[b]

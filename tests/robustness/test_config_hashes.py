@@ -1,6 +1,6 @@
 """Files of another configuration, refused by every stage that reads them when given --config (as the
 workflow's rules give it, --config {CONFIG}): one line naming the file, the configuration and the
-target to rerun with it, before any work, nothing written (solver/bodyconfig.py).
+target to rerun with it, before any work, nothing written (gimbal_reduction/solver/bodyconfig.py).
 
 The synthetic inputs carry config_hash 'synthetic', so against the project's configuration they were
 made from another one; ``current`` relabels them as the configuration's own (the control)."""
@@ -9,12 +9,12 @@ import json
 import h5py
 import pytest
 
-from reduction import load_aware, models, stage
-from results.bench import truth_basis
-from results.study import run_scene
-from solver import bodyconfig
-from solver.bodydata import BODIES
-from workflow import config as cfgmod
+from gimbal_reduction.reduction import load_aware, models, stage
+from gimbal_reduction.results.bench import truth_basis
+from gimbal_reduction.results.study import run_scene
+from gimbal_reduction.solver import bodyconfig
+from gimbal_reduction.solver.bodydata import BODIES
+from gimbal_reduction.workflow import config as cfgmod
 
 from .conftest import body_args, reduction_args
 

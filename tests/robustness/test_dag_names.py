@@ -1,6 +1,6 @@
 """Bad model and scene names reaching the workflow (a Snakemake target, or a scene's needs.models):
 refused when the DAG is built, before any mesh or modal solve, in one line naming the culprit, and
-nothing written (workflow/rules/common.smk: dag_scene, checked_model; reduction.models.check_name).
+nothing written (workflow/rules/common.smk: dag_scene, checked_model; gimbal_reduction.reduction.models.check_name).
 
 Each case is a real run (not a dry run) of the tiny test configuration (.test: 12 modes per body)
 with --directory on a private copy; Snakemake's own progress lines ("host: ...", "Building DAG of
@@ -20,7 +20,7 @@ SNAKEMAKE_PROGRESS = ("host: ", "Building DAG of jobs", "Assuming unrestricted s
 CASES = {
     "unknown model as a simulation target": (
         "results/sim/short/nonsense-3.h5",
-        ("results/sim/short/nonsense-3.h5", "unknown model 'nonsense-3'", "reduction/models.py")),
+        ("results/sim/short/nonsense-3.h5", "unknown model 'nonsense-3'", "gimbal_reduction/reduction/models.py")),
     "unknown model as a reduced-model target": (
         "results/models/short/freq-x.h5",
         ("results/models/short/freq-x.h5", "unknown model 'freq-x'")),

@@ -4,9 +4,9 @@ by running RK4 on a synthetic chain, and enforced by simulate with a message nam
 import numpy as np
 import pytest
 
-from results.bench.oracle import synthetic_chain
-from solver.dynamics import integrators, linearized, simulate
-from solver.dynamics.problem import Problem
+from gimbal_reduction.results.bench.oracle import synthetic_chain
+from gimbal_reduction.solver.dynamics import integrators, linearized, simulate
+from gimbal_reduction.solver.dynamics.problem import Problem
 
 from .conftest import write_scene
 
@@ -50,7 +50,7 @@ def test_damped_limit_matches_the_measured_limit():
 
 def test_simulate_refuses_a_step_beyond_the_damped_limit(work, refused):
     scene = write_scene(work / "damped.yaml", damping_ratio=0.5)
-    from solver.dynamics import chainfile, scenes
+    from gimbal_reduction.solver.dynamics import chainfile, scenes
     sc = scenes.load_scene(str(scene))
     chain, _ = chainfile.read_chain(work.joinpath(*MODEL), sc.damping_ratio)
     prob = simulate.scene_problem(chain, sc)

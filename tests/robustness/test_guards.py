@@ -5,10 +5,10 @@ import time
 
 import pytest
 
-from geometry import mesh
-from solver.dynamics import scenes, simulate
-from solver.fe import modes
-from workflow import config as cfgmod
+from gimbal_reduction.geometry import mesh
+from gimbal_reduction.solver.dynamics import scenes, simulate
+from gimbal_reduction.solver.fe import modes
+from gimbal_reduction.workflow import config as cfgmod
 
 from .conftest import write_scene
 
@@ -51,7 +51,7 @@ def test_max_steps_lowered_refuses_rk4(work, refused):
 
 def test_the_option_lifts_the_step_limit(work):
     """With --max-steps raised, the 1e-12 step passes the guard (check_size returns the estimate)."""
-    from solver.dynamics import chainfile
+    from gimbal_reduction.solver.dynamics import chainfile
     scene = scenes.load_scene(str(write_scene(work / "window.yaml", duration=0.015, output_interval=1e-5)))
     chain, _ = chainfile.read_chain(work.joinpath(*MODEL), scene.damping_ratio)
     prob = simulate.scene_problem(chain, scene)

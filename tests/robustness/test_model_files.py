@@ -4,7 +4,7 @@ import h5py
 import numpy as np
 import pytest
 
-from solver.dynamics import simulate
+from gimbal_reduction.solver.dynamics import simulate
 
 MODEL = ("models", "scene", "xmx-2.h5")
 
@@ -69,14 +69,14 @@ def test_body_file_given_as_model_file(work, refused):
 def test_model_file_of_other_body_files_refused_with_config(work, refused):
     """The reduced model was made from body files with config_hash 'synthetic'; against the
     project config it is stale: the message names the file and the targets to rerun."""
-    from workflow.config import DEFAULT_CONFIG
+    from gimbal_reduction.workflow.config import DEFAULT_CONFIG
     path = work.joinpath(*MODEL)
     refused(simulate.main, sim_args(work, ["--config", DEFAULT_CONFIG]),
             (str(path), "another configuration", "results/modes/body2.h5"), work / "out")
 
 
 def test_model_file_without_body_hashes_refused_with_config(work, refused):
-    from workflow.config import DEFAULT_CONFIG
+    from gimbal_reduction.workflow.config import DEFAULT_CONFIG
     path = work.joinpath(*MODEL)
     with h5py.File(path, "r+") as f:
         del f.attrs["body_config_hashes"]

@@ -1,8 +1,8 @@
-"""Bad model names given to reduction.models: refused in one line naming the model, before any
+"""Bad model names given to gimbal_reduction.reduction.models: refused in one line naming the model, before any
 body file is reduced, nothing written."""
 import pytest
 
-from reduction import models
+from gimbal_reduction.reduction import models
 
 from .conftest import body_args, reduction_args
 
@@ -27,14 +27,14 @@ def test_bad_model_name(name, work, refused):
 
 
 def test_every_model_the_workflow_names_passes_the_dag_check():
-    """No false refusal when the DAG is built (reduction.models.check_name, workflow/rules/common.smk):
+    """No false refusal when the DAG is built (gimbal_reduction.reduction.models.check_name, workflow/rules/common.smk):
     the study's models and every shipped scene's needs.models at the config's 100 modes per body, the
     .test scene's at its 12."""
     import glob
     import os
 
-    from results.study.cases import study_models
-    from solver.dynamics import scenes
+    from gimbal_reduction.results.study.cases import study_models
+    from gimbal_reduction.solver.dynamics import scenes
     names = set(study_models()) | set(study_models(extended=False)) | {"truth"}
     for path in glob.glob(os.path.join(scenes.SCENES_DIR, "*.yaml")):
         names |= set(scenes.load_scene(path).models)

@@ -2,11 +2,11 @@
 conflicting options refused, options of another method refused; one line, nothing written."""
 import pytest
 
-from geometry import mesh
-from reduction import load_aware, models, stage
-from results.study import run_scene
-from solver.dynamics import simulate
-from solver.fe import modes
+from gimbal_reduction.geometry import mesh
+from gimbal_reduction.reduction import load_aware, models, stage
+from gimbal_reduction.results.study import run_scene
+from gimbal_reduction.solver.dynamics import simulate
+from gimbal_reduction.solver.fe import modes
 
 from .conftest import body_args, reduction_args
 
@@ -83,7 +83,7 @@ def test_modes_unknown_body(work, refused, tmp_path):
             ("7",), work / "out")
 
 
-# the study's stage (results.study.run_scene, rule study_scene) and the load-aware ranking: checked
+# the study's stage (gimbal_reduction.results.study.run_scene, rule study_scene) and the load-aware ranking: checked
 # before any model is reduced
 RUN_SCENE = {
     "tol negative exponent": (["--tol", "-1e-6"], ("--tol", "positive")),

@@ -14,12 +14,12 @@ import h5py
 import numpy as np
 import pytest
 
-from reduction import models, stage
-from results.bench.oracle import synthetic_body
-from solver.bodydata import BODY_KEYS, read_body_file
-from solver.dynamics import chainfile, simfile, simulate
-from solver.fe import modes
-from workflow import provenance
+from gimbal_reduction.reduction import models, stage
+from gimbal_reduction.results.bench.oracle import synthetic_body
+from gimbal_reduction.solver.bodydata import BODY_KEYS, read_body_file
+from gimbal_reduction.solver.dynamics import chainfile, simfile, simulate
+from gimbal_reduction.solver.fe import modes
+from gimbal_reduction.workflow import provenance
 
 from .conftest import body_args
 
@@ -122,7 +122,7 @@ class _FullDisk:
 
 
 def disk_full(monkeypatch, room=4096):
-    """The disk under the atomic HDF5 writer (workflow.provenance.atomic_h5: the file built in memory,
+    """The disk under the atomic HDF5 writer (gimbal_reduction.workflow.provenance.atomic_h5: the file built in memory,
     then written in one piece) holds only ``room`` more bytes."""
     def opener(path, mode="r", *args, **kwargs):
         f = open(path, mode, *args, **kwargs)
@@ -131,7 +131,7 @@ def disk_full(monkeypatch, room=4096):
 
 
 def modal_payload(body=2):
-    """What the modal stage's solve returns (solver.fe.modes.compute_body), from a synthetic body."""
+    """What the modal stage's solve returns (gimbal_reduction.solver.fe.modes.compute_body), from a synthetic body."""
     d = synthetic_body(np.random.default_rng(body), body, n_nodes=8, rotations=True, n_modes=6,
                        omega_max=3e3)
     return {**{k: d[k] for k in BODY_KEYS if k != "frequencies_hz"},
@@ -140,7 +140,7 @@ def modal_payload(body=2):
 
 
 def modal_stage(work, monkeypatch, out):
-    """solver.fe.modes' command line with its solve replaced by a synthetic body (the writer is real)."""
+    """gimbal_reduction.solver.fe.modes' command line with its solve replaced by a synthetic body (the writer is real)."""
     monkeypatch.setattr(modes, "compute_body", lambda *args, **kwargs: modal_payload())
     mesh = work / "b.msh"
     mesh.write_text("")
@@ -184,7 +184,7 @@ def test_killed_modal_write_leaves_no_part_file_after_the_next_run(work, monkeyp
     out = work / "out" / "body2.h5"
     killed = subprocess.Popen([sys.executable, "-c", (
         "import os, signal, sys\n"
-        "from workflow.provenance import atomic_path\n"
+        "from gimbal_reduction.workflow.provenance import atomic_path\n"
         "with atomic_path(sys.argv[1]) as tmp:\n"
         "    tmp.write_bytes(bytes(10**6))\n"
         "    os.kill(os.getpid(), signal.SIGKILL)\n"), str(out)], cwd=ROOT)

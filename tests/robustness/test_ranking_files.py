@@ -1,10 +1,10 @@
-"""Bad reduction (ranking) files and load-aware ranking files given to reduction.models: refused
+"""Bad reduction (ranking) files and load-aware ranking files given to gimbal_reduction.reduction.models: refused
 in one line naming the file and the dataset, no reduced-model file written."""
 import h5py
 import numpy as np
 import pytest
 
-from reduction import models
+from gimbal_reduction.reduction import models
 
 from .conftest import body_args, reduction_args
 

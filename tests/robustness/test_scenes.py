@@ -2,7 +2,7 @@
 the model file is read, no simulation file written."""
 import pytest
 
-from solver.dynamics import simulate
+from gimbal_reduction.solver.dynamics import simulate
 
 from .conftest import write_scene
 

@@ -1,7 +1,7 @@
 """Config validation: every bad value stops with a one-line error naming the key."""
 import pytest
 
-from workflow import config as cfgmod
+from gimbal_reduction.workflow import config as cfgmod
 
 
 def expect_error(config, fragment):

@@ -1,12 +1,12 @@
 """Issue 16: the literal `snakemake` command, and a Snakemake without the project's packages stopping
-at once in one line (workflow/environment.py, checked first in workflow/rules/common.smk)."""
+at once in one line (gimbal_reduction/workflow/environment.py, checked first in workflow/rules/common.smk)."""
 import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
-from workflow import environment
+from gimbal_reduction.workflow import environment
 
 ROOT = Path(__file__).resolve().parents[2]
 LAUNCHER = ROOT / "workflow" / "envs" / "snakemake-launcher.sh"
@@ -39,7 +39,7 @@ def test_a_python_without_numba_and_typst_stops_the_dag_build_in_one_line(tmp_pa
 
 
 def test_a_missing_numba_is_an_error_not_a_numpy_fallback(tmp_path):
-    code = "import solver.dynamics.problem"
+    code = "import gimbal_reduction.solver.dynamics.problem"
     run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=_hide(tmp_path, "numba"),
                          capture_output=True, text=True, timeout=120)
     assert run.returncode != 0 and "ModuleNotFoundError" in run.stderr, run.stderr[-500:]

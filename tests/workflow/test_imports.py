@@ -1,4 +1,4 @@
-"""The import graph (workflow.imports): a stage's code is what its module imports, and its hash
+"""The import graph (gimbal_reduction.workflow.imports): a stage's code is what its module imports, and its hash
 ignores comments and docstrings but not code."""
 import json
 import shutil
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from workflow import imports
+from gimbal_reduction.workflow import imports
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -22,7 +22,7 @@ def loaded_project_modules(entry):
     return set(json.loads(run.stdout.strip().splitlines()[-1]))
 
 
-@pytest.mark.parametrize("entry", ["geometry.mesh", "solver.fe.modes", "solver.fe.verify", "reduction.stage"])
+@pytest.mark.parametrize("entry", ["gimbal_reduction.geometry.mesh", "gimbal_reduction.solver.fe.modes", "gimbal_reduction.solver.fe.verify", "gimbal_reduction.reduction.stage"])
 def test_closure_is_what_python_loads(entry):
     """The ast closure of a stage equals the project modules Python loads when it imports the
     stage (so nothing is imported in a way the graph cannot see)."""
@@ -30,24 +30,24 @@ def test_closure_is_what_python_loads(entry):
 
 
 def test_simulation_code_holds_no_fe_nor_reduction_report():
-    files = imports.files("solver.dynamics.simulate")
-    assert "solver/dynamics/simulate.py" in files and "solver/bodydata.py" in files
-    assert "reduction/report.py" not in files
-    assert not [f for f in files if f.startswith(("solver/fe/", "reduction/", "results/", "geometry/"))], files
+    files = imports.files("gimbal_reduction.solver.dynamics.simulate")
+    assert "gimbal_reduction/solver/dynamics/simulate.py" in files and "gimbal_reduction/solver/bodydata.py" in files
+    assert "gimbal_reduction/reduction/report.py" not in files
+    assert not [f for f in files if f.startswith(("gimbal_reduction/solver/fe/", "gimbal_reduction/reduction/", "results/", "gimbal_reduction/geometry/"))], files
 
 
 def test_stage_code_sets():
-    mesh = imports.files("geometry.mesh")
-    assert {"geometry/mesh.py", "geometry/gimbal.py", "workflow/config.py",
+    mesh = imports.files("gimbal_reduction.geometry.mesh")
+    assert {"gimbal_reduction/geometry/mesh.py", "gimbal_reduction/geometry/gimbal.py", "gimbal_reduction/workflow/config.py",
             "workflow/schemas/config.schema.yaml"} <= set(mesh)
-    assert not [f for f in mesh if f.startswith(("solver/", "reduction/", "results/"))], mesh
-    modes = imports.files("solver.fe.modes")
-    assert {"solver/fe/forms.py", "solver/fe/bearings.py", "solver/fe/eigen.py", "solver/bodydata.py",
-            "geometry/gimbal.py"} <= set(modes)
-    assert not [f for f in modes if f.startswith(("solver/dynamics/", "reduction/", "results/"))], modes
+    assert not [f for f in mesh if f.startswith(("gimbal_reduction/solver/", "gimbal_reduction/reduction/", "results/"))], mesh
+    modes = imports.files("gimbal_reduction.solver.fe.modes")
+    assert {"gimbal_reduction/solver/fe/forms.py", "gimbal_reduction/solver/fe/bearings.py", "gimbal_reduction/solver/fe/eigen.py", "gimbal_reduction/solver/bodydata.py",
+            "gimbal_reduction/geometry/gimbal.py"} <= set(modes)
+    assert not [f for f in modes if f.startswith(("gimbal_reduction/solver/dynamics/", "gimbal_reduction/reduction/", "results/"))], modes
     # the reduction stage does not run the load-aware ranking, nor the report
-    stage = imports.files("reduction.stage")
-    assert "reduction/load_aware.py" not in stage and "reduction/report.py" not in stage
+    stage = imports.files("gimbal_reduction.reduction.stage")
+    assert "gimbal_reduction/reduction/load_aware.py" not in stage and "gimbal_reduction/reduction/report.py" not in stage
 
 
 @pytest.fixture
@@ -62,41 +62,41 @@ def tree(tmp_path):
 
 
 def test_hash_ignores_comments_and_docstrings_but_not_code(tree):
-    before = imports.code_hash("geometry.mesh", root=tree)
+    before = imports.code_hash("gimbal_reduction.geometry.mesh", root=tree)
     path = tree / "geometry" / "gimbal.py"
     source = path.read_text()
     path.write_text("# a new comment\n" + source.replace('"""Gmsh geometry', '"""Edited docstring. Gmsh geometry', 1)
                     .replace("    gmsh.initialize()\n", "    gmsh.initialize()  # start gmsh\n\n", 1))
     imports.module_files.cache_clear()
     imports.all_imports.cache_clear()
-    assert imports.code_hash("geometry.mesh", root=tree) == before
+    assert imports.code_hash("gimbal_reduction.geometry.mesh", root=tree) == before
     # the modal stage imports gimbal too; the reduction stage does not
-    unrelated = imports.code_hash("reduction.stage", root=tree)
+    unrelated = imports.code_hash("gimbal_reduction.reduction.stage", root=tree)
     path.write_text(source.replace("Mesh.Algorithm\", 6", "Mesh.Algorithm\", 5", 1))
-    assert imports.code_hash("geometry.mesh", root=tree) != before
-    assert imports.code_hash("reduction.stage", root=tree) == unrelated
-    # the config schema is data that workflow.config reads: part of the code of every stage importing it
+    assert imports.code_hash("gimbal_reduction.geometry.mesh", root=tree) != before
+    assert imports.code_hash("gimbal_reduction.reduction.stage", root=tree) == unrelated
+    # the config schema is data that gimbal_reduction.workflow.config reads: part of the code of every stage importing it
     schema = tree / "workflow" / "schemas" / "config.schema.yaml"
-    changed = imports.code_hash("geometry.mesh", root=tree)
+    changed = imports.code_hash("gimbal_reduction.geometry.mesh", root=tree)
     schema.write_text(schema.read_text() + "\n# edited\n")
-    assert imports.code_hash("geometry.mesh", root=tree) != changed
+    assert imports.code_hash("gimbal_reduction.geometry.mesh", root=tree) != changed
 
 
 def test_violations_are_found(tmp_path):
     """An upward import, a function-local project import, an import between the engines and a cycle."""
-    for package in ("workflow", "geometry", "solver", "solver/fe", "solver/dynamics", "reduction", "results"):
+    for package in ("workflow", "geometry", "solver", "gimbal_reduction/solver/fe", "gimbal_reduction/solver/dynamics", "reduction", "results"):
         (tmp_path / package).mkdir(parents=True, exist_ok=True)
         (tmp_path / package / "__init__.py").write_text("")
     (tmp_path / "geometry" / "a.py").write_text("from reduction import b\n")
     (tmp_path / "reduction" / "b.py").write_text("def f():\n    from geometry import a\n")
-    (tmp_path / "solver" / "fe" / "c.py").write_text("import solver.dynamics.d\n")
+    (tmp_path / "solver" / "fe" / "c.py").write_text("import gimbal_reduction.solver.dynamics.d\n")
     (tmp_path / "solver" / "dynamics" / "d.py").write_text("from ..bodydata import x\n")
     (tmp_path / "solver" / "bodydata.py").write_text("")
     found = imports.violations(tmp_path)
-    assert any("geometry/a.py:1: upward import of reduction.b" in v for v in found), found
-    assert any("reduction/b.py:2: function-local import of geometry.a" in v for v in found), found
-    assert any("solver/fe/c.py:1: solver.fe.c imports solver.dynamics.d" in v for v in found), found
+    assert any("gimbal_reduction/geometry/a.py:1: upward import of reduction.b" in v for v in found), found
+    assert any("gimbal_reduction/reduction/b.py:2: function-local import of geometry.a" in v for v in found), found
+    assert any("gimbal_reduction/solver/fe/c.py:1: gimbal_reduction.solver.fe.c imports gimbal_reduction.solver.dynamics.d" in v for v in found), found
     assert "import cycle: geometry.a -> reduction.b" in found, found
     # relative imports resolve; the package __init__ files are part of a closure
-    assert imports.closure("solver.dynamics.d", root=tmp_path) == [
-        "solver", "solver.bodydata", "solver.dynamics", "solver.dynamics.d"]
+    assert imports.closure("gimbal_reduction.solver.dynamics.d", root=tmp_path) == [
+        "solver", "gimbal_reduction.solver.bodydata", "gimbal_reduction.solver.dynamics", "gimbal_reduction.solver.dynamics.d"]

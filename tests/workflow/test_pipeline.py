@@ -64,10 +64,10 @@ def test_a_second_run_has_nothing_to_do(test_run):
 
 def test_every_output_carries_provenance(test_run):
     """Issue 16: every file the run wrote under results/ carries versions, git revision and config
-    hash (workflow.provenance.read_provenance: HDF5 attributes, JSON key, PNG metadata, a sidecar
+    hash (gimbal_reduction.workflow.provenance.read_provenance: HDF5 attributes, JSON key, PNG metadata, a sidecar
     for the VTU); a gmsh mesh through its metadata JSON (results/mesh/body{n}.json).  Not outputs of
     the stages: Snakemake's benchmark records (results/benchmarks/rules/) and the scene's flag file."""
-    from workflow.provenance import SIDECAR, read_provenance
+    from gimbal_reduction.workflow.provenance import SIDECAR, read_provenance
     results = test_run / "results"
     checked, missing = [], []
     for path in sorted(results.rglob("*")):

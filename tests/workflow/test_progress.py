@@ -1,12 +1,12 @@
-"""Issue 16: long jobs report progress with an estimate of the time left (workflow.progress)."""
+"""Issue 16: long jobs report progress with an estimate of the time left (gimbal_reduction.workflow.progress)."""
 import re
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from workflow import progress
-from workflow.progress import Progress, progress_line, time_left
+from gimbal_reduction.workflow import progress
+from gimbal_reduction.workflow.progress import Progress, progress_line, time_left
 
 LINE = re.compile(r"^progress: .+: .+, \d+ s elapsed, (~\d+ s left|time left unknown)(; .*)?$")
 
@@ -75,7 +75,7 @@ def test_counted_work_in_weights(capsys):
 
 def test_the_eigen_solve_reports_converged_pairs(monkeypatch, capsys):
     """The modal stage's SLEPc solve prints converged pairs of the requested (a SLEPc monitor)."""
-    from solver.fe import eigen
+    from gimbal_reduction.solver.fe import eigen
     monkeypatch.setattr(progress, "EVERY", 0.0)
     n = 400
     K = sp.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]).tocsr()

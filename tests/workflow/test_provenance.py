@@ -1,4 +1,4 @@
-"""Issue 16: every output file carries versions, git revision and config hash (workflow.provenance).
+"""Issue 16: every output file carries versions, git revision and config hash (gimbal_reduction.workflow.provenance).
 
 The writers one by one (each kind of file and how ``read_provenance`` reads it back), then the
 study's writers run on a synthetic study (tables, findings, the scene report): every file they
@@ -14,8 +14,8 @@ import os
 import h5py
 import pytest
 
-from workflow import provenance as P
-from workflow.config import DEFAULT_CONFIG, load_config, section_hash
+from gimbal_reduction.workflow import provenance as P
+from gimbal_reduction.workflow.config import DEFAULT_CONFIG, load_config, section_hash
 
 # outputs that carry none, each for a stated reason
 WITHOUT = {}
@@ -88,7 +88,7 @@ def test_every_kind_of_file_carries_it(tmp_path):
 
 def test_typst_report_pdf_carries_it(tmp_path):
     pytest.importorskip("typst")
-    from results.study.report import compile_pdf
+    from gimbal_reduction.results.study.report import compile_pdf
     rec = P.provenance("beef02")
     out = tmp_path / "r.pdf"
     compile_pdf('#set document(title: "x")\n= Quoted "title" (with) \\ backslash\n', str(out), str(tmp_path), rec)
@@ -109,7 +109,7 @@ def test_h5_files_of_both_conventions(tmp_path):
 
 
 def test_state_space_export_fields(tmp_path):
-    """The .mat and .npz of solver.dynamics.export hold the record as JSON text (field provenance)."""
+    """The .mat and .npz of gimbal_reduction.solver.dynamics.export hold the record as JSON text (field provenance)."""
     import numpy as np
     import scipy.io
     ss = {"A": np.eye(2), "provenance": json.dumps(P.provenance("feed03"), sort_keys=True)}
@@ -135,7 +135,7 @@ def test_a_failed_write_leaves_neither_the_file_nor_its_sidecar(tmp_path):
 def test_the_study_writers_outputs_carry_it(tmp_path):
     """Tables, findings and the scene report of a synthetic study: every file carries provenance,
     the tables' and findings' config hash that of the simulations they were made from."""
-    from results.study import figures, report
+    from gimbal_reduction.results.study import figures, report
     from tests.results.synthetic_study import write_tables
     out = tmp_path / "out"
     truth, cases, rt, st, fj = write_tables(str(tmp_path), str(out / "tables"))
@@ -158,7 +158,7 @@ def test_the_study_writers_outputs_carry_it(tmp_path):
 def test_other_revision_names_a_file_made_by_other_code(tmp_path):
     """A report input made at another git revision is named by its revision (the report says it
     may be stale); one made at this revision, or with none recorded, is not."""
-    from workflow.provenance import git_revision, other_revision
+    from gimbal_reduction.workflow.provenance import git_revision, other_revision
     now = git_revision().removesuffix("-dirty")
     for name, git, expected in (("old.json", "0000000", "0000000"), ("same.json", now + "-dirty", None),
                                 ("none.json", None, None)):

@@ -3,10 +3,10 @@
 The workflow is loaded in-process (Snakemake's API) and its rules' params are evaluated:
 
 * ``params.code`` is the hash of the code the rule's stage runs (``python -m X`` and what X
-  imports, workflow/imports.py), so editing reduction/report.py reruns no simulation;
+  imports, gimbal_reduction/workflow/imports.py), so editing gimbal_reduction/reduction/report.py reruns no simulation;
 * ``params.cfg`` is the hash of the config values the stage reads. Every leaf of
   config/config.yaml is changed in turn, and exactly the rules whose stages read it must see
-  their hash change (the body rules through workflow.config.body_inputs, which the mesh and
+  their hash change (the body rules through gimbal_reduction.workflow.config.body_inputs, which the mesh and
   modal stages read their parameters through; the stages that check their body files against the
   configuration, through the body files' config hashes).
 """
@@ -19,8 +19,8 @@ from snakemake.api import SnakemakeApi
 from snakemake.io import Wildcards
 from snakemake.settings.types import ConfigSettings, OutputSettings, ResourceSettings
 
-from workflow import config as cfgmod
-from workflow import imports
+from gimbal_reduction.workflow import config as cfgmod
+from gimbal_reduction.workflow import imports
 
 ROOT = Path(__file__).resolve().parents[2]
 BODIES = (2, 3, 4, 5)
@@ -29,14 +29,14 @@ NAMES = dict(zip(BODIES, cfgmod.BODY_NAMES))
 WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "report_scene"}
 # rules whose stage checks the body files it reads (directly, or through the reduction, ranking and
 # reduced-model files made from them) against the configuration (--config {CONFIG},
-# solver/bodyconfig.py): params.cfg is what it compares them with, every body file's config hash
+# gimbal_reduction/solver/bodyconfig.py): params.cfg is what it compares them with, every body file's config hash
 BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "load_ranking_first", "study_scene_first", "reduced_model", "simulate", "study_scene", "truth_basis",
                  "reference_simulation", "dynamics_verification", "stability", "pareto", "selection",
                  "exponential_bench", "exponential_accuracy", "integrator_tables"}
 # ... and those that check one body's files (params.cfg = that body file's config hash)
 PER_BODY_CHECKERS = ("reduction_body", "mode_shapes_body")
 # a stage the rule runs besides its shell's python -m modules
-EXTRA_CODE = {"verify_mpi": ("solver.fe.modes",)}   # solver.fe.verify mpi runs solver.fe.modes under mpirun
+EXTRA_CODE = {"verify_mpi": ("gimbal_reduction.solver.fe.modes",)}   # gimbal_reduction.solver.fe.verify mpi runs gimbal_reduction.solver.fe.modes under mpirun
 
 
 @pytest.fixture(scope="module")
@@ -67,16 +67,16 @@ def test_every_stage_rule_carries_the_hash_of_its_code(workflow):
 
 
 def test_simulation_code_is_what_the_dynamics_imports(workflow):
-    """Editing reduction/report.py or the FE stage must not rerun simulations."""
+    """Editing gimbal_reduction/reduction/report.py or the FE stage must not rerun simulations."""
     simulate = workflow.get_rule("simulate")
     modules = stage_modules(simulate)
-    assert modules == ["solver.dynamics.simulate"]
+    assert modules == ["gimbal_reduction.solver.dynamics.simulate"]
     files = imports.files(*modules)
-    assert "reduction/report.py" not in files
-    assert not [f for f in files if f.startswith(("solver/fe/", "geometry/"))], files
+    assert "gimbal_reduction/reduction/report.py" not in files
+    assert not [f for f in files if f.startswith(("gimbal_reduction/solver/fe/", "gimbal_reduction/geometry/"))], files
     # the FE verification's code is not the modal stage's: editing a check reruns no modal solution
-    assert "solver/fe/checks.py" in imports.files("solver.fe.verify")
-    assert "solver/fe/checks.py" not in imports.files("solver.fe.modes")
+    assert "gimbal_reduction/solver/fe/checks.py" in imports.files("gimbal_reduction.solver.fe.verify")
+    assert "gimbal_reduction/solver/fe/checks.py" not in imports.files("gimbal_reduction.solver.fe.modes")
 
 
 def test_every_rule_reading_the_config_carries_its_hash(workflow):
@@ -126,10 +126,10 @@ def changed_value(path, value):
 
 
 # ----------------------------------------------------------------------------------- the spec
-# Who reads what, from the stages' code (geometry/mesh.py, solver/fe/modes.py, solver/fe/checks.py).
+# Who reads what, from the stages' code (gimbal_reduction/geometry/mesh.py, gimbal_reduction/solver/fe/modes.py, gimbal_reduction/solver/fe/checks.py).
 
 def full(n):
-    """Readers of a body's resolved inputs beyond its mesh (workflow.config.body_inputs(n))."""
+    """Readers of a body's resolved inputs beyond its mesh (gimbal_reduction.workflow.config.body_inputs(n))."""
     out = {f"modes_body[{n}]", f"verify_convergence[{n}]", f"modes_body_large[{n}]"}
     if n == 4:   # the coarse body of the Hughes identities: body 4 at COARSE_SIZE (0.75 in); the
         out |= {"coarse_body_all_modes"}      # check itself reads only that file (its input)

@@ -1,5 +1,5 @@
 """Issue 17: the rule `tolerance` (workflow/rules/bench.smk) is part of `bench`, not of `all`, runs
-results.bench.tolerance on every study scene and the fast-spinning one for EPS 1e-2 .. 1e-8, and
+gimbal_reduction.results.bench.tolerance on every study scene and the fast-spinning one for EPS 1e-2 .. 1e-8, and
 feeds the study report's optional input."""
 from pathlib import Path
 
@@ -7,7 +7,7 @@ import pytest
 from snakemake.api import SnakemakeApi
 from snakemake.settings.types import ConfigSettings, OutputSettings, ResourceSettings
 
-from results.study.cases import STUDY_SCENES
+from gimbal_reduction.results.study.cases import STUDY_SCENES
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -38,7 +38,7 @@ def test_tolerance_runs_every_study_scene_and_spin_for_eps_1e2_to_1e8(workflow):
     assert scenes == [*STUDY_SCENES, "spin"]
     assert [Path(str(f)).stem for f in tolerance.input.load_rankings] == scenes
     assert [float(e) for e in tolerance.params.eps.split()] == [10.0 ** -k for k in range(2, 9)]
-    assert "-m results.bench.tolerance" in tolerance.shellcmd and "{params.eps}" in tolerance.shellcmd
+    assert "-m gimbal_reduction.results.bench.tolerance" in tolerance.shellcmd and "{params.eps}" in tolerance.shellcmd
 
 
 def test_the_study_report_reads_the_tolerance_bench_if_present(workflow):
@@ -47,5 +47,5 @@ def test_the_study_report_reads_the_tolerance_bench_if_present(workflow):
     rule = workflow.get_rule("study_report")
     assert "--tolerance results/benchmarks/tolerance.json" in rule.params.optional(Wildcards())
     assert "results/benchmarks/tolerance.json" not in {str(f) for f in rule.input}
-    # the scene reports do not take it (results.study.report has no such option)
+    # the scene reports do not take it (gimbal_reduction.results.study.report has no such option)
     assert "--tolerance" not in workflow.get_rule("report_scene").params.optional(Wildcards())

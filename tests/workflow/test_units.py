@@ -7,9 +7,9 @@ import math
 import pytest
 import yaml
 
-from workflow import config as cfgmod
-from workflow import units, yamlfile
-from workflow.config import ROOT
+from gimbal_reduction.workflow import config as cfgmod
+from gimbal_reduction.workflow import units, yamlfile
+from gimbal_reduction.workflow.config import ROOT
 
 # exact definitions, written out independently of the registry
 LBF = 0.45359237 * 9.80665       # N

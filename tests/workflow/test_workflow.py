@@ -40,7 +40,7 @@ def test_bad_config_stops_with_one_line(tmp_path):
 
 
 def test_stage_shares_from_benchmark_records(tmp_path):
-    from results.bench.summary import stage_of, workflow_benchmark
+    from gimbal_reduction.results.bench.summary import stage_of, workflow_benchmark
 
     header = "s\th:m:s\tmax_rss\n"
     for name, seconds in (("mesh_body2.tsv", 1.0), ("modes_body2.tsv", 3.0), ("sim/thesis/truth.tsv", 6.0)):
@@ -80,7 +80,7 @@ def test_one_simulation_plans_only_what_it_needs():
 
 
 def test_a_scene_target_plans_exactly_its_declared_simulations():
-    from solver.dynamics import scenes
+    from gimbal_reduction.solver.dynamics import scenes
     declared = scenes.load_scene("thesis").models
     run = snakemake("--dry-run", "--forceall", "results/sim/thesis/needs.done")
     assert run.returncode == 0, run.stderr[-2000:]
@@ -91,7 +91,7 @@ def test_a_scene_target_plans_exactly_its_declared_simulations():
 def _simulate_command(*args, target="results/sim/thesis/freq-10.h5"):
     run = snakemake("--dry-run", "--forceall", "--printshellcmds", target, *args)
     assert run.returncode == 0, run.stderr[-2000:]
-    return [line for line in run.stdout.splitlines() if "-m solver.dynamics.simulate" in line]
+    return [line for line in run.stdout.splitlines() if "-m gimbal_reduction.solver.dynamics.simulate" in line]
 
 
 def test_the_config_switch_runs_the_simulations_with_rk4(tmp_path):

@@ -50,7 +50,7 @@ rule stability:
         rk4_limit="results/figures/stability/rk4_limit.png",
         drift="results/figures/stability/energy_drift.png",
     params:
-        code=code_hash("results.bench.stability"),
+        code=code_hash("gimbal_reduction.results.bench.stability"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: estimate, 2 GB and 1 h (bisections and 10 s energy-drift runs per integrator)
@@ -61,7 +61,7 @@ rule stability:
     benchmark:
         "results/benchmarks/rules/bench/stability.tsv"
     shell:
-        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.stability --bodies {input.bodies} "
+        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.stability --bodies {input.bodies} "
         "--reductions {input.reductions} --out-dir results/stability "
         "--figures-dir $(dirname {output.rk4_limit}) --config {CONFIG} > {log} 2>&1"
 
@@ -72,7 +72,7 @@ rule scaling:
         json="results/benchmarks/scaling.json",
         figure="results/figures/bench/scaling.png",
     params:
-        code=code_hash("results.bench.scaling"),
+        code=code_hash("gimbal_reduction.results.bench.scaling"),
     resources:
         # no record: estimate, 2 GB (up to 8000 coordinates, dense baseline) and 1 h
         mem_mb=2000,
@@ -85,7 +85,7 @@ rule scaling:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.scaling --out-csv {output.csv} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.scaling --out-csv {output.csv} "
         "--out-json {output.json} --figure {output.figure} > {log} 2>&1"
 
 
@@ -103,7 +103,7 @@ rule pareto:
         figure="results/figures/bench/pareto.png",
     params:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
-        code=code_hash("results.bench.pareto"),
+        code=code_hash("gimbal_reduction.results.bench.pareto"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: ~2 min per model and ~5 min for the truth (comment above): 13 min, so 30 min
@@ -117,7 +117,7 @@ rule pareto:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.pareto --scene thesis --truth {input.truth} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.pareto --scene thesis --truth {input.truth} "
         "--models {params.models} --repeats 5 --budget 600 --bodies {input.bodies} --reductions {input.reductions} "
         "--load-ranking {input.load_ranking} "
         "--out-csv {output.csv} --figure {output.figure} --config {CONFIG} > {log} 2>&1"
@@ -133,7 +133,7 @@ rule selection:
         table="results/tables/selection.csv",
         figure="results/figures/bench/global_ranking.png",
     params:
-        code=code_hash("results.bench.selection"),
+        code=code_hash("gimbal_reduction.results.bench.selection"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: reads simulation files (as error_tables, error_tables_long.tsv 2.7 s, 159.3 MB)
@@ -144,7 +144,7 @@ rule selection:
     benchmark:
         "results/benchmarks/rules/bench/selection.tsv"
     shell:
-        "MPLBACKEND=Agg {PY} -m results.bench.selection --truth {input.truth} --cases {input.cases} "
+        "MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.selection --truth {input.truth} --cases {input.cases} "
         "--ranking {input.ranking} --reductions {input.reductions} --table {output.table} "
         "--figure {output.figure} --config {CONFIG} > {log} 2>&1"
 
@@ -170,10 +170,10 @@ rule reference_simulation:
     params:
         physics=scene_physics_hash,
         scene=scene_file,
-        code=code_hash("solver.dynamics.simulate"),
+        code=code_hash("gimbal_reduction.solver.dynamics.simulate"),
         cfg=body_files_hash,  # the model's body files are checked against the config
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
+        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
         "--integrator dop853 --rtol 1e-10 --atol 1e-14 --config {CONFIG} --out {output} > {log} 2>&1"
 
 
@@ -192,7 +192,7 @@ rule exponential_bench:
     params:
         references=reference_arguments,
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
-        code=code_hash("results.bench.exponential"),
+        code=code_hash("gimbal_reduction.results.bench.exponential"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: ~3 + 2.5 + 1 min (comment above EXPONENTIAL_MODELS), so 15 min; memory as simulate
@@ -206,7 +206,7 @@ rule exponential_bench:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.exponential "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m gimbal_reduction.results.bench.exponential "
         "--truth-model {input.truth_model} --reference {params.references} --models {params.models} "
         "--repeats 5 --out-json {output.json} --out-md {output.md} --out-csv {output.csv} --config {CONFIG} "
         "> {log} 2>&1"
@@ -236,7 +236,7 @@ rule exponential_accuracy:
     params:
         references=reference_arguments,
         tol=cfgmod.value(config, "simulation.tolerance"),
-        code=code_hash("results.bench.exponential_accuracy"),
+        code=code_hash("gimbal_reduction.results.bench.exponential_accuracy"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: one exponential run per accuracy scene (seconds each): as simulate
@@ -247,21 +247,21 @@ rule exponential_accuracy:
     benchmark:
         "results/benchmarks/rules/bench/exponential_accuracy.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m results.bench.exponential_accuracy --truth-model {input.truth_model} "
+        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.results.bench.exponential_accuracy --truth-model {input.truth_model} "
         "--reference {params.references} --tol {params.tol} --out-json {output.json} "
         "--out-md {output.md} --config {CONFIG} > {log} 2>&1"
 
 
 # The study's thesis table with both integrators (issue 13): the thesis's own cases (the RK4 runs are
 # ~2.5 min; the exponential integrator's ~5 s)
-INTEGRATOR_TABLE_MODELS = importlib.import_module("results.study.cases").study_models(
+INTEGRATOR_TABLE_MODELS = importlib.import_module("gimbal_reduction.results.study.cases").study_models(
     extended=False
 )
 
 
 rule integrator_tables:
     """The study's error table with the exponential integrator against RK4 (issue 13): every
-    study model and the truth integrated both ways, in one process (results.bench.integrator_tables)."""
+    study model and the truth integrated both ways, in one process (gimbal_reduction.results.bench.integrator_tables)."""
     input:
         truth_model="results/models/thesis/truth.h5",
         models=expand("results/models/thesis/{model}.h5", model=INTEGRATOR_TABLE_MODELS),
@@ -269,7 +269,7 @@ rule integrator_tables:
         json="results/benchmarks/integrator_tables.json",
         csv="results/benchmarks/integrator_tables.csv",
     params:
-        code=code_hash("results.bench.integrator_tables"),
+        code=code_hash("gimbal_reduction.results.bench.integrator_tables"),
         cfg=body_files_hash,  # the input files are checked against the config
         physics=lambda wildcards: scenes_mod.load_scene(
             scene_path("thesis")
@@ -285,7 +285,7 @@ rule integrator_tables:
     benchmark:
         "results/benchmarks/rules/integrator_tables.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m results.bench.integrator_tables --scene config/scenes/thesis.yaml "
+        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.results.bench.integrator_tables --scene config/scenes/thesis.yaml "
         "--truth-model {input.truth_model} --models {params.models} --tol {params.tol} "
         "--out-json {output.json} --out-csv {output.csv} --config {CONFIG} > {log} 2>&1"
 
@@ -293,9 +293,9 @@ rule integrator_tables:
 # Accuracy on request (issue 17): tol-EPS on every study scene and the fast-spinning one, measured
 # against the truth; the cheapest freq-, xmx- and global-N of the study tables at each EPS timed in
 # the same run. `long` and `spin` are outside the frozen chain's validity, so there tol-EPS is a
-# verified search (reduction/verified_search.py: ~10 simulations per request, shared by the EPS).
+# verified search (gimbal_reduction/reduction/verified_search.py: ~10 simulations per request, shared by the EPS).
 TOLERANCE_TABLE_SCENES = list(
-    importlib.import_module("results.study.cases").STUDY_SCENES
+    importlib.import_module("gimbal_reduction.results.study.cases").STUDY_SCENES
 )
 # spin (config/scenes/spin.yaml): the case at a constant 10 rev/s, large gimbal motion; no study table
 TOLERANCE_SCENES = TOLERANCE_TABLE_SCENES + ["spin"]
@@ -321,7 +321,7 @@ rule tolerance:
         figure_pdf="results/figures/bench/tolerance.pdf",
     params:
         eps=" ".join(f"{e:g}" for e in TOLERANCE_EPS),
-        code=code_hash("results.bench.tolerance"),
+        code=code_hash("gimbal_reduction.results.bench.tolerance"),
     resources:
         # no record (run outside Snakemake): the same command run directly in this session on a
         # loaded 2-core machine, /usr/bin/time -v: 1147 s wall, 1035.4 MB peak (long's and spin's
@@ -336,7 +336,7 @@ rule tolerance:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m results.bench.tolerance "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.tolerance "
         "--scenes {input.scenes} --eps {params.eps} --modes-dir results/modes "
         "--reduction-dir results/reduction --tables-dir results/tables --repeats 5 "
         "--budget 60 --out-csv {output.csv} --out-json {output.json} --figure {output.figure} "

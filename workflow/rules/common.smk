@@ -24,8 +24,8 @@ os.environ.update(
 os.environ.setdefault("SLURM_MPI_TYPE", "pmix")
 # First: is this the project's Snakemake and interpreter (the rules run {PY} = sys.executable)?
 # Debian's /usr/bin/snakemake or a python without Numba/Typst stops here in one line saying how to
-# run the workflow (workflow/environment.py, standard library only), before anything is imported.
-_environment_problem = importlib.import_module("workflow.environment").problem(
+# run the workflow (gimbal_reduction/workflow/environment.py, standard library only), before anything is imported.
+_environment_problem = importlib.import_module("gimbal_reduction.workflow.environment").problem(
     snakemake.__version__
 )
 if _environment_problem:
@@ -33,7 +33,7 @@ if _environment_problem:
     sys.stderr.flush()
     os._exit(1)
 # not "import workflow...": Snakemake owns that name
-cfgmod = importlib.import_module("workflow.config")
+cfgmod = importlib.import_module("gimbal_reduction.workflow.config")
 
 # the file the stages read; pass another with --configfile (not --config key=value); used in the
 # rules' shell commands as {CONFIG} (a justified lint, see PY below)
@@ -79,7 +79,7 @@ def config_hash(*keys):
 
 
 def body_hash(part=None, body=None, mesh_size=None):
-    """A params function: the hash of a body's resolved inputs (workflow.config.body_inputs, which the
+    """A params function: the hash of a body's resolved inputs (gimbal_reduction.workflow.config.body_inputs, which the
     mesh and modal stages read), or of one part of them ("mesh"); the body is the wildcard n unless given.
     """
 
@@ -91,7 +91,7 @@ def body_hash(part=None, body=None, mesh_size=None):
 
 
 def check_hash(check=None, body=None):
-    """A params function: the hash of what an FE check reads (workflow.config.check_inputs); the check
+    """A params function: the hash of what an FE check reads (gimbal_reduction.workflow.config.check_inputs); the check
     and the body are the wildcards check and n unless given."""
     return lambda wildcards: cfgmod.inputs_hash(
         cfgmod.check_inputs(
@@ -103,7 +103,7 @@ def check_hash(check=None, body=None):
 def body_files_hash(wildcards):
     """params.cfg of a rule whose stage checks the body files it reads (directly, or through the
     reduction, ranking and reduced-model files made from them) against the configuration
-    (--config {CONFIG}, solver/bodyconfig.py): what it compares them with, the config hash the
+    (--config {CONFIG}, gimbal_reduction/solver/bodyconfig.py): what it compares them with, the config hash the
     configuration gives every body file."""
     return cfgmod.inputs_hash(
         [cfgmod.inputs_hash(cfgmod.body_inputs(config, n)) for n in BODIES]
@@ -111,16 +111,16 @@ def body_files_hash(wildcards):
 
 
 # The code of a rule's stage: the hash of its stage's module (python -m X), of the project modules it
-# imports, transitively, and of the data files they read (workflow/imports.py); comments and
+# imports, transitively, and of the data files they read (gimbal_reduction/workflow/imports.py); comments and
 # docstrings left out. A rule carries it as params.code, so editing a module reruns exactly the
 # rules whose stages import it, and editing a comment reruns nothing.
-code_hash = importlib.import_module("workflow.imports").code_hash
+code_hash = importlib.import_module("gimbal_reduction.workflow.imports").code_hash
 
 
 # ---- The rule files' helpers, here so that no rule file mixes rules and functions (Snakemake's
 # lint); each is used by the rule file named above it.
-models_mod = importlib.import_module("reduction.models")
-scenes_mod = importlib.import_module("solver.dynamics.scenes")
+models_mod = importlib.import_module("gimbal_reduction.reduction.models")
+scenes_mod = importlib.import_module("gimbal_reduction.solver.dynamics.scenes")
 
 
 # ---- A bad scene or model name (a target's, or in a scene's needs.models) stops the DAG build in one
@@ -143,7 +143,7 @@ def dag_scene(name):
 
 
 def checked_model(model, where):
-    """``model`` if it names a model the configuration can build (reduction.models.check_name, with
+    """``model`` if it names a model the configuration can build (gimbal_reduction.reduction.models.check_name, with
     modes.count modes per body), else a one-line refusal naming ``where`` (the target or the scene).
     """
     count = cfgmod.value(config, "modes.count")
@@ -151,7 +151,7 @@ def checked_model(model, where):
         models_mod.check_name(model, count)
     except models_mod.ModelError as exc:
         dag_refuse(
-            f"{where}: {exc} (model names: reduction/models.py; modes.count = {count} in "
+            f"{where}: {exc} (model names: gimbal_reduction/reduction/models.py; modes.count = {count} in "
             f"{CONFIG}); nothing was run"
         )
     return model
@@ -191,7 +191,7 @@ def model_inputs(wildcards):
 
 
 def ranking_options(wildcards, input):
-    """The reduction and load-ranking files of a model, as options of reduction.models."""
+    """The reduction and load-ranking files of a model, as options of gimbal_reduction.reduction.models."""
     options = []
     if "reductions" in input.keys():
         options.append("--reductions " + " ".join(input.reductions))

@@ -4,14 +4,14 @@
 
 
 rule kernels:
-    """Compile the dynamics kernels once, before the jobs that use them (solver.dynamics.warmup):
+    """Compile the dynamics kernels once, before the jobs that use them (gimbal_reduction.solver.dynamics.warmup):
     no body file needed, so it runs beside the FE jobs at the start of a fresh clone's run."""
     input:
         scenes=[scene_path(s) for s in WARMUP_SCENES],
     output:
         KERNELS,
     params:
-        code=code_hash("solver.dynamics.warmup"),
+        code=code_hash("gimbal_reduction.solver.dynamics.warmup"),
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
     resources:
@@ -24,7 +24,7 @@ rule kernels:
     benchmark:
         "results/benchmarks/rules/kernels.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.warmup --scenes {input.scenes} "
+        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.dynamics.warmup --scenes {input.scenes} "
         "--integrator {params.integrator} {params.options} --out {output} > {log} 2>&1"
 
 
@@ -37,7 +37,7 @@ rule load_ranking:
     output:
         "results/reduction/load/{scene}.h5",
     params:
-        code=code_hash("reduction.load_aware"),
+        code=code_hash("gimbal_reduction.reduction.load_aware"),
         scene=scene_file,
         cfg=body_files_hash,  # the body and reduction files are checked against the config
     resources:
@@ -49,7 +49,7 @@ rule load_ranking:
     benchmark:
         "results/benchmarks/rules/load_ranking_{scene}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m reduction.load_aware --scene {params.scene} --bodies {input.bodies} "
+        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.reduction.load_aware --scene {params.scene} --bodies {input.bodies} "
         "--reductions {input.reductions} --config {CONFIG} --out {output} > {log} 2>&1"
 
 
@@ -73,14 +73,14 @@ rule simulate:
         # missing scene file is reported in one line when the DAG is built
         physics=scene_physics_hash,
         scene=scene_file,
-        code=code_hash("solver.dynamics.simulate"),
+        code=code_hash("gimbal_reduction.solver.dynamics.simulate"),
         # config simulation: the integrator (exponential or rk4, the thesis's) and its options
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
         # the model's body files are checked against the configuration (--config)
         cfg=body_files_hash,
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
+        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
         "--integrator {params.integrator} {params.options} --config {CONFIG} --out {output} > {log} 2>&1"
 
 
@@ -92,7 +92,7 @@ rule dynamics_verification:
         verification="results/verification/dynamics.json",
         benchmark="results/benchmarks/dynamics.json",
     params:
-        code=code_hash("results.bench.verify_dynamics"),
+        code=code_hash("gimbal_reduction.results.bench.verify_dynamics"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
@@ -106,7 +106,7 @@ rule dynamics_verification:
     # (BLAS still pinned to one thread, as everywhere)
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m results.bench.verify_dynamics --bodies {input.bodies} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m gimbal_reduction.results.bench.verify_dynamics --bodies {input.bodies} "
         "--reductions {input.reductions} --verification {output.verification} "
         "--benchmark {output.benchmark} --config {CONFIG} > {log} 2>&1"
 

@@ -8,7 +8,7 @@ rule mesh_body:
         mesh="results/mesh/body{n}.msh",
         meta="results/mesh/body{n}.json",
     params:
-        code=code_hash("geometry.mesh"),
+        code=code_hash("gimbal_reduction.geometry.mesh"),
         # what the mesh reads: the body's shape, its and (a ring) the next body's motor side, size, angles
         cfg=body_hash("mesh"),
     resources:
@@ -20,7 +20,7 @@ rule mesh_body:
     benchmark:
         "results/benchmarks/rules/mesh_body{n}.tsv"
     shell:
-        "{PY} -m geometry.mesh --body {wildcards.n} --out {output.mesh} --meta {output.meta} --config {CONFIG} "
+        "{PY} -m gimbal_reduction.geometry.mesh --body {wildcards.n} --out {output.mesh} --meta {output.meta} --config {CONFIG} "
         "> {log} 2>&1"
 
 

@@ -10,8 +10,8 @@ rule modes_body:
     output:
         "results/modes/body{n}.h5",
     params:
-        code=code_hash("solver.fe.modes"),
-        # workflow.config.body_inputs: what the stage reads (and the body file's config_hash)
+        code=code_hash("gimbal_reduction.solver.fe.modes"),
+        # gimbal_reduction.workflow.config.body_inputs: what the stage reads (and the body file's config_hash)
         cfg=body_hash(),
     resources:
         # records: modes_body5.tsv 21.6 s, 420.5 MB (max of 4, one rank); two ranks on a cluster
@@ -26,7 +26,7 @@ rule modes_body:
     benchmark:
         "results/benchmarks/rules/modes_body{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {resources.mpi} {PY} -m solver.fe.modes --body {wildcards.n} --mesh {input.mesh} "
+        "OMP_NUM_THREADS=1 {resources.mpi} {PY} -m gimbal_reduction.solver.fe.modes --body {wildcards.n} --mesh {input.mesh} "
         "--mesh-meta {input.meta} --out {output} --config {CONFIG} > {log} 2>&1"
 
 
@@ -41,7 +41,7 @@ rule modes_benchmark:
     output:
         "results/benchmarks/modes.json",
     params:
-        code=code_hash("results.bench.summary"),
+        code=code_hash("gimbal_reduction.results.bench.summary"),
     resources:
         # no record: reads four body files' attributes (seconds, as verify_fe_fast)
         mem_mb=mem_mb(193.8),
@@ -49,12 +49,12 @@ rule modes_benchmark:
     log:
         "logs/modes/benchmark.log",
     shell:
-        "{PY} -m results.bench.summary modes {input} --out {output} > {log} 2>&1"
+        "{PY} -m gimbal_reduction.results.bench.summary modes {input} --out {output} > {log} 2>&1"
 
 
 rule mode_shapes_body:
     """Print-ready mode shapes (the lowest and the best XMX-ranked modes) and the static correction
-    modes of one body, with their captions in a small manifest (results.study.mode_shapes)."""
+    modes of one body, with their captions in a small manifest (gimbal_reduction.results.study.mode_shapes)."""
     input:
         body="results/modes/body{n}.h5",
         mesh="results/mesh/body{n}.msh",
@@ -75,7 +75,7 @@ rule mode_shapes_body:
         manifest="results/figures/mode_shapes_body{n}.json",
         vtu="results/modes/shapes/body{n}.vtu",
     params:
-        code=code_hash("results.study.mode_shapes"),
+        code=code_hash("gimbal_reduction.results.study.mode_shapes"),
         cfg=body_hash(),  # the body and reduction files are checked against the config
     resources:
         # records: mode_shapes_body3.tsv 6.6 s, mode_shapes_body2.tsv 171.2 MB (max of 8)
@@ -86,7 +86,7 @@ rule mode_shapes_body:
     benchmark:
         "results/benchmarks/rules/mode_shapes_body{n}.tsv"
     shell:
-        "MPLBACKEND=Agg {PY} -m results.study.mode_shapes --body-file {input.body} --mesh {input.mesh} "
+        "MPLBACKEND=Agg {PY} -m gimbal_reduction.results.study.mode_shapes --body-file {input.body} --mesh {input.mesh} "
         "--reduction {input.reduction} --png {output.png} --static-png {output.static_png} "
         "--manifest {output.manifest} --vtu {output.vtu} --config {CONFIG} > {log} 2>&1"
 

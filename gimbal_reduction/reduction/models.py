@@ -1,0 +1,895 @@
+"""Reduced models named by compact strings, and their assembly from the body files.
+
+Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
+
+    model   := "truth" | "rigid" | family "-" counts statics | pooled "-" N statics
+             | "tol-" EPS [ "-att-" A ]   EPS, A positive numbers, e.g. tol-1e-4, tol-1e-4-att-2
+    family  := "freq" | "xmx" | "xmgmx" | "load"              vibration modes only
+             | "static" | "static-freq" | "static-xmx" | "static-xmgmx" | "static-load"
+    pooled  := "global" | "static-global"     N modes in total, pooled over the bodies
+    counts  := N | N,N,N,N        kept vibration modes, all bodies or per body 2..5
+    statics := ( "@" body ":" loadcase ( "+" loadcase )* )*
+    loadcase:= {input_motor|input_resolver|output_motor|output_resolver}_{f|m}{x|y|z}
+
+* ``truth``: the 100 lowest-frequency vibration modes of every body (thesis).
+* ``rigid``: no elastic modes (the rigid limit).
+* ``freq-10`` / ``xmx-10`` / ``xmgmx-10``: the 10 first modes of every body in the
+  frequency / XMX / XMGMX ranking (``rank_frequency`` ... of
+  results/reduction/body{n}.h5, 0-based, most important first);
+  ``freq-10,10,5,5`` keeps 10, 10, 5, 5 on bodies 2..5.
+* ``static-8`` (= ``static-freq-8``): the 8 lowest modes plus one static
+  correction mode per body with the default load case (``output_motor_fz`` for
+  bodies 2-4, as the thesis's Figure 4-12; ``input_motor_fx`` for the platform,
+  which has no output bearings **[chosen]**); ``static-xmx-8`` with XMX-ranked modes.
+* ``load-10`` / ``load-10,10,5,5``: the first modes of every body in the scene's
+  load-aware ranking (``rank_load`` of results/reduction/load/{scene}.h5, written by
+  ``python -m gimbal_reduction.reduction.load_aware``; docs/selection.md): the modes ranked by what
+  the scene's joint loads make them contribute to the gimbal rates.
+* ``global-40``: 40 vibration modes in total, the first 40 of the pooled load-aware
+  ranking of all four bodies' modes (thesis Section 5.1), however they fall on
+  the bodies (``pooled/body``, ``pooled/mode`` of the same file).
+  ``load-*`` and ``global-*`` need the scene's ranking file (``needs_load_ranking``,
+  ``load_load_ranking``; ``simulate --load-ranking``).
+* ``tol-EPS`` (e.g. ``tol-1e-4``, ``tol-0.001``): accuracy on request.  The smallest
+  pooled set ``global-N`` whose a-priori estimate of eq. 3.53 (the frozen linear chain of
+  ``gimbal_reduction.reduction.load_aware``: ``estimate/global`` of the scene's ranking file for N = 1..pool,
+  ``estimate/rigid`` for N = 0, and beyond the pool the same estimator evaluated on the
+  file's ``linear/*`` chain) is <= EPS on every one of the four gimbal rates
+  (``tolerance_choice``).  Refused with a one-line ModelError when no N up to the computed
+  modes meets EPS (the message gives the smallest estimate reached).  Where the scene moves
+  the gimbals too far or too fast for the frozen chain (the ranking file's
+  ``angle_excursion_rad`` above ``frozen_chain.FROZEN_ANGLE`` or
+  ``rate_over_lowest_frequency`` above ``FROZEN_RATE``: scenes ``long``, ``spin``), the
+  estimate would be a promise it cannot keep: ``reduce_model`` says so and falls back to a
+  **verified search** (``gimbal_reduction.reduction.verified_search``): candidate global-N are simulated
+  against the truth with the default integrator, and the smallest N found passing (measured
+  max E <= EPS, with global-(N - 1) measured failing) is taken; refused in one line if only
+  the truth itself passes.  ``parse_model`` alone (no scene, no simulation) and
+  ``--no-verified-search`` refuse instead (FrozenChainInvalid).  ``tol-EPS-att-A``
+  (e.g. ``tol-1e-4-att-2``) also asks that the stable platform's attitude error against the
+  truth, the largest angle between the two platform frames over the window, be at most A
+  arcsec (the tables' ``attitude_max_arcsec``); the frozen chain estimates the rates only, so
+  this is always a verified search (AttitudeRequested), its first guess the rates' a-priori
+  choice.  No static modes (``@``) are taken.  The choice (N, how it was made, the estimate per rate, the measured E of a
+  verified search and its probes) is recorded in the reduced-model file's attributes
+  ``tol_*`` (docs/models.md).
+* ``@body:case`` puts static modes on the listed bodies only, e.g.
+  ``static-10@2:output_motor_fz`` (outer gimbal only) or
+  ``freq-6@2:output_motor_fz+output_motor_my@3:output_motor_fz``.
+
+``parse_model`` is a pure function of the name and the rankings; bad names,
+counts above what was computed and malformed load cases raise ModelError with
+a one-line message, before anything is integrated.
+"""
+
+import hashlib
+import json
+import os
+import re
+import sys
+import time
+from dataclasses import dataclass
+
+import h5py
+import numpy as np
+
+from gimbal_reduction.reduction import frozen_chain, modal_integrals, verified_search
+from gimbal_reduction.reduction.static_modes import load_case_vector, static_correction_modes
+from gimbal_reduction.solver import bodyconfig
+from gimbal_reduction.solver.bodydata import BODIES, BEARING_NAMES, check_config_hash, read_body_file
+from gimbal_reduction.solver.dynamics import chainfile, multibody, scenes
+from gimbal_reduction.workflow import cli
+from gimbal_reduction.workflow import config as cfgmod
+from gimbal_reduction.workflow.provenance import versions
+
+TRUTH_MODES = 100
+FAMILIES = ("freq", "xmx", "xmgmx")
+RANKING_KEYS = {"freq": "rank_frequency", "xmx": "rank_xmx", "xmgmx": "rank_xmgmx"}
+LOAD_FAMILY, LOAD_KEY = "load", "rank_load"          # per-body load-aware ranking
+GLOBAL_FAMILY, POOLED_KEY = "global", "pooled"       # pooled ranking: rankings["pooled"]
+TOL_FAMILY = "tol"                                   # tol-EPS: smallest global-N with estimate <= EPS
+_NUMBER = r"((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
+_TOL_RE = re.compile(rf"tol-{_NUMBER}(?:-att-{_NUMBER})?")     # tol-EPS, tol-EPS-att-ARCSEC
+TOL_COARSE = 8          # beyond the stored estimates: scan N in steps of 8, then refine the bracket
+BEARINGS = BEARING_NAMES
+DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_motor_fz",
+                     5: "input_motor_fx"}
+_LOAD_RE = re.compile(r"^(input_motor|input_resolver|output_motor|output_resolver)_[fm][xyz]$")
+
+
+class ModelError(ValueError):
+    """A model name that cannot be built."""
+
+
+class NeedsSimulation(ModelError):
+    """A tol- request the frozen-chain estimate cannot answer: ``reason`` says why, ``eps`` is the
+    request (``reduce_model`` answers it by verified search instead)."""
+
+    def __init__(self, message, reason="", eps=None):
+        super().__init__(message)
+        self.reason, self.eps = reason, eps
+
+
+class FrozenChainInvalid(NeedsSimulation):
+    """tol-EPS on a scene where the frozen-chain estimate does not hold."""
+
+
+class AttitudeRequested(NeedsSimulation):
+    """tol-EPS-att-A: the frozen chain gives the gimbal rates only, no attitude estimate."""
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """What a model name means: kept vibration mode indices and static load cases per body."""
+    name: str
+    kept: dict          # body -> int array (0-based indices into the body file's modes)
+    static: dict        # body -> tuple of load case names
+    ranking: str
+
+    def n_modes(self, body):
+        return len(self.kept[body]) + len(self.static[body])
+
+
+def _counts(text, name):
+    parts = text.split(",")
+    if len(parts) not in (1, 4) or not all(re.fullmatch(r"\d+", p) for p in parts):
+        raise ModelError(f"model {name!r}: counts must be N or N,N,N,N (bodies 2..5), got {text!r}")
+    vals = [int(p) for p in parts]
+    return dict(zip(BODIES, vals * 4 if len(vals) == 1 else vals))
+
+
+def _statics(text, name):
+    out = {}
+    for chunk in text.split("@")[1:]:
+        body_s, sep, cases = chunk.partition(":")
+        if not sep or not re.fullmatch(r"[2-5]", body_s):
+            raise ModelError(f"model {name!r}: static spec must be @body:loadcase with body 2..5, "
+                             f"got '@{chunk}'")
+        body = int(body_s)
+        if body in out:
+            raise ModelError(f"model {name!r}: body {body} given twice")
+        names = tuple(cases.split("+"))
+        for c in names:
+            if not _LOAD_RE.match(c):
+                raise ModelError(f"model {name!r}: unknown load case {c!r} (expected "
+                                 f"{{bearing}}_{{f|m}}{{x|y|z}}, bearing in {', '.join(BEARINGS)})")
+        if len(set(names)) != len(names):
+            raise ModelError(f"model {name!r}: repeated load case on body {body}")
+        if body == 5 and any(c.startswith("output") for c in names):
+            raise ModelError(f"model {name!r}: the platform (body 5) has no output bearings")
+        out[body] = names
+    return out
+
+
+def parse_model(name, rankings):
+    """ModelSpec from a model name and the rankings.
+
+    rankings: {body: {"rank_frequency": (D,), "rank_xmx": (D,), "rank_xmgmx": (D,)}}
+    (0-based mode indices, most important first; D = computed modes)."""
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"model name must be a non-empty string, got {name!r}")
+    base, _, _ = name.partition("@")
+    if base.startswith(TOL_FAMILY + "-"):
+        return _tol_spec(name, rankings)
+    statics = _statics(name, name) if "@" in name else {}
+    available = {}
+    for b in BODIES:
+        if b not in rankings:
+            raise ModelError(f"model {name!r}: no ranking data for body {b}")
+        available[b] = len(np.asarray(rankings[b]["rank_frequency"]))
+    if base in ("truth", "rigid"):
+        if statics:
+            raise ModelError(f"model {name!r}: '{base}' takes no static modes")
+        n = TRUTH_MODES if base == "truth" else 0
+        counts = dict.fromkeys(BODIES, n)
+        family, with_static = "freq", False
+    else:
+        m = re.fullmatch(r"(static-)?(?:(freq|xmx|xmgmx|load|global)-)?([0-9,]+)", base)
+        if not m or (m.group(1) is None and m.group(2) is None):
+            raise ModelError(
+                f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, load-N, "
+                f"global-N, static-N, static-xmx-N, static-xmgmx-N, static-load-N "
+                f"(N or N,N,N,N; global-N: one total N; optional @body:loadcase) or tol-EPS")
+        with_static = m.group(1) is not None
+        family = m.group(2) or "freq"
+        if family == GLOBAL_FAMILY:
+            kept = _pooled_kept(name, m.group(3), rankings, available)
+            return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static),
+                             ranking=family)
+        counts = _counts(m.group(3), name)
+    if family == LOAD_FAMILY and any(LOAD_KEY not in rankings[b] for b in BODIES):
+        raise ModelError(f"model {name!r}: no load-aware ranking loaded (python -m "
+                         f"gimbal_reduction.reduction.load_aware; simulate --load-ranking PATH)")
+    key = LOAD_KEY if family == LOAD_FAMILY else RANKING_KEYS[family]
+    kept = {}
+    for b in BODIES:
+        if counts[b] > available[b]:
+            raise ModelError(f"model {name!r}: body {b} asks for {counts[b]} modes, only "
+                             f"{available[b]} computed")
+        order = np.asarray(rankings[b][key], dtype=int)
+        if order.size != available[b] or np.unique(order).size != order.size or \
+                (order.size and (order.min() < 0 or order.max() >= available[b])):
+            raise ModelError(f"model {name!r}: ranking {key} of body {b} is not "
+                             f"a permutation of 0..{available[b] - 1}")
+        kept[b] = np.sort(order[:counts[b]])
+    return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static), ranking=family)
+
+
+def check_name(name, n_modes=TRUTH_MODES):
+    """Refuse (ModelError, one line) a model name that cannot be built from body files of
+    ``n_modes`` modes each, from the name alone: its grammar, its counts, its load cases (the
+    rankings' order does not matter here, so every ranking is taken as the identity).  The
+    workflow calls it when the DAG is built (workflow/rules/common.smk), before any mesh or
+    modal solve; a tol-EPS name is checked for its EPS (its N is chosen from the rankings)."""
+    if parse_tolerance(name) is not None:
+        return
+    order = np.arange(int(n_modes))
+    rankings = {b: {key: order for key in (*RANKING_KEYS.values(), LOAD_KEY)} for b in BODIES}
+    rankings[POOLED_KEY] = {"body": np.repeat(BODIES, order.size), "mode": np.tile(order, len(BODIES))}
+    parse_model(name, rankings)
+
+
+def _static_spec(statics, with_static):
+    """Static load cases per body: the @body:case list, the default case, or none."""
+    if statics:
+        return {b: statics.get(b, ()) for b in BODIES}
+    if with_static:
+        return {b: (DEFAULT_LOAD_CASE[b],) for b in BODIES}
+    return dict.fromkeys(BODIES, ())
+
+
+def _pooled_kept(name, text, rankings, available):
+    """Kept modes per body of ``global-N``: the first N entries of the pooled ranking
+    rankings["pooled"] = {"body": (Q,), "mode": (Q,)} (body 2..5, 0-based mode)."""
+    if not re.fullmatch(r"\d+", text):
+        raise ModelError(f"model {name!r}: global-N takes one total count N (modes over all "
+                         f"bodies), got {text!r}")
+    n = int(text)
+    pooled = rankings.get(POOLED_KEY)
+    if pooled is None:
+        raise ModelError(f"model {name!r}: no pooled load-aware ranking loaded (python -m "
+                         f"gimbal_reduction.reduction.load_aware; simulate --load-ranking PATH)")
+    body = np.asarray(pooled["body"], dtype=int)
+    mode = np.asarray(pooled["mode"], dtype=int)
+    total = sum(available.values())
+    pairs = set(zip(body.tolist(), mode.tolist()))
+    if body.shape != mode.shape or body.size != total or len(pairs) != total or \
+            any(b not in available or not 0 <= i < available[b] for b, i in pairs):
+        raise ModelError(f"model {name!r}: the pooled ranking is not a permutation of the "
+                         f"{total} computed modes of bodies 2..5")
+    if n > total:
+        raise ModelError(f"model {name!r}: asks for {n} modes in total, only {total} computed")
+    return {b: np.sort(mode[:n][body[:n] == b]) for b in BODIES}
+
+
+def parse_request(name):
+    """(EPS, A) of a ``tol-EPS`` or ``tol-EPS-att-A`` name: E <= EPS on every gimbal rate, and
+    the platform's attitude error <= A arcsec (None: not asked); None if the name is not a tol-
+    name; ModelError (one line) for a malformed one."""
+    base = str(name).partition("@")[0]
+    if not base.startswith(TOL_FAMILY + "-"):
+        return None
+    m = _TOL_RE.fullmatch(base)
+    if "@" in str(name):
+        raise ModelError(f"model {name!r}: tol-EPS takes no static modes (@body:case)")
+    if not m:
+        raise ModelError(f"model {name!r}: tol-EPS needs a positive number EPS, e.g. tol-1e-4 "
+                         f"(or tol-1e-4-att-2: also the platform attitude within 2 arcsec)")
+    eps, att = float(m.group(1)), None if m.group(2) is None else float(m.group(2))
+    for what, value in (("tolerance", eps), ("attitude tolerance", att)):
+        if value is not None and (not np.isfinite(value) or value <= 0):
+            raise ModelError(f"model {name!r}: the {what} must be positive and finite, got {value}")
+    return eps, att
+
+
+def parse_tolerance(name):
+    """EPS of a ``tol-EPS`` name (float > 0), or None if the name is not a tol- name;
+    ModelError for a malformed one."""
+    request = parse_request(name)
+    return None if request is None else request[0]
+
+
+def parse_attitude(name):
+    """A [arcsec] of a ``tol-EPS-att-A`` name, or None (no attitude asked, or not a tol- name)."""
+    request = parse_request(name)
+    return None if request is None else request[1]
+
+
+def frozen_chain_valid(pooled):
+    """(ok, reason): whether the scene's frozen-linear-chain estimate holds, from the ranking
+    file's attributes (the same test as ``gimbal_reduction.reduction.load_aware``'s warning)."""
+    exc = np.asarray(pooled.get("angle_excursion", np.zeros(4)), float)
+    rate = float(pooled.get("rate_over_lowest_frequency", 0.0))
+    if exc.size and np.max(exc) > frozen_chain.FROZEN_ANGLE:
+        return False, (f"the gimbals move {np.max(exc):.2e} rad > {frozen_chain.FROZEN_ANGLE:g} rad "
+                       f"(frozen_chain.FROZEN_ANGLE)")
+    if rate > frozen_chain.FROZEN_RATE:
+        return False, (f"rate / lowest modal frequency {rate:.1e} > {frozen_chain.FROZEN_RATE:g} "
+                       f"(frozen_chain.FROZEN_RATE)")
+    return True, ""
+
+
+_TOL_CACHE = {}
+
+
+def _extended_estimate(pooled, N):
+    """A-priori E (4,) of the pooled top N beyond the stored curve: ``frozen_chain.estimate_error``
+    on the ranking file's frozen linear chain, on the grid the stored curves use."""
+    key = (pooled.get("path_key"), int(N))
+    if key in _TOL_CACHE:
+        return _TOL_CACHE[key]
+    lin_key = ("linear", pooled.get("path_key"))
+    model = _TOL_CACHE.get(lin_key)
+    if model is None:
+        if not pooled.get("path"):
+            raise ModelError("tol-EPS: the ranking's frozen linear chain is not available")
+        model = frozen_chain.read_linear_model(pooled["path"])
+        stride = max(1, int(np.ceil(len(model["t"]) / frozen_chain.CURVE_SAMPLES)))
+        model = _TOL_CACHE[lin_key] = frozen_chain.decimated(model, stride)
+    off = np.asarray(model["offsets"], int)
+    order = off[np.asarray(pooled["body"], int) - 2] + np.asarray(pooled["mode"], int)
+    E = _TOL_CACHE[key] = np.asarray(frozen_chain.estimate_error(model, order[:N]), float)
+    return E
+
+
+def tolerance_choice(eps, pooled, total, extend=None, check_valid=True):
+    """(N, E (4,), source): the smallest pooled count N (0..total) whose a-priori estimate is
+    <= eps on every gimbal rate.  pooled: rankings["pooled"] with ``estimate`` (P, 4) of
+    N = 1..P and ``rigid_estimate`` (4,) of N = 0; beyond P, extend(N) -> E (4,) (None: stop
+    at P), scanned in steps of TOL_COARSE, then every N of the bracket that met eps.
+    FrozenChainInvalid (one line) if the frozen chain is flagged invalid (check_valid=False:
+    the estimate's choice all the same, the verified search's first guess); ModelError (one
+    line) if no N meets eps."""
+    ok, why = frozen_chain_valid(pooled)
+    if check_valid and not ok:
+        raise FrozenChainInvalid(
+            f"tol-{eps:g}: refused on scene {pooled.get('scene', '?')!r}: {why}; the "
+            f"frozen-linear-chain estimate cannot promise E <= {eps:g} (gimbal_reduction.reduction.models answers "
+            f"by verified search unless --no-verified-search; or check a global-N against the truth)",
+            reason=why, eps=eps)
+    est = pooled.get("estimate")
+    if est is None:
+        raise ModelError(f"tol-{eps:g}: the ranking file holds no a-priori estimates "
+                         f"(estimate/global): rerun python -m gimbal_reduction.reduction.load_aware")
+    est = np.asarray(est, float).reshape(-1, 4)
+    curve = [np.asarray(pooled.get("rigid_estimate", np.full(4, np.inf)), float)] + list(est)
+    best = min(float(np.max(c)) for c in curve)
+    for N, E in enumerate(curve[:total + 1]):
+        if np.max(E) <= eps:
+            return N, E, "ranking file estimate/global" if N else "ranking file estimate/rigid"
+    P = len(curve) - 1
+    if extend is not None and P < total:
+        lo = P
+        for hi in list(range(P + TOL_COARSE, total, TOL_COARSE)) + [total]:
+            E_hi = extend(hi)
+            best = min(best, float(np.max(E_hi)))
+            if np.max(E_hi) <= eps:
+                for N in range(lo + 1, hi):
+                    E = extend(N)
+                    if np.max(E) <= eps:
+                        return N, E, "frozen linear chain of the ranking file (N > pool)"
+                return hi, E_hi, "frozen linear chain of the ranking file (N > pool)"
+            lo = hi
+    reached = P if extend is None else total
+    raise ModelError(f"tol-{eps:g}: no pooled set of up to {reached} modes meets E <= {eps:g} "
+                     f"on every gimbal rate (smallest estimate reached {best:.3e})")
+
+
+def _tol_spec(name, rankings):
+    """ModelSpec of ``tol-EPS``: global-N with N from ``tolerance_choice``; the choice is in
+    ``spec.choice``-like attributes returned by ``tolerance_attrs``."""
+    eps = parse_tolerance(name)
+    pooled = rankings.get(POOLED_KEY)
+    if pooled is None:
+        raise ModelError(f"model {name!r}: no pooled load-aware ranking loaded (python -m "
+                         f"gimbal_reduction.reduction.load_aware; simulate --load-ranking PATH)")
+    available = {b: len(np.asarray(rankings[b]["rank_frequency"])) for b in BODIES}
+    total = sum(available.values())
+    N, E, source = tolerance_choice(eps, pooled, total,
+                                    extend=(lambda n: _extended_estimate(pooled, n))
+                                    if pooled.get("path") else None)
+    if parse_attitude(name) is not None:
+        raise AttitudeRequested(
+            f"tol-{eps:g}: the platform attitude has no a-priori estimate (the frozen chain gives the "
+            f"gimbal rates only): gimbal_reduction.reduction.models answers {name} by verified search (simulations)",
+            reason="the platform attitude has no a-priori estimate (the frozen chain gives the gimbal "
+                   "rates only)", eps=eps)
+    kept = _pooled_kept(name, str(N), rankings, available)
+    _TOL_CHOICES[name] = {"tol_eps": eps, "tol_N": int(N), "tol_method": TOL_APRIORI,
+                          "tol_estimate": np.asarray(E, float), "tol_estimate_max": float(np.max(E)),
+                          "tol_estimate_source": source, "tol_frozen_chain_valid": 1,
+                          "tol_equivalent_model": f"global-{N}"}
+    return ModelSpec(name=name, kept=kept, static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
+
+
+TOL_APRIORI, TOL_VERIFIED = "a-priori estimate", "verified search"
+_TOL_CHOICES = {}
+
+
+def apriori_estimate(pooled, N):
+    """(E (4,), source) of the pooled top N by the frozen chain: the ranking file's stored
+    curve (N <= pool), else the estimator on its frozen linear chain; (None, reason) if neither."""
+    N = int(N)
+    est = pooled.get("estimate")
+    if N == 0 and pooled.get("rigid_estimate") is not None:
+        return np.asarray(pooled["rigid_estimate"], float), "ranking file estimate/rigid"
+    if est is not None and 0 < N <= len(est):
+        return np.asarray(est, float).reshape(-1, 4)[N - 1], "ranking file estimate/global"
+    if pooled.get("path"):
+        return _extended_estimate(pooled, N), "frozen linear chain of the ranking file (N > pool)"
+    return None, "no a-priori estimate of this N in the ranking file"
+
+
+def _verified_tol_spec(name, request, scene, body_data, rankings, log=None):
+    """ModelSpec of a tol- request the frozen-chain estimate cannot answer (``request``: the
+    NeedsSimulation that ``_tol_spec`` raised: the chain does not hold on this scene, or the
+    platform attitude is asked): the smallest global-N found passing by
+    ``verified_search.smallest_verified``, each candidate simulated through the scene against the
+    truth (``verified_search.SimulationJudge``); the frozen chain's own choice for the rates is its
+    first guess.  Records the choice, the measured E (and attitude error) and every probe for the
+    file's attributes (``tolerance_attrs``).  ModelError (one line) if only the truth passes."""
+    log = log or (lambda text: None)
+    eps, att = parse_request(name)
+    invalid = isinstance(request, FrozenChainInvalid)
+    pooled = rankings[POOLED_KEY]
+    available = {b: len(np.asarray(rankings[b]["rank_frequency"])) for b in BODIES}
+    total = sum(available.values())
+    extend = (lambda n: _extended_estimate(pooled, n)) if pooled.get("path") else None
+    try:
+        guess = tolerance_choice(eps, pooled, total, extend=extend, check_valid=False)[0]
+    except ModelError:
+        guess = None                # the estimate meets eps nowhere: plain bisection
+
+    def chain_for(N):
+        spec = ModelSpec(f"global-{N}", _pooled_kept(name, str(N), rankings, available),
+                         dict.fromkeys(BODIES, ()), GLOBAL_FAMILY)
+        return build_chain(restrict_to_bodies(spec, scene.elastic_bodies), body_data, scene.damping_ratio)
+
+    key = ("tol", scene.config_hash(), pooled.get("path_key"), tuple(scene.elastic_bodies),
+           tuple(str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES))
+    judge = verified_search.SimulationJudge(
+        scene, chain_for, total, key=key, attitude=att is not None,
+        log=lambda text: log(f"{name} verified search on {scene.name}: {text}"))
+    limits = [eps] * 4 + ([att] if att is not None else [])
+    asked = f"E <= {eps:g}" + (f" and attitude <= {att:g} arcsec" if att is not None else "")
+    log(f"{name}: {request.reason}" + (f": the frozen-chain estimate is no promise on scene {scene.name!r}"
+                                       if invalid else "")
+        + f"; verified search over global-0..{total} for {asked} (first guess {guess})")
+    t0 = time.perf_counter()
+    result = verified_search.smallest_verified(limits, judge, total, guess=guess,
+                                               known={total: np.zeros(len(limits))})
+    wall = time.perf_counter() - t0
+    if result.N >= total:
+        below = [(n, e) for n, e in zip(result.probe_N, result.probe_E_max) if n < total]
+        best = min(below, key=lambda p: p[1]) if below else None
+        raise ModelError(f"tol-{eps:g}: on scene {scene.name!r} no pooled set smaller than the truth "
+                         f"({total} modes) meets {asked} by simulation"
+                         + (f" (smallest measured: global-{best[0]}, max E {best[1]:.3e})" if best else ""))
+    E_est, source = apriori_estimate(pooled, result.N)
+    measured = np.asarray(result.E[:4], float)
+    _TOL_CHOICES[name] = {
+        "tol_eps": eps, "tol_N": int(result.N), "tol_method": TOL_VERIFIED,
+        "tol_measured": measured, "tol_measured_max": float(np.max(measured)),
+        "tol_estimate": np.full(4, np.nan) if E_est is None else np.asarray(E_est, float),
+        "tol_estimate_max": float("nan") if E_est is None else float(np.max(E_est)),
+        "tol_estimate_source": source + (" (not valid on this scene)" if invalid else ""),
+        "tol_frozen_chain_valid": 0 if invalid else 1, "tol_search_reason": request.reason,
+        "tol_search_N": result.probe_N, "tol_search_E_max": result.probe_E_max,
+        "tol_search_probe_s": np.array([0.0 if n == total else judge.wall_time(n) for n in result.probe_N]),
+        "tol_search_guess": -1 if guess is None else int(guess),
+        "tol_search_integrator": verified_search.INTEGRATOR,
+        "tol_search_time_s": wall, "tol_search_truth_time_s": judge.wall_time(total),
+        "tol_equivalent_model": f"global-{result.N}"}
+    if invalid:
+        _TOL_CHOICES[name]["tol_frozen_chain_reason"] = request.reason
+    if att is not None:
+        _TOL_CHOICES[name].update({"tol_attitude_arcsec": att,
+                                   "tol_measured_attitude_arcsec": float(result.E[4]),
+                                   "tol_search_attitude_arcsec": result.probe_attitude})
+    got = f"max E {np.max(measured):.3e}" + (f", attitude {result.E[4]:.3g} arcsec" if att is not None else "")
+    log(f"{name}: global-{result.N} by verified search (measured {got}, meets {asked}; global-{result.N - 1} "
+        f"measured failing; {len(result.probes) - 1} simulated probes, {wall:.1f} s)" if result.N else
+        f"{name}: rigid (global-0) by verified search (measured {got}, meets {asked})")
+    return ModelSpec(name=name, kept=_pooled_kept(name, str(result.N), rankings, available),
+                     static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
+
+
+def tolerance_attrs(name):
+    """The last choice made for a tol- name (for the reduced-model file's attributes)."""
+    return dict(_TOL_CHOICES.get(name, {}))
+
+
+def needs_reduction_rankings(name):
+    """True if the model's mode selection reads the reduction stage's rankings: xmx-*,
+    xmgmx-*, and load-* / global-* (whose ranking file is checked against them).  truth,
+    rigid, freq-* and static(-freq)-* select by frequency from the body files alone
+    (``frequency_rankings``), so their simulations do not wait for the reduction stage."""
+    base = str(name).partition("@")[0]
+    return re.fullmatch(r"(static-)?(xmx|xmgmx|load|global)-[0-9,]+", base) is not None or \
+        base.startswith(TOL_FAMILY + "-")
+
+
+def frequency_rankings(body_data):
+    """{body: {"rank_frequency": (D,)}}: the modes in ascending order of eigenvalue, from
+    the body files (the reduction stage's rank_frequency is the same order)."""
+    return {b: {RANKING_KEYS["freq"]: np.argsort(np.asarray(d["eigenvalues"]), kind="stable")}
+            for b, d in body_data.items()}
+
+
+def restrict_to_bodies(spec, bodies):
+    """The ModelSpec with every body outside ``bodies`` rigid (no kept or static modes):
+    a scene's ``needs.bodies``."""
+    kept = {b: (v if b in bodies else np.zeros(0, dtype=int)) for b, v in spec.kept.items()}
+    static = {b: (v if b in bodies else ()) for b, v in spec.static.items()}
+    return ModelSpec(name=spec.name, kept=kept, static=static, ranking=spec.ranking)
+
+
+def needs_load_ranking(name):
+    """True if the model name uses the scene's load-aware ranking (load-*, global-*, tol-*)."""
+    base = str(name).partition("@")[0]
+    return re.fullmatch(r"(static-)?(load|global)-[0-9,]+", base) is not None or \
+        base.startswith(TOL_FAMILY + "-")
+
+
+def load_load_ranking(path, rankings=None):
+    """Add the load-aware rankings of ``gimbal_reduction.reduction.load_aware`` (file ``path``) to a
+    rankings dict (``load_rankings``): rankings[b]["rank_load"] (D,) and
+    rankings["pooled"] = {"body", "mode"} (Q,); returns it (a new dict if None)."""
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"load-aware ranking {path} missing (run python -m "
+                                f"gimbal_reduction.reduction.load_aware --scene SCENE --out {path})")
+    out = {} if rankings is None else rankings
+    try:
+        with h5py.File(path, "r") as f:
+            missing = [k for k in [f"body{b}/{LOAD_KEY}" for b in BODIES] + ["pooled/body", "pooled/mode"]
+                       if k not in f]
+            if missing:
+                raise ModelError(f"load-aware ranking {path}: dataset(s) {', '.join(missing)} missing "
+                                 f"(stale or incomplete): " + RANKING_REMEDY.format(path=path))
+            for b in BODIES:
+                out.setdefault(b, {})[LOAD_KEY] = f[f"body{b}/{LOAD_KEY}"][()]
+            out[POOLED_KEY] = {"body": f["pooled/body"][()], "mode": f["pooled/mode"][()],
+                               "scene": str(f.attrs.get("scene", "")),
+                               "body_config_hashes": str(f.attrs.get("body_config_hashes", "")),
+                               "path": os.path.abspath(path),
+                               "path_key": (os.path.abspath(path), os.stat(path).st_mtime_ns)}
+            # what tol-EPS reads: the a-priori estimates and the frozen chain's validity
+            if "estimate/global" in f:
+                out[POOLED_KEY]["estimate"] = f["estimate/global"][()]
+            if "estimate/rigid" in f:
+                out[POOLED_KEY]["rigid_estimate"] = f["estimate/rigid"][()]
+            for key, attr in (("angle_excursion", "angle_excursion_rad"),
+                              ("rate_over_lowest_frequency", "rate_over_lowest_frequency")):
+                if attr in f.attrs:
+                    out[POOLED_KEY][key] = f.attrs[attr]
+    except (OSError, KeyError) as exc:
+        raise ModelError(f"load-aware ranking {path} unreadable or incomplete "
+                         f"({exc.__class__.__name__}: {' '.join(str(exc).split())}): "
+                         + RANKING_REMEDY.format(path=path)) from None
+    for b in BODIES:
+        order = np.asarray(out[b][LOAD_KEY])
+        if order.ndim != 1 or not np.issubdtype(order.dtype, np.integer):
+            raise ModelError(f"load-aware ranking {path}: dataset body{b}/{LOAD_KEY} is not a 1-D "
+                             f"array of mode indices: " + RANKING_REMEDY.format(path=path))
+    return out
+
+
+# ------------------------------------------------------------------ body files
+_BODY_CACHE = {}
+
+
+def load_body_file(path):
+    """The FE stage's per-body file (docs/body-data.md), read and checked by its one owner
+    (``gimbal_reduction.solver.bodydata.read_body_file``).  Kept in process for the next model (a study reduces
+    ~50 models from the same four files, ``gimbal_reduction.results.study.run_scene``), keyed by the file's path,
+    size and modification time, so a rewritten file is read again; callers treat it as read-only."""
+    if not os.path.isfile(path):
+        return read_body_file(path)         # raises its one-line BodyFileError
+    st = os.stat(path)
+    key = (os.path.abspath(path), st.st_size, st.st_mtime_ns)
+    data = _BODY_CACHE.get(key)
+    if data is None:
+        if len(_BODY_CACHE) >= 8:
+            _BODY_CACHE.clear()
+        data = _BODY_CACHE[key] = read_body_file(path)
+    return data
+
+
+RANKING_REMEDY = "rerun its target: snakemake --cores 2 --forcerun {path}"
+
+
+def _ranking_error(path, what):
+    return ModelError(f"ranking file {path}: {what}: " + RANKING_REMEDY.format(path=path))
+
+
+def read_reduction_rankings(path, body=None):
+    """The rankings {rank_frequency, rank_xmx, rank_xmgmx} of one reduction file, checked:
+    the file exists and is HDF5, the three datasets are present, 1-D, of one length D, each a
+    permutation of 0..D-1; with ``body`` (its body file's dict) D is the body's mode count and
+    the file's config_hash attribute the body file's (a reduction file of another body file is
+    refused).  ModelError (one line naming the file, the dataset and the target to rerun)."""
+    path = str(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"ranking file {path} missing (make it: snakemake --cores 2 {path})")
+    try:
+        with h5py.File(path, "r") as f:
+            missing = [k for k in RANKING_KEYS.values() if k not in f]
+            if missing:
+                raise _ranking_error(path, f"dataset(s) {', '.join(missing)} missing (stale or incomplete)")
+            out = {k: f[k][()] for k in RANKING_KEYS.values()}
+            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+    except ModelError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise _ranking_error(path, f"not a readable HDF5 file ({exc.__class__.__name__}; corrupt or "
+                                   f"truncated)") from None
+    sizes = set()
+    for key, order in out.items():
+        order = np.asarray(order)
+        if order.ndim != 1 or not (np.issubdtype(order.dtype, np.integer) or
+                                   (np.issubdtype(order.dtype, np.floating) and np.all(np.isfinite(order))
+                                    and np.all(order == np.round(order)))):
+            raise _ranking_error(path, f"dataset {key} is not a 1-D array of mode indices "
+                                       f"(shape {order.shape}, {order.dtype})")
+        order = order.astype(int)
+        if np.unique(order).size != order.size or (order.size and (order.min() < 0 or
+                                                                   order.max() >= order.size)):
+            raise _ranking_error(path, f"dataset {key} is not a permutation of 0..{order.size - 1}")
+        out[key] = order
+        sizes.add(order.size)
+    if len(sizes) > 1:
+        raise _ranking_error(path, f"datasets {', '.join(RANKING_KEYS.values())} differ in length "
+                                   f"({sorted(sizes)})")
+    if body is not None:
+        D = int(np.asarray(body["eigenvalues"]).size)
+        if sizes and sizes.pop() != D:
+            raise _ranking_error(path, f"ranks {out['rank_frequency'].size} modes, its body file "
+                                       f"{body.get('path', '')} has {D} (stale)")
+        mine, theirs = attrs.get("config_hash"), body["attrs"].get("config_hash")
+        if mine is not None and str(mine) != str(theirs):
+            raise _ranking_error(path, f"made from another body file (attribute config_hash {mine!r}, "
+                                       f"body file {body.get('path', '')} has {theirs!r}; stale)")
+    return out
+
+
+def read_rankings(paths, body_data=None):
+    """{body: {rank_frequency, rank_xmx, rank_xmgmx}} from the reduction files {body: path},
+    each read by ``read_reduction_rankings`` (against its body file's dict in ``body_data``)."""
+    return {b: read_reduction_rankings(path, None if body_data is None else body_data.get(b))
+            for b, path in paths.items()}
+
+
+def load_rankings(reduction_dir, bodies=BODIES):
+    """{body: {rank_frequency, rank_xmx, rank_xmgmx}} from reduction_dir/body{n}.h5."""
+    return read_rankings({b: os.path.join(reduction_dir, f"body{b}.h5") for b in bodies})
+
+
+def static_modes_for(data, load_cases, kept_modes, kept_eigenvalues):
+    """Static correction modes of one body (gimbal_reduction.reduction.static_modes, eq. 3.48) for a kept set:
+    the dict of ``static_correction_modes`` (modes (ndof, s), modal_stiffness (s,), and their
+    frequencies, Gram condition and couplings to the kept modes)."""
+    # the factorised supported stiffness, kept with the body's data for the next model
+    apply_G = data.get("_apply_G")
+    if apply_G is None:
+        apply_G = modal_integrals.supported_flexibility(data["K"], data["T"], data["rigid_modes"])
+        data["_apply_G"] = apply_G
+    F = np.column_stack([load_case_vector(data["bearing_operator"], c, data["bearing_points"])
+                         for c in load_cases])
+    return static_correction_modes(data["M"], data["K"], apply_G, F, kept_modes, kept_eigenvalues,
+                                   names=list(load_cases))
+
+
+def all_mode_integrals(data, rotate_rotation_blocks=True):
+    """The modal integrals (``modal_integrals.chain_integrals``) of every mode of one body's
+    file, computed once and kept in its dict (read-only, as ``_apply_G``): a study builds ~50
+    models from the same four bodies, and every integral of a subset of the modes is a
+    selection of these (``select_mode_integrals``)."""
+    key = "_all_mode_integrals" if rotate_rotation_blocks else "_all_mode_integrals_unrotated"
+    integ = data.get(key)
+    if integ is None:
+        integ = modal_integrals.chain_integrals(
+            data["M"], np.asarray(data["modes"]), data["rigid_modes"], data["dof_coords"],
+            data["dof_component"], np.asarray(data["bearing_modes"]), data["bearing_points"],
+            rotate_rotation_blocks=rotate_rotation_blocks)
+        data[key] = integ
+    return integ
+
+
+def select_mode_integrals(integ, kept):
+    """The integrals of modes ``kept`` (k,) from those of all D modes: every integral is one
+    column (row) per mode -- momentum (6, D), inertia_gradient (D, 6, 6), inside_translation and
+    inside_rotation (3, D) -- except the Coriolis coefficients (D, 3, D), bilinear in the modes,
+    whose rows and columns are both selected.  Fresh contiguous arrays."""
+    kept = np.asarray(kept, dtype=int)
+    out = {"rigid_mass": np.array(integ["rigid_mass"]),
+           "momentum": np.ascontiguousarray(integ["momentum"][:, kept]),
+           "inertia_gradient": np.ascontiguousarray(integ["inertia_gradient"][kept]),
+           "coriolis": np.ascontiguousarray(integ["coriolis"][kept][:, :, kept])}
+    for name in ("inside_translation", "inside_rotation"):
+        if name in integ:
+            out[name] = np.ascontiguousarray(integ[name][:, kept])
+    return out
+
+
+def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rotation_blocks=True):
+    """multibody.Body of one body: kept vibration modes plus static correction modes.
+
+    Without static modes the integrals are a selection of the body's all-mode integrals
+    (``all_mode_integrals``, computed once per body); with them, computed for the kept and
+    static modes together (the static modes depend on the kept set)."""
+    kept = np.asarray(kept, dtype=int)
+    if not load_cases:
+        integ = select_mode_integrals(all_mode_integrals(data, rotate_rotation_blocks), kept)
+        lam = np.asarray(data["eigenvalues"])[kept]
+        return multibody.make_body(number, integ, lam, damping_ratio, [f"mode {i}" for i in kept])
+    Phi = np.asarray(data["modes"])[:, kept]
+    lam = np.asarray(data["eigenvalues"])[kept]
+    labels = [f"mode {i}" for i in kept]
+    bearing_modes = np.asarray(data["bearing_modes"])[kept]
+    if load_cases:
+        static = static_modes_for(data, load_cases, Phi, lam)
+        S, k_s = static["modes"], static["modal_stiffness"]
+        Phi = np.hstack([Phi, S])
+        lam = np.concatenate([lam, k_s])
+        labels += [f"static {c}" for c in load_cases]
+        bm_s = np.asarray(data["bearing_operator"] @ S).T.reshape(S.shape[1], 4, 6)
+        bearing_modes = np.concatenate([bearing_modes, bm_s])
+    integ = modal_integrals.chain_integrals(data["M"], Phi, data["rigid_modes"], data["dof_coords"],
+                                       data["dof_component"], bearing_modes, data["bearing_points"],
+                                       rotate_rotation_blocks=rotate_rotation_blocks)
+    return multibody.make_body(number, integ, lam, damping_ratio, labels)
+
+
+def build_chain(spec, body_data, damping_ratio=0.0):
+    """multibody.Chain of a ModelSpec from {body: body-file dict}."""
+    bodies = tuple(build_body(b, body_data[b], spec.kept[b], spec.static[b], damping_ratio)
+                   for b in BODIES)
+    return multibody.Chain(bodies, name=spec.name)
+
+
+# ------------------------------------------------------------------ the reduced-model file
+def model_config_hash(spec, body_data, scene, ranking_hashes=()):
+    """Hash of what a reduced-model file is made from: the model's kept modes and static
+    load cases, the body files' config hashes, the rankings used and the scene's elastic
+    bodies (16 hex digits)."""
+    payload = {"model": spec.name,
+               "kept": {str(b): np.asarray(v).tolist() for b, v in spec.kept.items()},
+               "static": {str(b): list(v) for b, v in spec.static.items()},
+               "bodies": [str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES],
+               "rankings": list(ranking_hashes), "elastic_bodies": list(scene.elastic_bodies)}
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def check_load_ranking(path, rankings, body_data):
+    """ModelError (one line) if a load-aware ranking was made from other body files."""
+    stored = rankings[POOLED_KEY].get("body_config_hashes") or ""
+    current = [str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES]
+    if stored and json.loads(stored) != current:
+        raise ModelError(f"load-aware ranking {path} was made from other body files (config "
+                         f"hashes differ): rerun python -m gimbal_reduction.reduction.load_aware")
+
+
+def expected_body_hashes(config):
+    """{body: config_hash} the current configuration gives each body file (the modal stage
+    writes ``gimbal_reduction.workflow.config.inputs_hash(body_inputs(config, n))``)."""
+    return {b: cfgmod.inputs_hash(cfgmod.body_inputs(config, b)) for b in BODIES}
+
+
+def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None, config=None,
+                 verified=True, log=None):
+    """(Chain, ModelSpec, attrs) of model ``name`` on ``scene`` (undamped: damping is the
+    scene's, applied when the model file is read).
+
+    verified: answer a tol- request the frozen-chain estimate cannot (the chain does not hold on
+    the scene, or the attitude is asked) by verified search (simulations; ``_verified_tol_spec``),
+    else refuse (NeedsSimulation);
+    log(text): its progress lines.
+
+    body_files: {body: path} of the modal stage's files; reduction_files: {body: path} of
+    the reduction stage's files (needed by xmx-, xmgmx-, load- and global- models);
+    load_ranking: the scene's load-aware ranking file (load- and global- models); config: the
+    current configuration (validated dict): each body file's config_hash must be the one it
+    gives (``expected_body_hashes``), else BodyFileError naming the file and its target."""
+    body_data = {b: load_body_file(body_files[b]) for b in BODIES}
+    if config is not None:
+        for b, expected in expected_body_hashes(config).items():
+            check_config_hash(body_data[b], expected)
+    if not needs_load_ranking(name):
+        load_ranking = None         # given but not read by this model
+    if needs_reduction_rankings(name):
+        if not reduction_files:
+            raise ModelError(f"model {name!r} ranks modes by the reduction stage: pass its files "
+                             f"(--reductions)")
+        rankings = read_rankings(reduction_files, body_data)
+    else:       # truth, rigid, freq-*, static-*: no reduction stage needed
+        rankings = frequency_rankings(body_data)
+    ranking_hashes = []
+    if needs_load_ranking(name):
+        if load_ranking is None:
+            raise ModelError(f"model {name!r} needs the scene's load-aware ranking (--load-ranking)")
+        load_load_ranking(load_ranking, rankings)
+        check_load_ranking(load_ranking, rankings, body_data)
+        ranking_hashes.append(str(rankings[POOLED_KEY].get("body_config_hashes", "")))
+    try:
+        spec = parse_model(name, rankings)
+    except NeedsSimulation as request:
+        if not verified:
+            raise
+        spec = _verified_tol_spec(name, request, scene, body_data, rankings, log)
+    spec = restrict_to_bodies(spec, scene.elastic_bodies)
+    chain = build_chain(spec, body_data)
+    attrs = {"model": spec.name, "scene": scene.name,
+             "config_hash": model_config_hash(spec, body_data, scene, ranking_hashes),
+             "n_modes": np.array(chain.n_modes), "units": "in, lbf, s",
+             "body_config_hashes": json.dumps([str(body_data[b]["attrs"].get("config_hash", ""))
+                                               for b in BODIES])}
+    if spec.ranking == TOL_FAMILY:
+        attrs.update(tolerance_attrs(name))
+        attrs["tol_coordinates"] = int(sum(chain.n_modes))
+    if load_ranking is not None:
+        attrs["load_ranking"] = os.path.abspath(load_ranking)
+        attrs["load_ranking_scene"] = rankings[POOLED_KEY]["scene"]
+    return chain, spec, attrs
+
+
+def main(argv=None):
+    ap = cli.OneLineParser(prog="gimbal_reduction.reduction.models",
+                           description="Reduce the chain to one model on one scene: the reduced-model "
+                                       "file (gimbal_reduction/solver/dynamics/chainfile.py, docs/models.md) a "
+                                       "simulation reads.")
+    ap.add_argument("--model", required=True, help="model name (grammar: gimbal_reduction/reduction/models.py)")
+    ap.add_argument("--scene", required=True, help="scene file (config/scenes/NAME.yaml) or name")
+    ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE",
+                    help="the modal stage's files of bodies 2, 3, 4, 5")
+    ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE",
+                    help="the reduction stage's files of bodies 2..5 (xmx-, xmgmx-, load-, global-)")
+    ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global-)")
+    ap.add_argument("--config", help="the current configuration file: every body file's config_hash "
+                                     "must be the one it gives (a body file of another config is refused)")
+    ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
+    ap.add_argument("--no-verified-search", action="store_true",
+                    help="tol-EPS where the frozen-chain estimate does not hold: refuse, instead of "
+                         "simulating candidates against the truth (minutes on the long scene)")
+    try:
+        args = ap.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, ap))
+    except SystemExit as exc:       # the one-line message is printed; in process, return the status
+        return exc.code
+    t0 = time.perf_counter()
+    try:
+        cli.check_writable(args.out)
+        scene = scenes.load_scene(args.scene)
+        config = cfgmod.load_config(args.config) if args.config else None
+        # the body files' attributes first (the configuration file named in the remedy), then their data
+        bodyconfig.check_files(args.bodies, args.config)
+        chain, spec, attrs = reduce_model(
+            args.model, scene, dict(zip(BODIES, args.bodies)),
+            dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,
+            config=config, verified=not args.no_verified_search,
+            log=lambda text: print(f"gimbal_reduction.reduction.models: {text}", file=sys.stderr, flush=True))
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"gimbal_reduction.reduction.models: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2
+    attrs.update({f"version_{k}": str(v) for k, v in versions().items()})
+    attrs["wall_time_s"] = time.perf_counter() - t0
+    attrs["created"] = time.strftime("%Y-%m-%dT%H:%M:%S")
+    try:
+        chainfile.write_chain(args.out, chain, spec.kept, spec.static, attrs)
+    except OSError as exc:
+        print(f"gimbal_reduction.reduction.models: {cli.write_failure(args.out, exc)}", file=sys.stderr)
+        return 2
+    if attrs.get("tol_method") == TOL_APRIORI:
+        print(f"gimbal_reduction.reduction.models: {spec.name}: global-{attrs['tol_N']} (a-priori max E "
+              f"{attrs['tol_estimate_max']:.3e} <= {attrs['tol_eps']:g}; {attrs['tol_estimate_source']})")
+    elif attrs.get("tol_method") == TOL_VERIFIED:
+        print(f"gimbal_reduction.reduction.models: {spec.name}: global-{attrs['tol_N']} by verified search (measured "
+              f"max E {attrs['tol_measured_max']:.3e} <= {attrs['tol_eps']:g}"
+              + (f", attitude {attrs['tol_measured_attitude_arcsec']:.3g} <= {attrs['tol_attitude_arcsec']:g} "
+                 f"arcsec" if "tol_attitude_arcsec" in attrs else "")
+              + f"; {attrs['tol_search_reason']}; the frozen chain estimated {attrs['tol_estimate_max']:.3e})")
+    print(f"gimbal_reduction.reduction.models: {args.out}: model {spec.name} on scene {scene.name}, "
+          f"{sum(chain.n_modes)} elastic coordinates {chain.n_modes} in {attrs['wall_time_s']:.2f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

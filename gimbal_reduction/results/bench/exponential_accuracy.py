@@ -1,0 +1,155 @@
+"""Accuracy of the modal exponential integrator on every scene (issue 13, "Verification").
+
+    python -m gimbal_reduction.results.bench.exponential_accuracy --truth-model results/models/thesis/truth.h5 \\
+        --reference thesis=results/reference/thesis/truth.h5 free=results/reference/free/truth.h5 ... \\
+        --out-json results/verification/exponential.json --out-md results/verification/exponential.md
+
+For every scene given a converged reference (DOP853 at rtol 1e-10 on the truth model,
+rule ``reference_simulation``), the truth model is integrated by the exponential
+integrator at its default tolerance (or the scene's exponential_tolerance where that is
+tighter, as the workflow runs it: ``long``) and at a tight one (``TIGHT_FACTOR`` times smaller),
+and the error measure of the thesis (eq. 3.53) is computed per gimbal rate against the
+reference.  The check: E_max <= ``E_BOUND`` at the default tolerance (issue 13's bound
+on the truth model), and the tight run no worse than the default one (convergence).
+Also recorded: steps, right-hand-side evaluations, bases (re-linearisations, of them
+for the phase error), wall time.  The reference must be DOP853 at rtol <= 1e-10 of the
+same truth model and scene (one-line error otherwise, before any integration).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+import h5py
+import numpy as np
+
+from gimbal_reduction.solver import bodyconfig
+from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, scenes
+from gimbal_reduction.solver.dynamics.error_measure import error_measure
+from gimbal_reduction.solver.dynamics.simulate import scene_problem
+from gimbal_reduction.workflow.provenance import check_record, provenance, versions, write_json, write_text
+
+E_BOUND = 1e-8          # issue 13: E <= 1e-8 on every rate, truth model
+TIGHT_FACTOR = 100.0    # the tight tolerance: default / TIGHT_FACTOR
+REFERENCE_RTOL = 1e-10  # a reference must be at least this converged
+
+
+class AccuracyInputError(ValueError):
+    """A bad argument or reference file (one-line message)."""
+
+
+def parse_references(items):
+    """{scene: path} of SCENE=FILE arguments; AccuracyInputError on a malformed or repeated one."""
+    out = {}
+    for item in items:
+        scene, sep, path = item.partition("=")
+        if not sep or not scene or not path:
+            raise AccuracyInputError(f"--reference takes SCENE=FILE, got {item!r}")
+        if scene in out:
+            raise AccuracyInputError(f"--reference: scene {scene!r} given twice")
+        out[scene] = path
+    return out
+
+
+def read_reference(scene, path, truth_hash):
+    """(t (T,), gamma_dot (T, 4)) of a reference file, checked: same scene, the truth model
+    of the same config hash, DOP853 at rtol <= REFERENCE_RTOL."""
+    if not os.path.exists(path):
+        raise AccuracyInputError(f"reference of scene {scene!r}: {path} does not exist")
+    with h5py.File(path, "r") as f:
+        a = dict(f.attrs)
+        t, rates = f["t"][()], f["gamma_dot"][()]
+    problems = []
+    if str(a.get("scene")) != scene:
+        problems.append(f"scene {a.get('scene')!r}")
+    if str(a.get("model")) != "truth" or str(a.get("model_config_hash")) != truth_hash:
+        problems.append(f"model {a.get('model')!r} of another config")
+    if str(a.get("integrator")) != "dop853" or not float(a.get("stat_rtol", 1.0)) <= REFERENCE_RTOL:
+        problems.append(f"integrator {a.get('integrator')} rtol {a.get('stat_rtol')}")
+    if problems:
+        raise AccuracyInputError(f"reference {path} is not the converged truth of scene {scene!r}: "
+                                 + ", ".join(problems))
+    return t, rates
+
+
+def scene_case(chain, scene, t_ref, rates_ref, tol):
+    """The record of one scene at one tolerance: E per rate, E_max, counts, wall time."""
+    t0 = time.perf_counter()
+    prob = scene_problem(chain, scene)
+    run = integrators.integrate(prob, scene.duration, scene.output_interval,
+                                method="exponential", tol=tol, model="truth")
+    wall = time.perf_counter() - t0
+    E = np.asarray(error_measure(t_ref, rates_ref, run.yd[:, :4]))
+    st = run.stats
+    return {"tol": tol, "E": E.tolist(), "E_max": float(np.nanmax(E)), "steps": run.steps,
+            "evaluations": int(st["evaluations"]), "bases": int(st["relinearisations"]) + 1,
+            "phase_bases": int(st["phase_relinearisations"]), "rejected": int(st["rejected"]),
+            "wall_s": wall, "basis_s": float(st["basis_time_s"])}
+
+
+def markdown(rows):
+    lines = ["| scene | tol | E max | steps | bases | wall [s] | E max, tol / 100 | steps |",
+             "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        d, t = r["default"], r["tight"]
+        lines.append(f"| {r['scene']} | {d['tol']:g} | {d['E_max']:.2e} | {d['steps']} | {d['bases']} | "
+                     f"{d['wall_s']:.2f} | {t['E_max']:.2e} | {t['steps']} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m gimbal_reduction.results.bench.exponential_accuracy",
+                                 description="E of the exponential integrator against converged "
+                                             "DOP853 references, per scene.")
+    ap.add_argument("--truth-model", required=True)
+    ap.add_argument("--reference", nargs="+", required=True, metavar="SCENE=FILE")
+    ap.add_argument("--tol", type=float, default=exponential.DEFAULT_TOL)
+    ap.add_argument("--out-json", required=True)
+    ap.add_argument("--out-md", required=True)
+    ap.add_argument("--config", help="the current configuration file: input files of another "
+                                     "configuration are refused before the work (gimbal_reduction.solver.bodyconfig)")
+    args = ap.parse_args(argv)
+    start = time.perf_counter()
+    try:
+        bodyconfig.check_files([args.truth_model], args.config)
+        exponential.check_options(tol=args.tol)
+        refs = parse_references(args.reference)
+        loaded = {}
+        for name, path in refs.items():
+            scene = scenes.load_scene(name)
+            chain, info = chainfile.read_chain(args.truth_model, scene.damping_ratio)
+            if str(info.get("model")) != "truth":
+                raise AccuracyInputError(f"{args.truth_model} holds {info.get('model')!r}, not the truth")
+            loaded[name] = (scene, chain, *read_reference(name, path, str(info.get("config_hash"))))
+    except (OSError, ValueError) as exc:
+        print(f"exponential_accuracy: {exc}", file=sys.stderr)
+        return 2
+    rows, checks = [], []
+    for name, (scene, chain, t_ref, rates_ref) in loaded.items():
+        tol = scene.tighter_tolerance(args.tol)         # as the workflow runs the scene
+        default = scene_case(chain, scene, t_ref, rates_ref, tol)
+        tight = scene_case(chain, scene, t_ref, rates_ref, tol / TIGHT_FACTOR)
+        rows.append({"scene": name, "reference": refs[name], "default": default, "tight": tight})
+        checks.append(check_record(f"{name}: E max at tol {tol:g} (truth model)",
+                                   default["E_max"], E_BOUND))
+        checks.append(check_record(f"{name}: E max at tol {tol / TIGHT_FACTOR:g} no worse than "
+                                   f"at {tol:g} (x1.5)", tight["E_max"], 1.5 * default["E_max"]))
+        print(f"exponential_accuracy: {name}: E {default['E_max']:.2e} ({default['steps']} steps, "
+              f"{default['bases']} bases, {default['wall_s']:.2f} s); tight {tight['E_max']:.2e}",
+              flush=True)
+    record = provenance(sources=[args.truth_model, *refs.values()])
+    write_text(args.out_md, markdown(rows), record)
+    write_json(args.out_json, {"stage": "exponential_accuracy", "rows": rows, "checks": checks,
+                               "passed": all(c["passed"] for c in checks), "E_bound": E_BOUND,
+                               "inputs": [args.truth_model, *refs.values()],
+                               "wall_time_s": time.perf_counter() - start, "versions": versions()}, record)
+    failed = [c["name"] for c in checks if not c["passed"]]
+    print(f"exponential_accuracy: {len(checks) - len(failed)}/{len(checks)} checks passed"
+          + (f"; FAILED: {'; '.join(failed)}" if failed else ""))
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

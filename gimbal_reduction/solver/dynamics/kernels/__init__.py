@@ -1,0 +1,51 @@
+"""Compiled kernels of the chain's equations (Numba), by layer.
+
+``linalg``: 3-vectors (as tuples) and 6x6 products; ``modal``: the O(D) passes over a
+body's modal rows and the O(D^2) Coriolis passes; ``recursion``: kinematics, the
+Newton-Euler backward pass, the articulated-body solve, energies and the case twist;
+``rk4``: the compiled RK4 loops.  They are the equations of ``gimbal_reduction.solver.dynamics.multibody``
+(docs/dynamics.md Sections 3 and 8) written for speed; ``gimbal_reduction.solver.dynamics.compiled``
+packs a chain for them and is their Python interface.  ``exponential`` (the modal
+advance and the phi-functions) and ``pece`` (the exponential Adams step loop) are the
+exponential integrator's (``gimbal_reduction.solver.dynamics.exponential``, docs/exponential.md).
+
+The chain reaches the kernels as ONE argument ``ch``, the named tuple
+``compiled.PackedChain`` (D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho; see
+``compiled.pack``); the forward and backward passes share ``recursion.Frames``.
+
+Importing this package raises LLVM's limit of runtime alias checks and sets the
+optimisation level (below) before any kernel is compiled.
+"""
+
+import os
+
+import llvmlite.binding
+import numba
+
+# Compiler options of the kernels.  JIT: IEEE arithmetic.  FAST: reassociation only (no
+# "no-NaN/no-Inf" assumptions: a diverging state must stay visible).
+JIT = dict(cache=True, fastmath=False, error_model="numpy")
+FAST = dict(cache=True, fastmath={"reassoc", "contract", "nsz"}, error_model="numpy")
+
+
+def _allow_runtime_alias_checks(limit=16):
+    """Let LLVM vectorise loops over many row views.  Numba cannot tell LLVM that two
+    array views do not overlap, so a loop that writes one and reads several is
+    vectorised only behind runtime overlap checks, at most 8 by default: the Coriolis
+    pass with four rows of G needs more and ran 3x slower, unvectorised.  An LLVM
+    option may be given only once per process, hence the guard."""
+    if not getattr(llvmlite.binding, "_gimbal_alias_checks", False):
+        llvmlite.binding.set_option("", f"--runtime-memory-check-threshold={limit}")
+        llvmlite.binding._gimbal_alias_checks = True
+
+
+_allow_runtime_alias_checks()
+
+# LLVM optimisation level of the kernels: -O2, not Numba's default -O3.  Measured 2026-11-25
+# (cold cache, the workflow's warm-up: gimbal_reduction.solver.dynamics.warmup): 118 CPU-s to compile at 2
+# against 176 at 3; the same run times (alternating processes, CPU time: thesis truth run
+# 57-63 ms at both, right-hand side of the truth 42-46 us at both, freq-10 run 9-11 ms).
+# A NUMBA_OPT given by the user wins.  Set on import, before the first compilation.
+OPT_LEVEL = 2
+if "NUMBA_OPT" not in os.environ:
+    numba.config.OPT = numba.core.config._process_opt_level(str(OPT_LEVEL))

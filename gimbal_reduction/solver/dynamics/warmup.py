@@ -1,0 +1,112 @@
+"""Compile the dynamics kernels once, before the workflow's first simulation.
+
+    python -m gimbal_reduction.solver.dynamics.warmup --scenes config/scenes/thesis.yaml config/scenes/damped.yaml \\
+        [--integrator exponential --tol 1e-6] --out results/verification/kernels.json
+
+The chain's equations run as Numba kernels (``gimbal_reduction.solver.dynamics.kernels``) compiled on first
+use and cached on disk (``cache=True``: ``__pycache__`` beside the sources, or
+``NUMBA_CACHE_DIR``).  In a fresh clone nothing is cached, and every job that reaches a
+kernel before the cache exists compiles the whole set itself: on this 2-core machine one
+compilation is ~1.5-2.5 CPU-minutes, and the workflow's first dynamics jobs (the load-aware
+rankings, the study scenes, the truth-basis check) start together, so that it was paid
+several times over.  This stage pays it once, at the start of the workflow, while the FE
+jobs run beside it: it needs no body file, because compiled code depends on the types and
+layouts of the arrays, not on their values.
+
+What it runs is exactly what the jobs run: a synthetic chain
+(``gimbal_reduction.solver.dynamics.synthetic``: two modes per body, and the rigid chain) written to a
+reduced-model file and simulated through ``gimbal_reduction.solver.dynamics.simulate``'s command line on
+every given scene with the configured integrator (so damped scenes compile the damped
+paths), and the rigid chain with DOP853 (the load-aware ranking's rigid motion).  A kernel
+the jobs reach with other array types would still compile there, only later; nothing is
+assumed about the cache's contents, and a missing or stale cache costs time, never a result.
+
+Output: a JSON record (per run: scene, integrator, wall time; the first run's wall time is
+the compilation; versions, git revision), the file the dynamics rules take as an input so
+that they start after it.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+
+import numba
+import numpy as np
+
+from gimbal_reduction.solver.dynamics import chainfile, multibody, simulate
+from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
+from gimbal_reduction.workflow.provenance import git_revision, versions, write_json
+
+MODES_PER_BODY = 2
+
+
+def rigid_chain(chain):
+    """The chain with every body's modes removed (D = 0): the load-aware ranking's rigid motion."""
+    bodies = tuple(multibody.make_body(b.number, {"rigid_mass": b.rigid_mass,
+                                                  "momentum": np.zeros((6, 0)),
+                                                  "inertia_gradient": np.zeros((0, 6, 6)),
+                                                  "coriolis": np.zeros((0, 3, 0)),
+                                                  **({} if b.inside_translation is None else
+                                                     {"inside_translation": np.zeros((3, 0)),
+                                                      "inside_rotation": np.zeros((3, 0))})},
+                                       np.zeros(0)) for b in chain.bodies)
+    return multibody.Chain(bodies, name="synthetic-rigid")
+
+
+def write_model(path, chain, name):
+    """``chain`` as a reduced-model file (the contract the simulations read)."""
+    kept = {b.number: np.arange(b.n_modes) for b in chain.bodies}
+    static = {b.number: () for b in chain.bodies}
+    chainfile.write_chain(path, chain, kept, static, {"model": name, "scene": "synthetic",
+                                                       "config_hash": "synthetic"})
+
+
+def runs(scenes, integrator, options):
+    """The (scene, model, simulate options) of the warm-up, in order."""
+    out = [(scene, "elastic", ["--integrator", integrator, *options]) for scene in scenes]
+    out.append((scenes[0], "rigid", ["--integrator", "dop853"]))
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m gimbal_reduction.solver.dynamics.warmup",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scenes", nargs="+", required=True, help="scene files the study simulates")
+    ap.add_argument("--integrator", default=simulate.DEFAULT_INTEGRATOR,
+                    help="the workflow's integrator (config simulation.integrator)")
+    ap.add_argument("--tol", default=None, help="its tolerance (config simulation.tolerance)")
+    ap.add_argument("--out", required=True, help="JSON record of the warm-up")
+    args = ap.parse_args(argv)
+    options = [] if args.tol is None else ["--tol", str(args.tol)]
+    elastic = synthetic_modal_chain(MODES_PER_BODY, seed=0)
+    record = {"integrator": args.integrator, "options": options, "runs": [],
+              "numba": numba.__version__, "numba_cache_dir": os.environ.get("NUMBA_CACHE_DIR", ""),
+              "versions": versions(), "git_revision": git_revision()}
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="warmup_") as tmp:
+        models = {"elastic": os.path.join(tmp, "elastic.h5"), "rigid": os.path.join(tmp, "rigid.h5")}
+        write_model(models["elastic"], elastic, f"synthetic-{MODES_PER_BODY}")
+        write_model(models["rigid"], rigid_chain(elastic), "synthetic-rigid")
+        for k, (scene, model, opts) in enumerate(runs(args.scenes, args.integrator, options)):
+            t0 = time.perf_counter()
+            rc = simulate.main(["--scene", scene, "--model-file", models[model],
+                                "--out", os.path.join(tmp, f"sim{k}.h5"), *opts])
+            if rc:
+                print(f"warmup: the synthetic {model} chain failed on {scene} (simulate exit {rc})",
+                      file=sys.stderr)
+                return 2
+            wall = time.perf_counter() - t0
+            record["runs"].append({"scene": scene, "model": model, "options": opts, "wall_time_s": wall})
+            print(f"warmup: [{k + 1}] {model} chain on {scene} ({' '.join(opts)}): {wall:.1f} s",
+                  flush=True)
+    record["wall_time_s"] = time.perf_counter() - start
+    write_json(args.out, record)
+    print(f"warmup: kernels compiled and cached in {record['wall_time_s']:.1f} s -> {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

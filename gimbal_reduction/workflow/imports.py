@@ -1,0 +1,328 @@
+"""The project's import graph, read from the source with ``ast``: what code a stage runs.
+
+Every stage is run as ``python -m <module>``. The code it runs is that module and,
+transitively, every project module it imports (with the ``__init__.py`` of each
+package on the way), plus the data files that code reads (:data:`DATA_FILES`).
+:func:`code_hash` hashes that code with comments and docstrings left out (a
+normalised ``ast`` dump), so a Snakemake rule that carries
+``params: code=code_hash("gimbal_reduction.solver.fe.modes")`` reruns when, and only when, code its
+stage runs changes in substance.
+
+The same graph checks the layering of the packages (:func:`violations`): imports
+point only downward in :data:`LAYERS`; ``gimbal_reduction.solver.fe`` and ``gimbal_reduction.solver.dynamics`` never
+import each other; there is no import cycle between files; and no project module
+is imported inside a function.
+
+``python -m gimbal_reduction.workflow.imports gimbal_reduction.solver.fe.modes``  lists the files a stage runs;
+``python -m gimbal_reduction.workflow.imports --check``          lists the layering violations.
+"""
+from __future__ import annotations
+
+import argparse
+import ast
+import functools
+import hashlib
+import json
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGES = ("workflow", "geometry", "solver", "reduction", "results")
+
+# Non-Python files that a module reads, as paths relative to the project root: they are
+# part of the code of every stage that imports the module.
+DATA_FILES = {"gimbal_reduction.workflow.config": ("workflow/schemas/config.schema.yaml",)}
+
+# The layers, lowest first; a module belongs to the longest prefix listed here.
+LAYERS = (
+    ("workflow",),
+    ("geometry",),
+    ("solver", "gimbal_reduction.solver.bodydata"),
+    ("gimbal_reduction.solver.fe", "gimbal_reduction.solver.dynamics"),
+    # the CLI's short name (python -m gimbal_reduction.solver.simulate), forwarding to gimbal_reduction.solver.dynamics.simulate
+    ("gimbal_reduction.solver.simulate",),
+    ("reduction",),
+    ("results", "gimbal_reduction.results.study", "gimbal_reduction.results.bench"),
+)
+# Engines of one layer that must not import each other.
+EXCLUSIVE = (("gimbal_reduction.solver.fe", "gimbal_reduction.solver.dynamics"),)
+
+
+@dataclass(frozen=True)
+class Import:
+    """One import statement's project target, as written in ``source``."""
+
+    source: str      # importing module
+    target: str      # imported project module (the deepest one named)
+    line: int
+    local: bool      # inside a function (or lambda)
+
+
+def _module_name(path: Path, root: Path) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+@functools.lru_cache(maxsize=None)
+def module_files(root: Path = ROOT) -> dict[str, Path]:
+    """Every project module -> its file; only folders that are packages (hold ``__init__.py``)."""
+    out = {}
+
+    def walk(folder: Path):
+        if not (folder / "__init__.py").is_file():
+            return
+        for path in sorted(folder.iterdir()):
+            if path.is_dir():
+                walk(path)
+            elif path.suffix == ".py":
+                out[_module_name(path, root)] = path
+
+    for package in PACKAGES:
+        walk(root / package)
+    return out
+
+
+def _resolve(module: str, is_package: bool, node: ast.ImportFrom) -> str:
+    """The absolute module name of a (possibly relative) ``from ... import``."""
+    if not node.level:
+        return node.module or ""
+    base = module.split(".")
+    base = base if is_package else base[:-1]
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def _project_target(name: str, modules) -> str | None:
+    """The deepest project module a dotted name names (``a.b.c`` -> ``a.b`` if only that exists)."""
+    parts = name.split(".")
+    for i in range(len(parts), 0, -1):
+        candidate = ".".join(parts[:i])
+        if candidate in modules:
+            return candidate
+    return None
+
+
+@functools.lru_cache(maxsize=None)
+def _parse(path: str, mtime_ns: int, size: int) -> ast.Module:
+    """A file's syntax tree, parsed once per file version (callers must not change it)."""
+    return ast.parse(Path(path).read_text(), filename=path)
+
+
+def parse_tree(path: Path) -> ast.Module:
+    stat = Path(path).stat()
+    return _parse(str(path), stat.st_mtime_ns, stat.st_size)
+
+
+# nodes that can hold statements (an import is a statement: no expression holds one)
+_BLOCKS = (ast.stmt, ast.excepthandler, ast.match_case)
+
+
+def parse_imports(module: str, path: Path, modules) -> list[Import]:
+    """The project imports of one file, each marked local when it sits inside a function."""
+    tree = parse_tree(path)
+    is_package = path.name == "__init__.py"
+    found = []
+
+    def visit(node, local):
+        for child in ast.iter_child_nodes(node):
+            if not isinstance(child, _BLOCKS):
+                continue
+            if isinstance(child, ast.Import):
+                names = [alias.name for alias in child.names]
+            elif isinstance(child, ast.ImportFrom):
+                base = _resolve(module, is_package, child)
+                # "from a.b import c": the submodule a.b.c if it is one, else the module a.b
+                names = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base
+                         for alias in child.names]
+            else:
+                visit(child, local or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)))
+                continue
+            for name in dict.fromkeys(names):
+                target = _project_target(name, modules)
+                if target is not None:
+                    found.append(Import(module, target, child.lineno, local))
+
+    visit(tree, False)
+    return found
+
+
+@functools.lru_cache(maxsize=None)
+def all_imports(root: Path = ROOT) -> tuple[Import, ...]:
+    """Every project import of every project module."""
+    modules = module_files(root)
+    return tuple(imp for name, path in modules.items() for imp in parse_imports(name, path, modules))
+
+
+def graph(root: Path = ROOT) -> dict[str, set[str]]:
+    """module -> the project modules it imports (module level and function level)."""
+    out = {name: set() for name in module_files(root)}
+    for imp in all_imports(root):
+        out[imp.source].add(imp.target)
+    return out
+
+
+def _parents(module: str) -> list[str]:
+    parts = module.split(".")
+    return [".".join(parts[:i]) for i in range(1, len(parts))]
+
+
+def closure(*entries: str, root: Path = ROOT) -> list[str]:
+    """The project modules that running ``entries`` executes, sorted: the entries, everything they
+    import, transitively, and the package ``__init__`` of each on the way."""
+    modules, edges = module_files(root), graph(root)
+    unknown = [e for e in entries if e not in modules]
+    if unknown:
+        raise ValueError(f"unknown project module(s): {', '.join(unknown)}")
+    seen, todo = set(), list(entries)
+    while todo:
+        module = todo.pop()
+        if module in seen:
+            continue
+        seen.add(module)
+        todo.extend(edges[module])
+        todo.extend(p for p in _parents(module) if p in modules)
+    return sorted(seen)
+
+
+def files(*entries: str, root: Path = ROOT) -> list[str]:
+    """The files (relative to the root) that running ``entries`` reads as code: modules and data files."""
+    modules = module_files(root)
+    out = [str(modules[m].relative_to(root)) for m in closure(*entries, root=root)]
+    out += [f for m in closure(*entries, root=root) for f in DATA_FILES.get(m, ())]
+    return sorted(set(out))
+
+
+def normalised_source(path: Path) -> str:
+    """The ``ast`` dump of a file with every docstring left out: blind to comments, docstrings and layout."""
+    tree = parse_tree(path)
+    docstrings, todo = [], [tree]
+    while todo:   # docstrings open module, class and function bodies: statements only are searched
+        node = todo.pop()
+        todo.extend(child for child in ast.iter_child_nodes(node) if isinstance(child, _BLOCKS))
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+                    and isinstance(body[0].value.value, str):
+                docstrings.append((node, body))
+                node.body = body[1:]
+    try:
+        return ast.dump(tree, annotate_fields=True, include_attributes=False)
+    finally:
+        for node, body in docstrings:   # the cached tree stays as parsed
+            node.body = body
+
+
+@functools.lru_cache(maxsize=None)
+def _file_digest(path: str, mtime_ns: int, size: int) -> str:
+    """sha256 of a code file's normalised source (of a data file's text); cached per file version."""
+    text = normalised_source(Path(path)) if path.endswith(".py") else Path(path).read_text()
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def code_hash(*entries: str, root: Path = ROOT) -> str:
+    """Stable 12-hex-digit hash of the code that running ``entries`` executes (:func:`files`)."""
+    digest = hashlib.sha256()
+    for rel in files(*entries, root=root):
+        stat = (root / rel).stat()
+        digest.update(json.dumps([rel, _file_digest(str(root / rel), stat.st_mtime_ns, stat.st_size)]).encode())
+    return digest.hexdigest()[:12]
+
+
+# ---------------------------------------------------------------------------- layering
+
+def layer(module: str) -> tuple[int, str]:
+    """(layer index, the layer's prefix) of a module: the longest prefix named in LAYERS."""
+    best = None
+    for index, prefixes in enumerate(LAYERS):
+        for prefix in prefixes:
+            if (module == prefix or module.startswith(prefix + ".")) and (best is None or len(prefix) > len(best[1])):
+                best = (index, prefix)
+    if best is None:
+        raise ValueError(f"module '{module}' is in no layer")
+    return best
+
+
+def cycles(root: Path = ROOT) -> list[list[str]]:
+    """Import cycles between files: the strongly connected components of more than one module
+    (or a module importing itself), each sorted."""
+    edges = graph(root)
+    index, low, on_stack, stack, out = {}, {}, set(), [], []
+
+    def strongconnect(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(edges[v]):
+            if w not in index:
+                strongconnect(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1 or v in edges[v]:
+                out.append(sorted(component))
+
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(limit, 10 * len(edges) + 100))
+    try:
+        for v in sorted(edges):
+            if v not in index:
+                strongconnect(v)
+    finally:
+        sys.setrecursionlimit(limit)
+    return sorted(out)
+
+
+def violations(root: Path = ROOT) -> list[str]:
+    """One line per layering violation: upward imports, imports between the exclusive engines,
+    function-local project imports and import cycles."""
+    modules = module_files(root)
+    out = []
+    for imp in all_imports(root):
+        where = f"{modules[imp.source].relative_to(root)}:{imp.line}"
+        (src_layer, src_prefix), (dst_layer, dst_prefix) = layer(imp.source), layer(imp.target)
+        if dst_layer > src_layer:
+            out.append(f"{where}: upward import of {imp.target} ({dst_prefix}) from {imp.source} ({src_prefix})")
+        for group in EXCLUSIVE:
+            if src_prefix in group and dst_prefix in group and src_prefix != dst_prefix:
+                out.append(f"{where}: {imp.source} imports {imp.target}: {' and '.join(group)} "
+                           "never import each other")
+        if imp.local:
+            out.append(f"{where}: function-local import of {imp.target}")
+    for component in cycles(root):
+        out.append(f"import cycle: {' -> '.join(component)}")
+    return out
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description="The project's import graph: a stage's code, or the layering check.")
+    parser.add_argument("entries", nargs="*", help="entry modules (python -m X): list their code files and hash")
+    parser.add_argument("--check", action="store_true", help="list layering violations; exit 1 if any")
+    args = parser.parse_args(argv)
+    if args.check:
+        found = violations()
+        print("\n".join(found) if found else "no layering violations")
+        return 1 if found else 0
+    if not args.entries:
+        parser.error("name entry modules or pass --check")
+    try:
+        print("\n".join(files(*args.entries)))
+        print(f"code hash {code_hash(*args.entries)}")
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
