@@ -28,23 +28,28 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGES = ("workflow", "geometry", "solver", "reduction", "results")
+PACKAGE = "gimbal_reduction"
+PACKAGES = (PACKAGE,)
 
 # Non-Python files that a module reads, as paths relative to the project root: they are
 # part of the code of every stage that imports the module.
 DATA_FILES = {"gimbal_reduction.workflow.config": ("workflow/schemas/config.schema.yaml",)}
 
-# The layers, lowest first; a module belongs to the longest prefix listed here.
-LAYERS = (
+# The layers, lowest first; a module belongs to the longest prefix listed here (names relative
+# to the package: "solver.fe" is gimbal_reduction.solver.fe).  The package's own __init__ is
+# the lowest; its notebook API (gimbal_reduction.api) and command line (gimbal_reduction.commands)
+# sit on top of every stage.
+_LAYERS = (
+    ("",),
     ("workflow",),
     ("geometry",),
-    ("solver", "gimbal_reduction.solver.bodydata"),
-    ("gimbal_reduction.solver.fe", "gimbal_reduction.solver.dynamics"),
-    # the CLI's short name (python -m gimbal_reduction.solver.simulate), forwarding to gimbal_reduction.solver.dynamics.simulate
-    ("gimbal_reduction.solver.simulate",),
+    ("solver", "solver.bodydata"),
+    ("solver.fe", "solver.dynamics"),
     ("reduction",),
-    ("results", "gimbal_reduction.results.study", "gimbal_reduction.results.bench"),
+    ("results", "results.study", "results.bench"),
+    ("api", "commands"),
 )
+LAYERS = tuple(tuple(f"{PACKAGE}.{p}" if p else PACKAGE for p in layer) for layer in _LAYERS)
 # Engines of one layer that must not import each other.
 EXCLUSIVE = (("gimbal_reduction.solver.fe", "gimbal_reduction.solver.dynamics"),)
 

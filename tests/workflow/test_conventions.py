@@ -1,5 +1,5 @@
 """Snakemake's conventions (issue 16), checked in CI: `snakemake --lint` reports only the lints justified
-in workflow/rules/common.smk (above PY), and `snakefmt --check` leaves the Snakefile and every rule
+in workflow/rules/common.smk (above GIMBAL), and `snakefmt --check` leaves the Snakefile and every rule
 file unchanged."""
 import re
 import shutil
@@ -14,7 +14,7 @@ SNAKEFILES = [ROOT / "Snakefile", *sorted((ROOT / "workflow" / "rules").glob("*.
 # The lints left, each justified in a comment in workflow/rules/common.smk (and named in each rule
 # file's header): a new lint of any other kind fails this test.
 JUSTIFIED = {
-    "Shell command directly uses variable PY from outside of the rule",
+    "Shell command directly uses variable GIMBAL from outside of the rule",
     "Shell command directly uses variable CONFIG from outside of the rule",
     "Shell command directly uses variable COARSE_SIZE from outside of the rule",
     "Specify a conda environment or container for each rule.",

@@ -33,18 +33,18 @@ def test_simulation_code_holds_no_fe_nor_reduction_report():
     files = imports.files("gimbal_reduction.solver.dynamics.simulate")
     assert "gimbal_reduction/solver/dynamics/simulate.py" in files and "gimbal_reduction/solver/bodydata.py" in files
     assert "gimbal_reduction/reduction/report.py" not in files
-    assert not [f for f in files if f.startswith(("gimbal_reduction/solver/fe/", "gimbal_reduction/reduction/", "results/", "gimbal_reduction/geometry/"))], files
+    assert not [f for f in files if f.startswith(("gimbal_reduction/solver/fe/", "gimbal_reduction/reduction/", "gimbal_reduction/results/", "gimbal_reduction/geometry/"))], files
 
 
 def test_stage_code_sets():
     mesh = imports.files("gimbal_reduction.geometry.mesh")
     assert {"gimbal_reduction/geometry/mesh.py", "gimbal_reduction/geometry/gimbal.py", "gimbal_reduction/workflow/config.py",
             "workflow/schemas/config.schema.yaml"} <= set(mesh)
-    assert not [f for f in mesh if f.startswith(("gimbal_reduction/solver/", "gimbal_reduction/reduction/", "results/"))], mesh
+    assert not [f for f in mesh if f.startswith(("gimbal_reduction/solver/", "gimbal_reduction/reduction/", "gimbal_reduction/results/"))], mesh
     modes = imports.files("gimbal_reduction.solver.fe.modes")
     assert {"gimbal_reduction/solver/fe/forms.py", "gimbal_reduction/solver/fe/bearings.py", "gimbal_reduction/solver/fe/eigen.py", "gimbal_reduction/solver/bodydata.py",
             "gimbal_reduction/geometry/gimbal.py"} <= set(modes)
-    assert not [f for f in modes if f.startswith(("gimbal_reduction/solver/dynamics/", "gimbal_reduction/reduction/", "results/"))], modes
+    assert not [f for f in modes if f.startswith(("gimbal_reduction/solver/dynamics/", "gimbal_reduction/reduction/", "gimbal_reduction/results/"))], modes
     # the reduction stage does not run the load-aware ranking, nor the report
     stage = imports.files("gimbal_reduction.reduction.stage")
     assert "gimbal_reduction/reduction/load_aware.py" not in stage and "gimbal_reduction/reduction/report.py" not in stage
@@ -58,12 +58,13 @@ def tree(tmp_path):
                         ignore=lambda folder, names: [n for n in names if not (n.endswith((".py", ".yaml"))
                                                                                or (Path(folder) / n).is_dir())
                                                       or n == "__pycache__"])
+    shutil.copytree(ROOT / "workflow" / "schemas", tmp_path / "workflow" / "schemas")
     return tmp_path
 
 
 def test_hash_ignores_comments_and_docstrings_but_not_code(tree):
     before = imports.code_hash("gimbal_reduction.geometry.mesh", root=tree)
-    path = tree / "geometry" / "gimbal.py"
+    path = tree / "gimbal_reduction" / "geometry" / "gimbal.py"
     source = path.read_text()
     path.write_text("# a new comment\n" + source.replace('"""Gmsh geometry', '"""Edited docstring. Gmsh geometry', 1)
                     .replace("    gmsh.initialize()\n", "    gmsh.initialize()  # start gmsh\n\n", 1))
@@ -84,19 +85,24 @@ def test_hash_ignores_comments_and_docstrings_but_not_code(tree):
 
 def test_violations_are_found(tmp_path):
     """An upward import, a function-local project import, an import between the engines and a cycle."""
-    for package in ("workflow", "geometry", "solver", "gimbal_reduction/solver/fe", "gimbal_reduction/solver/dynamics", "reduction", "results"):
-        (tmp_path / package).mkdir(parents=True, exist_ok=True)
-        (tmp_path / package / "__init__.py").write_text("")
-    (tmp_path / "geometry" / "a.py").write_text("from reduction import b\n")
-    (tmp_path / "reduction" / "b.py").write_text("def f():\n    from geometry import a\n")
-    (tmp_path / "solver" / "fe" / "c.py").write_text("import gimbal_reduction.solver.dynamics.d\n")
-    (tmp_path / "solver" / "dynamics" / "d.py").write_text("from ..bodydata import x\n")
-    (tmp_path / "solver" / "bodydata.py").write_text("")
+    pkg = tmp_path / "gimbal_reduction"
+    for package in ("", "workflow", "geometry", "solver", "solver/fe", "solver/dynamics", "reduction", "results"):
+        (pkg / package).mkdir(parents=True, exist_ok=True)
+        (pkg / package / "__init__.py").write_text("")
+    (pkg / "geometry" / "a.py").write_text("from gimbal_reduction.reduction import b\n")
+    (pkg / "reduction" / "b.py").write_text("def f():\n    from gimbal_reduction.geometry import a\n")
+    (pkg / "solver" / "fe" / "c.py").write_text("import gimbal_reduction.solver.dynamics.d\n")
+    (pkg / "solver" / "dynamics" / "d.py").write_text("from ..bodydata import x\n")
+    (pkg / "solver" / "bodydata.py").write_text("")
     found = imports.violations(tmp_path)
-    assert any("gimbal_reduction/geometry/a.py:1: upward import of reduction.b" in v for v in found), found
-    assert any("gimbal_reduction/reduction/b.py:2: function-local import of geometry.a" in v for v in found), found
-    assert any("gimbal_reduction/solver/fe/c.py:1: gimbal_reduction.solver.fe.c imports gimbal_reduction.solver.dynamics.d" in v for v in found), found
-    assert "import cycle: geometry.a -> reduction.b" in found, found
+    assert any("gimbal_reduction/geometry/a.py:1: upward import of gimbal_reduction.reduction.b" in v
+               for v in found), found
+    assert any("gimbal_reduction/reduction/b.py:2: function-local import of gimbal_reduction.geometry.a" in v
+               for v in found), found
+    assert any("gimbal_reduction/solver/fe/c.py:1: gimbal_reduction.solver.fe.c imports "
+               "gimbal_reduction.solver.dynamics.d" in v for v in found), found
+    assert "import cycle: gimbal_reduction.geometry.a -> gimbal_reduction.reduction.b" in found, found
     # relative imports resolve; the package __init__ files are part of a closure
     assert imports.closure("gimbal_reduction.solver.dynamics.d", root=tmp_path) == [
-        "solver", "gimbal_reduction.solver.bodydata", "gimbal_reduction.solver.dynamics", "gimbal_reduction.solver.dynamics.d"]
+        "gimbal_reduction", "gimbal_reduction.solver", "gimbal_reduction.solver.bodydata",
+        "gimbal_reduction.solver.dynamics", "gimbal_reduction.solver.dynamics.d"]

@@ -19,6 +19,7 @@ from snakemake.api import SnakemakeApi
 from snakemake.io import Wildcards
 from snakemake.settings.types import ConfigSettings, OutputSettings, ResourceSettings
 
+from gimbal_reduction import commands
 from gimbal_reduction.workflow import config as cfgmod
 from gimbal_reduction.workflow import imports
 
@@ -48,7 +49,8 @@ def workflow():
 
 
 def stage_modules(rule):
-    return sorted(set(re.findall(r"\{PY\} -m ([\w.]+)", rule.shellcmd or "")))
+    """The modules of the `gimbal` stages a rule's shell command runs."""
+    return sorted({commands.module_of(stage) for stage in re.findall(r"\{GIMBAL\} ([\w-]+)", rule.shellcmd or "")})
 
 
 def test_every_stage_rule_carries_the_hash_of_its_code(workflow):

@@ -38,7 +38,7 @@ def test_tolerance_runs_every_study_scene_and_spin_for_eps_1e2_to_1e8(workflow):
     assert scenes == [*STUDY_SCENES, "spin"]
     assert [Path(str(f)).stem for f in tolerance.input.load_rankings] == scenes
     assert [float(e) for e in tolerance.params.eps.split()] == [10.0 ** -k for k in range(2, 9)]
-    assert "-m gimbal_reduction.results.bench.tolerance" in tolerance.shellcmd and "{params.eps}" in tolerance.shellcmd
+    assert "{GIMBAL} tolerance " in tolerance.shellcmd and "{params.eps}" in tolerance.shellcmd
 
 
 def test_the_study_report_reads_the_tolerance_bench_if_present(workflow):

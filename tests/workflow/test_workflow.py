@@ -91,7 +91,7 @@ def test_a_scene_target_plans_exactly_its_declared_simulations():
 def _simulate_command(*args, target="results/sim/thesis/freq-10.h5"):
     run = snakemake("--dry-run", "--forceall", "--printshellcmds", target, *args)
     assert run.returncode == 0, run.stderr[-2000:]
-    return [line for line in run.stdout.splitlines() if "-m gimbal_reduction.solver.dynamics.simulate" in line]
+    return [line for line in run.stdout.splitlines() if "/gimbal simulate " in line]
 
 
 def test_the_config_switch_runs_the_simulations_with_rk4(tmp_path):

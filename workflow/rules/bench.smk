@@ -5,7 +5,7 @@
 #   snakemake --cores 2 bench
 # Pareto: one model per family at ~40-100 elastic coordinates (each costs ~2 min of repeated
 # runs; the truth, always added, ~5 min).
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 PARETO_MODELS = ["freq-10", "xmx-10", "load-10", "global-100"]
 # Load-aware and global selection against frequency / XMX / XMGMX at equal coordinate counts
@@ -50,7 +50,7 @@ rule stability:
         rk4_limit="results/figures/stability/rk4_limit.png",
         drift="results/figures/stability/energy_drift.png",
     params:
-        code=code_hash("gimbal_reduction.results.bench.stability"),
+        code=code_hash("stability"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: estimate, 2 GB and 1 h (bisections and 10 s energy-drift runs per integrator)
@@ -61,7 +61,7 @@ rule stability:
     benchmark:
         "results/benchmarks/rules/bench/stability.tsv"
     shell:
-        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.stability --bodies {input.bodies} "
+        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} stability --bodies {input.bodies} "
         "--reductions {input.reductions} --out-dir results/stability "
         "--figures-dir $(dirname {output.rk4_limit}) --config {CONFIG} > {log} 2>&1"
 
@@ -72,7 +72,7 @@ rule scaling:
         json="results/benchmarks/scaling.json",
         figure="results/figures/bench/scaling.png",
     params:
-        code=code_hash("gimbal_reduction.results.bench.scaling"),
+        code=code_hash("scaling"),
     resources:
         # no record: estimate, 2 GB (up to 8000 coordinates, dense baseline) and 1 h
         mem_mb=2000,
@@ -85,7 +85,7 @@ rule scaling:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.scaling --out-csv {output.csv} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} scaling --out-csv {output.csv} "
         "--out-json {output.json} --figure {output.figure} > {log} 2>&1"
 
 
@@ -103,7 +103,7 @@ rule pareto:
         figure="results/figures/bench/pareto.png",
     params:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
-        code=code_hash("gimbal_reduction.results.bench.pareto"),
+        code=code_hash("pareto"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: ~2 min per model and ~5 min for the truth (comment above): 13 min, so 30 min
@@ -117,7 +117,7 @@ rule pareto:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.pareto --scene thesis --truth {input.truth} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} pareto --scene thesis --truth {input.truth} "
         "--models {params.models} --repeats 5 --budget 600 --bodies {input.bodies} --reductions {input.reductions} "
         "--load-ranking {input.load_ranking} "
         "--out-csv {output.csv} --figure {output.figure} --config {CONFIG} > {log} 2>&1"
@@ -133,7 +133,7 @@ rule selection:
         table="results/tables/selection.csv",
         figure="results/figures/bench/global_ranking.png",
     params:
-        code=code_hash("gimbal_reduction.results.bench.selection"),
+        code=code_hash("selection"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: reads simulation files (as error_tables, error_tables_long.tsv 2.7 s, 159.3 MB)
@@ -144,7 +144,7 @@ rule selection:
     benchmark:
         "results/benchmarks/rules/bench/selection.tsv"
     shell:
-        "MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.selection --truth {input.truth} --cases {input.cases} "
+        "MPLBACKEND=Agg {GIMBAL} selection --truth {input.truth} --cases {input.cases} "
         "--ranking {input.ranking} --reductions {input.reductions} --table {output.table} "
         "--figure {output.figure} --config {CONFIG} > {log} 2>&1"
 
@@ -170,10 +170,10 @@ rule reference_simulation:
     params:
         physics=scene_physics_hash,
         scene=scene_file,
-        code=code_hash("gimbal_reduction.solver.dynamics.simulate"),
+        code=code_hash("simulate"),
         cfg=body_files_hash,  # the model's body files are checked against the config
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
+        "OMP_NUM_THREADS=1 {GIMBAL} simulate --scene {params.scene} --model-file {input.model} "
         "--integrator dop853 --rtol 1e-10 --atol 1e-14 --config {CONFIG} --out {output} > {log} 2>&1"
 
 
@@ -192,7 +192,7 @@ rule exponential_bench:
     params:
         references=reference_arguments,
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
-        code=code_hash("gimbal_reduction.results.bench.exponential"),
+        code=code_hash("bench-exponential"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: ~3 + 2.5 + 1 min (comment above EXPONENTIAL_MODELS), so 15 min; memory as simulate
@@ -206,7 +206,7 @@ rule exponential_bench:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m gimbal_reduction.results.bench.exponential "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} bench-exponential "
         "--truth-model {input.truth_model} --reference {params.references} --models {params.models} "
         "--repeats 5 --out-json {output.json} --out-md {output.md} --out-csv {output.csv} --config {CONFIG} "
         "> {log} 2>&1"
@@ -236,7 +236,7 @@ rule exponential_accuracy:
     params:
         references=reference_arguments,
         tol=cfgmod.value(config, "simulation.tolerance"),
-        code=code_hash("gimbal_reduction.results.bench.exponential_accuracy"),
+        code=code_hash("exponential-accuracy"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: one exponential run per accuracy scene (seconds each): as simulate
@@ -247,16 +247,16 @@ rule exponential_accuracy:
     benchmark:
         "results/benchmarks/rules/bench/exponential_accuracy.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.results.bench.exponential_accuracy --truth-model {input.truth_model} "
+        "OMP_NUM_THREADS=1 {GIMBAL} exponential-accuracy --truth-model {input.truth_model} "
         "--reference {params.references} --tol {params.tol} --out-json {output.json} "
         "--out-md {output.md} --config {CONFIG} > {log} 2>&1"
 
 
 # The study's thesis table with both integrators (issue 13): the thesis's own cases (the RK4 runs are
 # ~2.5 min; the exponential integrator's ~5 s)
-INTEGRATOR_TABLE_MODELS = importlib.import_module("gimbal_reduction.results.study.cases").study_models(
-    extended=False
-)
+INTEGRATOR_TABLE_MODELS = importlib.import_module(
+    "gimbal_reduction.results.study.cases"
+).study_models(extended=False)
 
 
 rule integrator_tables:
@@ -269,7 +269,7 @@ rule integrator_tables:
         json="results/benchmarks/integrator_tables.json",
         csv="results/benchmarks/integrator_tables.csv",
     params:
-        code=code_hash("gimbal_reduction.results.bench.integrator_tables"),
+        code=code_hash("integrator-tables"),
         cfg=body_files_hash,  # the input files are checked against the config
         physics=lambda wildcards: scenes_mod.load_scene(
             scene_path("thesis")
@@ -285,7 +285,7 @@ rule integrator_tables:
     benchmark:
         "results/benchmarks/rules/integrator_tables.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.results.bench.integrator_tables --scene config/scenes/thesis.yaml "
+        "OMP_NUM_THREADS=1 {GIMBAL} integrator-tables --scene config/scenes/thesis.yaml "
         "--truth-model {input.truth_model} --models {params.models} --tol {params.tol} "
         "--out-json {output.json} --out-csv {output.csv} --config {CONFIG} > {log} 2>&1"
 
@@ -321,7 +321,7 @@ rule tolerance:
         figure_pdf="results/figures/bench/tolerance.pdf",
     params:
         eps=" ".join(f"{e:g}" for e in TOLERANCE_EPS),
-        code=code_hash("gimbal_reduction.results.bench.tolerance"),
+        code=code_hash("tolerance"),
     resources:
         # no record (run outside Snakemake): the same command run directly in this session on a
         # loaded 2-core machine, /usr/bin/time -v: 1147 s wall, 1035.4 MB peak (long's and spin's
@@ -336,7 +336,7 @@ rule tolerance:
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {PY} -m gimbal_reduction.results.bench.tolerance "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} tolerance "
         "--scenes {input.scenes} --eps {params.eps} --modes-dir results/modes "
         "--reduction-dir results/reduction --tables-dir results/tables --repeats 5 "
         "--budget 60 --out-csv {output.csv} --out-json {output.json} --figure {output.figure} "

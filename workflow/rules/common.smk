@@ -22,12 +22,12 @@ os.environ.update(
 # Open MPI cannot start when Slurm's MPI default is "none": PMIx (Debian's Open MPI 4 and Slurm have
 # it) unless the user set another (a Slurm without PMIx: SLURM_MPI_TYPE=pmi2). srun alone reads it.
 os.environ.setdefault("SLURM_MPI_TYPE", "pmix")
-# First: is this the project's Snakemake and interpreter (the rules run {PY} = sys.executable)?
+# First: is this the project's Snakemake and interpreter (the rules run {GIMBAL} beside sys.executable)?
 # Debian's /usr/bin/snakemake or a python without Numba/Typst stops here in one line saying how to
 # run the workflow (gimbal_reduction/workflow/environment.py, standard library only), before anything is imported.
-_environment_problem = importlib.import_module("gimbal_reduction.workflow.environment").problem(
-    snakemake.__version__
-)
+_environment_problem = importlib.import_module(
+    "gimbal_reduction.workflow.environment"
+).problem(snakemake.__version__)
 if _environment_problem:
     sys.stderr.write(f"{_environment_problem}\n")
     sys.stderr.flush()
@@ -36,7 +36,7 @@ if _environment_problem:
 cfgmod = importlib.import_module("gimbal_reduction.workflow.config")
 
 # the file the stages read; pass another with --configfile (not --config key=value); used in the
-# rules' shell commands as {CONFIG} (a justified lint, see PY below)
+# rules' shell commands as {CONFIG} (a justified lint, see GIMBAL below)
 CONFIG = (workflow.overwrite_configfiles or ["config/config.yaml"])[-1]
 
 try:
@@ -52,8 +52,8 @@ except cfgmod.ConfigError as exc:
     os._exit(1)
 
 # Justified lints (`snakemake --lint`; tests/workflow/test_conventions.py allows exactly these):
-# * "Shell command directly uses variable PY / CONFIG / COARSE_SIZE from outside of the rule" (every
-#   rule that runs a stage). PY is the interpreter running Snakemake, the one with the project's
+# * "Shell command directly uses variable GIMBAL / CONFIG / COARSE_SIZE from outside of the rule" (every
+#   rule that runs a stage). GIMBAL is the `gimbal` command beside the interpreter running Snakemake, the one with the project's
 #   packages (checked above); CONFIG is the config file the stage reads (--configfile), whose values
 #   the stage reads are hashed in params.cfg, and COARSE_SIZE (reduction.smk) is hashed there too.
 #   Making them params or inputs would change every job's params or shell command, so Snakemake's
@@ -66,6 +66,9 @@ except cfgmod.ConfigError as exc:
 #   environment or a container per rule would be a second software stack that nothing here
 #   verifies (and no container image can be fetched on this project's machines).
 PY = sys.executable
+# the `gimbal` command (gimbal_reduction/commands.py, an entry point of pyproject.toml) of the
+# environment running Snakemake: every stage runs as `gimbal STAGE ...`, what a user types
+GIMBAL = str(Path(sys.executable).with_name("gimbal"))
 BODIES = [2, 3, 4, 5]
 
 
@@ -110,11 +113,17 @@ def body_files_hash(wildcards):
     )
 
 
-# The code of a rule's stage: the hash of its stage's module (python -m X), of the project modules it
+# The code of a rule's stage: the hash of its stage's module (`gimbal STAGE`, gimbal_reduction/commands.py), of the modules it
 # imports, transitively, and of the data files they read (gimbal_reduction/workflow/imports.py); comments and
 # docstrings left out. A rule carries it as params.code, so editing a module reruns exactly the
 # rules whose stages import it, and editing a comment reruns nothing.
-code_hash = importlib.import_module("gimbal_reduction.workflow.imports").code_hash
+_imports = importlib.import_module("gimbal_reduction.workflow.imports")
+_commands = importlib.import_module("gimbal_reduction.commands")
+
+
+def code_hash(*stages):
+    """The hash of the code the `gimbal` stages ``stages`` run (their modules and what they import)."""
+    return _imports.code_hash(*map(_commands.module_of, stages))
 
 
 # ---- The rule files' helpers, here so that no rule file mixes rules and functions (Snakemake's

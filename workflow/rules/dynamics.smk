@@ -1,5 +1,5 @@
 # Stage 4: the flexible multibody simulation of the gimbal chain, any scene and reduced model.
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 
 
@@ -11,7 +11,7 @@ rule kernels:
     output:
         KERNELS,
     params:
-        code=code_hash("gimbal_reduction.solver.dynamics.warmup"),
+        code=code_hash("warmup"),
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
     resources:
@@ -24,7 +24,7 @@ rule kernels:
     benchmark:
         "results/benchmarks/rules/kernels.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.dynamics.warmup --scenes {input.scenes} "
+        "OMP_NUM_THREADS=1 {GIMBAL} warmup --scenes {input.scenes} "
         "--integrator {params.integrator} {params.options} --out {output} > {log} 2>&1"
 
 
@@ -37,7 +37,7 @@ rule load_ranking:
     output:
         "results/reduction/load/{scene}.h5",
     params:
-        code=code_hash("gimbal_reduction.reduction.load_aware"),
+        code=code_hash("load-ranking"),
         scene=scene_file,
         cfg=body_files_hash,  # the body and reduction files are checked against the config
     resources:
@@ -49,7 +49,7 @@ rule load_ranking:
     benchmark:
         "results/benchmarks/rules/load_ranking_{scene}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.reduction.load_aware --scene {params.scene} --bodies {input.bodies} "
+        "OMP_NUM_THREADS=1 {GIMBAL} load-ranking --scene {params.scene} --bodies {input.bodies} "
         "--reductions {input.reductions} --config {CONFIG} --out {output} > {log} 2>&1"
 
 
@@ -73,14 +73,14 @@ rule simulate:
         # missing scene file is reported in one line when the DAG is built
         physics=scene_physics_hash,
         scene=scene_file,
-        code=code_hash("gimbal_reduction.solver.dynamics.simulate"),
+        code=code_hash("simulate"),
         # config simulation: the integrator (exponential or rk4, the thesis's) and its options
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
         # the model's body files are checked against the configuration (--config)
         cfg=body_files_hash,
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
+        "OMP_NUM_THREADS=1 {GIMBAL} simulate --scene {params.scene} --model-file {input.model} "
         "--integrator {params.integrator} {params.options} --config {CONFIG} --out {output} > {log} 2>&1"
 
 
@@ -92,7 +92,7 @@ rule dynamics_verification:
         verification="results/verification/dynamics.json",
         benchmark="results/benchmarks/dynamics.json",
     params:
-        code=code_hash("gimbal_reduction.results.bench.verify_dynamics"),
+        code=code_hash("verify-dynamics"),
         cfg=body_files_hash,  # the input files are checked against the config
     resources:
         # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
@@ -106,7 +106,7 @@ rule dynamics_verification:
     # (BLAS still pinned to one thread, as everywhere)
     threads: 2
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {PY} -m gimbal_reduction.results.bench.verify_dynamics --bodies {input.bodies} "
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} verify-dynamics --bodies {input.bodies} "
         "--reductions {input.reductions} --verification {output.verification} "
         "--benchmark {output.benchmark} --config {CONFIG} > {log} 2>&1"
 

@@ -1,5 +1,5 @@
 # Stage 1: gmsh meshes of the three rings (shell mid-surfaces) and the platform (solid).
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 
 
@@ -8,7 +8,7 @@ rule mesh_body:
         mesh="results/mesh/body{n}.msh",
         meta="results/mesh/body{n}.json",
     params:
-        code=code_hash("gimbal_reduction.geometry.mesh"),
+        code=code_hash("mesh"),
         # what the mesh reads: the body's shape, its and (a ring) the next body's motor side, size, angles
         cfg=body_hash("mesh"),
     resources:
@@ -20,7 +20,7 @@ rule mesh_body:
     benchmark:
         "results/benchmarks/rules/mesh_body{n}.tsv"
     shell:
-        "{PY} -m gimbal_reduction.geometry.mesh --body {wildcards.n} --out {output.mesh} --meta {output.meta} --config {CONFIG} "
+        "{GIMBAL} mesh --body {wildcards.n} --out {output.mesh} --meta {output.meta} --config {CONFIG} "
         "> {log} 2>&1"
 
 

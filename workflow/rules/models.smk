@@ -1,7 +1,7 @@
 # Stage 3b: one reduced model of the chain for one scene -- the file a simulation reads
 # (gimbal_reduction/solver/dynamics/chainfile.py, docs/models.md).  A simulation job never loads the four
 # full body files; this rule reduces them once per (scene, model).
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 
 
@@ -15,7 +15,7 @@ rule reduced_model:
     output:
         "results/models/{scene}/{model}.h5",
     params:
-        code=code_hash("gimbal_reduction.reduction.models"),
+        code=code_hash("model"),
         scene=scene_file,
         elastic_bodies=scene_elastic_bodies,
         rankings=ranking_options,
@@ -34,5 +34,5 @@ rule reduced_model:
     benchmark:
         "results/benchmarks/rules/models/{scene}/{model}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.reduction.models --model '{wildcards.model}' --scene {params.scene} "
+        "OMP_NUM_THREADS=1 {GIMBAL} model --model '{wildcards.model}' --scene {params.scene} "
         "--bodies {input.bodies} {params.rankings} --config {CONFIG} --out {output} > {log} 2>&1"

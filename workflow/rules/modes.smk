@@ -1,5 +1,5 @@
 # Stage 2: shell/solid models and the 100 lowest supported modes of every body.
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 
 
@@ -10,7 +10,7 @@ rule modes_body:
     output:
         "results/modes/body{n}.h5",
     params:
-        code=code_hash("gimbal_reduction.solver.fe.modes"),
+        code=code_hash("modes"),
         # gimbal_reduction.workflow.config.body_inputs: what the stage reads (and the body file's config_hash)
         cfg=body_hash(),
     resources:
@@ -26,7 +26,7 @@ rule modes_body:
     benchmark:
         "results/benchmarks/rules/modes_body{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {resources.mpi} {PY} -m gimbal_reduction.solver.fe.modes --body {wildcards.n} --mesh {input.mesh} "
+        "OMP_NUM_THREADS=1 {resources.mpi} {GIMBAL} modes --body {wildcards.n} --mesh {input.mesh} "
         "--mesh-meta {input.meta} --out {output} --config {CONFIG} > {log} 2>&1"
 
 
@@ -41,7 +41,7 @@ rule modes_benchmark:
     output:
         "results/benchmarks/modes.json",
     params:
-        code=code_hash("gimbal_reduction.results.bench.summary"),
+        code=code_hash("bench-summary"),
     resources:
         # no record: reads four body files' attributes (seconds, as verify_fe_fast)
         mem_mb=mem_mb(193.8),
@@ -49,7 +49,7 @@ rule modes_benchmark:
     log:
         "logs/modes/benchmark.log",
     shell:
-        "{PY} -m gimbal_reduction.results.bench.summary modes {input} --out {output} > {log} 2>&1"
+        "{GIMBAL} bench-summary modes {input} --out {output} > {log} 2>&1"
 
 
 rule mode_shapes_body:
@@ -75,7 +75,7 @@ rule mode_shapes_body:
         manifest="results/figures/mode_shapes_body{n}.json",
         vtu="results/modes/shapes/body{n}.vtu",
     params:
-        code=code_hash("gimbal_reduction.results.study.mode_shapes"),
+        code=code_hash("mode-shapes"),
         cfg=body_hash(),  # the body and reduction files are checked against the config
     resources:
         # records: mode_shapes_body3.tsv 6.6 s, mode_shapes_body2.tsv 171.2 MB (max of 8)
@@ -86,7 +86,7 @@ rule mode_shapes_body:
     benchmark:
         "results/benchmarks/rules/mode_shapes_body{n}.tsv"
     shell:
-        "MPLBACKEND=Agg {PY} -m gimbal_reduction.results.study.mode_shapes --body-file {input.body} --mesh {input.mesh} "
+        "MPLBACKEND=Agg {GIMBAL} mode-shapes --body-file {input.body} --mesh {input.mesh} "
         "--reduction {input.reduction} --png {output.png} --static-png {output.static_png} "
         "--manifest {output.manifest} --vtu {output.vtu} --config {CONFIG} > {log} 2>&1"
 

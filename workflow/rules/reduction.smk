@@ -1,6 +1,6 @@
 # Stage 3: momentum coefficients, Hughes-identity rankings and static correction modes.
 # (gimbal_reduction/reduction/load_aware.py is the scene-dependent ranking, dynamics.smk)
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG, COARSE_SIZE from outside
+# Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG, COARSE_SIZE from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 # the coarse mesh of the discrete Hughes identities (every supported mode, dense solve), in: they hold
 # on any mesh, so the coarsest gmsh makes of body 4 (gimbal_reduction.geometry.mesh --coarse: 192 cells from 0.65 in up,
@@ -14,7 +14,7 @@ rule reduction_body:
     output:
         "results/reduction/body{n}.h5",
     params:
-        code=code_hash("gimbal_reduction.reduction.stage"),
+        code=code_hash("reduce"),
         cfg=body_hash(),  # the body file's config_hash is checked against the config
     resources:
         # records: reduction_body5.tsv 5.0 s, 376.5 MB (max of 4)
@@ -25,7 +25,7 @@ rule reduction_body:
     benchmark:
         "results/benchmarks/rules/reduction_body{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.reduction.stage --body-file {input.body} --config {CONFIG} "
+        "OMP_NUM_THREADS=1 {GIMBAL} reduce --body-file {input.body} --config {CONFIG} "
         "--out {output} > {log} 2>&1"
 
 
@@ -42,7 +42,7 @@ rule coarse_body_all_modes:
     output:
         "results/verification/coarse/body4.h5",
     params:
-        code=code_hash("gimbal_reduction.solver.fe.modes"),
+        code=code_hash("modes"),
         cfg=body_hash(body=4, mesh_size=COARSE_SIZE),
     resources:
         # no record at 0.75 in: 6.9 s, 655.8 MB measured (max of 3, /usr/bin/time)
@@ -53,7 +53,7 @@ rule coarse_body_all_modes:
     benchmark:
         "results/benchmarks/rules/coarse_body_all_modes.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.fe.modes --body 4 --mesh {input.mesh} --mesh-meta {input.meta} "
+        "OMP_NUM_THREADS=1 {GIMBAL} modes --body 4 --mesh {input.mesh} --mesh-meta {input.meta} "
         "--out {output} --all-modes --config {CONFIG} > {log} 2>&1"
 
 
@@ -62,7 +62,7 @@ rule coarse_mesh:
         mesh="results/verification/coarse/body4.msh",
         meta="results/verification/coarse/body4.json",
     params:
-        code=code_hash("gimbal_reduction.geometry.mesh"),
+        code=code_hash("mesh"),
         cfg=body_hash("mesh", body=4, mesh_size=COARSE_SIZE),
     resources:
         # records: coarse_mesh.tsv 1.6 s, 106.3 MB
@@ -73,7 +73,7 @@ rule coarse_mesh:
     benchmark:
         "results/benchmarks/rules/coarse_mesh.tsv"
     shell:
-        "{PY} -m gimbal_reduction.geometry.mesh --body 4 --size {COARSE_SIZE} --coarse --out {output.mesh} --meta {output.meta} "
+        "{GIMBAL} mesh --body 4 --size {COARSE_SIZE} --coarse --out {output.mesh} --meta {output.meta} "
         "--config {CONFIG} > {log} 2>&1"
 
 
@@ -87,7 +87,7 @@ rule reduction_report:
         verification="results/verification/reduction.json",
         benchmark="results/benchmarks/reduction.json",
     params:
-        code=code_hash("gimbal_reduction.reduction.report"),
+        code=code_hash("reduction-report"),
         cfg=body_files_hash,  # the body and reduction files are checked against the config
     resources:
         # records: reduction_report.tsv 31.0 s, 601.1 MB (max of 2)
@@ -99,7 +99,7 @@ rule reduction_report:
         "results/benchmarks/rules/reduction_report.tsv"
     # one timed run per body: the timing repeats are the bench's (rule reduction_benchmark)
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.reduction.report --bodies {input.bodies} --reductions {input.reductions} "
+        "OMP_NUM_THREADS=1 {GIMBAL} reduction-report --bodies {input.bodies} --reductions {input.reductions} "
         "--coarse-body {input.coarse} --table {output.table} --verification {output.verification} "
         "--benchmark {output.benchmark} --runs 1 --config {CONFIG} > {log} 2>&1"
 
@@ -116,7 +116,7 @@ rule reduction_benchmark:
         verification="results/benchmarks/reduction_stage/verification.json",
         benchmark="results/benchmarks/reduction_stage.json",
     params:
-        code=code_hash("gimbal_reduction.reduction.report"),
+        code=code_hash("reduction-report"),
         cfg=body_files_hash,  # the body and reduction files are checked against the config
     resources:
         # no record: reduction_report.tsv 31.0 s, 601.1 MB (max of 2) with 3 runs; 5 runs ~50 s
@@ -127,6 +127,6 @@ rule reduction_benchmark:
     benchmark:
         "results/benchmarks/rules/reduction_benchmark.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.reduction.report --bodies {input.bodies} --reductions {input.reductions} "
+        "OMP_NUM_THREADS=1 {GIMBAL} reduction-report --bodies {input.bodies} --reductions {input.reductions} "
         "--coarse-body {input.coarse} --table {output.table} --verification {output.verification} "
         "--benchmark {output.benchmark} --runs 5 --config {CONFIG} > {log} 2>&1"

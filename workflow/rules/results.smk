@@ -4,7 +4,7 @@
 #   snakemake --cores 2 report    the study PDF and one PDF per scene
 # The study's heavy checks and timing repeats are not inputs of the reports: the reports read their
 # last results (bench, verify) if present and print their date, or say how to make them.
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 _cases = importlib.import_module("gimbal_reduction.results.study.cases")
 STUDY_SCENES = list(_cases.STUDY_SCENES)
@@ -28,7 +28,7 @@ rule study_scene:
         scene="|".join(STUDY_SCENES),
     params:
         physics=scene_physics_hash,
-        code=code_hash("gimbal_reduction.results.study.run_scene"),
+        code=code_hash("run-scene"),
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
         models=" ".join(f"'{m}'" for m in SCENE_MODELS),
@@ -44,7 +44,7 @@ rule study_scene:
     benchmark:
         "results/benchmarks/rules/study/{scene}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.results.study.run_scene --scene {input.scene} --models {params.models} "
+        "OMP_NUM_THREADS=1 {GIMBAL} run-scene --scene {input.scene} --models {params.models} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
         "--out-dir {params.out_dir} --coupled-modes {output.coupled} --integrator {params.integrator} "
         "{params.options} --config {CONFIG} > {log} 2>&1"
@@ -75,7 +75,7 @@ rule error_tables:
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
-        code=code_hash("gimbal_reduction.results.study.tables"),
+        code=code_hash("tables"),
     resources:
         # records: error_tables_long.tsv 2.7 s, 159.3 MB (max of 4)
         mem_mb=mem_mb(159.3),
@@ -85,7 +85,7 @@ rule error_tables:
     benchmark:
         "results/benchmarks/rules/error_tables_{scene}.tsv"
     shell:
-        "{PY} -m gimbal_reduction.results.study.tables --truth {input.truth} --cases {input.cases} "
+        "{GIMBAL} tables --truth {input.truth} --cases {input.cases} "
         "--ranking-table {output.ranking} --static-table {output.static} > {log} 2>&1"
 
 
@@ -105,7 +105,7 @@ rule findings:
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
-        code=code_hash("gimbal_reduction.results.study.findings"),
+        code=code_hash("findings"),
     resources:
         # records: findings_damped.tsv 1.3 s, findings_long.tsv 71.7 MB (max of 4)
         mem_mb=mem_mb(71.7),
@@ -115,7 +115,7 @@ rule findings:
     benchmark:
         "results/benchmarks/rules/findings_{scene}.tsv"
     shell:
-        "{PY} -m gimbal_reduction.results.study.findings --ranking-table {input.ranking} --static-table {input.static} "
+        "{GIMBAL} findings --ranking-table {input.ranking} --static-table {input.static} "
         "--reduction {input.reduction} --scene {wildcards.scene} --csv {output.csv} --json {output.json} "
         "> {log} 2>&1"
 
@@ -160,7 +160,7 @@ rule study_figures:
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
-        code=code_hash("gimbal_reduction.results.study.figures"),
+        code=code_hash("figures"),
         out_dir="results/figures/study/{scene}",
     resources:
         # records: study_figures_thesis.tsv 180.3 s, 215.1 MB (max of 4)
@@ -171,7 +171,7 @@ rule study_figures:
     benchmark:
         "results/benchmarks/rules/study_figures_{scene}.tsv"
     shell:
-        "MPLBACKEND=Agg {PY} -m gimbal_reduction.results.study.figures --truth {input.truth} --cases {input.cases} "
+        "MPLBACKEND=Agg {GIMBAL} figures --truth {input.truth} --cases {input.cases} "
         "--ranking-table {input.ranking} --static-table {input.static} --out-dir {params.out_dir} "
         "> {log} 2>&1"
 
@@ -221,7 +221,7 @@ rule report_scene:
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     params:
-        code=code_hash("gimbal_reduction.results.study.report"),
+        code=code_hash("scene-report"),
         cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
         optional=optional_report_inputs,
         bench_figures=" ".join(REPORT_BENCH_FIGURES),
@@ -234,7 +234,7 @@ rule report_scene:
     benchmark:
         "results/benchmarks/rules/report_{scene}.tsv"
     shell:
-        "{PY} -m gimbal_reduction.results.study.report --ranking-table {input.ranking} --static-table {input.static} "
+        "{GIMBAL} scene-report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures {input.figures} --fe {input.fe} "
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
         "--config {CONFIG} --scene {input.scene} --mode-shapes {input.mode_shapes} "
@@ -268,7 +268,7 @@ rule study_report:
             caption="../report/study_report.rst",
         ),
     params:
-        code=code_hash("gimbal_reduction.results.study.study_report"),
+        code=code_hash("study-report"),
         optional=lambda wildcards: f"{optional_report_inputs(wildcards)} --tolerance {rules.tolerance.output.json}",
     resources:
         # records: study_report.tsv 1.5 s, 142.7 MB
@@ -279,7 +279,7 @@ rule study_report:
     benchmark:
         "results/benchmarks/rules/study_report.tsv"
     shell:
-        "{PY} -m gimbal_reduction.results.study.study_report --scenes {input.scenes} --ranking-tables {input.rankings} "
+        "{GIMBAL} study-report --scenes {input.scenes} --ranking-tables {input.rankings} "
         "--static-tables {input.statics} --findings {input.findings} --figures {input.figures} "
         "--fe {input.fe} --reduction {input.reduction} --mode-ranking {input.mode_ranking} --truth-basis {input.truth_basis} {params.optional} "
         "--out {output} > {log} 2>&1"

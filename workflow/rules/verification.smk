@@ -2,9 +2,9 @@
 # (results/verification/parts/*.json), combined into results/verification/fe.json.
 # Each rule reruns when the code of gimbal_reduction.solver.fe.verify changes or a config value its check reads
 # (gimbal_reduction.workflow.config.check_inputs).
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
-VERIFY_CODE = code_hash("gimbal_reduction.solver.fe.verify")
+VERIFY_CODE = code_hash("fe-verify")
 GLOBAL_CHECKS = ["ring", "plate", "solid-ring", "platform", "hughes", "connection"]
 # the coarse body with every supported mode (reduction.smk, coarse_body_all_modes): the Hughes
 # check reads it instead of solving it again
@@ -43,7 +43,7 @@ rule verify_check:
     benchmark:
         "results/benchmarks/rules/verify_{check}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.fe.verify {wildcards.check} {params.body} --config {CONFIG} --out {output} "
+        "OMP_NUM_THREADS=1 {GIMBAL} fe-verify {wildcards.check} {params.body} --config {CONFIG} --out {output} "
         "> {log} 2>&1"
 
 
@@ -64,7 +64,7 @@ rule verify_convergence:
     benchmark:
         "results/benchmarks/rules/verify_convergence_body{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.fe.verify convergence --body {wildcards.n} --config {CONFIG} "
+        "OMP_NUM_THREADS=1 {GIMBAL} fe-verify convergence --body {wildcards.n} --config {CONFIG} "
         "--out {output} > {log} 2>&1"
 
 
@@ -86,7 +86,7 @@ rule verify_body:
     benchmark:
         "results/benchmarks/rules/verify_body{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.fe.verify body --body-file {input.body} --config {CONFIG} "
+        "OMP_NUM_THREADS=1 {GIMBAL} fe-verify body --body-file {input.body} --config {CONFIG} "
         "--out {output.modes} --spectra-out {output.spectra} > {log} 2>&1"
 
 
@@ -98,7 +98,7 @@ rule verify_mpi:
         "results/verification/parts/mpi.json",
     params:
         # it runs the modal stage (python -m gimbal_reduction.solver.fe.modes) under mpirun
-        code=code_hash("gimbal_reduction.solver.fe.verify", "gimbal_reduction.solver.fe.modes"),
+        code=code_hash("fe-verify", "modes"),
         cfg=check_hash("mpi"),
     resources:
         # no record: the modal stage of body 2 under mpirun -n 2, as modes_body on two ranks
@@ -110,7 +110,7 @@ rule verify_mpi:
     benchmark:
         "results/benchmarks/rules/verify_mpi.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.fe.verify mpi --body-file {input.body} --mesh {input.mesh} "
+        "OMP_NUM_THREADS=1 {GIMBAL} fe-verify mpi --body-file {input.body} --mesh {input.mesh} "
         "--config {CONFIG} --out {output} > {log} 2>&1"
 
 
@@ -136,7 +136,7 @@ rule verify_fe:
     benchmark:
         "results/benchmarks/rules/verify_fe.tsv"
     shell:
-        "{PY} -m gimbal_reduction.solver.fe.verify combine {input} --config {CONFIG} --out {output.json} "
+        "{GIMBAL} fe-verify combine {input} --config {CONFIG} --out {output.json} "
         "--summary {output.summary} > {log} 2>&1"
 
 
@@ -167,7 +167,7 @@ rule verify_fe_fast:
     benchmark:
         "results/benchmarks/rules/verify_fe_fast.tsv"
     shell:
-        "{PY} -m gimbal_reduction.solver.fe.verify combine {input} --config {CONFIG} --out {output.json} "
+        "{GIMBAL} fe-verify combine {input} --config {CONFIG} --out {output.json} "
         "--summary {output.summary} > {log} 2>&1"
 
 
@@ -189,7 +189,7 @@ rule modes_body_large:
     output:
         "results/verification/truth_basis/body{n}.h5",
     params:
-        code=code_hash("gimbal_reduction.solver.fe.modes"),
+        code=code_hash("modes"),
         cfg=body_hash(),
         modes=LARGE_BASIS_MODES,
     resources:
@@ -202,7 +202,7 @@ rule modes_body_large:
     benchmark:
         "results/benchmarks/rules/modes_body_large{n}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.fe.modes --body {wildcards.n} --mesh {input.mesh} "
+        "OMP_NUM_THREADS=1 {GIMBAL} modes --body {wildcards.n} --mesh {input.mesh} "
         "--mesh-meta {input.meta} --count {params.modes} --known-modes {input.known} --out {output} "
         "--config {CONFIG} > {log} 2>&1"
 
@@ -215,7 +215,7 @@ rule truth_basis:
     output:
         "results/verification/truth_basis.json",
     params:
-        code=code_hash("gimbal_reduction.results.bench.truth_basis"),
+        code=code_hash("truth-basis"),
         cfg=body_files_hash,  # the body files are checked against the config
         physics=lambda wildcards: [
             scenes_mod.load_scene(f"config/scenes/{s}.yaml").config_hash()
@@ -230,5 +230,5 @@ rule truth_basis:
     benchmark:
         "results/benchmarks/rules/truth_basis.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.results.bench.truth_basis --bodies {input.bodies} --scenes {input.scenes} "
+        "OMP_NUM_THREADS=1 {GIMBAL} truth-basis --bodies {input.bodies} --scenes {input.scenes} "
         "--config {CONFIG} --out {output} > {log} 2>&1"

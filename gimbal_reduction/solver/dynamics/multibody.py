@@ -34,7 +34,7 @@ is available three ways, all O(sum D) or O(sum D^2) per evaluation:
 ``mass_matrix`` assembles M(y) column by column (tests and small models only).
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -92,10 +92,24 @@ class Body:
         return int(self.omega2.size)
 
 
+def modal_damping(omega2, damping_ratio):
+    """Modal damping coefficients 2 zeta Omega (D,) [1/s] of modal stiffnesses omega2 (D,)
+    [rad^2/s^2] at ratio(s) zeta (scalar or (D,), dimensionless)."""
+    omega2 = np.asarray(omega2, float)
+    zeta = np.broadcast_to(np.asarray(damping_ratio, float), omega2.shape)
+    return 2.0 * zeta * np.sqrt(np.maximum(omega2, 0.0))
+
+
+def with_damping(chain, damping_ratio):
+    """The chain with every body's modal damping at ratio ``damping_ratio`` (what a model file
+    read with the scene's damping gives, ``chainfile.read_chain``)."""
+    return replace(chain, bodies=tuple(replace(b, damping=modal_damping(b.omega2, damping_ratio))
+                                       for b in chain.bodies))
+
+
 def make_body(number, integrals, omega2, damping_ratio=0.0, labels=()):
     """Body from a ``modal_integrals`` dict, modal stiffness omega2 (D,) and a damping ratio."""
     omega2 = np.asarray(omega2, float)
-    zeta = np.broadcast_to(np.asarray(damping_ratio, float), omega2.shape)
     D = omega2.size
     psi = integrals.get("inside_translation")
     theta = integrals.get("inside_rotation")
@@ -106,7 +120,7 @@ def make_body(number, integrals, omega2, damping_ratio=0.0, labels=()):
         inertia_gradient=np.array(integrals["inertia_gradient"], float).reshape(D, 6, 6),
         coriolis=np.array(integrals["coriolis"], float).reshape(D, 3, D),
         omega2=omega2.copy(),
-        damping=2.0 * zeta * np.sqrt(np.maximum(omega2, 0.0)),
+        damping=modal_damping(omega2, damping_ratio),
         inside_translation=None if psi is None else np.array(psi, float).reshape(3, D),
         inside_rotation=None if theta is None else np.array(theta, float).reshape(3, D),
         labels=tuple(labels))
