@@ -23,6 +23,7 @@ import ast
 import functools
 import hashlib
 import json
+import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -125,10 +126,9 @@ def parse_tree(path: Path) -> ast.Module:
 _BLOCKS = (ast.stmt, ast.excepthandler, ast.match_case)
 
 
-def parse_imports(module: str, path: Path, modules) -> list[Import]:
-    """The project imports of one file, each marked local when it sits inside a function."""
-    tree = parse_tree(path)
-    is_package = path.name == "__init__.py"
+def _raw_imports(tree: ast.Module) -> list[tuple]:
+    """The import statements of a syntax tree as plain data: (level, module, names, line, local),
+    level and module as in ``ast.ImportFrom`` (level None for ``import a.b``)."""
     found = []
 
     def visit(node, local):
@@ -136,21 +136,32 @@ def parse_imports(module: str, path: Path, modules) -> list[Import]:
             if not isinstance(child, _BLOCKS):
                 continue
             if isinstance(child, ast.Import):
-                names = [alias.name for alias in child.names]
+                found.append((None, None, [alias.name for alias in child.names], child.lineno, local))
             elif isinstance(child, ast.ImportFrom):
-                base = _resolve(module, is_package, child)
-                # "from a.b import c": the submodule a.b.c if it is one, else the module a.b
-                names = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base
-                         for alias in child.names]
+                found.append((child.level, child.module, [alias.name for alias in child.names],
+                              child.lineno, local))
             else:
                 visit(child, local or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)))
-                continue
-            for name in dict.fromkeys(names):
-                target = _project_target(name, modules)
-                if target is not None:
-                    found.append(Import(module, target, child.lineno, local))
 
     visit(tree, False)
+    return found
+
+
+def parse_imports(module: str, path: Path, modules, root: Path | None = None) -> list[Import]:
+    """The project imports of one file, each marked local when it sits inside a function."""
+    is_package = path.name == "__init__.py"
+    found = []
+    for level, base_module, aliases, line, local in _facts(path, root)["imports"]:
+        if level is None:
+            names = aliases
+        else:
+            base = _resolve(module, is_package, ast.ImportFrom(module=base_module, names=[], level=level))
+            # "from a.b import c": the submodule a.b.c if it is one, else the module a.b
+            names = [f"{base}.{alias}" if f"{base}.{alias}" in modules else base for alias in aliases]
+        for name in dict.fromkeys(names):
+            target = _project_target(name, modules)
+            if target is not None:
+                found.append(Import(module, target, line, local))
     return found
 
 
@@ -158,7 +169,10 @@ def parse_imports(module: str, path: Path, modules) -> list[Import]:
 def all_imports(root: Path = ROOT) -> tuple[Import, ...]:
     """Every project import of every project module."""
     modules = module_files(root)
-    return tuple(imp for name, path in modules.items() for imp in parse_imports(name, path, modules))
+    found = tuple(imp for name, path in modules.items()
+                  for imp in parse_imports(name, path, modules, root.resolve()))
+    _CACHE.save(root.resolve())
+    return found
 
 
 def graph(root: Path = ROOT) -> dict[str, set[str]]:
@@ -220,19 +234,92 @@ def normalised_source(path: Path) -> str:
             node.body = body
 
 
-@functools.lru_cache(maxsize=None)
-def _file_digest(path: str, mtime_ns: int, size: int) -> str:
-    """sha256 of a code file's normalised source (of a data file's text); cached per file version."""
-    text = normalised_source(Path(path)) if path.endswith(".py") else Path(path).read_text()
-    return hashlib.sha256(text.encode()).hexdigest()
+# What each file version gives (its imports, the digest of its normalised source) is kept
+# between invocations in a cache file beside Snakemake's own metadata, keyed by the file's path,
+# size and modification time: a rerun that changed nothing parses nothing.  The key also holds
+# the Python version (the ast dump is the interpreter's) and FACTS_VERSION (this module's format).
+FACTS_VERSION = 1
+CACHE_FILE = Path(".snakemake") / "gimbal_reduction-code-facts.json"
+
+
+def _file_facts(path: Path) -> dict:
+    """{"imports": _raw_imports, "digest": sha256 of the normalised source} of a code file, or
+    {"imports": [], "digest": sha256 of the text} of a data file."""
+    if path.suffix == ".py":
+        return {"imports": _raw_imports(parse_tree(path)),
+                "digest": hashlib.sha256(normalised_source(path).encode()).hexdigest()}
+    return {"imports": [], "digest": hashlib.sha256(path.read_text().encode()).hexdigest()}
+
+
+class _FactsCache:
+    """The facts of every file read in this process, loaded from and saved to ``CACHE_FILE``."""
+
+    def __init__(self):
+        self.entries: dict[str, dict] = {}
+        self.loaded: set[Path] = set()
+        self.dirty: set[Path] = set()
+        self.key = f"{FACTS_VERSION} {sys.version_info[:3]}"
+
+    def _load(self, root: Path):
+        self.loaded.add(root)
+        try:
+            data = json.loads((root / CACHE_FILE).read_text())
+        except (OSError, ValueError):
+            return
+        if isinstance(data, dict) and data.get("key") == self.key and isinstance(data.get("files"), dict):
+            for path, entry in data["files"].items():
+                self.entries.setdefault(path, entry)
+
+    def get(self, path: Path, root: Path) -> dict:
+        if root not in self.loaded:
+            self._load(root)
+        stat = path.stat()
+        entry = self.entries.get(str(path))
+        if entry is None or entry.get("stamp") != [stat.st_mtime_ns, stat.st_size]:
+            entry = {"stamp": [stat.st_mtime_ns, stat.st_size], **_file_facts(path)}
+            entry["imports"] = [list(i) for i in entry["imports"]]
+            self.entries[str(path)] = entry
+            self.dirty.add(root)
+        return entry
+
+    def save(self, root: Path):
+        """Write the cache of ``root`` (atomically; a read-only tree is simply not cached)."""
+        if root not in self.dirty:
+            return
+        prefix = str(root) + "/"
+        files = {p: e for p, e in self.entries.items() if p.startswith(prefix)}
+        target = root / CACHE_FILE
+        try:
+            target.parent.mkdir(exist_ok=True)
+            tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+            tmp.write_text(json.dumps({"key": self.key, "files": files}))
+            os.replace(tmp, target)
+        except OSError:
+            return
+        self.dirty.discard(root)
+
+
+_CACHE = _FactsCache()
+
+
+def _facts(path: Path, root: Path | None = None) -> dict:
+    path = Path(path).resolve()
+    if root is None:
+        root = next((p for p in path.parents if (p / PACKAGE).is_dir()), path.parent)
+    return _CACHE.get(path, root)
+
+
+def _file_digest(path: Path, root: Path) -> str:
+    """sha256 of a code file's normalised source (of a data file's text), per file version."""
+    return _facts(path, root)["digest"]
 
 
 def code_hash(*entries: str, root: Path = ROOT) -> str:
     """Stable 12-hex-digit hash of the code that running ``entries`` executes (:func:`files`)."""
     digest = hashlib.sha256()
     for rel in files(*entries, root=root):
-        stat = (root / rel).stat()
-        digest.update(json.dumps([rel, _file_digest(str(root / rel), stat.st_mtime_ns, stat.st_size)]).encode())
+        digest.update(json.dumps([rel, _file_digest(root / rel, root.resolve())]).encode())
+    _CACHE.save(root.resolve())
     return digest.hexdigest()[:12]
 
 

@@ -106,3 +106,28 @@ def test_violations_are_found(tmp_path):
     assert imports.closure("gimbal_reduction.solver.dynamics.d", root=tmp_path) == [
         "gimbal_reduction", "gimbal_reduction.solver", "gimbal_reduction.solver.bodydata",
         "gimbal_reduction.solver.dynamics", "gimbal_reduction.solver.dynamics.d"]
+
+
+def test_the_facts_cache_spares_a_rerun_every_parse_and_notices_an_edit(tree, monkeypatch):
+    """A fresh process (a new cache object) with the cache file of an earlier one parses nothing
+    and gives the same hash; an edited file is parsed again; a corrupt cache file is ignored."""
+    entry = "gimbal_reduction.geometry.mesh"
+    first = imports.code_hash(entry, root=tree)
+    assert (tree / imports.CACHE_FILE).is_file()
+
+    def no_parse(path):
+        raise AssertionError(f"parsed {path}")
+    monkeypatch.setattr(imports, "_CACHE", imports._FactsCache())
+    monkeypatch.setattr(imports, "parse_tree", no_parse)
+    imports.module_files.cache_clear()
+    imports.all_imports.cache_clear()
+    assert imports.code_hash(entry, root=tree) == first
+    monkeypatch.undo()
+    path = tree / "gimbal_reduction" / "geometry" / "mesh.py"
+    path.write_text(path.read_text() + "\nEDITED = 1\n")
+    imports.all_imports.cache_clear()
+    assert imports.code_hash(entry, root=tree) != first
+    (tree / imports.CACHE_FILE).write_text("{not json")
+    monkeypatch.setattr(imports, "_CACHE", imports._FactsCache())
+    imports.all_imports.cache_clear()
+    assert imports.code_hash(entry, root=tree) != first
