@@ -4,8 +4,8 @@
 #      plugin asks `sacct` for the jobs' states, which needs Slurm's accounting database);
 #   2. writes a single-node slurm.conf in a temporary folder (no file under /etc/slurm is touched;
 #      every daemon and client reads it through SLURM_CONF), listening on 127.0.0.1 only, with
-#      MpiDefault=pmix (Debian's Open MPI 4 starts under srun with PMIx; Debian's Slurm 22.05 has
-#      mpi_pmix, mpi_pmi2, mpi_none: `srun --mpi=list`);
+#      MpiDefault=pmi2 (the MPICH of PyPI's DOLFINx wheel starts under srun with PMI-2 and refuses
+#      PMIx; Debian's Slurm 22.05 has mpi_pmix, mpi_pmi2, mpi_none: `srun --mpi=list`);
 #   3. starts munged, a private MariaDB (its data in the temporary folder, on 127.0.0.1), slurmdbd,
 #      slurmctld and slurmd;
 #   4. runs the mesh and the modes of every body (modes_body under srun with 2 MPI ranks) and a few
@@ -43,8 +43,7 @@ node="$(hostname -s)"
 cpus="$(nproc)"
 # the node's memory for jobs: all but 1 GB, in MB
 mem_mb="$(awk '/MemTotal/ {printf "%d", $2 / 1024 - 1024}' /proc/meminfo)"
-mpi_default=pmix
-ls /usr/lib/x86_64-linux-gnu/slurm-wlm/mpi_pmix.so >/dev/null 2>&1 || mpi_default=pmi2
+mpi_default=pmi2
 cat > "$conf" <<EOF
 # single-node Slurm on localhost (workflow/cluster/slurm_localhost.sh), ports off the defaults
 ClusterName=gimbal-local

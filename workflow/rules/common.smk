@@ -19,9 +19,9 @@ os.environ.update(
     )
 )
 # On Slurm (workflow/profiles/slurm) every job runs under srun, and the stages import DOLFINx, whose
-# Open MPI cannot start when Slurm's MPI default is "none": PMIx (Debian's Open MPI 4 and Slurm have
-# it) unless the user set another (a Slurm without PMIx: SLURM_MPI_TYPE=pmi2). srun alone reads it.
-os.environ.setdefault("SLURM_MPI_TYPE", "pmix")
+# MPI (MPICH from PyPI) starts under srun through PMI-2 (it refuses PMIx): Slurm's pmi2 plugin,
+# unless the user set another. srun alone reads it.
+os.environ.setdefault("SLURM_MPI_TYPE", "pmi2")
 # First: is this the project's Snakemake and interpreter (the rules run {GIMBAL} beside sys.executable)?
 # Debian's /usr/bin/snakemake or a python without Numba/Typst stops here in one line saying how to
 # run the workflow (gimbal_reduction/workflow/environment.py, standard library only), before anything is imported.
