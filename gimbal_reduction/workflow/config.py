@@ -2,7 +2,7 @@
 
 Every number in ``config/config.yaml`` is a ``{value, unit, source}`` triple.
 :func:`load_config` validates the file against
-``workflow/schemas/config.schema.yaml`` and against the cross-field rules of
+``gimbal_reduction/workflow/config.schema.yaml`` and against the cross-field rules of
 the gimbal model (bearings outside the ring wall, nested bodies that fit), and
 raises :class:`ConfigError` with a one-line message naming the culprit key.
 
@@ -25,6 +25,7 @@ import copy
 import fnmatch
 import hashlib
 import json
+import os
 from pathlib import Path
 
 import jsonschema
@@ -32,9 +33,25 @@ import yaml
 
 from gimbal_reduction.workflow import units, yamlfile
 
-ROOT = Path(__file__).resolve().parents[2]
+
+
+def project_dir() -> Path:
+    """The project folder (config/, results/, the Snakefile): $GIMBAL_PROJECT if set; else the
+    source checkout that holds this package (an editable install, or the tests); else the
+    working directory (a package installed from a wheel, run in a project)."""
+    given = os.environ.get("GIMBAL_PROJECT")
+    if given:
+        return Path(given).resolve()
+    checkout = Path(__file__).resolve().parents[2]
+    if (checkout / "Snakefile").is_file() and (checkout / "config").is_dir():
+        return checkout
+    return Path.cwd()
+
+
+ROOT = project_dir()
 DEFAULT_CONFIG = ROOT / "config" / "config.yaml"
-SCHEMA = ROOT / "workflow" / "schemas" / "config.schema.yaml"
+# the schema ships with the package: the one file contract of the configuration
+SCHEMA = Path(__file__).with_name("config.schema.yaml")
 
 BODY_NAMES = ("outer_gimbal", "middle_gimbal", "inner_gimbal", "stable_platform")
 BODY_NUMBERS = {name: n for n, name in enumerate(BODY_NAMES, start=2)}

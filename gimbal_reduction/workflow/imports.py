@@ -34,7 +34,7 @@ PACKAGES = (PACKAGE,)
 
 # Non-Python files that a module reads, as paths relative to the project root: they are
 # part of the code of every stage that imports the module.
-DATA_FILES = {"gimbal_reduction.workflow.config": ("workflow/schemas/config.schema.yaml",)}
+DATA_FILES = {"gimbal_reduction.workflow.config": ("gimbal_reduction/workflow/config.schema.yaml",)}
 
 # The layers, lowest first; a module belongs to the longest prefix listed here (names relative
 # to the package: "solver.fe" is gimbal_reduction.solver.fe).  The package's own __init__ is

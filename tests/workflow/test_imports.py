@@ -39,7 +39,7 @@ def test_simulation_code_holds_no_fe_nor_reduction_report():
 def test_stage_code_sets():
     mesh = imports.files("gimbal_reduction.geometry.mesh")
     assert {"gimbal_reduction/geometry/mesh.py", "gimbal_reduction/geometry/gimbal.py", "gimbal_reduction/workflow/config.py",
-            "workflow/schemas/config.schema.yaml"} <= set(mesh)
+            "gimbal_reduction/workflow/config.schema.yaml"} <= set(mesh)
     assert not [f for f in mesh if f.startswith(("gimbal_reduction/solver/", "gimbal_reduction/reduction/", "gimbal_reduction/results/"))], mesh
     modes = imports.files("gimbal_reduction.solver.fe.modes")
     assert {"gimbal_reduction/solver/fe/forms.py", "gimbal_reduction/solver/fe/bearings.py", "gimbal_reduction/solver/fe/eigen.py", "gimbal_reduction/solver/bodydata.py",
@@ -58,7 +58,6 @@ def tree(tmp_path):
                         ignore=lambda folder, names: [n for n in names if not (n.endswith((".py", ".yaml"))
                                                                                or (Path(folder) / n).is_dir())
                                                       or n == "__pycache__"])
-    shutil.copytree(ROOT / "workflow" / "schemas", tmp_path / "workflow" / "schemas")
     return tmp_path
 
 
@@ -77,7 +76,7 @@ def test_hash_ignores_comments_and_docstrings_but_not_code(tree):
     assert imports.code_hash("gimbal_reduction.geometry.mesh", root=tree) != before
     assert imports.code_hash("gimbal_reduction.reduction.stage", root=tree) == unrelated
     # the config schema is data that gimbal_reduction.workflow.config reads: part of the code of every stage importing it
-    schema = tree / "workflow" / "schemas" / "config.schema.yaml"
+    schema = tree / "gimbal_reduction" / "workflow" / "config.schema.yaml"
     changed = imports.code_hash("gimbal_reduction.geometry.mesh", root=tree)
     schema.write_text(schema.read_text() + "\n# edited\n")
     assert imports.code_hash("gimbal_reduction.geometry.mesh", root=tree) != changed

@@ -103,9 +103,10 @@ from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, che
 from gimbal_reduction.solver.dynamics.simfile import read_sim  # noqa: E402
 from gimbal_reduction.workflow.config import inputs_hash  # noqa: E402
 from gimbal_reduction.workflow.provenance import csv_text, provenance, versions, write_json, write_text  # noqa: E402
+from gimbal_reduction.workflow import config as cfgmod
 
 PROG = "gimbal_reduction.results.bench.exponential"
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 SCENES = ("thesis", "stress_rates_10", "long")     # the truth cases, in table order
 DOP853_RTOL = 1e-6       # E ~ 2e-10 on the truth model on thesis (measured before this bench)
 DOP853_ATOL = 1e-14      # as the converged reference

@@ -64,8 +64,9 @@ from gimbal_reduction.solver.dynamics import dense_baseline, integrators, scenes
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
 from gimbal_reduction.solver.dynamics.simfile import read_sim  # noqa: E402
 from gimbal_reduction.workflow.provenance import csv_text, provenance, savefig, versions, write_json, write_text  # noqa: E402
+from gimbal_reduction.workflow import config as cfgmod
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 E_FLOOR = 1e-12                  # below the truth file's own convergence (E ~ 7e-12)
 DEFAULT_MODELS = ("freq-5", "xmx-10", "static-8")   # ~2.5 min each, the truth ~4 min
 QUICK_DURATION = 2e-4            # s: 20 output samples of scene thesis

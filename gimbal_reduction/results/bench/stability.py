@@ -65,8 +65,9 @@ from gimbal_reduction.reduction import models
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.solver.dynamics import integrators, scenes
 from gimbal_reduction.workflow.provenance import provenance, savefig, versions, write_json, write_text
+from gimbal_reduction.workflow import config as cfgmod
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 
 LIMIT_TOLERANCE = 0.05                     # |h* / (2.785 / omega_max) - 1| must stay below this
 DRIFT_TOLERANCE = 1e-6                     # relative energy drift over the 10 s free run

@@ -47,11 +47,12 @@ from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow import units, yamlfile
+from gimbal_reduction.workflow import config as cfgmod
 from gimbal_reduction.workflow.config import BODY_NAMES, load_config
 from gimbal_reduction.workflow.provenance import (atomic_path, git_revision, other_revision, provenance, typst_metadata,
                                  versions)
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 DEFAULTS = {
     "ranking_table": "results/tables/errors_ranking.csv",
     "static_table": "results/tables/errors_static.csv",

@@ -37,8 +37,9 @@ import yaml
 
 from gimbal_reduction.solver.dynamics.multibody import CaseMotion
 from gimbal_reduction.workflow import units, yamlfile
+from gimbal_reduction.workflow import config as cfgmod
 
-SCENES_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))), "config", "scenes")
+SCENES_DIR = str(cfgmod.ROOT / "config" / "scenes")   # the project's (workflow.config.project_dir)
 
 # key -> (length or None for a scalar, the unit it is read in: gimbal_reduction.workflow.units.convert)
 _TOP = {

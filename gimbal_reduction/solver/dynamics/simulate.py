@@ -36,7 +36,7 @@ from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow import config as cfgmod
 from gimbal_reduction.workflow.provenance import versions
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 
 
 # The default integrator of every simulation (truth and reduced models alike): the modal
