@@ -11,7 +11,7 @@ The simulation must hold the modal coordinates (``simulate --store-modal``; the 
 simulation without modal coordinates, a simulation of another model file, a body file of
 another configuration, a mesh that does not match its body file): one line naming the file.
 
-Each written frame is one VTU file, ``{out without .pvd}/frame_NNNN.vtu``, holding the four
+Each written frame is one VTU file, ``{out without .pvd}_frames/frame_NNNN.vtu``, holding the four
 bodies' surfaces (shell triangles; the platform's boundary faces; linear cells), all in the
 case's axes [in] (the case is drawn at rest: the prescribed case rotation is the same in every
 model).  A body n's material point X (body axes, the mesh's coordinates) is drawn at
@@ -274,13 +274,18 @@ def frame_mesh(scene3d, gamma, q, scale):
                        cell_data={"body_id": [cell_ids.astype(np.int32)]})
 
 
+def frames_folder(out):
+    """The folder of a collection's frames: ``{out without .pvd}_frames``."""
+    return os.path.splitext(out)[0] + "_frames"
+
+
 def write_series(scene3d, sim, indices, out, scale=1.0, describe=""):
     """Write the frames ``indices`` of ``sim`` and the PVD ``out``; returns the frame paths.
 
     The frames go to a temporary folder renamed into place when all are written, then the PVD
     is written (atomically): an interrupted run leaves neither a partial folder nor a PVD."""
     out = os.path.abspath(out)
-    folder = os.path.splitext(out)[0]
+    folder = frames_folder(out)
     parent, name = os.path.split(folder)
     os.makedirs(parent, exist_ok=True)
     tmp = os.path.join(parent, f".{name}.part{os.getpid()}")
