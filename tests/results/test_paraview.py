@@ -14,10 +14,13 @@ import meshio
 import numpy as np
 import pytest
 
+from reduction import models
+from reduction.static_modes import DEFAULT_LOAD_CASE
 from results import paraview, render, vtk
 from results.study import mode_shapes
 from solver.dynamics import chainfile
 from solver.dynamics.synthetic import synthetic_modal_chain
+from tests import synthetic_bodies as sb
 
 N_MODES = 3
 BODIES = (2, 3, 4, 5)
@@ -270,3 +273,20 @@ def test_render_draws_every_body_in_its_colour(inputs, tmp_path):
     assert render.main(["--pvd", str(out), "--frame", "0", "--color", "magnitude",
                         "--png", str(tmp_path / "first.png")]) == 0
     assert (tmp_path / "first.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_static_correction_modes_are_the_reduced_models_basis(tmp_path):
+    """With static correction modes, the basis the writer rebuilds from the body file is the one
+    the reduced model was made of: its momentum coefficients X^T M Phi are the model's [P; H]
+    (column order and signs included)."""
+    body = sb.ring_body(connection="rods", n_elements=16, n_modes=12)
+    path = sb.write_body_file(tmp_path / "body2.h5", body)
+    kept = np.array([0, 1, 3, 6])
+    data = models.load_body_file(str(path))
+    reduced = models.build_body(2, data, kept, (DEFAULT_LOAD_CASE,))
+    Phi, coords, comp = paraview.body_basis(str(path), kept, (DEFAULT_LOAD_CASE,))
+    assert Phi.shape == (len(coords), 5) and np.array_equal(comp, data["dof_component"])
+    momentum = np.asarray(data["rigid_modes"]).T @ (data["M"] @ Phi)
+    np.testing.assert_allclose(momentum, reduced.momentum, rtol=0, atol=1e-10 * np.abs(reduced.momentum).max())
+    plain, _, _ = paraview.body_basis(str(path), np.array([6, 0, 3]), ())      # any order of kept modes
+    np.testing.assert_array_equal(plain, np.asarray(data["modes"])[:, [6, 0, 3]])
