@@ -101,8 +101,9 @@ def check_sim_matches_model(sim, chain, info, sim_path, model_path):
     if "scene" in info and "scene" in attrs and str(attrs["scene"]) != str(info["scene"]):
         what.append(f"scene {attrs['scene']!r} vs {info['scene']!r}")
     n_modes = attrs.get("n_modes")
-    if n_modes is not None and tuple(int(n) for n in np.atleast_1d(n_modes)) != chain.n_modes:
-        what.append(f"mode counts {tuple(np.atleast_1d(n_modes))} vs {chain.n_modes}")
+    counts = None if n_modes is None else tuple(int(n) for n in np.atleast_1d(n_modes))
+    if counts is not None and counts != chain.n_modes:
+        what.append(f"mode counts {counts} vs {chain.n_modes}")
     mine, theirs = attrs.get("model_config_hash"), info.get("config_hash")
     if mine is not None and theirs is not None and str(mine) != str(theirs):
         what.append(f"model config_hash {mine!r} vs {theirs!r}")

@@ -22,8 +22,8 @@ rule control_export:
         # the model's body files are checked against the configuration (--config)
         cfg=body_files_hash,
     resources:
-        # no record yet: single runs on thesis, freq-10 2.0 s, 189 MB; truth (404 coordinates)
-        # 4.0 s, 215 MB
+        # no record yet: single runs on thesis, freq-10 5.8 s, 191 MB (under load); truth (404
+        # coordinates) 4.0 s, 215 MB
         mem_mb=mem_mb(215.3),
         runtime=runtime_min(4.0),
     log:
@@ -81,11 +81,10 @@ rule paraview:
         frames=100,
         scale=1.0,
     resources:
-        # no record yet: a single run of freq-10 on thesis (100 of 1501 samples) 5.6 s, 194 MB; a model
-        # with static correction modes factorises the body files' stiffness as rule reduced_model
-        # does (its records: 5.9 s, 431.1 MB): together 11.5 s
-        mem_mb=mem_mb(431.1),
-        runtime=runtime_min(11.5),
+        # no record yet: single runs on thesis (100 of 1501 samples): freq-10 6.0 s, 203 MB; static-8
+        # (its static modes rebuilt from the full body files) 21.9 s, 653.1 MB
+        mem_mb=mem_mb(653.1),
+        runtime=runtime_min(21.9),
     log:
         "logs/paraview/{scene}/{model}.log",
     benchmark:
