@@ -92,14 +92,13 @@ def read_modal_sim(path):
 
 
 def check_sim_matches_model(sim, chain, info, sim_path, model_path):
-    """The simulation was run on this reduced-model file: its model name, scene, mode counts and the
-    model file's config hash agree (one line naming both files otherwise)."""
+    """The simulation was run on this reduced-model file: its model name, mode counts and the model
+    file's config hash (which the simulation records as model_config_hash) agree; one line naming
+    both files otherwise.  The scene is not compared: a model may be simulated on another scene."""
     attrs = sim["attrs"]
     what = []
     if str(attrs.get("model", "")) != str(info.get("model", "")):
         what.append(f"model {attrs.get('model')!r} vs {info.get('model')!r}")
-    if "scene" in info and "scene" in attrs and str(attrs["scene"]) != str(info["scene"]):
-        what.append(f"scene {attrs['scene']!r} vs {info['scene']!r}")
     n_modes = attrs.get("n_modes")
     counts = None if n_modes is None else tuple(int(n) for n in np.atleast_1d(n_modes))
     if counts is not None and counts != chain.n_modes:

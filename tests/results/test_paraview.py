@@ -95,12 +95,12 @@ def inputs(tmp_path_factory):
             "sim": str(sim), "phis": phis, "points": points, "t": t, "gamma": gamma, "q": q}
 
 
-def write_sim(path, t, gamma, q, modal=True, model="synthetic", n_modes=(N_MODES,) * 4):
+def write_sim(path, t, gamma, q, modal=True, model="synthetic", n_modes=(N_MODES,) * 4, model_hash="m1"):
     with h5py.File(path, "w") as f:
         f["t"], f["gamma"], f["gamma_dot"] = t, gamma, np.zeros_like(gamma)
         if modal:
             f["q"], f["q_dot"] = q, np.zeros_like(q)
-        f.attrs["model"], f.attrs["scene"], f.attrs["model_config_hash"] = model, "thesis", "m1"
+        f.attrs["model"], f.attrs["scene"], f.attrs["model_config_hash"] = model, "thesis", model_hash
         f.attrs["n_modes"] = np.array(n_modes)
     return str(path)
 
@@ -234,9 +234,12 @@ def test_a_simulation_without_modal_coordinates_is_refused_in_one_line(inputs, t
     assert not (tmp_path / "x.pvd").exists() and not (tmp_path / "x_frames").exists()
 
 
-@pytest.mark.parametrize("model, n_modes", [("other", (N_MODES,) * 4), ("synthetic", (N_MODES, 2, 4, N_MODES))])
-def test_a_simulation_of_another_model_is_refused_in_one_line(inputs, tmp_path, capsys, model, n_modes):
-    sim = write_sim(tmp_path / "other.h5", inputs["t"], inputs["gamma"], inputs["q"], model=model, n_modes=n_modes)
+@pytest.mark.parametrize("model, n_modes, model_hash", [("other", (N_MODES,) * 4, "m1"),
+                                                       ("synthetic", (N_MODES, 2, 4, N_MODES), "m1"),
+                                                       ("synthetic", (N_MODES,) * 4, "m2")])
+def test_a_simulation_of_another_model_is_refused_in_one_line(inputs, tmp_path, capsys, model, n_modes, model_hash):
+    sim = write_sim(tmp_path / "other.h5", inputs["t"], inputs["gamma"], inputs["q"], model=model, n_modes=n_modes,
+                    model_hash=model_hash)
     assert run(inputs, tmp_path / "x.pvd", sim=sim) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and sim in err and inputs["model"] in err
