@@ -34,6 +34,12 @@ included; ``--every K`` every K-th sample (and the last).  ``--png`` renders one
 
 ParaView: File > Open the .pvd, Apply; colour by ``body_id`` or ``displacement_magnitude [in]``;
 the time controls step through the frames.
+
+Why a PVD of VTU files and not XDMF: every point moves in every frame (the bodies turn with the
+gimbals), so an XDMF series would store the geometry per step as well, and gain nothing; a PVD
+is ParaView's own collection, read the same way by every version (no choice among XDMF readers),
+each frame is a self-contained file that opens alone (its time as FieldData ``TimeValue``), and
+meshio reads every file back (the tests do).
 """
 from __future__ import annotations
 
