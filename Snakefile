@@ -30,6 +30,7 @@ include: "workflow/rules/models.smk"
 include: "workflow/rules/dynamics.smk"
 include: "workflow/rules/bench.smk"
 include: "workflow/rules/results.smk"
+include: "workflow/rules/outputs.smk"
 
 
 rule verify:

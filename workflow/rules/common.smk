@@ -273,6 +273,22 @@ def optional_report_inputs(wildcards):
     return " ".join(f"--{k.replace('_', '-')} {v}" for k, v in REPORT_OPTIONAL.items())
 
 
+# outputs.smk
+def checked_model_file(target):
+    """An input function: the reduced-model file of the wildcards scene and model, once both are
+    checked (a bad name stops the DAG build in one line naming ``target``, filled with them).
+    """
+
+    def model_input(wildcards):
+        dag_scene(wildcards.scene)
+        checked_model(
+            wildcards.model, target.format(scene=wildcards.scene, model=wildcards.model)
+        )
+        return f"results/models/{wildcards.scene}/{wildcards.model}.h5"
+
+    return model_input
+
+
 # ---- Cluster resources (issue 16): every rule that runs a job states mem_mb and runtime from its
 # measured benchmark records (results/benchmarks/rules/*.tsv: max_rss [MB], s), with a margin: memory
 # 1.5 x the largest peak + 200 MB (at least 500 MB), runtime 2 x the longest run (at least 5 min). The

@@ -1,5 +1,7 @@
 """Mode shapes for print: the lowest and the top XMX-ranked vibration modes of a body, its
-static correction modes, and a VTU file of all modes for ParaView (thesis Figs 2-9, 2-10).
+static correction modes, and a VTU file of all modes for ParaView, each point-data array
+named with its mode number and frequency (``mode_007_1234.5Hz``), the frequencies also as the
+FieldData array ``frequencies_hz`` (thesis Figs 2-9, 2-10).
 
     python -m gimbal_reduction.results.study.mode_shapes --body-file results/modes/body2.h5 \\
         --mesh results/mesh/body2.msh --png results/figures/mode_shapes_body2.png \\
@@ -36,9 +38,10 @@ from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection  # noq
 from scipy.spatial import cKDTree  # noqa: E402
 
 from gimbal_reduction.reduction.static_modes import DEFAULT_LOAD_CASE  # noqa: E402
+from gimbal_reduction.results import vtk  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
 from gimbal_reduction.solver.bodydata import BEARING_NAMES  # noqa: E402
-from gimbal_reduction.workflow.provenance import (atomic_path, provenance, read_h5_checked, savefig, write_json,  # noqa: E402
+from gimbal_reduction.workflow.provenance import (provenance, read_h5_checked, savefig, write_json,  # noqa: E402
                                  write_sidecar)
 
 FONT = 8                  # pt at 7.0 in; >= 7 pt when the figure is printed at 6.3 in
@@ -247,14 +250,26 @@ def _load_label(case):
     return f"{BEARING_ABBREV[bearing]}: {comp[1]}-{kind}"
 
 
+def mode_array_name(index, frequency_hz):
+    """Point-data name of mode ``index`` (0-based): ``mode_007_1234.5Hz`` (number and frequency,
+    so ParaView's array menus list the frequencies)."""
+    return f"mode_{index + 1:03d}_{frequency_hz:.1f}Hz"
+
+
 def write_vtu(points, cells, displacements, frequencies, path, record=None):
-    """All mode shapes as point vectors ``mode_001`` ... in one VTU file (ParaView: Warp By Vector);
-    its provenance (record, default ``provenance()``) in a sidecar ``{path}.provenance.json``."""
-    data = {f"mode_{i + 1:03d}": displacements[i] for i in range(len(frequencies))}
-    mesh = meshio.Mesh(points, cells, point_data=data,
-                       field_data={"frequencies_hz": np.asarray(frequencies)})
-    with atomic_path(path) as tmp:
-        meshio.write(tmp, mesh, file_format="vtu")
+    """All mode shapes as point vectors in one VTU file (ParaView: Warp By Vector), each named with
+    its number and frequency (``mode_array_name``); the exact frequencies [Hz] as the FieldData
+    array ``frequencies_hz`` (ParaView: Information panel, spreadsheet view "Field Data"), units
+    in an XML comment (``gimbal_reduction.results.vtk.write_vtu``); its provenance (record, default
+    ``provenance()``) in a sidecar ``{path}.provenance.json``."""
+    frequencies = np.asarray(frequencies, float)
+    data = {mode_array_name(i, f): displacements[i] for i, f in enumerate(frequencies)}
+    mesh = meshio.Mesh(points, cells, point_data=data)
+    vtk.write_vtu(path, mesh, {"frequencies_hz": frequencies,
+                               "mode_number": np.arange(1, frequencies.size + 1)},
+                  comment=f"Mode shapes: {frequencies.size} mass-normalised supported modes of the body "
+                          f"(point vectors mode_NNN_<frequency>Hz, in per sqrt(lbf s^2/in)); points in "
+                          f"inches (in), body axes; FieldData frequencies_hz [Hz], mode_number.")
     write_sidecar(path, record)
 
 

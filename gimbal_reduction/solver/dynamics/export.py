@@ -2,6 +2,10 @@
 
     python -m gimbal_reduction.solver.dynamics.export --model-file results/models/thesis/tol-1e-4.h5 \\
         --scene thesis --out model.mat          (also model.npz beside it; or --out model.npz)
+        [--config config/config.yaml]           (refuse a model of body files of another config)
+
+The workflow makes it as a target: ``snakemake --cores 2 results/export/thesis/tol-1e-4.mat``
+(rule ``control_export``, workflow/rules/outputs.smk: the .mat and the .npz).
 
 About the scene's initial state (gimbal angles y0, rates and elastic coordinates zero,
 case at rest) the chain M(y) y'' + C y' + K y = tau - c(y, y', t) becomes, for the
@@ -38,9 +42,11 @@ import sys
 import numpy as np
 import scipy.io
 
+from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics import chainfile, linearized, multibody, scenes
 from gimbal_reduction.solver.dynamics.multibody import CaseMotion
-from gimbal_reduction.workflow.provenance import provenance
+from gimbal_reduction.workflow import config as cfgmod
+from gimbal_reduction.workflow.provenance import atomic_path, provenance
 
 INPUT_NAMES = ("tau_outer", "tau_middle", "tau_inner", "tau_platform",
                "case_alpha_x", "case_alpha_y", "case_alpha_z")
@@ -131,14 +137,24 @@ def export(model_file, scene_name):
 
 
 def write(ss, out):
-    """Write the .mat (scipy.io.savemat) and the .npz beside each other; returns both paths."""
+    """Write the .mat (scipy.io.savemat) and the .npz beside each other, each atomically
+    (``gimbal_reduction.workflow.provenance.atomic_path``); returns both paths."""
     stem = os.path.splitext(out)[0]
     mat, npz = stem + ".mat", stem + ".npz"
-    d = os.path.dirname(os.path.abspath(out))
-    os.makedirs(d, exist_ok=True)
-    scipy.io.savemat(mat, ss, do_compression=True)
-    np.savez_compressed(npz, **ss)
+    with atomic_path(mat) as tmp:
+        scipy.io.savemat(str(tmp), ss, do_compression=True, appendmat=False)
+    with atomic_path(npz) as tmp, open(tmp, "wb") as f:      # a file object: no ".npz" appended
+        np.savez_compressed(f, **ss)
     return mat, npz
+
+
+def check_config(model_file, config_path):
+    """ChainFileError (one line) unless the model file was made from body files of the
+    configuration ``config_path`` (the same check as the simulation's, ``chainfile.check_body_hashes``)."""
+    _, info = chainfile.read_chain(model_file)
+    config = cfgmod.load_config(config_path)
+    expected = {b: cfgmod.inputs_hash(cfgmod.body_inputs(config, b)) for b in BODIES}
+    chainfile.check_body_hashes(model_file, info, expected)
 
 
 def main(argv=None):
@@ -148,8 +164,12 @@ def main(argv=None):
     ap.add_argument("--model-file", required=True, help="reduced-model file (gimbal_reduction.reduction.models)")
     ap.add_argument("--scene", required=True, help="scene name or file")
     ap.add_argument("--out", required=True, help="output .mat or .npz (both are written)")
+    ap.add_argument("--config", help="the current configuration file: the reduced model's body files "
+                                     "must have been made from it (their config hashes)")
     args = ap.parse_args(argv)
     try:
+        if args.config is not None:
+            check_config(args.model_file, args.config)
         ss = export(args.model_file, args.scene)
         mat, npz = write(ss, args.out)
     except (ValueError, FileNotFoundError, OSError) as exc:

@@ -1,0 +1,46 @@
+"""The export's files (gimbal_reduction.solver.dynamics.export): the .mat and the .npz written beside each other
+atomically (no temporary file left, exact names), and --config refusing a reduced model made from
+body files of another configuration in one line, on a small synthetic chain."""
+import json
+import os
+
+import numpy as np
+import scipy.io
+
+from gimbal_reduction.solver.dynamics import chainfile, export
+from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
+from gimbal_reduction.workflow.provenance import read_provenance
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def model_file(path, body_hashes):
+    chain = synthetic_modal_chain(2, seed=5)
+    chainfile.write_chain(path, chain, {b.number: np.arange(b.n_modes) for b in chain.bodies},
+                          {b.number: () for b in chain.bodies},
+                          {"model": "freq-2", "scene": "thesis", "config_hash": "c0ffee",
+                           "body_config_hashes": json.dumps(body_hashes)})
+    return str(path)
+
+
+def test_mat_and_npz_are_written_beside_each_other(tmp_path):
+    model = model_file(tmp_path / "model.h5", ["a", "b", "c", "d"])
+    out = tmp_path / "export" / "thesis" / "freq-2.mat"
+    assert export.main(["--model-file", model, "--scene", "thesis", "--out", str(out)]) == 0
+    assert sorted(os.listdir(out.parent)) == ["freq-2.mat", "freq-2.npz"]       # nothing else left
+    mat, npz = scipy.io.loadmat(out), np.load(out.with_suffix(".npz"))
+    n = 4 + 4 * 2
+    assert mat["A"].shape == (2 * n, 2 * n) and np.array_equal(mat["A"], npz["A"])
+    assert np.array_equal(mat["A"][:n, n:], np.eye(n)) and mat["B"].shape == (2 * n, 7)
+    for path in (out, out.with_suffix(".npz")):                                  # the model file's hash
+        assert read_provenance(path)["config_hash"] == "c0ffee"
+
+
+def test_config_check_refuses_a_model_of_other_body_files(tmp_path, capsys):
+    model = model_file(tmp_path / "model.h5", ["a", "b", "c", "d"])
+    out = tmp_path / "x.mat"
+    code = export.main(["--model-file", model, "--scene", "thesis", "--out", str(out),
+                        "--config", os.path.join(ROOT, "config", "config.yaml")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and model in err and "another configuration" in err
+    assert not out.exists() and not out.with_suffix(".npz").exists()
