@@ -4,8 +4,8 @@ The pipeline's stages, lowest first (imports point only downward):
 
 - ``workflow``: configuration, units, provenance and the code hashes of the Snakemake rules;
 - ``geometry``: the Gmsh geometry of the three rings and the stable platform;
-- ``gimbal_reduction.solver.fe``: DOLFINx shells and solid, the supported modes (SLEPc);
-  ``gimbal_reduction.solver.dynamics``: the flexible multibody equations and their integrators;
+- ``solver.fe``: DOLFINx shells and solid, the supported modes (SLEPc);
+  ``solver.dynamics``: the flexible multibody equations and their integrators;
 - ``reduction``: momentum coefficients, mode rankings, static modes, reduced models;
 - ``results``: the study's tables, findings, figures and reports, and the benchmarks;
 - ``api``: the few calls a notebook makes; ``commands``: the ``gimbal`` command.

@@ -30,7 +30,7 @@ from gimbal_reduction.workflow import config as cfgmod
 
 @dataclass(frozen=True)
 class ReducedModel:
-    """A reduced model of the chain: ``chain`` (gimbal_reduction.solver.dynamics.multibody.Chain), its ``name``
+    """A reduced model of the chain: ``chain`` (solver.dynamics.multibody.Chain), its ``name``
     (grammar: gimbal_reduction.reduction.models), and the attributes its file carries."""
 
     name: str

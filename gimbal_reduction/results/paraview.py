@@ -319,7 +319,7 @@ def write_series(scene3d, sim, indices, out, scale=1.0, describe=""):
 
 
 def build_parser():
-    ap = argparse.ArgumentParser(prog="python -m gimbal_reduction.results.paraview", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="gimbal paraview", description=__doc__.split("\n")[0])
     ap.add_argument("--sim", required=True, help="simulation file with modal coordinates (--store-modal)")
     ap.add_argument("--model-file", required=True, help="the reduced-model file it was simulated from")
     ap.add_argument("--bodies", nargs=4, required=True, help="body files of bodies 2, 3, 4, 5")

@@ -95,7 +95,7 @@ def render_vtu(vtu, png, title="", color="body", elev=22.0, azim=-55.0):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m gimbal_reduction.results.render", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="gimbal render", description=__doc__.split("\n")[0])
     src = ap.add_mutually_exclusive_group(required=True)
     src.add_argument("--vtu", help="one frame file")
     src.add_argument("--pvd", help="a collection; with --frame")

@@ -37,17 +37,17 @@ PACKAGES = (PACKAGE,)
 DATA_FILES = {"gimbal_reduction.workflow.config": ("gimbal_reduction/workflow/config.schema.yaml",)}
 
 # The layers, lowest first; a module belongs to the longest prefix listed here (names relative
-# to the package: "gimbal_reduction.solver.fe" is gimbal_reduction.solver.fe).  The package's own __init__ is
+# to the package: "solver.fe" is gimbal_reduction.solver.fe).  The package's own __init__ is
 # the lowest; its notebook API (gimbal_reduction.api) and command line (gimbal_reduction.commands)
 # sit on top of every stage.
 _LAYERS = (
     ("",),
     ("workflow",),
     ("geometry",),
-    ("solver", "gimbal_reduction.solver.bodydata"),
-    ("gimbal_reduction.solver.fe", "gimbal_reduction.solver.dynamics"),
+    ("solver", "solver.bodydata"),
+    ("solver.fe", "solver.dynamics"),
     ("reduction",),
-    ("results", "gimbal_reduction.results.study", "gimbal_reduction.results.bench"),
+    ("results", "results.study", "results.bench"),
     ("api", "commands"),
 )
 LAYERS = tuple(tuple(f"{PACKAGE}.{p}" if p else PACKAGE for p in layer) for layer in _LAYERS)

@@ -29,7 +29,7 @@ def test_export_target_plans_the_model_and_its_export():
     assert run.returncode == 0, run.stderr[-2000:]
     assert planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "reduced_model": 1, "control_export": 1}
     # the rule's command is the CLI's, with the config check, writing the .mat and the .npz
-    assert "-m gimbal_reduction.solver.dynamics.export --model-file results/models/thesis/freq-10.h5" in run.stdout
+    assert "/gimbal export --model-file results/models/thesis/freq-10.h5" in run.stdout
     assert "--out results/export/thesis/freq-10.mat" in run.stdout and "--config" in run.stdout
     assert "results/export/thesis/freq-10.npz" in run.stdout
 

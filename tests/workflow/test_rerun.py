@@ -33,7 +33,8 @@ WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "report_scene"}
 # gimbal_reduction/solver/bodyconfig.py): params.cfg is what it compares them with, every body file's config hash
 BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "load_ranking_first", "study_scene_first", "reduced_model", "simulate", "study_scene", "truth_basis",
                  "reference_simulation", "dynamics_verification", "stability", "pareto", "selection",
-                 "exponential_bench", "exponential_accuracy", "integrator_tables"}
+                 "exponential_bench", "exponential_accuracy", "integrator_tables", "control_export",
+                 "simulate_modal"}
 # ... and those that check one body's files (params.cfg = that body file's config hash)
 PER_BODY_CHECKERS = ("reduction_body", "mode_shapes_body")
 # a stage the rule runs besides its shell's python -m modules

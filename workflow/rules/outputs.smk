@@ -2,7 +2,7 @@
 # time for ParaView, of any scene and reduced model.
 #   snakemake --cores 2 results/export/thesis/freq-10.mat     linearised state space (.mat and .npz)
 #   snakemake --cores 2 results/paraview/thesis/freq-10.pvd   PVD + VTU frames (+ a PNG of the last)
-# Lints left, justified in common.smk (above PY): the rules' shell commands use PY, CONFIG from outside
+# Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 
 
@@ -15,7 +15,7 @@ rule control_export:
         mat="results/export/{scene}/{model}.mat",
         npz="results/export/{scene}/{model}.npz",
     params:
-        code=code_hash("gimbal_reduction.solver.dynamics.export"),
+        code=code_hash("export"),
         # the linearisation point and the damping are the scene's
         physics=scene_physics_hash,
         scene=scene_file,
@@ -31,7 +31,7 @@ rule control_export:
     benchmark:
         "results/benchmarks/rules/export/{scene}/{model}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.dynamics.export --model-file {input.model} --scene {params.scene} "
+        "OMP_NUM_THREADS=1 {GIMBAL} export --model-file {input.model} --scene {params.scene} "
         "--config {CONFIG} --out {output.mat} > {log} 2>&1"
 
 
@@ -46,7 +46,7 @@ rule simulate_modal:
     params:
         physics=scene_physics_hash,
         scene=scene_file,
-        code=code_hash("gimbal_reduction.solver.dynamics.simulate"),
+        code=code_hash("simulate"),
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
         cfg=body_files_hash,
@@ -59,7 +59,7 @@ rule simulate_modal:
     benchmark:
         "results/benchmarks/rules/sim_modal/{scene}/{model}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.solver.dynamics.simulate --scene {params.scene} --model-file {input.model} "
+        "OMP_NUM_THREADS=1 {GIMBAL} simulate --scene {params.scene} --model-file {input.model} "
         "--integrator {params.integrator} {params.options} --store-modal --config {CONFIG} --out {output} "
         "> {log} 2>&1"
 
@@ -77,7 +77,7 @@ rule paraview:
         frames=directory("results/paraview/{scene}/{model}_frames"),
         png="results/paraview/{scene}/{model}.png",
     params:
-        code=code_hash("gimbal_reduction.results.paraview"),
+        code=code_hash("paraview"),
         frames=100,
         scale=1.0,
     resources:
@@ -90,6 +90,6 @@ rule paraview:
     benchmark:
         "results/benchmarks/rules/paraview/{scene}/{model}.tsv"
     shell:
-        "OMP_NUM_THREADS=1 {PY} -m gimbal_reduction.results.paraview --sim {input.sim} --model-file {input.model} "
+        "OMP_NUM_THREADS=1 {GIMBAL} paraview --sim {input.sim} --model-file {input.model} "
         "--bodies {input.bodies} --meshes {input.meshes} --frames {params.frames} --scale {params.scale} "
         "--out {output.pvd} --png {output.png} > {log} 2>&1"

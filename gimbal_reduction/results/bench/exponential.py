@@ -106,7 +106,7 @@ from gimbal_reduction.workflow.provenance import csv_text, provenance, versions,
 from gimbal_reduction.workflow import config as cfgmod
 
 PROG = "gimbal_reduction.results.bench.exponential"
-ROOT = str(cfgmod.ROOT)   # the project folder (gimbal_reduction.workflow.config.project_dir)
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 SCENES = ("thesis", "stress_rates_10", "long")     # the truth cases, in table order
 DOP853_RTOL = 1e-6       # E ~ 2e-10 on the truth model on thesis (measured before this bench)
 DOP853_ATOL = 1e-14      # as the converged reference

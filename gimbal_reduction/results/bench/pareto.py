@@ -66,7 +66,7 @@ from gimbal_reduction.solver.dynamics.simfile import read_sim  # noqa: E402
 from gimbal_reduction.workflow.provenance import csv_text, provenance, savefig, versions, write_json, write_text  # noqa: E402
 from gimbal_reduction.workflow import config as cfgmod
 
-ROOT = str(cfgmod.ROOT)   # the project folder (gimbal_reduction.workflow.config.project_dir)
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 E_FLOOR = 1e-12                  # below the truth file's own convergence (E ~ 7e-12)
 DEFAULT_MODELS = ("freq-5", "xmx-10", "static-8")   # ~2.5 min each, the truth ~4 min
 QUICK_DURATION = 2e-4            # s: 20 output samples of scene thesis

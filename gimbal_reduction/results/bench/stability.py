@@ -67,7 +67,7 @@ from gimbal_reduction.solver.dynamics import integrators, scenes
 from gimbal_reduction.workflow.provenance import provenance, savefig, versions, write_json, write_text
 from gimbal_reduction.workflow import config as cfgmod
 
-ROOT = str(cfgmod.ROOT)   # the project folder (gimbal_reduction.workflow.config.project_dir)
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 
 LIMIT_TOLERANCE = 0.05                     # |h* / (2.785 / omega_max) - 1| must stay below this
 DRIFT_TOLERANCE = 1e-6                     # relative energy drift over the 10 s free run

@@ -52,7 +52,7 @@ from gimbal_reduction.workflow.config import BODY_NAMES, load_config
 from gimbal_reduction.workflow.provenance import (atomic_path, git_revision, other_revision, provenance, typst_metadata,
                                  versions)
 
-ROOT = str(cfgmod.ROOT)   # the project folder (gimbal_reduction.workflow.config.project_dir)
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 DEFAULTS = {
     "ranking_table": "results/tables/errors_ranking.csv",
     "static_table": "results/tables/errors_static.csv",

@@ -39,7 +39,7 @@ from gimbal_reduction.solver.dynamics.multibody import CaseMotion
 from gimbal_reduction.workflow import units, yamlfile
 from gimbal_reduction.workflow import config as cfgmod
 
-SCENES_DIR = str(cfgmod.ROOT / "config" / "scenes")   # the project's (gimbal_reduction.workflow.config.project_dir)
+SCENES_DIR = str(cfgmod.ROOT / "config" / "scenes")   # the project's (workflow.config.project_dir)
 
 # key -> (length or None for a scalar, the unit it is read in: gimbal_reduction.workflow.units.convert)
 _TOP = {

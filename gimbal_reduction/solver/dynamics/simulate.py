@@ -36,7 +36,7 @@ from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow import config as cfgmod
 from gimbal_reduction.workflow.provenance import versions
 
-ROOT = str(cfgmod.ROOT)   # the project folder (gimbal_reduction.workflow.config.project_dir)
+ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 
 
 # The default integrator of every simulation (truth and reduced models alike): the modal
