@@ -209,6 +209,8 @@ def read_config_file(path: str | Path) -> dict:
     except yamlfile.DuplicateKeyError as exc:
         raise ConfigError(f"config error at '{exc.key}': duplicate key in '{path}' line {exc.line} "
                           "(the last value would silently win)") from None
+    except yamlfile.YAMLInputError as exc:
+        raise ConfigError(f"config error: {exc}") from None
     except yaml.YAMLError as exc:
         line = getattr(getattr(exc, "problem_mark", None), "line", None)
         where = f" line {line + 1}" if line is not None else ""

@@ -12,6 +12,14 @@ documents.  :func:`load_file` keeps each parsed file in process, keyed by its pa
 modification time, and hands out deep copies: a study process reads the config and the
 scene ~150 times (``gimbal_reduction.results.study.run_scene`` runs ~50 models through the per-model
 command lines), which cost it ~10 s of parsing.
+
+Before libyaml sees a text, :func:`check_limits` bounds what it may hold, so that no input can
+hang or crash the loader: at most ``MAX_BYTES`` of UTF-8, nesting at most ``MAX_DEPTH`` deep
+(libyaml composes nodes recursively in C: a document nested 100,000 deep overflows its stack),
+and no aliases (``*name``: each one is a reference that later code follows as a copy, so nine
+nested aliases of nine make 9^9 values, the "billion laughs"; the project's files need none).
+The check runs PyYAML's pure-Python scanner, which keeps its state in lists, not on the stack,
+and stops at the first token past a limit.
 """
 from __future__ import annotations
 
@@ -22,6 +30,40 @@ from pathlib import Path
 import yaml
 
 _BASE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+MAX_BYTES = 1 << 20          # 1 MiB: the config file is ~6 kB, a scene < 2 kB
+MAX_DEPTH = 32               # nested collections: the config nests 4 deep
+
+
+class YAMLInputError(ValueError):
+    """A YAML file that is not read at all: not UTF-8, too large, too deeply nested, or holding
+    an alias (one-line message naming the file, the line and the limit)."""
+
+_OPEN = (yaml.BlockMappingStartToken, yaml.BlockSequenceStartToken, yaml.FlowMappingStartToken,
+         yaml.FlowSequenceStartToken)
+_CLOSE = (yaml.BlockEndToken, yaml.FlowMappingEndToken, yaml.FlowSequenceEndToken)
+
+
+def check_limits(text: str, origin: str = "<yaml>") -> None:
+    """YAMLInputError unless ``text`` is at most MAX_BYTES, nests at most MAX_DEPTH collections
+    and holds no alias; yaml.YAMLError for a text the scanner cannot read."""
+    size = len(text.encode("utf-8", "surrogatepass"))
+    if size > MAX_BYTES:
+        raise YAMLInputError(f"{origin}: {size} bytes, more than the {MAX_BYTES} a YAML file of "
+                             f"this project may hold")
+    depth = 0
+    for token in yaml.scan(text, Loader=yaml.SafeLoader):
+        if isinstance(token, _OPEN):
+            depth += 1
+            if depth > MAX_DEPTH:
+                raise YAMLInputError(f"{origin} line {token.start_mark.line + 1}: nested more than "
+                                     f"{MAX_DEPTH} deep (the limit of this project's YAML files)")
+        elif isinstance(token, _CLOSE):
+            depth -= 1
+        elif isinstance(token, yaml.AliasToken):
+            raise YAMLInputError(f"{origin} line {token.start_mark.line + 1}: alias '*{token.value}' "
+                                 f"(aliases are not allowed in this project's YAML files: write the "
+                                 f"value out)")
 
 
 class DuplicateKeyError(ValueError):
@@ -65,7 +107,9 @@ class StrictLoader(_BASE_LOADER):
 
 
 def load_text(text: str, origin: str = "<yaml>"):
-    """The YAML document in ``text``; DuplicateKeyError (naming ``origin``) or yaml.YAMLError."""
+    """The YAML document in ``text``; YAMLInputError or DuplicateKeyError (naming ``origin``), or
+    yaml.YAMLError."""
+    check_limits(text, str(origin))
     loader = StrictLoader(text)
     loader.origin = str(origin)
     try:
@@ -86,14 +130,22 @@ def file_key(path: str | Path):
 
 def load_file(path: str | Path):
     """The YAML document of file ``path`` (a deep copy of the one parsed in this process, if
-    the file is unchanged); DuplicateKeyError, yaml.YAMLError or OSError."""
+    the file is unchanged); YAMLInputError, DuplicateKeyError, yaml.YAMLError or OSError."""
     key = file_key(path)
     if key not in _FILE_CACHE:
-        document = load_text(Path(path).read_text(), origin=str(path))
+        if key[1] > MAX_BYTES:      # not read at all
+            raise YAMLInputError(f"{path}: {key[1]} bytes, more than the {MAX_BYTES} a YAML file "
+                                 f"of this project may hold")
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise YAMLInputError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+        document = load_text(text, origin=str(path))
         if len(_FILE_CACHE) >= 64:
             _FILE_CACHE.clear()
         _FILE_CACHE[key] = document
     return copy.deepcopy(_FILE_CACHE[key])
 
 
-__all__ = ["DuplicateKeyError", "StrictLoader", "file_key", "load_file", "load_text"]
+__all__ = ["DuplicateKeyError", "StrictLoader", "YAMLInputError", "check_limits", "file_key", "load_file",
+           "load_text"]

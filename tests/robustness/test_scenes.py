@@ -50,3 +50,25 @@ def test_invalid_yaml(work, refused):
 def test_unknown_scene_name(work, refused):
     refused(simulate.main, ["--scene", "no_such_scene", "--model-file", work.joinpath(*MODEL),
                             "--out", work / "out" / "s.h5"], ("no_such_scene",), work / "out")
+
+
+LAUGHS = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
+    f"{b}: &{b} [{', '.join(['*' + a] * 9)}]\n" for a, b in zip("abcdefgh", "bcdefghi"))
+
+
+@pytest.mark.parametrize("case", ["billion laughs", "100,000 deep", "900 deep", "not UTF-8", "2 MiB"])
+def test_yaml_that_could_hang_or_crash_the_loader(case, work, refused):
+    """Refused in one line before libyaml builds anything (no hang, no SIGSEGV, no RecursionError);
+    the message names the file and the limit."""
+    scene = work / "evil.yaml"
+    text, words = {
+        "billion laughs": (LAUGHS, ("evil.yaml", "line 2", "alias '*a'")),
+        "100,000 deep": ("name: evil\nx: " + "[" * 100_000 + "]" * 100_000 + "\n", ("evil.yaml", "32 deep")),
+        "900 deep": ("name: evil\n" + "".join(" " * i + f"k{i}:\n" for i in range(900)) + " " * 900 + "v: 1\n",
+                     ("evil.yaml", "32 deep")),
+        "not UTF-8": ("name: \udce9vil\n", ("evil.yaml", "not UTF-8")),
+        "2 MiB": ("name: evil\n" + "# padding\n" * 210_000, ("evil.yaml", "bytes")),
+    }[case]
+    scene.write_bytes(text.encode("utf-8", "surrogateescape"))
+    refused(simulate.main, ["--scene", scene, "--model-file", work.joinpath(*MODEL),
+                            "--out", work / "out" / "s.h5"], words, work / "out")

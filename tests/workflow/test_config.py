@@ -131,3 +131,19 @@ def test_loaded_config_is_kept_per_file_state_and_handed_out_as_copies(tmp_path)
     os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
     with pytest.raises(cfgmod.ConfigError, match="poissons_ration"):
         cfgmod.load_config(path)
+
+
+def test_a_config_with_aliases_or_deep_nesting_is_refused_in_one_line(tmp_path):
+    """The billion laughs (nine nested aliases of nine) and a 100,000-deep document: refused by
+    the limits before libyaml builds anything, naming the file and the limit."""
+    from gimbal_reduction.workflow import config as cfgmod
+    laughs = tmp_path / "laughs.yaml"
+    laughs.write_text("a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
+        f"{b}: &{b} [{', '.join(['*' + a] * 9)}]\n" for a, b in zip("abcdefgh", "bcdefghi")))
+    deep = tmp_path / "deep.yaml"
+    deep.write_text("x: " + "{a: " * 100_000 + "1" + "}" * 100_000 + "\n")
+    for path, words in ((laughs, ("laughs.yaml line 2", "alias")), (deep, ("deep.yaml line 1", "32 deep"))):
+        with pytest.raises(cfgmod.ConfigError) as info:
+            cfgmod.read_config_file(path)
+        message = str(info.value)
+        assert "\n" not in message and all(w in message for w in words), message

@@ -33,8 +33,11 @@ venv_ok() {   # an existing .venv on a recent Python, not made with the system's
 }
 if ! venv_ok; then
   python=""
-  for cand in "${PYTHON:-}" python3.14 python3.13 python3.12 \
-              $(ls -d "${PYENV_ROOT:-$HOME/.pyenv}"/versions/3.1[2-9]*/bin/python3 2>/dev/null | sort -rV) \
+  # 3.12 first: the version the pins of requirements.txt and constraints.txt were verified on
+  for cand in "${PYTHON:-}" python3.12 \
+              $(ls -d "${PYENV_ROOT:-$HOME/.pyenv}"/versions/3.12*/bin/python3 2>/dev/null | sort -rV) \
+              python3.13 python3.14 \
+              $(ls -d "${PYENV_ROOT:-$HOME/.pyenv}"/versions/3.1[3-9]*/bin/python3 2>/dev/null | sort -rV) \
               python3 /usr/bin/python3; do
     [ -n "$cand" ] || continue
     path="$(command -v "$cand" 2>/dev/null || true)"

@@ -227,6 +227,8 @@ def load_scene(name_or_path, scenes_dir=SCENES_DIR):
     except yamlfile.DuplicateKeyError as exc:
         raise SceneError(f"{os.path.basename(path)}: {exc.key}: duplicate key in '{path}' line {exc.line} "
                          "(the last value would silently win)") from None
+    except yamlfile.YAMLInputError as exc:
+        raise SceneError(str(exc)) from None
     except yaml.YAMLError as exc:
         raise SceneError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
     scene = parse_scene(raw, origin=os.path.basename(path))
