@@ -58,13 +58,13 @@ class Simulation:
     stats: dict = field(default_factory=dict)
 
 
-def _files(folder_or_files, stem: str) -> dict[int, str]:
-    """{body: path} from a folder holding {stem}{n}.h5, or from four paths (bodies 2..5)."""
+def _files(folder_or_files, what: str) -> dict[int, str]:
+    """{body: path} from a folder holding body{n}.h5, or from four paths (bodies 2..5)."""
     if isinstance(folder_or_files, (str, os.PathLike)):
-        return {b: str(Path(folder_or_files) / f"{stem}{b}.h5") for b in BODIES}
+        return {b: str(Path(folder_or_files) / f"body{b}.h5") for b in BODIES}
     paths = list(folder_or_files)
     if len(paths) != len(BODIES):
-        raise ValueError(f"{stem} files: give a folder or {len(BODIES)} paths (bodies 2..5), got {len(paths)}")
+        raise ValueError(f"{what}: give a folder or {len(BODIES)} paths (bodies 2..5), got {len(paths)}")
     return dict(zip(BODIES, map(str, paths)))
 
 
@@ -77,8 +77,8 @@ def reduce(name: str, scene, bodies="results/modes", reductions="results/reducti
     scene = scenes.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
     cfg = cfgmod.load_config(config) if config is not None else None
     chain, spec, attrs = models.reduce_model(
-        name, scene, _files(bodies, "body"),
-        _files(reductions, "body") if models.needs_reduction_rankings(name) else None,
+        name, scene, _files(bodies, "bodies"),
+        _files(reductions, "reductions") if models.needs_reduction_rankings(name) else None,
         load_ranking, config=cfg)
     return ReducedModel(spec.name, chain, attrs)
 
