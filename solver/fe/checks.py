@@ -26,6 +26,10 @@ from pathlib import Path
 
 from mpi4py import MPI  # isort: skip - first: dolfinx finds libmpi through it
 
+# h5py (the body files) before dolfinx.fem.petsc: imported after it, h5py resolves its HDF5 calls
+# to the wheel's HDF5 1.14 instead of its own 2.0 and fails on import ("Not a datatype")
+import h5py  # noqa: F401  # isort: skip
+
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp

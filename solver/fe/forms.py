@@ -47,6 +47,10 @@ from mpi4py import MPI  # isort: skip
 
 import dolfinx_solver  # noqa: F401  # isort: skip
 
+# h5py (the body files) before dolfinx.fem.petsc: imported after it, h5py resolves its HDF5 calls
+# to the wheel's HDF5 1.14 instead of its own 2.0 and fails on import ("Not a datatype")
+import h5py  # noqa: F401  # isort: skip
+
 import basix
 import basix.ufl
 import meshio
