@@ -133,7 +133,12 @@ def load_mesh(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD):
     degree = 2 if cell_type == "tetra10" else 1
     coordinate_element = basix.ufl.element("Lagrange", "tetrahedron" if tdim == 3 else "triangle", degree,
                                            lagrange_variant=basix.LagrangeVariant.equispaced, shape=(3,))
-    mesh = dmesh.create_mesh(comm, cells, ufl.Mesh(coordinate_element), x)
+    # Cells sharing a facet across ranks are ghosted ("shared facet"): the region weights of a
+    # ring are interior-facet integrals (dS) over the bearing lines, which DOLFINx can only
+    # evaluate on a facet whose two cells a rank holds. (DOLFINx 0.5 ghosted so by default;
+    # in 0.11 the default ghosts nothing, and dS on a facet between ranks is an error.)
+    partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
+    mesh = dmesh.create_mesh(comm, cells, ufl.Mesh(coordinate_element), x, partitioner)
     if comm.allreduce(mesh.topology.index_map(tdim).size_local) == 0:
         raise ValueError(f"mesh file '{path}' holds an empty mesh")
 
