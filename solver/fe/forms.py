@@ -109,7 +109,8 @@ def load_mesh(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD):
 
         regions = {name: int(tag) for name, (tag, dim) in msh.field_data.items() if dim == tdim - 1}
         (cells, cell_values), (facets, facet_values) = stack(cell_type), stack(facet_type)
-        # drop nodes that no cell uses (the point group's node is also a cell's: nothing is lost)
+        # drop nodes that no cell uses (the mesh's geometry is the cells' nodes; the point group's
+        # node lies on the mid-surface and is kept)
         used = np.unique(cells)
         renumber = np.full(len(msh.points), -1, dtype=np.int64)
         renumber[used] = np.arange(len(used))
@@ -154,8 +155,8 @@ def load_mesh(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD):
 def lagrange_element(mesh, degree: int, components: int):
     """Continuous vector Lagrange element of ``degree`` with ``components`` node-interleaved values.
 
-    The nodes are Basix's GLL-warped points (the variant DOLFINx has always used for Lagrange
-    spaces); they coincide with the equispaced ones up to degree 2 and only the P3 solid's edge
+    The nodes are Basix's GLL-warped points (the variant DOLFINx 0.5.2 chose for every Lagrange
+    space, and 0.11's default, stated here as part of the model); they coincide with the equispaced ones up to degree 2 and only the P3 solid's edge
     and face nodes depend on it. The nodes matter beyond the space itself: the bearing
     connection is a weighted fit of *nodal* values (``solver.fe.bearings``).
     """
