@@ -185,7 +185,7 @@ def mesh_body(params: dict, mass_angle_deg: float, size: float, path: str | Path
     """Mesh one body with gmsh; write ``path`` (``.msh``, format 4.1) if given.
 
     Returns metadata: region angles, node/element counts, mesh size. With
-    ``keep_model`` the gmsh session stays open (for ``dolfinx.io.gmshio``);
+    ``keep_model`` the gmsh session stays open (for ``dolfinx.io.gmsh.model_to_mesh``);
     the caller must then call ``gmsh.finalize()``. ``coarse``: a ring's size may exceed
     its width (``build_ring``).
     """

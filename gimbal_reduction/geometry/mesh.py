@@ -1,6 +1,6 @@
 """Command line: mesh one body from the config.
 
-``/usr/bin/python3 -m gimbal_reduction.geometry.mesh --body 2 --out results/mesh/body2.msh [--size 0.125] [--meta body2.json]``
+``gimbal mesh --body 2 --out results/mesh/body2.msh [--size 0.125] [--meta body2.json]``
 
 The stage reads the config only through ``gimbal_reduction.workflow.config.body_inputs(...)["mesh"]``,
 whose hash is the rule's rerun trigger. ``--meta`` writes the mesh's metadata (the

@@ -70,9 +70,16 @@ def versions() -> dict:
 @functools.lru_cache(maxsize=1)
 def _versions() -> dict:
     out = {"python": platform.python_version()}
+    # DOLFINx ships in the distribution that installs its import package: dolfinx-solver-real
+    # (the PyPI wheel, versioned as the DOLFINx release it builds) or fenics-dolfinx; asked of the
+    # package metadata, so that recording it never imports (and initialises MPI for) DOLFINx
+    shipping = metadata.packages_distributions()
     for module in ("dolfinx", "numpy", "scipy", "petsc4py", "slepc4py", "gmsh", "h5py", "snakemake"):
         try:
-            out[module] = metadata.version(module if module != "dolfinx" else "fenics-dolfinx")
+            dists = shipping.get(module, []) if module == "dolfinx" else [module]
+            if not dists:
+                raise metadata.PackageNotFoundError(module)
+            out[module] = metadata.version(dists[0])
         except metadata.PackageNotFoundError:
             try:
                 out[module] = __import__(module).__version__

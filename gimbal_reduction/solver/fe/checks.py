@@ -24,13 +24,18 @@ import sys
 import tempfile
 from pathlib import Path
 
+from mpi4py import MPI  # isort: skip - first: dolfinx finds libmpi through it
+
+# h5py (the body files) before dolfinx.fem.petsc: imported after it, h5py resolves its HDF5 calls
+# to the wheel's HDF5 1.14 instead of its own 2.0 and fails on import ("Not a datatype")
+import h5py  # noqa: F401  # isort: skip
+
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
-from mpi4py import MPI
 
 from gimbal_reduction.geometry import verification as shapes
 from gimbal_reduction.geometry.mesh import estimated_dofs, mesh_from_config, mesh_from_inputs, mesh_size
@@ -347,7 +352,17 @@ def check_hughes_identity(body_file, rcond: float = 1e-10) -> dict:
 
 
 def mpirun_command(ranks: int) -> list[str]:
-    """mpirun prefix; Open MPI refuses root unless told (CI runs as root)."""
+    """The MPI launcher prefix for ``ranks`` processes of this Python.
+
+    The launcher must belong to the MPI that mpi4py loads: a Python environment that carries
+    its own MPI (the PyPI ``mpich`` beside DOLFINx's wheel) has its ``mpiexec`` next to the
+    interpreter, and a system launcher (Open MPI's ``mpirun``) would start independent
+    one-rank jobs. Otherwise the system's ``mpirun``; Open MPI refuses root unless told (CI
+    runs as root).
+    """
+    own = Path(sys.executable).parent / "mpiexec"
+    if own.is_file():
+        return [str(own), "-n", str(ranks)]
     return ["mpirun", "-n", str(ranks), "--allow-run-as-root", "--oversubscribe"]
 
 
@@ -378,7 +393,7 @@ def patch_weights(V, centre_deg: float, half_angle_deg: float) -> tuple[np.ndarr
     x = ufl.SpatialCoordinate(V.mesh)
     c, s = math.cos(math.radians(centre_deg)), math.sin(math.radians(centre_deg))
     # angle from the patch centre, measured in the x-z plane
-    offset = ufl.atan_2(-s * x[0] + c * x[2], c * x[0] + s * x[2])
+    offset = ufl.atan2(-s * x[0] + c * x[2], c * x[0] + s * x[2])
     inside = ufl.conditional(ufl.lt(abs(offset), math.radians(half_angle_deg)), 1.0, 0.0)
     b = fem_petsc.assemble_vector(fem.form(ufl.TestFunction(V)[0] * inside * ufl.dx(degree=6)))
     weights = b.array[0:: V.dofmap.index_map_bs].copy()

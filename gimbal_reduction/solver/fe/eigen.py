@@ -10,6 +10,8 @@ error from MUMPS), so callers pass a shift proportional to a known eigenvalue.
 """
 from __future__ import annotations
 
+from mpi4py import MPI  # noqa: F401  # isort: skip - first: petsc4py finds libmpi through it
+
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp

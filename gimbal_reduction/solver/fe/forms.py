@@ -1,4 +1,4 @@
-"""Finite-element models of one body in DOLFINx 0.5.2: shell and solid.
+"""Finite-element models of one body in DOLFINx 0.11: shell and solid.
 
 Shell (gimbal rings)
 --------------------
@@ -41,14 +41,26 @@ from __future__ import annotations
 
 from pathlib import Path
 
+# mpi4py first: the wheel's bindings (dolfinx, petsc4py) resolve libmpi through the copy that
+# mpi4py.MPI loads (importing dolfinx_solver does the same ordering and checks the stack)
+from mpi4py import MPI  # isort: skip
+
+import dolfinx_solver  # noqa: F401  # isort: skip
+
+# h5py (the body files) before dolfinx.fem.petsc: imported after it, h5py resolves its HDF5 calls
+# to the wheel's HDF5 1.14 instead of its own 2.0 and fails on import ("Not a datatype")
+import h5py  # noqa: F401  # isort: skip
+
+import basix
+import basix.ufl
 import meshio
 import numpy as np
 import ufl
-from dolfinx import cpp as _cpp
 from dolfinx import fem
+from dolfinx import graph as dgraph
 from dolfinx import mesh as dmesh
 from dolfinx.fem import petsc as fem_petsc
-from mpi4py import MPI
+from dolfinx.io import utils as io_utils
 from petsc4py import PETSc
 
 NODES_PER_CELL = {"line": 2, "triangle": 3, "triangle6": 6, "tetra": 4, "tetra10": 10}
@@ -62,8 +74,9 @@ JIT = {"cffi_extra_compile_args": ["-O2"], "cache_dir": str(Path.home() / ".cach
 def load_mesh(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD):
     """Read a gmsh ``.msh`` file (triangles, or first/second-order tetrahedra) into DOLFINx.
 
-    Read with meshio on rank 0 and distributed by DOLFINx (``gmshio`` of
-    0.5.2 crashes on files with point groups or gapped node tags).
+    Read with meshio on rank 0 and distributed by DOLFINx. (``dolfinx.io.gmsh`` reads a
+    live gmsh model or a file through gmsh; reading the file with meshio keeps the mesh's
+    nodes and cells exactly as written, whatever gmsh version is installed.)
     Returns ``(mesh, cell_tags, facet_tags, region_tags)`` where region_tags
     maps the physical-group names of dimension tdim-1 to their tag values.
     """
@@ -96,15 +109,16 @@ def load_mesh(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD):
 
         regions = {name: int(tag) for name, (tag, dim) in msh.field_data.items() if dim == tdim - 1}
         (cells, cell_values), (facets, facet_values) = stack(cell_type), stack(facet_type)
-        # drop nodes that no cell uses (DOLFINx 0.5.2 cannot distribute tags over them)
+        # drop nodes that no cell uses (the mesh's geometry is the cells' nodes; the point group's
+        # node lies on the mid-surface and is kept)
         used = np.unique(cells)
         renumber = np.full(len(msh.points), -1, dtype=np.int64)
         renumber[used] = np.arange(len(used))
         if np.any(renumber[facets] < 0):
             raise ValueError(f"mesh file '{path}' has tagged facets off the cells")
         # meshio hands cells over in VTK node order; DOLFINx numbers them differently
-        cells = renumber[cells][:, _cpp.io.perm_vtk(CELL_TYPES[cell_type], cells.shape[1])]
-        facets = renumber[facets][:, _cpp.io.perm_vtk(CELL_TYPES[facet_type], facets.shape[1])]
+        cells = renumber[cells][:, io_utils.cell_perm_vtk(CELL_TYPES[cell_type], cells.shape[1])]
+        facets = renumber[facets][:, io_utils.cell_perm_vtk(CELL_TYPES[facet_type], facets.shape[1])]
         payload = (tdim, cell_type, facet_type, msh.points[used], (cells, cell_values), (facets, facet_values),
                    regions)
     tdim, cell_type, facet_type, regions = comm.bcast(
@@ -115,18 +129,39 @@ def load_mesh(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD):
         x = np.zeros((0, 3))
         cells, cell_values = np.zeros((0, NODES_PER_CELL[cell_type]), np.int64), np.zeros(0, np.int32)
         facets, facet_values = np.zeros((0, NODES_PER_CELL[facet_type]), np.int64), np.zeros(0, np.int32)
-    cell = ufl.Cell("tetrahedron" if tdim == 3 else "triangle", geometric_dimension=3)
+    # the coordinate field: vector Lagrange of degree 1 (flat triangles, affine tetrahedra) or 2
+    # (curved tetrahedra) with three components, also on the shell's 2D manifold in 3D
     degree = 2 if cell_type == "tetra10" else 1
-    mesh = dmesh.create_mesh(comm, cells, x, ufl.Mesh(ufl.VectorElement("Lagrange", cell, degree)))
+    coordinate_element = basix.ufl.element("Lagrange", "tetrahedron" if tdim == 3 else "triangle", degree,
+                                           lagrange_variant=basix.LagrangeVariant.equispaced, shape=(3,))
+    # Cells sharing a facet across ranks are ghosted ("shared facet"): the region weights of a
+    # ring are interior-facet integrals (dS) over the bearing lines, which DOLFINx can only
+    # evaluate on a facet whose two cells a rank holds. (DOLFINx 0.5 ghosted so by default;
+    # in 0.11 the default ghosts nothing, and dS on a facet between ranks is an error.)
+    partitioner = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
+    mesh = dmesh.create_mesh(comm, cells, ufl.Mesh(coordinate_element), x, partitioner)
     if comm.allreduce(mesh.topology.index_map(tdim).size_local) == 0:
         raise ValueError(f"mesh file '{path}' holds an empty mesh")
 
     def tags_of(dim, entities, values):
+        # entities are given by their input (file) node numbers; each goes to the rank owning it
         mesh.topology.create_connectivity(dim, tdim)
-        local, local_values = _cpp.io.distribute_entity_data(mesh._mesh, dim, entities, values)
-        return dmesh.meshtags_from_entities(mesh, dim, _cpp.graph.AdjacencyList_int32(local), local_values)
+        local, local_values = io_utils.distribute_entity_data(mesh, dim, entities, values)
+        return dmesh.meshtags_from_entities(mesh, dim, dgraph.adjacencylist(local), local_values)
 
     return mesh, tags_of(tdim, cells, cell_values), tags_of(tdim - 1, facets, facet_values), regions
+
+
+def lagrange_element(mesh, degree: int, components: int):
+    """Continuous vector Lagrange element of ``degree`` with ``components`` node-interleaved values.
+
+    The nodes are Basix's GLL-warped points (the variant DOLFINx 0.5.2 chose for every Lagrange
+    space, and 0.11's default, stated here as part of the model); they coincide with the equispaced ones up to degree 2 and only the P3 solid's edge
+    and face nodes depend on it. The nodes matter beyond the space itself: the bearing
+    connection is a weighted fit of *nodal* values (``gimbal_reduction.solver.fe.bearings``).
+    """
+    return basix.ufl.element("Lagrange", mesh.basix_cell(), degree,
+                             lagrange_variant=basix.LagrangeVariant.gll_warped, shape=(components,))
 
 
 def skew(a):
@@ -169,7 +204,7 @@ def shell_forms(mesh, params: dict, shell: dict):
     ``shell``: shear_correction, drilling_factor, shear_stabilisation (alpha).
     Returns ``(V, a_stiffness, a_mass)``.
     """
-    V = fem.VectorFunctionSpace(mesh, ("Lagrange", 2), dim=6)
+    V = fem.functionspace(mesh, lagrange_element(mesh, 2, 6))
     E, nu, rho, t = (params[k] for k in ("youngs_modulus", "poissons_ratio", "density", "thickness"))
     G = E / (2 * (1 + nu))
     h = ufl.CellDiameter(mesh)
@@ -191,7 +226,7 @@ def shell_forms(mesh, params: dict, shell: dict):
 
 def solid_forms(mesh, params: dict, degree: int = 2):
     """Stiffness and mass bilinear forms of 3D isotropic elasticity on Lagrange tetrahedra."""
-    V = fem.VectorFunctionSpace(mesh, ("Lagrange", degree), dim=3)
+    V = fem.functionspace(mesh, lagrange_element(mesh, degree, 3))
     E, nu, rho = (params[k] for k in ("youngs_modulus", "poissons_ratio", "density"))
     lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
@@ -203,7 +238,7 @@ def solid_forms(mesh, params: dict, degree: int = 2):
 
 def assemble_matrix(form) -> PETSc.Mat:
     """Assemble a bilinear form into a PETSc matrix (no boundary conditions)."""
-    A = fem_petsc.assemble_matrix(fem.form(form, jit_params=JIT))
+    A = fem_petsc.assemble_matrix(fem.form(form, jit_options=JIT))
     A.assemble()
     return A
 
@@ -221,7 +256,7 @@ def region_weights(V, facet_tags, tag: int) -> np.ndarray:
         form = v("+")[0] * ufl.dS(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag)
     else:
         form = v[0] * ufl.ds(domain=mesh, subdomain_data=facet_tags, subdomain_id=tag, degree=6)
-    b = fem_petsc.assemble_vector(fem.form(form, jit_params=JIT))
+    b = fem_petsc.assemble_vector(fem.form(form, jit_options=JIT))
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     bs = V.dofmap.index_map_bs
     return b.array[0::bs].copy()

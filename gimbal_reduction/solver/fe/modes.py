@@ -1,6 +1,6 @@
 """The modal stage: assemble one body, attach bearings and eccentric mass, solve its modes.
 
-``/usr/bin/python3 -m gimbal_reduction.solver.fe.modes --body 2 --mesh results/mesh/body2.msh --mesh-meta results/mesh/body2.json --out results/modes/body2.h5``
+``gimbal modes --body 2 --mesh results/mesh/body2.msh --mesh-meta results/mesh/body2.json --out results/modes/body2.h5``
 
 The stage reads the config only through ``gimbal_reduction.workflow.config.body_inputs`` (whose hash
 is the rule's rerun trigger and the body file's ``config_hash``), and the mesh size
@@ -31,9 +31,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from mpi4py import MPI  # isort: skip - first: the bindings below find libmpi through it
+
 import numpy as np
 import scipy.sparse as sp
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from gimbal_reduction.geometry.gimbal import GeometryError, bearing_points, eccentric_mass_point

@@ -1,8 +1,8 @@
 """Command line of the FE verification: one check per call, and the combined report.
 
-``/usr/bin/python3 -m gimbal_reduction.solver.fe.verify CHECK [--body N] [--body-file F] [--mesh F] --out part.json``
-``/usr/bin/python3 -m gimbal_reduction.solver.fe.verify body --body-file F --out modes.json --spectra-out spectra.json``
-``/usr/bin/python3 -m gimbal_reduction.solver.fe.verify combine part1.json ... --out fe.json --summary fe.md``
+``gimbal fe-verify CHECK [--body N] [--body-file F] [--mesh F] --out part.json``
+``gimbal fe-verify body --body-file F --out modes.json --spectra-out spectra.json``
+``gimbal fe-verify combine part1.json ... --out fe.json --summary fe.md``
 
 CHECK is one of: ring, plate, solid-ring, platform, convergence, body-file,
 hughes, mpi, connection, spectra (see ``gimbal_reduction.solver.fe.checks``); body-file, spectra, mpi and
