@@ -47,7 +47,9 @@ class ReducedModel:
 class Simulation:
     """One run through a scene, at its output samples: t (T,) [s], gamma (T, 4) [rad],
     gamma_dot (T, 4) [rad/s], platform_attitude (T, 3, 3) (the platform's frame in case axes),
-    and the integrator's figures in ``stats`` (steps, wall times [s], ...)."""
+    the integrator's figures in ``stats`` (steps, wall times [s], ...); from ``simulate``
+    also every coordinate y (T, n) and rate y' (T, n) (4 gimbal angles, then each body's
+    kept elastic coordinates) and the energy {kinetic, potential, input_work} (T,) [in lbf]."""
 
     model: str
     scene: str
@@ -56,6 +58,9 @@ class Simulation:
     gamma_dot: np.ndarray
     platform_attitude: np.ndarray | None
     stats: dict = field(default_factory=dict)
+    y: np.ndarray | None = None
+    yd: np.ndarray | None = None
+    energy: dict | None = None
 
 
 def _files(folder_or_files, what: str) -> dict[int, str]:
@@ -98,13 +103,15 @@ def simulate(model: ReducedModel, scene, integrator: str = "exponential", **opti
     if scene.damping_ratio:
         chain = multibody.with_damping(chain, scene.damping_ratio)
     step = options.pop("step", None)
-    run, _ = simulate_stage.run_scene(chain, scene, integrator=integrator, step=step,
-                                      model_name=model.name, **options)
+    run, problem = simulate_stage.run_scene(chain, scene, integrator=integrator, step=step,
+                                            model_name=model.name, **options)
     attitude = simulate_stage.platform_attitude(chain, run)
-    stats = {"steps": run.steps, "integration_time_s": run.wall_time, "method": run.method,
-             **dict(run.stats)}
-    return Simulation(model.name, scene.name, np.asarray(run.t), np.asarray(run.y[:, :4]),
-                      np.asarray(run.yd[:, :4]), attitude, stats)
+    stats = {"steps": run.steps, "step": run.step, "integration_time_s": run.wall_time,
+             "method": run.method, **dict(run.stats)}
+    kinetic, potential, work = simulate_stage.energy_history(problem, run)
+    y, yd = np.asarray(run.y), np.asarray(run.yd)
+    return Simulation(model.name, scene.name, np.asarray(run.t), y[:, :4], yd[:, :4], attitude, stats,
+                      y, yd, {"kinetic": kinetic, "potential": potential, "input_work": work})
 
 
 def read_simulation(path) -> Simulation:
@@ -112,7 +119,7 @@ def read_simulation(path) -> Simulation:
     data = simfile.read_sim(str(path))
     attrs = data["attrs"]
     return Simulation(data["model"], str(attrs.get("scene", "")), data["t"], data["gamma"],
-                      data["gamma_dot"], data["platform_attitude"], attrs)
+                      data["gamma_dot"], data["platform_attitude"], attrs, energy=data.get("energy"))
 
 
 def error(truth: Simulation, case: Simulation) -> np.ndarray:

@@ -29,6 +29,7 @@
 # +
 import math
 import os
+import shutil
 import tempfile
 import time
 
@@ -37,9 +38,9 @@ from mpi4py import MPI
 
 from gimbal_reduction.geometry.mesh import mesh_from_config
 from gimbal_reduction.geometry.verification import band_surface
-from gimbal_reduction.reduction import models
+from gimbal_reduction import api
 from gimbal_reduction.solver.bodydata import BODIES, read_body_file
-from gimbal_reduction.solver.dynamics import multibody, scenes, simulate
+from gimbal_reduction.solver.dynamics import multibody
 from gimbal_reduction.solver.fe import eigen, forms, modes
 from gimbal_reduction.workflow import config as cfgmod
 
@@ -139,16 +140,17 @@ print(f"free ring: f(n=2) = {FREE_RING['fe_hz']:.1f} Hz (pair {FREE_RING['pair_h
 
 # +
 MESH_SIZE = {2: 0.5, 3: 0.5, 4: 0.5, 5: 1.0}
-body_data = {}
-with tempfile.TemporaryDirectory(prefix="one_ring_") as workdir:
-    for number in BODIES:
-        mesh_path = os.path.join(workdir, f"body{number}.msh")
-        body_path = os.path.join(workdir, f"body{number}.h5")
-        mesh_from_config(config, number, mesh_path, MESH_SIZE[number])
-        payload = modes.compute_body(number, config, mesh_path, 3, COMM, log=lambda *a, **k: None,
-                                     mesh_size=MESH_SIZE[number])
-        modes.write_body_file(body_path, payload, config_hash="docs/examples/one_ring.py", wall_time=0.0)
-        body_data[number] = read_body_file(body_path)
+body_data, body_files = {}, []
+workdir = tempfile.mkdtemp(prefix="one_ring_")       # removed at the end of the example
+for number in BODIES:
+    mesh_path = os.path.join(workdir, f"body{number}.msh")
+    body_path = os.path.join(workdir, f"body{number}.h5")
+    mesh_from_config(config, number, mesh_path, MESH_SIZE[number])
+    payload = modes.compute_body(number, config, mesh_path, 3, COMM, log=lambda *a, **k: None,
+                                 mesh_size=MESH_SIZE[number])
+    modes.write_body_file(body_path, payload, config_hash="docs/examples/one_ring.py", wall_time=0.0)
+    body_data[number] = read_body_file(body_path)
+    body_files.append(body_path)
 SUPPORTED_HZ = {number: body_data[number]["frequencies_hz"].tolist() for number in BODIES}
 for number in BODIES:
     attrs = body_data[number]["attrs"]
@@ -169,11 +171,13 @@ for number in BODIES:
 # motions), and through the modes' motion at the bearings, which moves the next body.
 # The model name `freq-2` keeps each body's two lowest supported modes
 # (`gimbal_reduction.reduction.models` holds the grammar: `xmx-10`, `static-8`, ...).
+# `gimbal_reduction.api.reduce` builds it from the body files, as the workflow's
+# `gimbal model` stage does (here without a configuration to check the files against).
 
 # +
-spec = models.parse_model("freq-2", models.frequency_rankings(body_data))
-chain = models.build_chain(spec, body_data)
-print(f"reduced model {spec.name}: {chain.n_coordinates} coordinates (4 gimbal angles + "
+model = api.reduce("freq-2", "free", bodies=body_files, config=None)
+chain = model.chain
+print(f"reduced model {model.name}: {chain.n_coordinates} coordinates (4 gimbal angles + "
       f"{chain.n_coordinates - 4} modal), largest kept modal frequency "
       f"{chain.omega_max / (2 * math.pi):.0f} Hz")
 # -
@@ -196,17 +200,16 @@ print(f"reduced model {spec.name}: {chain.n_coordinates} coordinates (4 gimbal a
 # modal integrals, equations of motion and time stepping.
 
 # +
-scene = scenes.load_scene("free")
-run, problem = simulate.run_scene(chain, scene, "rk4", model_name=spec.name)
-kinetic, potential, work = simulate.energy_history(problem, run)
-energy = kinetic + potential - work               # work = 0: nothing drives the chain
+run = api.simulate(model, "free", integrator="rk4")
+shutil.rmtree(workdir)
+energy = run.energy["kinetic"] + run.energy["potential"] - run.energy["input_work"]   # work = 0: nothing drives the chain
 p1 = np.array([(multibody.mass_matrix(chain, y) @ yd)[0] for y, yd in zip(run.y[::100], run.yd[::100])])
 ENERGY_DRIFT = float(np.max(np.abs(energy - energy[0])) / abs(energy[0]))
 MOMENTUM_DRIFT = float(np.max(np.abs(p1 - p1[0])) / abs(p1[0]))
-SIMULATION = {"steps": int(run.steps), "step_s": float(run.step), "samples": int(run.t.size),
+SIMULATION = {"steps": int(run.stats["steps"]), "step_s": float(run.stats["step"]), "samples": int(run.t.size),
               "duration_s": float(run.t[-1]), "rates_end": run.yd[-1, :4].tolist(),
               "max_modal_amplitude": float(np.abs(run.y[:, 4:]).max())}
-print(f"{scene.name}: {SIMULATION['duration_s'] * 1e3:g} ms in {SIMULATION['steps']} RK4 steps of "
+print(f"{run.scene}: {SIMULATION['duration_s'] * 1e3:g} ms in {SIMULATION['steps']} RK4 steps of "
       f"{SIMULATION['step_s']:.2e} s; relative drift of T + U {ENERGY_DRIFT:.1e}, of p_1 {MOMENTUM_DRIFT:.1e}")
 print(f"example done in {time.perf_counter() - START:.1f} s")
 # -
