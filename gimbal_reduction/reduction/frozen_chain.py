@@ -7,7 +7,7 @@ of a kept set, whose rate response is solved in closed form (``velocity_response
 This module holds what both the ranking (``gimbal_reduction.reduction.load_aware``) and the model grammar's
 ``tol-EPS`` (``gimbal_reduction.reduction.models``) use; it imports neither.  ``FrozenChainEstimator`` gives the
 rankings' many evaluations of one chain the same numbers at a fraction of the cost (its
-docstring; docs/selection.md, Section 1).
+docstring; docs/selection.md, Section 2).
 """
 
 import cmath

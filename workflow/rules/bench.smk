@@ -33,10 +33,10 @@ EXPONENTIAL_MODELS = [
 # one reference (truth model, rtol 1e-10, one core): thesis ~1 min, stress_rates_10 ~4 min.
 EXPONENTIAL_REFERENCE_SCENES = ["thesis", "stress_rates_10"]
 # The `long` scene's reference costs 20 min to 1.6 h of DOP853 on one core (1 s simulated:
-# 1,163,308 steps of ~8.6e-7 s; 1,221 s on 2026-11-26, 5,820 s on a loaded core the day before),
+# 1,163,308 steps of ~8.6e-7 s; 1,221 s on a quiet core, 5,820 s on a loaded one),
 # so it is optional and off: with LONG_REFERENCE = [] the benchmark still times `long` and reports
 # its E as "no reference"; set it to ["results/reference/long/truth.h5"] to judge E (measured with
-# it: E 4.4e-9 at long's tolerance 5e-7, docs/exponential.md Section 8).
+# it: E ~5e-9 at long's tolerance 5e-7, docs/exponential.md Section 5).
 LONG_REFERENCE = []
 
 

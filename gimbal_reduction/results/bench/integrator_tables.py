@@ -18,7 +18,8 @@ m integrated by the exponential integrator, E^rk4 with both by RK4.  The table d
 
 and the study's order of the models (by E_max) is compared too.  Both integrators'
 truths are also compared with each other (E of one against the other): RK4 at half its
-limit is itself only accurate to E ~ 1e-5 on the truth (docs/exponential.md Section 1).
+limit is itself only accurate to E ~ 2e-7 on the truth (8.8e-6 at the limit; docs/exponential.md
+Section 1).
 Outputs: the JSON (rows, summary, provenance) and a CSV of the rows.
 """
 from __future__ import annotations

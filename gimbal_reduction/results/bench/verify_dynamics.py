@@ -368,8 +368,8 @@ def exponential_checks(body_data, rankings, truth):
     fp = Problem(chain, case=free.case, torque=free.motor_torques, y0=y0, yd0=yd0)
     t0 = time.perf_counter()
     # not conservation to round-off: the method is not symplectic and its local errors (tol
-    # per step) accumulate; measured 1.0e-4 (energy) and 4.9e-5 (momentum) over 17,075 steps
-    # and 318 bases at tol 1e-6 (docs/exponential.md Section 8)
+    # per step) accumulate (docs/exponential.md Section 9; the measured drifts are in
+    # results/verification/dynamics.json)
     recs, run = dc.exponential_conservation("free_10s (truth model)", fp, free.duration,
                                             free.output_interval, limit=1e-3, tol=1e-6)
     for r in recs:
