@@ -16,9 +16,9 @@ rule kernels:
     benchmark:
         "results/benchmarks/rules/kernels.tsv"
     resources:
-        # no record on a quiet machine; a cold cache, single runs on a loaded one: Numba 0.60
-        # 141-143 s of CPU (288 s wall), Numba 0.68 97 s of CPU (274 s wall at load 4.5 on 2
-        # cores); ~300 MB
+        # no record; a cold cache, two single runs per version: Numba 0.60 118 s of CPU (119 s
+        # wall, quiet machine) and 143 s (loaded: 225-288 s wall), Numba 0.68 81 s (82 s wall,
+        # quiet) and 97 s (274 s wall at load 4.5 on 2 cores); ~300 MB
         mem_mb=mem_mb(300.0),
         runtime=runtime_min(288.0),
     params:
