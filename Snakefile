@@ -42,6 +42,7 @@ rule verify:
 
 
 rule all:
+    default_target: True
     input:
         rules.modes.input,
         rules.mode_shapes.input,
@@ -50,4 +51,3 @@ rule all:
         rules.reduction.input,
         rules.reduction_report.output,
         rules.report.input,
-    default_target: True

@@ -321,7 +321,7 @@ class FrozenChainEstimator:
             weights[1:] += 0.5 * h
             F, W = load_factors(np.asarray(model["loads"], float) / self._scale)
             Y = np.ascontiguousarray(np.vstack([self._joints, W]).T)
-            grid = (t, step, F, Y, full, weights, np.trapz(ref ** 2, tt, axis=0))
+            grid = (t, step, F, Y, full, weights, np.trapezoid(ref ** 2, tt, axis=0))
             self._grids[key] = grid
         elif model["M"] is not self._M:
             raise LoadAwareError("FrozenChainEstimator: the model is not the estimator's chain "

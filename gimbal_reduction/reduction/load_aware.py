@@ -181,8 +181,8 @@ def participation_scores(model):
     omega, V = coupled_modes(model["M"], K)
     g = model["loads"] @ V[N_JOINTS:]
     eta = modal_rates(omega, g, t)
-    ref = np.trapz((g0 + model["full"]) ** 2, t, axis=0)               # (4,)
-    e = V[:N_JOINTS] ** 2 * np.trapz(eta ** 2, t, axis=0)               # int (V_nk eta'_k)^2 dt
+    ref = np.trapezoid((g0 + model["full"]) ** 2, t, axis=0)               # (4,)
+    e = V[:N_JOINTS] ** 2 * np.trapezoid(eta ** 2, t, axis=0)               # int (V_nk eta'_k)^2 dt
     e = e / np.where(ref > 0, ref, 1.0)[:, None]
     elastic = omega > 0
     eps = np.zeros((K.size - N_JOINTS, K.size))

@@ -153,7 +153,7 @@ def check_body(body, expect_config_hash=None, mass_normalisation_tol=1e-6):
     bad = np.flatnonzero(~np.isfinite(lam) | (lam <= 0))
     if bad.size:
         raise BodyFileError(f"{where}: dataset eigenvalues must be finite and positive "
-                            f"(entry {int(bad[0])} is {lam[bad[0]]!r}): corrupt body file, {remedy(where)}")
+                            f"(entry {int(bad[0])} is {float(lam[bad[0]])!r}): corrupt body file, {remedy(where)}")
     down = np.flatnonzero(np.diff(lam) < -1e-9 * lam.max())
     if down.size:
         raise BodyFileError(f"{where}: dataset eigenvalues is not ascending (entry {int(down[0]) + 1} "

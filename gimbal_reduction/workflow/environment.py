@@ -1,8 +1,8 @@
 """Is this Snakemake the project's? The check the workflow runs first, at DAG build.
 
 The rules run their stages with the interpreter that runs Snakemake (``sys.executable``), so
-a Snakemake from elsewhere (Debian's /usr/bin/snakemake 7.21, a pip install in another
-environment) would run every stage without the project's packages: without Numba the dynamics
+a Snakemake from elsewhere (a distribution's /usr/bin/snakemake, a pip install in another
+environment, an older pin such as 8.20.5) would run every stage without the project's packages: without Numba the dynamics
 would not run (and before issue 16 ran ~100x slower), without Typst the reports fail at the end.
 ``problem()`` names what is wrong in one line, with the command that runs the workflow;
 ``workflow/rules/common.smk`` prints it and stops before anything runs.
@@ -18,8 +18,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 REQUIREMENTS = ROOT / "workflow" / "envs" / "requirements.txt"
-# what the stages import that only the project's environment has (.venv: Debian's DOLFINx through
-# the system site packages, the PyPI pins of workflow/envs/requirements.txt)
+# what the stages import that only the project's environment has (.venv on Python >= 3.12, every
+# package from PyPI as pinned in workflow/envs/requirements.txt: DOLFINx 0.11's wheel, Numba, Typst,
+# Pint; no system site packages)
 MODULES = ("numba", "typst", "pint", "dolfinx")
 HOW = ("run it from the project's environment: `make install`, then `. .venv/bin/activate` and "
        "`snakemake --cores 2 all` (or `.venv/bin/python -m snakemake --cores 2 all`)")

@@ -3,8 +3,10 @@ refused when the DAG is built, before any mesh or modal solve, in one line namin
 nothing written (workflow/rules/common.smk: dag_scene, checked_model; gimbal_reduction.reduction.models.check_name).
 
 Each case is a real run (not a dry run) of the tiny test configuration (.test: 12 modes per body)
-with --directory on a private copy; Snakemake's own progress lines ("host: ...", "Building DAG of
-jobs...", "Assuming unrestricted shared filesystem usage.") are the only other output."""
+with --directory on a private copy; Snakemake's own progress lines ("Building DAG of jobs...",
+"Assuming unrestricted shared filesystem usage.", and Snakemake 9's run header: "SNAKEMAKE",
+"=========" and its "  Key: value" lines, where Snakemake 8 printed "host: ...") are the only other
+output."""
 import os
 import shutil
 import subprocess
@@ -16,6 +18,16 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[2]
 SNAKEMAKE_PROGRESS = ("host: ", "Building DAG of jobs", "Assuming unrestricted shared filesystem usage")
+# Snakemake 9's header of a run (snakemake.logging: format_workflow_started), printed before the DAG
+HEADER_KEYS = ("Date", "Workflow ID", "Platform", "Host", "User", "Snakemake version", "Python version",
+               "Command", "Snakefile", "Base directory", "Run directory", "Working directory",
+               "Config file(s)", "Config MD5")
+
+
+def snakemake_own(line):
+    """Whether ``line`` is Snakemake's own progress or run-header output (not the workflow's)."""
+    return (line.startswith(SNAKEMAKE_PROGRESS) or line in ("SNAKEMAKE", "=========")
+            or any(line.startswith(f"  {key}: ") for key in HEADER_KEYS))
 
 CASES = {
     "unknown model as a simulation target": (
@@ -75,7 +87,7 @@ def test_bad_name_refused_when_the_dag_is_built(case, workdir):
                           str(ROOT / "Snakefile"), "--directory", str(workdir), target],
                          cwd=ROOT, capture_output=True, text=True, timeout=300)
     lines = [line for line in (run.stdout + run.stderr).splitlines()
-             if line.strip() and not line.startswith(SNAKEMAKE_PROGRESS)]
+             if line.strip() and not snakemake_own(line)]
     assert run.returncode != 0, run.stdout[-2000:]
     assert len(lines) == 1, lines
     for word in words:

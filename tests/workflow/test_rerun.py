@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 from snakemake.api import SnakemakeApi
-from snakemake.io import Wildcards
+from snakemake.iocontainers import Wildcards  # Snakemake 9 moved it out of snakemake.io
 from snakemake.settings.types import ConfigSettings, OutputSettings, ResourceSettings
 
 from gimbal_reduction import commands

@@ -43,7 +43,7 @@ def test_tolerance_runs_every_study_scene_and_spin_for_eps_1e2_to_1e8(workflow):
 
 def test_the_study_report_reads_the_tolerance_bench_if_present(workflow):
     """An optional input (read if present, with its date), not a dependency: `all` runs no bench."""
-    from snakemake.io import Wildcards
+    from snakemake.iocontainers import Wildcards  # Snakemake 9: no longer in snakemake.io
     rule = workflow.get_rule("study_report")
     assert "--tolerance results/benchmarks/tolerance.json" in rule.params.optional(Wildcards())
     assert "results/benchmarks/tolerance.json" not in {str(f) for f in rule.input}

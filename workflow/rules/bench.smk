@@ -49,17 +49,17 @@ rule stability:
         json="results/stability/stability.json",
         rk4_limit="results/figures/stability/rk4_limit.png",
         drift="results/figures/stability/energy_drift.png",
-    params:
-        code=code_hash("stability"),
-        cfg=body_files_hash,  # the input files are checked against the config
-    resources:
-        # no record: estimate, 2 GB and 1 h (bisections and 10 s energy-drift runs per integrator)
-        mem_mb=2000,
-        runtime=60,
     log:
         "logs/bench/stability.log",
     benchmark:
         "results/benchmarks/rules/bench/stability.tsv"
+    resources:
+        # no record: estimate, 2 GB and 1 h (bisections and 10 s energy-drift runs per integrator)
+        mem_mb=2000,
+        runtime=60,
+    params:
+        code=code_hash("stability"),
+        cfg=body_files_hash,  # the input files are checked against the config
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} stability --bodies {input.bodies} "
         "--reductions {input.reductions} --out-dir results/stability "
@@ -71,12 +71,6 @@ rule scaling:
         csv="results/benchmarks/scaling.csv",
         json="results/benchmarks/scaling.json",
         figure="results/figures/bench/scaling.png",
-    params:
-        code=code_hash("scaling"),
-    resources:
-        # no record: estimate, 2 GB (up to 8000 coordinates, dense baseline) and 1 h
-        mem_mb=2000,
-        runtime=60,
     log:
         "logs/bench/scaling.log",
     benchmark:
@@ -84,6 +78,12 @@ rule scaling:
     # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
+    resources:
+        # no record: estimate, 2 GB (up to 8000 coordinates, dense baseline) and 1 h
+        mem_mb=2000,
+        runtime=60,
+    params:
+        code=code_hash("scaling"),
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} scaling --out-csv {output.csv} "
         "--out-json {output.json} --figure {output.figure} > {log} 2>&1"
@@ -101,14 +101,6 @@ rule pareto:
         csv="results/benchmarks/pareto.csv",
         json="results/benchmarks/pareto.json",
         figure="results/figures/bench/pareto.png",
-    params:
-        models=" ".join(f"'{m}'" for m in PARETO_MODELS),
-        code=code_hash("pareto"),
-        cfg=body_files_hash,  # the input files are checked against the config
-    resources:
-        # no record: ~2 min per model and ~5 min for the truth (comment above): 13 min, so 30 min
-        mem_mb=mem_mb(780.5),
-        runtime=30,
     log:
         "logs/bench/pareto.log",
     benchmark:
@@ -116,6 +108,14 @@ rule pareto:
     # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
+    resources:
+        # no record: ~2 min per model and ~5 min for the truth (comment above): 13 min, so 30 min
+        mem_mb=mem_mb(780.5),
+        runtime=30,
+    params:
+        models=" ".join(f"'{m}'" for m in PARETO_MODELS),
+        code=code_hash("pareto"),
+        cfg=body_files_hash,  # the input files are checked against the config
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} pareto --scene thesis --truth {input.truth} "
         "--models {params.models} --repeats 5 --budget 600 --bodies {input.bodies} --reductions {input.reductions} "
@@ -132,17 +132,17 @@ rule selection:
     output:
         table="results/tables/selection.csv",
         figure="results/figures/bench/global_ranking.png",
-    params:
-        code=code_hash("selection"),
-        cfg=body_files_hash,  # the input files are checked against the config
-    resources:
-        # no record: reads simulation files (as error_tables, error_tables_long.tsv 2.7 s, 159.3 MB)
-        mem_mb=mem_mb(159.3),
-        runtime=runtime_min(2.7),
     log:
         "logs/bench/selection.log",
     benchmark:
         "results/benchmarks/rules/bench/selection.tsv"
+    resources:
+        # no record: reads simulation files (as error_tables, error_tables_long.tsv 2.7 s, 159.3 MB)
+        mem_mb=mem_mb(159.3),
+        runtime=runtime_min(2.7),
+    params:
+        code=code_hash("selection"),
+        cfg=body_files_hash,  # the input files are checked against the config
     shell:
         "MPLBACKEND=Agg {GIMBAL} selection --truth {input.truth} --cases {input.cases} "
         "--ranking {input.ranking} --reductions {input.reductions} --table {output.table} "
@@ -151,11 +151,16 @@ rule selection:
 
 rule reference_simulation:
     """The converged reference of a scene: DOP853 at rtol 1e-10 on the scene's truth model (the
-    simulation default is the exponential integrator, so results/sim/{scene}/truth.h5 is not it)."""
+    simulation default is the exponential integrator, so results/sim/{scene}/truth.h5 is not it).
+    """
     input:
         model="results/models/{scene}/truth.h5",
     output:
         "results/reference/{scene}/truth.h5",
+    log:
+        "logs/reference/{scene}.log",
+    benchmark:
+        "results/benchmarks/rules/reference/{scene}.tsv"
     resources:
         # records: reference/stress_rates_100.tsv 367.8 s, reference/stress_lock.tsv 248.8 MB (max of
         # 6); the long scene has no record: ~1 h of DOP853 (LONG_REFERENCE above), so 2 h
@@ -163,10 +168,6 @@ rule reference_simulation:
         runtime=lambda wildcards: (
             120 if wildcards.scene == "long" else runtime_min(367.8)
         ),
-    log:
-        "logs/reference/{scene}.log",
-    benchmark:
-        "results/benchmarks/rules/reference/{scene}.tsv"
     params:
         physics=scene_physics_hash,
         scene=scene_file,
@@ -189,15 +190,6 @@ rule exponential_bench:
         json="results/benchmarks/exponential.json",
         md="results/benchmarks/exponential.md",
         csv="results/benchmarks/exponential.csv",
-    params:
-        references=reference_arguments,
-        models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
-        code=code_hash("bench-exponential"),
-        cfg=body_files_hash,  # the input files are checked against the config
-    resources:
-        # no record: ~3 + 2.5 + 1 min (comment above EXPONENTIAL_MODELS), so 15 min; memory as simulate
-        mem_mb=mem_mb(780.5),
-        runtime=15,
     log:
         "logs/bench/exponential.log",
     benchmark:
@@ -205,6 +197,15 @@ rule exponential_bench:
     # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
+    resources:
+        # no record: ~3 + 2.5 + 1 min (comment above EXPONENTIAL_MODELS), so 15 min; memory as simulate
+        mem_mb=mem_mb(780.5),
+        runtime=15,
+    params:
+        references=reference_arguments,
+        models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
+        code=code_hash("bench-exponential"),
+        cfg=body_files_hash,  # the input files are checked against the config
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} bench-exponential "
         "--truth-model {input.truth_model} --reference {params.references} --models {params.models} "
@@ -233,19 +234,19 @@ rule exponential_accuracy:
     output:
         json="results/verification/exponential.json",
         md="results/verification/exponential.md",
+    log:
+        "logs/bench/exponential_accuracy.log",
+    benchmark:
+        "results/benchmarks/rules/bench/exponential_accuracy.tsv"
+    resources:
+        # no record: one exponential run per accuracy scene (seconds each): as simulate
+        mem_mb=mem_mb(780.5),
+        runtime=runtime_min(301.6),
     params:
         references=reference_arguments,
         tol=cfgmod.value(config, "simulation.tolerance"),
         code=code_hash("exponential-accuracy"),
         cfg=body_files_hash,  # the input files are checked against the config
-    resources:
-        # no record: one exponential run per accuracy scene (seconds each): as simulate
-        mem_mb=mem_mb(780.5),
-        runtime=runtime_min(301.6),
-    log:
-        "logs/bench/exponential_accuracy.log",
-    benchmark:
-        "results/benchmarks/rules/bench/exponential_accuracy.tsv"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} exponential-accuracy --truth-model {input.truth_model} "
         "--reference {params.references} --tol {params.tol} --out-json {output.json} "
@@ -261,13 +262,22 @@ INTEGRATOR_TABLE_MODELS = importlib.import_module(
 
 rule integrator_tables:
     """The study's error table with the exponential integrator against RK4 (issue 13): every
-    study model and the truth integrated both ways, in one process (gimbal_reduction.results.bench.integrator_tables)."""
+    study model and the truth integrated both ways, in one process (gimbal_reduction.results.bench.integrator_tables).
+    """
     input:
         truth_model="results/models/thesis/truth.h5",
         models=expand("results/models/thesis/{model}.h5", model=INTEGRATOR_TABLE_MODELS),
     output:
         json="results/benchmarks/integrator_tables.json",
         csv="results/benchmarks/integrator_tables.csv",
+    log:
+        "logs/results/integrator_tables.log",
+    benchmark:
+        "results/benchmarks/rules/integrator_tables.tsv"
+    resources:
+        # no record: the RK4 runs ~2.5 min (comment above), so 10 min; memory as simulate
+        mem_mb=mem_mb(780.5),
+        runtime=10,
     params:
         code=code_hash("integrator-tables"),
         cfg=body_files_hash,  # the input files are checked against the config
@@ -276,14 +286,6 @@ rule integrator_tables:
         ).config_hash(),
         tol=cfgmod.value(config, "simulation.tolerance"),
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
-    resources:
-        # no record: the RK4 runs ~2.5 min (comment above), so 10 min; memory as simulate
-        mem_mb=mem_mb(780.5),
-        runtime=10,
-    log:
-        "logs/results/integrator_tables.log",
-    benchmark:
-        "results/benchmarks/rules/integrator_tables.tsv"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} integrator-tables --scene config/scenes/thesis.yaml "
         "--truth-model {input.truth_model} --models {params.models} --tol {params.tol} "
@@ -319,15 +321,6 @@ rule tolerance:
         json="results/benchmarks/tolerance.json",
         figure="results/figures/bench/tolerance.png",
         figure_pdf="results/figures/bench/tolerance.pdf",
-    params:
-        eps=" ".join(f"{e:g}" for e in TOLERANCE_EPS),
-        code=code_hash("tolerance"),
-    resources:
-        # no record (run outside Snakemake): the same command run directly in this session on a
-        # loaded 2-core machine, /usr/bin/time -v: 1147 s wall, 1035.4 MB peak (long's and spin's
-        # verified searches 2/3 of it)
-        mem_mb=mem_mb(1035.4),
-        runtime=runtime_min(1147.0),
     log:
         "logs/bench/tolerance.log",
     benchmark:
@@ -335,6 +328,15 @@ rule tolerance:
     # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
     # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
     threads: 2
+    resources:
+        # no record (run outside Snakemake): the same command run directly in this session on a
+        # loaded 2-core machine, /usr/bin/time -v: 1147 s wall, 1035.4 MB peak (long's and spin's
+        # verified searches 2/3 of it)
+        mem_mb=mem_mb(1035.4),
+        runtime=runtime_min(1147.0),
+    params:
+        eps=" ".join(f"{e:g}" for e in TOLERANCE_EPS),
+        code=code_hash("tolerance"),
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} tolerance "
         "--scenes {input.scenes} --eps {params.eps} --modes-dir results/modes "

@@ -23,7 +23,7 @@ os.environ.update(
 # unless the user set another. srun alone reads it.
 os.environ.setdefault("SLURM_MPI_TYPE", "pmi2")
 # First: is this the project's Snakemake and interpreter (the rules run {GIMBAL} beside sys.executable)?
-# Debian's /usr/bin/snakemake or a python without Numba/Typst stops here in one line saying how to
+# Another Snakemake (a system one, an older pin) or a python without Numba/Typst stops here in one line saying how to
 # run the workflow (gimbal_reduction/workflow/environment.py, standard library only), before anything is imported.
 _environment_problem = importlib.import_module(
     "gimbal_reduction.workflow.environment"
@@ -61,8 +61,8 @@ except cfgmod.ConfigError as exc:
 #   and the config file as an input would rerun every stage on any edit (params.cfg is the precise
 #   trigger). They are workflow-wide constants like a shell prefix.
 # * "Specify a conda environment or container for each rule" (every rule): the software environment
-#   is the project's .venv (workflow/envs/install.sh: Debian's DOLFINx 0.5.2, PETSc, SLEPc and gmsh
-#   with the PyPI pins of workflow/envs/requirements.txt), checked at DAG build above. A conda
+#   is the project's .venv (workflow/envs/install.sh: every pin of workflow/envs/requirements.txt
+#   from PyPI, DOLFINx 0.11 with PETSc, SLEPc and MPICH included), checked at DAG build above. A conda
 #   environment or a container per rule would be a second software stack that nothing here
 #   verifies (and no container image can be fetched on this project's machines).
 PY = sys.executable

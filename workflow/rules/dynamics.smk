@@ -5,24 +5,26 @@
 
 rule kernels:
     """Compile the dynamics kernels once, before the jobs that use them (gimbal_reduction.solver.dynamics.warmup):
-    no body file needed, so it runs beside the FE jobs at the start of a fresh clone's run."""
+    no body file needed, so it runs beside the FE jobs at the start of a fresh clone's run.
+    """
     input:
         scenes=[scene_path(s) for s in WARMUP_SCENES],
     output:
         KERNELS,
-    params:
-        code=code_hash("warmup"),
-        integrator=cfgmod.value(config, "simulation.integrator"),
-        options=integrator_options,
-    resources:
-        # no record on a quiet machine: 141 s of CPU, 288 s wall on a loaded one (this session,
-        # a cold cache); ~300 MB
-        mem_mb=mem_mb(300.0),
-        runtime=runtime_min(288.0),
     log:
         "logs/sim/kernels.log",
     benchmark:
         "results/benchmarks/rules/kernels.tsv"
+    resources:
+        # no record; a cold cache, two single runs per version: Numba 0.60 118 s of CPU (119 s
+        # wall, quiet machine) and 143 s (loaded: 225-288 s wall), Numba 0.68 81 s (82 s wall,
+        # quiet) and 97 s (274 s wall at load 4.5 on 2 cores); ~300 MB
+        mem_mb=mem_mb(300.0),
+        runtime=runtime_min(288.0),
+    params:
+        code=code_hash("warmup"),
+        integrator=cfgmod.value(config, "simulation.integrator"),
+        options=integrator_options,
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} warmup --scenes {input.scenes} "
         "--integrator {params.integrator} {params.options} --out {output} > {log} 2>&1"
@@ -36,18 +38,18 @@ rule load_ranking:
         kernels=ancient(KERNELS),
     output:
         "results/reduction/load/{scene}.h5",
-    params:
-        code=code_hash("load-ranking"),
-        scene=scene_file,
-        cfg=body_files_hash,  # the body and reduction files are checked against the config
-    resources:
-        # records: load_ranking_thesis.tsv 385.0 s, 738.1 MB (max of 6)
-        mem_mb=mem_mb(738.1),
-        runtime=runtime_min(385.0),
     log:
         "logs/reduction/load_{scene}.log",
     benchmark:
         "results/benchmarks/rules/load_ranking_{scene}.tsv"
+    resources:
+        # records: load_ranking_thesis.tsv 385.0 s, 738.1 MB (max of 6)
+        mem_mb=mem_mb(738.1),
+        runtime=runtime_min(385.0),
+    params:
+        code=code_hash("load-ranking"),
+        scene=scene_file,
+        cfg=body_files_hash,  # the body and reduction files are checked against the config
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} load-ranking --scene {params.scene} --bodies {input.bodies} "
         "--reductions {input.reductions} --config {CONFIG} --out {output} > {log} 2>&1"
@@ -60,14 +62,14 @@ rule simulate:
         kernels=ancient(KERNELS),
     output:
         "results/sim/{scene}/{model}.h5",
-    resources:
-        # records: sim/thesis/truth.tsv 301.6 s, 780.5 MB (max of 121)
-        mem_mb=mem_mb(780.5),
-        runtime=runtime_min(301.6),
     log:
         "logs/sim/{scene}/{model}.log",
     benchmark:
         "results/benchmarks/rules/sim/{scene}/{model}.tsv"
+    resources:
+        # records: sim/thesis/truth.tsv 301.6 s, 780.5 MB (max of 121)
+        mem_mb=mem_mb(780.5),
+        runtime=runtime_min(301.6),
     params:
         # the scene's physics (not what it needs, nor its comments) triggers a rerun; a
         # missing scene file is reported in one line when the DAG is built
@@ -91,13 +93,6 @@ rule dynamics_verification:
     output:
         verification="results/verification/dynamics.json",
         benchmark="results/benchmarks/dynamics.json",
-    params:
-        code=code_hash("verify-dynamics"),
-        cfg=body_files_hash,  # the input files are checked against the config
-    resources:
-        # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
-        mem_mb=2000,
-        runtime=60,
     log:
         "logs/sim/verification.log",
     benchmark:
@@ -105,6 +100,13 @@ rule dynamics_verification:
     # both cores: its wall times are the issue-4 benchmark, so no other job runs beside it
     # (BLAS still pinned to one thread, as everywhere)
     threads: 2
+    resources:
+        # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
+        mem_mb=2000,
+        runtime=60,
+    params:
+        code=code_hash("verify-dynamics"),
+        cfg=body_files_hash,  # the input files are checked against the config
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} verify-dynamics --bodies {input.bodies} "
         "--reductions {input.reductions} --verification {output.verification} "

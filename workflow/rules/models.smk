@@ -14,13 +14,10 @@ rule reduced_model:
         unpack(model_inputs),
     output:
         "results/models/{scene}/{model}.h5",
-    params:
-        code=code_hash("model"),
-        scene=scene_file,
-        elastic_bodies=scene_elastic_bodies,
-        rankings=ranking_options,
-        # the body files' config hashes are checked against the configuration (--config)
-        cfg=body_files_hash,
+    log:
+        "logs/models/{scene}/{model}.log",
+    benchmark:
+        "results/benchmarks/rules/models/{scene}/{model}.tsv"
     resources:
         # records: models/thesis/static-8.tsv 5.9 s, models/thesis/static-xmx-4.tsv 431.1 MB (max of 134)
         mem_mb=mem_mb(431.1),
@@ -29,10 +26,13 @@ rule reduced_model:
         runtime=lambda wildcards: (
             30 if wildcards.model.startswith("tol-") else runtime_min(5.9)
         ),
-    log:
-        "logs/models/{scene}/{model}.log",
-    benchmark:
-        "results/benchmarks/rules/models/{scene}/{model}.tsv"
+    params:
+        code=code_hash("model"),
+        scene=scene_file,
+        elastic_bodies=scene_elastic_bodies,
+        rankings=ranking_options,
+        # the body files' config hashes are checked against the configuration (--config)
+        cfg=body_files_hash,
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} model --model '{wildcards.model}' --scene {params.scene} "
         "--bodies {input.bodies} {params.rankings} --config {CONFIG} --out {output} > {log} 2>&1"

@@ -8,12 +8,22 @@
 
 rule control_export:
     """The reduced model's linearised state space about the scene's initial state, for control
-    design (gimbal_reduction.solver.dynamics.export; docs/examples/control_export.py loads it)."""
+    design (gimbal_reduction.solver.dynamics.export; docs/examples/control_export.py loads it).
+    """
     input:
         model=checked_model_file("results/export/{scene}/{model}.mat"),
     output:
         mat="results/export/{scene}/{model}.mat",
         npz="results/export/{scene}/{model}.npz",
+    log:
+        "logs/export/{scene}/{model}.log",
+    benchmark:
+        "results/benchmarks/rules/export/{scene}/{model}.tsv"
+    resources:
+        # no record yet: single runs on thesis, freq-10 5.8 s, 191 MB (under load); truth (404
+        # coordinates) 4.0 s, 215 MB
+        mem_mb=mem_mb(215.3),
+        runtime=runtime_min(5.8),
     params:
         code=code_hash("export"),
         # the linearisation point and the damping are the scene's
@@ -21,15 +31,6 @@ rule control_export:
         scene=scene_file,
         # the model's body files are checked against the configuration (--config)
         cfg=body_files_hash,
-    resources:
-        # no record yet: single runs on thesis, freq-10 5.8 s, 191 MB (under load); truth (404
-        # coordinates) 4.0 s, 215 MB
-        mem_mb=mem_mb(215.3),
-        runtime=runtime_min(5.8),
-    log:
-        "logs/export/{scene}/{model}.log",
-    benchmark:
-        "results/benchmarks/rules/export/{scene}/{model}.tsv"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} export --model-file {input.model} --scene {params.scene} "
         "--config {CONFIG} --out {output.mat} > {log} 2>&1"
@@ -37,12 +38,21 @@ rule control_export:
 
 rule simulate_modal:
     """The simulation of rule simulate with the modal coordinates stored (--store-modal), for the
-    ParaView output: its own folder, so results/sim/ keeps the files every other stage reads."""
+    ParaView output: its own folder, so results/sim/ keeps the files every other stage reads.
+    """
     input:
         model=checked_model_file("results/sim_modal/{scene}/{model}.h5"),
         kernels=ancient(KERNELS),
     output:
         "results/sim_modal/{scene}/{model}.h5",
+    log:
+        "logs/sim_modal/{scene}/{model}.log",
+    benchmark:
+        "results/benchmarks/rules/sim_modal/{scene}/{model}.tsv"
+    resources:
+        # as rule simulate (records: sim/thesis/truth.tsv 301.6 s, 780.5 MB, max of 121)
+        mem_mb=mem_mb(780.5),
+        runtime=runtime_min(301.6),
     params:
         physics=scene_physics_hash,
         scene=scene_file,
@@ -50,14 +60,6 @@ rule simulate_modal:
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
         cfg=body_files_hash,
-    resources:
-        # as rule simulate (records: sim/thesis/truth.tsv 301.6 s, 780.5 MB, max of 121)
-        mem_mb=mem_mb(780.5),
-        runtime=runtime_min(301.6),
-    log:
-        "logs/sim_modal/{scene}/{model}.log",
-    benchmark:
-        "results/benchmarks/rules/sim_modal/{scene}/{model}.tsv"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} simulate --scene {params.scene} --model-file {input.model} "
         "--integrator {params.integrator} {params.options} --store-modal --config {CONFIG} --out {output} "
@@ -76,19 +78,19 @@ rule paraview:
         pvd="results/paraview/{scene}/{model}.pvd",
         frames=directory("results/paraview/{scene}/{model}_frames"),
         png="results/paraview/{scene}/{model}.png",
-    params:
-        code=code_hash("paraview"),
-        frames=100,
-        scale=1.0,
+    log:
+        "logs/paraview/{scene}/{model}.log",
+    benchmark:
+        "results/benchmarks/rules/paraview/{scene}/{model}.tsv"
     resources:
         # no record yet: single runs on thesis (100 of 1501 samples): freq-10 6.0 s, 203 MB; static-8
         # (its static modes rebuilt from the full body files) 21.9 s, 653.1 MB
         mem_mb=mem_mb(653.1),
         runtime=runtime_min(21.9),
-    log:
-        "logs/paraview/{scene}/{model}.log",
-    benchmark:
-        "results/benchmarks/rules/paraview/{scene}/{model}.tsv"
+    params:
+        code=code_hash("paraview"),
+        frames=100,
+        scale=1.0,
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} paraview --sim {input.sim} --model-file {input.model} "
         "--bodies {input.bodies} --meshes {input.meshes} --frames {params.frames} --scale {params.scale} "

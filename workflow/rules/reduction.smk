@@ -13,17 +13,17 @@ rule reduction_body:
         body="results/modes/body{n}.h5",
     output:
         "results/reduction/body{n}.h5",
-    params:
-        code=code_hash("reduce"),
-        cfg=body_hash(),  # the body file's config_hash is checked against the config
-    resources:
-        # records: reduction_body5.tsv 5.0 s, 376.5 MB (max of 4)
-        mem_mb=mem_mb(376.5),
-        runtime=runtime_min(5.0),
     log:
         "logs/reduction/body{n}.log",
     benchmark:
         "results/benchmarks/rules/reduction_body{n}.tsv"
+    resources:
+        # records: reduction_body5.tsv 5.0 s, 376.5 MB (max of 4)
+        mem_mb=mem_mb(376.5),
+        runtime=runtime_min(5.0),
+    params:
+        code=code_hash("reduce"),
+        cfg=body_hash(),  # the body file's config_hash is checked against the config
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} reduce --body-file {input.body} --config {CONFIG} "
         "--out {output} > {log} 2>&1"
@@ -41,17 +41,17 @@ rule coarse_body_all_modes:
         meta="results/verification/coarse/body4.json",
     output:
         "results/verification/coarse/body4.h5",
-    params:
-        code=code_hash("modes"),
-        cfg=body_hash(body=4, mesh_size=COARSE_SIZE),
-    resources:
-        # no record at 0.75 in: 6.9 s, 655.8 MB measured (max of 3, /usr/bin/time)
-        mem_mb=mem_mb(655.8),
-        runtime=runtime_min(6.9),
     log:
         "logs/reduction/coarse_body4.log",
     benchmark:
         "results/benchmarks/rules/coarse_body_all_modes.tsv"
+    resources:
+        # no record at 0.75 in: 6.9 s, 655.8 MB measured (max of 3, /usr/bin/time)
+        mem_mb=mem_mb(655.8),
+        runtime=runtime_min(6.9),
+    params:
+        code=code_hash("modes"),
+        cfg=body_hash(body=4, mesh_size=COARSE_SIZE),
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} modes --body 4 --mesh {input.mesh} --mesh-meta {input.meta} "
         "--out {output} --all-modes --config {CONFIG} > {log} 2>&1"
@@ -61,17 +61,17 @@ rule coarse_mesh:
     output:
         mesh="results/verification/coarse/body4.msh",
         meta="results/verification/coarse/body4.json",
-    params:
-        code=code_hash("mesh"),
-        cfg=body_hash("mesh", body=4, mesh_size=COARSE_SIZE),
-    resources:
-        # records: coarse_mesh.tsv 1.6 s, 106.3 MB
-        mem_mb=mem_mb(106.3),
-        runtime=runtime_min(1.6),
     log:
         "logs/reduction/coarse_mesh4.log",
     benchmark:
         "results/benchmarks/rules/coarse_mesh.tsv"
+    resources:
+        # records: coarse_mesh.tsv 1.6 s, 106.3 MB
+        mem_mb=mem_mb(106.3),
+        runtime=runtime_min(1.6),
+    params:
+        code=code_hash("mesh"),
+        cfg=body_hash("mesh", body=4, mesh_size=COARSE_SIZE),
     shell:
         "{GIMBAL} mesh --body 4 --size {COARSE_SIZE} --coarse --out {output.mesh} --meta {output.meta} "
         "--config {CONFIG} > {log} 2>&1"
@@ -86,17 +86,17 @@ rule reduction_report:
         table="results/tables/ranking.csv",
         verification="results/verification/reduction.json",
         benchmark="results/benchmarks/reduction.json",
-    params:
-        code=code_hash("reduction-report"),
-        cfg=body_files_hash,  # the body and reduction files are checked against the config
-    resources:
-        # records: reduction_report.tsv 31.0 s, 601.1 MB (max of 2)
-        mem_mb=mem_mb(601.1),
-        runtime=runtime_min(31.0),
     log:
         "logs/reduction/report.log",
     benchmark:
         "results/benchmarks/rules/reduction_report.tsv"
+    resources:
+        # records: reduction_report.tsv 31.0 s, 601.1 MB (max of 2)
+        mem_mb=mem_mb(601.1),
+        runtime=runtime_min(31.0),
+    params:
+        code=code_hash("reduction-report"),
+        cfg=body_files_hash,  # the body and reduction files are checked against the config
     # one timed run per body: the timing repeats are the bench's (rule reduction_benchmark)
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} reduction-report --bodies {input.bodies} --reductions {input.reductions} "
@@ -115,17 +115,17 @@ rule reduction_benchmark:
         table="results/benchmarks/reduction_stage/ranking.csv",
         verification="results/benchmarks/reduction_stage/verification.json",
         benchmark="results/benchmarks/reduction_stage.json",
-    params:
-        code=code_hash("reduction-report"),
-        cfg=body_files_hash,  # the body and reduction files are checked against the config
-    resources:
-        # no record: reduction_report.tsv 31.0 s, 601.1 MB (max of 2) with 3 runs; 5 runs ~50 s
-        mem_mb=mem_mb(601.1),
-        runtime=runtime_min(60.0),
     log:
         "logs/reduction/benchmark.log",
     benchmark:
         "results/benchmarks/rules/reduction_benchmark.tsv"
+    resources:
+        # no record: reduction_report.tsv 31.0 s, 601.1 MB (max of 2) with 3 runs; 5 runs ~50 s
+        mem_mb=mem_mb(601.1),
+        runtime=runtime_min(60.0),
+    params:
+        code=code_hash("reduction-report"),
+        cfg=body_files_hash,  # the body and reduction files are checked against the config
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} reduction-report --bodies {input.bodies} --reductions {input.reductions} "
         "--coarse-body {input.coarse} --table {output.table} --verification {output.verification} "

@@ -14,7 +14,8 @@ SCENE_MODELS = ["truth"] + STUDY_MODELS
 
 rule study_scene:
     """Every study model of one scene, reduced and simulated in one process (gimbal_reduction.results.study.run_scene:
-    the two stages of a per-model simulation, called in process; ~50 models in ~0.5 min)."""
+    the two stages of a per-model simulation, called in process; ~50 models in ~0.5 min).
+    """
     input:
         scene=scene_file,
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
@@ -24,8 +25,16 @@ rule study_scene:
     output:
         sims=[f"results/study/{{scene}}/sim/{m}.h5" for m in SCENE_MODELS],
         coupled="results/study/{scene}/coupled_modes.json",
+    log:
+        "logs/study/{scene}.log",
+    benchmark:
+        "results/benchmarks/rules/study/{scene}.tsv"
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
+    resources:
+        # records: study/long.tsv 249.3 s, 1053.6 MB (max of 4 files)
+        mem_mb=mem_mb(1053.6),
+        runtime=runtime_min(249.3),
     params:
         physics=scene_physics_hash,
         code=code_hash("run-scene"),
@@ -35,14 +44,6 @@ rule study_scene:
         out_dir="results/study/{scene}/sim",
         # the body, reduction and ranking files are checked against the configuration (--config)
         cfg=body_files_hash,
-    resources:
-        # records: study/long.tsv 249.3 s, 1053.6 MB (max of 4 files)
-        mem_mb=mem_mb(1053.6),
-        runtime=runtime_min(249.3),
-    log:
-        "logs/study/{scene}.log",
-    benchmark:
-        "results/benchmarks/rules/study/{scene}.tsv"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} run-scene --scene {input.scene} --models {params.models} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
@@ -72,18 +73,18 @@ rule error_tables:
             subcategory="{scene}",
             caption="../report/table.rst",
         ),
-    wildcard_constraints:
-        scene="|".join(STUDY_SCENES),
-    params:
-        code=code_hash("tables"),
-    resources:
-        # records: error_tables_long.tsv 2.7 s, 159.3 MB (max of 4)
-        mem_mb=mem_mb(159.3),
-        runtime=runtime_min(2.7),
     log:
         "logs/results/error_tables_{scene}.log",
     benchmark:
         "results/benchmarks/rules/error_tables_{scene}.tsv"
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
+    resources:
+        # records: error_tables_long.tsv 2.7 s, 159.3 MB (max of 4)
+        mem_mb=mem_mb(159.3),
+        runtime=runtime_min(2.7),
+    params:
+        code=code_hash("tables"),
     shell:
         "{GIMBAL} tables --truth {input.truth} --cases {input.cases} "
         "--ranking-table {output.ranking} --static-table {output.static} > {log} 2>&1"
@@ -102,18 +103,18 @@ rule findings:
             caption="../report/findings.rst",
         ),
         json="results/tables/{scene}/findings.json",
-    wildcard_constraints:
-        scene="|".join(STUDY_SCENES),
-    params:
-        code=code_hash("findings"),
-    resources:
-        # records: findings_damped.tsv 1.3 s, findings_long.tsv 71.7 MB (max of 4)
-        mem_mb=mem_mb(71.7),
-        runtime=runtime_min(1.3),
     log:
         "logs/results/findings_{scene}.log",
     benchmark:
         "results/benchmarks/rules/findings_{scene}.tsv"
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
+    resources:
+        # records: findings_damped.tsv 1.3 s, findings_long.tsv 71.7 MB (max of 4)
+        mem_mb=mem_mb(71.7),
+        runtime=runtime_min(1.3),
+    params:
+        code=code_hash("findings"),
     shell:
         "{GIMBAL} findings --ranking-table {input.ranking} --static-table {input.static} "
         "--reduction {input.reduction} --scene {wildcards.scene} --csv {output.csv} --json {output.json} "
@@ -157,19 +158,19 @@ rule study_figures:
             subcategory="{scene}",
             caption="../report/runtime_error.rst",
         ),
-    wildcard_constraints:
-        scene="|".join(STUDY_SCENES),
-    params:
-        code=code_hash("figures"),
-        out_dir="results/figures/study/{scene}",
-    resources:
-        # records: study_figures_thesis.tsv 180.3 s, 215.1 MB (max of 4)
-        mem_mb=mem_mb(215.1),
-        runtime=runtime_min(180.3),
     log:
         "logs/results/figures_{scene}.log",
     benchmark:
         "results/benchmarks/rules/study_figures_{scene}.tsv"
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
+    resources:
+        # records: study_figures_thesis.tsv 180.3 s, 215.1 MB (max of 4)
+        mem_mb=mem_mb(215.1),
+        runtime=runtime_min(180.3),
+    params:
+        code=code_hash("figures"),
+        out_dir="results/figures/study/{scene}",
     shell:
         "MPLBACKEND=Agg {GIMBAL} figures --truth {input.truth} --cases {input.cases} "
         "--ranking-table {input.ranking} --static-table {input.static} --out-dir {params.out_dir} "
@@ -218,21 +219,21 @@ rule report_scene:
             subcategory="{scene}",
             caption="../report/scene_report.rst",
         ),
+    log:
+        "logs/results/report_{scene}.log",
+    benchmark:
+        "results/benchmarks/rules/report_{scene}.tsv"
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
+    resources:
+        # records: report_thesis.tsv 3.4 s, 376.1 MB (max of 4)
+        mem_mb=mem_mb(376.1),
+        runtime=runtime_min(3.4),
     params:
         code=code_hash("scene-report"),
         cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
         optional=optional_report_inputs,
         bench_figures=" ".join(REPORT_BENCH_FIGURES),
-    resources:
-        # records: report_thesis.tsv 3.4 s, 376.1 MB (max of 4)
-        mem_mb=mem_mb(376.1),
-        runtime=runtime_min(3.4),
-    log:
-        "logs/results/report_{scene}.log",
-    benchmark:
-        "results/benchmarks/rules/report_{scene}.tsv"
     shell:
         "{GIMBAL} scene-report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures {input.figures} --fe {input.fe} "
@@ -250,7 +251,8 @@ rule report:
 
 rule study_report:
     """The study's PDF: every finding on every scene with its verdict and numbers, the truth's own
-    error, the discussion and the recommendation (gimbal_reduction.results.study.study_report)."""
+    error, the discussion and the recommendation (gimbal_reduction.results.study.study_report).
+    """
     input:
         rankings=expand("results/tables/{scene}/errors_ranking.csv", scene=STUDY_SCENES),
         statics=expand("results/tables/{scene}/errors_static.csv", scene=STUDY_SCENES),
@@ -267,17 +269,17 @@ rule study_report:
             category="Reports",
             caption="../report/study_report.rst",
         ),
-    params:
-        code=code_hash("study-report"),
-        optional=lambda wildcards: f"{optional_report_inputs(wildcards)} --tolerance {rules.tolerance.output.json}",
-    resources:
-        # records: study_report.tsv 1.5 s, 142.7 MB
-        mem_mb=mem_mb(142.7),
-        runtime=runtime_min(1.5),
     log:
         "logs/results/study_report.log",
     benchmark:
         "results/benchmarks/rules/study_report.tsv"
+    resources:
+        # records: study_report.tsv 1.5 s, 142.7 MB
+        mem_mb=mem_mb(142.7),
+        runtime=runtime_min(1.5),
+    params:
+        code=code_hash("study-report"),
+        optional=lambda wildcards: f"{optional_report_inputs(wildcards)} --tolerance {rules.tolerance.output.json}",
     shell:
         "{GIMBAL} study-report --scenes {input.scenes} --ranking-tables {input.rankings} "
         "--static-tables {input.statics} --findings {input.findings} --figures {input.figures} "

@@ -28,20 +28,20 @@ rule verify_check:
         body=lambda wildcards: COARSE_BODY if wildcards.check == "hughes" else [],
     output:
         "results/verification/parts/{check}.json",
-    wildcard_constraints:
-        check="|".join(GLOBAL_CHECKS),
-    params:
-        code=VERIFY_CODE,
-        cfg=check_hash(),
-        body=lambda wildcards, input: f"--body-file {input.body}" if input.body else "",
-    resources:
-        # per check (VERIFY_CHECK_RECORDS above)
-        mem_mb=lambda wildcards: mem_mb(VERIFY_CHECK_RECORDS[wildcards.check][1]),
-        runtime=lambda wildcards: runtime_min(VERIFY_CHECK_RECORDS[wildcards.check][0]),
     log:
         "logs/verification/{check}.log",
     benchmark:
         "results/benchmarks/rules/verify_{check}.tsv"
+    wildcard_constraints:
+        check="|".join(GLOBAL_CHECKS),
+    resources:
+        # per check (VERIFY_CHECK_RECORDS above)
+        mem_mb=lambda wildcards: mem_mb(VERIFY_CHECK_RECORDS[wildcards.check][1]),
+        runtime=lambda wildcards: runtime_min(VERIFY_CHECK_RECORDS[wildcards.check][0]),
+    params:
+        code=VERIFY_CODE,
+        cfg=check_hash(),
+        body=lambda wildcards, input: f"--body-file {input.body}" if input.body else "",
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} fe-verify {wildcards.check} {params.body} --config {CONFIG} --out {output} "
         "> {log} 2>&1"
@@ -50,19 +50,19 @@ rule verify_check:
 rule verify_convergence:
     output:
         "results/verification/parts/convergence_body{n}.json",
-    params:
-        code=VERIFY_CODE,
-        cfg=check_hash("convergence"),
+    log:
+        "logs/verification/convergence_body{n}.log",
+    benchmark:
+        "results/benchmarks/rules/verify_convergence_body{n}.tsv"
     resources:
         # records: verify_convergence_body2.tsv 24.1 s, verify_convergence_body3.tsv 402.9 MB; no
         # record of body 4 (a ring: as bodies 2, 3) nor body 5: the finest level needs 7.0 GB (issue 16,
         # measured; taken to be the platform, the largest mesh), its time unknown: 1 h assumed
         mem_mb=lambda wildcards: mem_mb(7000.0 if wildcards.n == "5" else 402.9),
         runtime=lambda wildcards: 60 if wildcards.n == "5" else runtime_min(24.1),
-    log:
-        "logs/verification/convergence_body{n}.log",
-    benchmark:
-        "results/benchmarks/rules/verify_convergence_body{n}.tsv"
+    params:
+        code=VERIFY_CODE,
+        cfg=check_hash("convergence"),
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} fe-verify convergence --body {wildcards.n} --config {CONFIG} "
         "--out {output} > {log} 2>&1"
@@ -74,17 +74,17 @@ rule verify_body:
     output:
         modes="results/verification/parts/body_file_body{n}.json",
         spectra="results/verification/parts/spectra_body{n}.json",
-    params:
-        code=VERIFY_CODE,
-        cfg=check_hash("spectra"),  # the body-file check reads no config
-    resources:
-        # records: verify_body5.tsv 10.5 s, 406.3 MB (max of 4)
-        mem_mb=mem_mb(406.3),
-        runtime=runtime_min(10.5),
     log:
         "logs/verification/body{n}.log",
     benchmark:
         "results/benchmarks/rules/verify_body{n}.tsv"
+    resources:
+        # records: verify_body5.tsv 10.5 s, 406.3 MB (max of 4)
+        mem_mb=mem_mb(406.3),
+        runtime=runtime_min(10.5),
+    params:
+        code=VERIFY_CODE,
+        cfg=check_hash("spectra"),  # the body-file check reads no config
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} fe-verify body --body-file {input.body} --config {CONFIG} "
         "--out {output.modes} --spectra-out {output.spectra} > {log} 2>&1"
@@ -96,19 +96,19 @@ rule verify_mpi:
         mesh="results/mesh/body2.msh",
     output:
         "results/verification/parts/mpi.json",
-    params:
-        # it runs the modal stage (python -m gimbal_reduction.solver.fe.modes) under mpirun
-        code=code_hash("fe-verify", "modes"),
-        cfg=check_hash("mpi"),
-    resources:
-        # no record: the modal stage of body 2 under mpirun -n 2, as modes_body on two ranks
-        mem_mb=2 * mem_mb(420.5),
-        runtime=runtime_min(21.6),
-    threads: 2
     log:
         "logs/verification/mpi.log",
     benchmark:
         "results/benchmarks/rules/verify_mpi.tsv"
+    threads: 2
+    resources:
+        # no record: the modal stage of body 2 under mpirun -n 2, as modes_body on two ranks
+        mem_mb=2 * mem_mb(420.5),
+        runtime=runtime_min(21.6),
+    params:
+        # it runs the modal stage (python -m gimbal_reduction.solver.fe.modes) under mpirun
+        code=code_hash("fe-verify", "modes"),
+        cfg=check_hash("mpi"),
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} fe-verify mpi --body-file {input.body} --mesh {input.mesh} "
         "--config {CONFIG} --out {output} > {log} 2>&1"
@@ -124,17 +124,17 @@ rule verify_fe:
     output:
         json="results/verification/fe.json",
         summary="results/verification/fe.md",
-    params:
-        code=VERIFY_CODE,
-        cfg=config_hash(),  # fe.json records the hash of the whole config
-    resources:
-        # no record: combines JSON files, as verify_fe_fast (verify_fe_fast.tsv 4.1 s, 193.8 MB)
-        mem_mb=mem_mb(193.8),
-        runtime=runtime_min(4.1),
     log:
         "logs/verification/fe.log",
     benchmark:
         "results/benchmarks/rules/verify_fe.tsv"
+    resources:
+        # no record: combines JSON files, as verify_fe_fast (verify_fe_fast.tsv 4.1 s, 193.8 MB)
+        mem_mb=mem_mb(193.8),
+        runtime=runtime_min(4.1),
+    params:
+        code=VERIFY_CODE,
+        cfg=config_hash(),  # fe.json records the hash of the whole config
     shell:
         "{GIMBAL} fe-verify combine {input} --config {CONFIG} --out {output.json} "
         "--summary {output.summary} > {log} 2>&1"
@@ -155,17 +155,17 @@ rule verify_fe_fast:
     output:
         json="results/verification/fe_fast.json",
         summary="results/verification/fe_fast.md",
-    params:
-        code=VERIFY_CODE,
-        cfg=config_hash(),
-    resources:
-        # records: verify_fe_fast.tsv 4.1 s, 193.8 MB
-        mem_mb=mem_mb(193.8),
-        runtime=runtime_min(4.1),
     log:
         "logs/verification/fe_fast.log",
     benchmark:
         "results/benchmarks/rules/verify_fe_fast.tsv"
+    resources:
+        # records: verify_fe_fast.tsv 4.1 s, 193.8 MB
+        mem_mb=mem_mb(193.8),
+        runtime=runtime_min(4.1),
+    params:
+        code=VERIFY_CODE,
+        cfg=config_hash(),
     shell:
         "{GIMBAL} fe-verify combine {input} --config {CONFIG} --out {output.json} "
         "--summary {output.summary} > {log} 2>&1"
@@ -188,19 +188,19 @@ rule modes_body_large:
         known="results/modes/body{n}.h5",
     output:
         "results/verification/truth_basis/body{n}.h5",
-    params:
-        code=code_hash("modes"),
-        cfg=body_hash(),
-        modes=LARGE_BASIS_MODES,
+    log:
+        "logs/verification/truth_basis_body{n}.log",
+    benchmark:
+        "results/benchmarks/rules/modes_body_large{n}.tsv"
     resources:
         # no record since it starts from the 100 known modes: body 5 15.7 s (max of 3), 706.4 MB
         # measured (/usr/bin/time, one rank)
         mem_mb=mem_mb(706.4),
         runtime=runtime_min(15.7),
-    log:
-        "logs/verification/truth_basis_body{n}.log",
-    benchmark:
-        "results/benchmarks/rules/modes_body_large{n}.tsv"
+    params:
+        code=code_hash("modes"),
+        cfg=body_hash(),
+        modes=LARGE_BASIS_MODES,
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} modes --body {wildcards.n} --mesh {input.mesh} "
         "--mesh-meta {input.meta} --count {params.modes} --known-modes {input.known} --out {output} "
@@ -214,6 +214,14 @@ rule truth_basis:
         kernels=ancient(KERNELS),
     output:
         "results/verification/truth_basis.json",
+    log:
+        "logs/verification/truth_basis.log",
+    benchmark:
+        "results/benchmarks/rules/truth_basis.tsv"
+    resources:
+        # records: truth_basis.tsv 40.3 s, 607.5 MB (three scenes; with long at its tolerance 5e-7: 80.7 s)
+        mem_mb=mem_mb(607.5),
+        runtime=runtime_min(80.7),
     params:
         code=code_hash("truth-basis"),
         cfg=body_files_hash,  # the body files are checked against the config
@@ -221,14 +229,6 @@ rule truth_basis:
             scenes_mod.load_scene(f"config/scenes/{s}.yaml").config_hash()
             for s in TRUTH_BASIS_SCENES
         ],
-    resources:
-        # records: truth_basis.tsv 40.3 s, 607.5 MB (three scenes; with long at its tolerance 5e-7: 80.7 s)
-        mem_mb=mem_mb(607.5),
-        runtime=runtime_min(80.7),
-    log:
-        "logs/verification/truth_basis.log",
-    benchmark:
-        "results/benchmarks/rules/truth_basis.tsv"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} truth-basis --bodies {input.bodies} --scenes {input.scenes} "
         "--config {CONFIG} --out {output} > {log} 2>&1"

@@ -59,7 +59,7 @@ def equal_energy_velocity(shapes, energy, signs=None):
     m = shapes.shape[1]
     if not (np.isfinite(energy) and energy > 0) or m == 0:
         raise StabilityInputError(f"equal_energy_velocity needs energy > 0 and modes, got "
-                                  f"{energy!r}, {m} modes")
+                                  f"{energy}, {m} modes")
     s = np.full(m, np.sqrt(2.0 * energy / m))
     if signs is not None:
         s = s * np.sign(np.asarray(signs, dtype=float))
@@ -91,7 +91,7 @@ def energy_growth(problem, y0, yd0, h, n_steps, growth=10.0, chunks=20):
     """
     E0 = problem.energy(0.0, y0, yd0)
     if not (np.isfinite(E0) and E0 > 0):
-        raise StabilityInputError(f"energy_growth needs a positive initial energy, got {E0!r}")
+        raise StabilityInputError(f"energy_growth needs a positive initial energy, got {E0}")
     y, yd = np.array(y0, float), np.array(yd0, float)
     per = max(int(n_steps) // int(chunks), 1)
     worst, t, done = 1.0, 0.0, 0

@@ -111,7 +111,7 @@ def oscillator_energy_ratio(omega, h, n_steps):
     """
     if not (omega > 0 and h > 0 and int(n_steps) >= 1):
         raise StabilityInputError(f"oscillator needs omega > 0, h > 0, n_steps >= 1, got "
-                                  f"{omega!r}, {h!r}, {n_steps!r}")
+                                  f"{omega}, {h}, {n_steps}")
     w2 = float(omega) ** 2
 
     def rhs(t, x, v):

@@ -97,32 +97,57 @@ def run_provenance() -> dict:
 # Characters every embedded font subset holds whether a figure uses them or not: those of numbers
 # (tick labels, E values), which differ from figure to figure (``glyph_subsets_cached``)
 SUBSET_BASE = "0123456789.,:;=+-\u2212()[]/ "
-_SUBSETS: dict[str, tuple[frozenset, bytes]] = {}     # font file -> (characters, subset font)
+# (font file, face index) -> (glyph indices, subset font file bytes, glyph index map of the subset)
+_SUBSETS: dict[tuple[str, int], tuple[frozenset, bytes, dict]] = {}
+
+
+def base_glyphs(fontfile) -> frozenset:
+    """The glyph indices of ``SUBSET_BASE``'s characters in ``fontfile`` (a matplotlib FontPath:
+    a path with a face index), those the font has."""
+    return _base_glyphs(str(fontfile), getattr(fontfile, "face_index", 0))
+
+
+@functools.lru_cache(maxsize=None)
+def _base_glyphs(path: str, face_index: int) -> frozenset:
+    from fontTools.ttLib import TTFont     # matplotlib's own dependency for PDF font subsetting
+    with TTFont(path, fontNumber=face_index, lazy=True) as font:
+        cmap = font.getBestCmap() or {}
+        return frozenset(font.getGlyphID(cmap[ord(c)]) for c in SUBSET_BASE if ord(c) in cmap)
 
 
 @contextlib.contextmanager
 def glyph_subsets_cached():
     """Within: matplotlib's PDF backend takes the TrueType font subsets it embeds from a cache
     instead of subsetting the font file again for every figure (fontTools, ~0.07 s per font and
-    file: nearly half of a rate figure's PDF).  One subset per font file, of every character a
-    figure of this process has used so far plus ``SUBSET_BASE``; a figure needing a new
-    character makes it again, grown.  The PDF's glyph widths and text map come from the
+    file: nearly half of a rate figure's PDF).  One subset per font file, of every glyph a
+    figure of this process has used so far plus those of ``SUBSET_BASE``; a figure needing a new
+    glyph makes it again, grown.  The PDF's glyph widths and text map come from the
     characters it uses, as before, so its pages are the same and its font files a few kB
-    larger.  Without matplotlib's hook (``_backend_pdf_ps.get_glyphs_subset``) nothing changes."""
+    larger.  Without matplotlib's hook (``_backend_pdf_ps.get_glyphs_subset``) nothing changes.
+
+    The hook is matplotlib >= 3.11's: ``get_glyphs_subset(fontfile, glyph indices)`` returns a
+    context manager of ``SubsetResults(font, glyph_index_map)`` (the subset as a fontTools TTFont
+    and the map from the font's glyph indices to the subset's); the PDF backend writes the font
+    with ``font_as_file`` and maps its glyphs through the map.  The cache hands out a fresh TTFont
+    read from the cached subset's bytes each time, with the map of that subset."""
     from matplotlib.backends import _backend_pdf_ps as pdf_ps   # heavy, optional: figures only
     original = getattr(pdf_ps, "get_glyphs_subset", None)
     if original is None or getattr(original, "study_cache", False):
         yield
         return
+    from fontTools.ttLib import TTFont
 
-    def cached(fontfile, characters):
-        chars, data = _SUBSETS.get(fontfile, (frozenset(), b""))
-        need = set(characters) | set(SUBSET_BASE)
-        if not need <= chars:
-            chars = frozenset(need | chars)
-            data = original(fontfile, "".join(sorted(chars))).getvalue()
-            _SUBSETS[fontfile] = (chars, data)
-        return io.BytesIO(data)
+    def cached(fontfile, glyphs):
+        key = (str(fontfile), getattr(fontfile, "face_index", 0))
+        have, data, index_map = _SUBSETS.get(key, (frozenset(), b"", {}))
+        need = set(glyphs) | base_glyphs(fontfile)
+        if not need <= have:
+            have = frozenset(need | have)
+            with original(fontfile, set(have)) as subset:
+                data = pdf_ps.font_as_file(subset.font).getvalue()
+                index_map = dict(subset.glyph_index_map)
+            _SUBSETS[key] = (have, data, index_map)
+        return pdf_ps.SubsetResults(TTFont(io.BytesIO(data)), dict(index_map))._as_cm()
 
     cached.study_cache = True
     pdf_ps.get_glyphs_subset = cached

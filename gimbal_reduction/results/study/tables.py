@@ -87,7 +87,7 @@ def attitude_errors(truth: dict, case: dict) -> tuple:
         return float("nan"), float("nan")
     a = attitude_error(Ra, Rb) * ARCSEC_PER_RAD
     t = np.asarray(truth["t"], float)
-    rms = math.sqrt(np.trapz(a ** 2, t) / (t[-1] - t[0])) if t[-1] > t[0] else float(a[0])
+    rms = math.sqrt(np.trapezoid(a ** 2, t) / (t[-1] - t[0])) if t[-1] > t[0] else float(a[0])
     return float(a.max()), float(rms)
 
 

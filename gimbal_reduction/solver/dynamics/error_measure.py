@@ -21,7 +21,7 @@ class ErrorsInputError(ValueError):
 
 
 def error_measure(t, reference, reduced):
-    """Eq 3.53 per column: E_n = trapz((reduced - reference)_n^2, t) / trapz(reference_n^2, t).
+    """Eq 3.53 per column: E_n = trapezoid((reduced - reference)_n^2, t) / trapezoid(reference_n^2, t).
 
     t: (T,) [s], strictly increasing; reference, reduced: (T,) or (T, K) in the same
     unit (rad/s here).  Returns (K,) (or a float for 1-D input), dimensionless; NaN for
@@ -35,8 +35,8 @@ def error_measure(t, reference, reduced):
                                f"reduced {x.shape} do not match")
     if t.size < 2 or np.any(np.diff(t) <= 0):
         raise ErrorsInputError("error_measure: t must hold at least 2 strictly increasing samples")
-    num = np.trapz((x - r) ** 2, t, axis=0)
-    den = np.trapz(r ** 2, t, axis=0)
+    num = np.trapezoid((x - r) ** 2, t, axis=0)
+    den = np.trapezoid(r ** 2, t, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         out = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
     return float(out) if np.ndim(out) == 0 else out
