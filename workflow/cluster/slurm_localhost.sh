@@ -2,8 +2,7 @@
 # A real Slurm cluster of one node on localhost, to prove the workflow's cluster path (issue 16):
 #   1. installs Slurm, munge, slurmdbd and MariaDB from Debian (apt) if missing (the Slurm executor
 #      plugin asks `sacct` for the jobs' states, which needs Slurm's accounting database);
-#   2. writes a single-node slurm.conf in a temporary folder (no file under /etc/slurm is touched;
-#      every daemon and client reads it through SLURM_CONF), listening on 127.0.0.1 only, with
+#   2. writes a single-node slurm.conf in a temporary folder, listening on 127.0.0.1 only, with
 #      MpiDefault=pmi2 (the MPICH of PyPI's DOLFINx wheel starts under srun with PMI-2 and refuses
 #      PMIx; Debian's Slurm 22.05 has mpi_pmix, mpi_pmi2, mpi_none: `srun --mpi=list`);
 #   3. starts munged, a private MariaDB (its data in the temporary folder, on 127.0.0.1), slurmdbd,
@@ -97,6 +96,13 @@ StorageLoc=slurm_acct_db
 EOF
 chmod 600 "$tmp/etc/slurmdbd.conf"
 export SLURM_CONF="$conf"
+# The clients inside a job find it without SLURM_CONF (the jobstep plugin clears every SLURM_*
+# variable before its srun): a link at Slurm's default path, made only where none exists (a machine
+# with a Slurm of its own is refused) and removed when the test ends.
+default_conf=/etc/slurm/slurm.conf
+if [ -e "$default_conf" ] || [ -L "$default_conf" ]; then
+  echo "slurm_localhost: $default_conf exists: this machine has a Slurm of its own; not touched" >&2; exit 1
+fi
 export USER="${USER:-$(id -un)}"   # the plugin reads it
 
 # ---- 3. daemons (stopped on exit, whatever happens)
@@ -117,6 +123,7 @@ stop() {
     [ -s "$f" ] && kill "$(cat "$f")" 2>/dev/null || true
   done
   [ -n "$munge_pid" ] && kill "$munge_pid" 2>/dev/null || true
+  [ "$(readlink "$default_conf" 2>/dev/null)" = "$conf" ] && rm -f "$default_conf"
   sleep 1
   if [ "${KEEP:-0}" = 1 ] || [ "$status" -ne 0 ]; then
     echo "slurm_localhost: kept $tmp (logs, slurm.conf)"
@@ -126,6 +133,8 @@ stop() {
   exit "$status"
 }
 trap stop EXIT
+mkdir -p /etc/slurm
+ln -s "$conf" "$default_conf"
 # the accounting database: a private MariaDB on 127.0.0.1:13306, then slurmdbd on 127.0.0.1:16819
 mariadb-install-db --datadir="$tmp/mysql" --user=root --auth-root-authentication-method=socket \
   > "$tmp/log/mariadb-install.log" 2>&1
@@ -170,3 +179,11 @@ sacct -a -n -P --starttime "$(date -d '-1 day' +%Y-%m-%dT%H:%M)" -o JobID,Commen
 
 # ---- 5. the outputs agree
 "$py" "$here/compare.py" "$tmp/cluster" "$tmp/local" "${targets[@]}"
+# the cluster's modal stage ran on the profile's two MPI ranks (each body file records its ranks)
+"$py" - "$tmp/cluster/results/modes" <<'PYEOF'
+import glob, sys
+import h5py
+ranks = {p: int(h5py.File(p, "r").attrs["mpi_ranks"]) for p in sorted(glob.glob(f"{sys.argv[1]}/body*.h5"))}
+print(f"slurm_localhost: MPI ranks of the cluster's modal stage: {ranks}")
+sys.exit(0 if ranks and set(ranks.values()) == {2} else 1)
+PYEOF

@@ -18,10 +18,6 @@ os.environ.update(
         [str(Path(workflow.basedir))] + [p for p in [os.environ.get("PYTHONPATH")] if p]
     )
 )
-# On Slurm (workflow/profiles/slurm) every job runs under srun, and the stages import DOLFINx, whose
-# MPI (MPICH from PyPI) starts under srun through PMI-2 (it refuses PMIx): Slurm's pmi2 plugin,
-# unless the user set another. srun alone reads it.
-os.environ.setdefault("SLURM_MPI_TYPE", "pmi2")
 # First: is this the project's Snakemake and interpreter (the rules run {GIMBAL} beside sys.executable)?
 # Another Snakemake (a system one, an older pin) or a python without Numba/Typst stops here in one line saying how to
 # run the workflow (gimbal_reduction/workflow/environment.py, standard library only), before anything is imported.
