@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gimbal_reduction.reduction import models
+from gimbal_reduction.reduction import models, names
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics import chainfile, error_measure, multibody, scenes, simfile
 from gimbal_reduction.solver.dynamics import simulate as simulate_stage
@@ -74,17 +74,19 @@ def _files(folder_or_files, what: str) -> dict[int, str]:
 
 
 def reduce(name: str, scene, bodies="results/modes", reductions="results/reduction",
-           load_ranking=None, config="config/config.yaml") -> ReducedModel:
+           load_ranking=None, config="config/config.yaml", runs=None) -> ReducedModel:
     """Reduced model ``name`` (``freq-10``, ``xmx-10``, ``static-8``, ``tol-1e-4``, ...) on a scene
     (a name of config/scenes or a path), from the modal stage's body files and, for the ranked
     families, the reduction stage's files (a folder, or four paths for bodies 2..5).  ``config``:
-    the configuration the body files must have been made from (None skips that check)."""
+    the configuration the body files must have been made from (None skips that check).  ``runs``:
+    a ``gimbal_reduction.reduction.verified_search.Runs`` to keep a tol- request's verified-search
+    simulations for the next request on the same scene (None: not kept)."""
     scene = scenes.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
     cfg = cfgmod.load_config(config) if config is not None else None
     chain, spec, attrs = models.reduce_model(
         name, scene, _files(bodies, "bodies"),
-        _files(reductions, "reductions") if models.needs_reduction_rankings(name) else None,
-        load_ranking, config=cfg)
+        _files(reductions, "reductions") if names.needs_reduction_rankings(name) else None,
+        load_ranking, config=cfg, runs=runs)
     return ReducedModel(spec.name, chain, attrs)
 
 

@@ -170,7 +170,7 @@ for number in BODIES:
 # the linear and angular momentum a unit modal rate carries ($X$: the six rigid
 # motions), and through the modes' motion at the bearings, which moves the next body.
 # The model name `freq-2` keeps each body's two lowest supported modes
-# (`gimbal_reduction.reduction.models` holds the grammar: `xmx-10`, `static-8`, ...).
+# (`gimbal_reduction.reduction.names` holds the grammar: `xmx-10`, `static-8`, ...).
 # `gimbal_reduction.api.reduce` builds it from the body files, as the workflow's
 # `gimbal model` stage does (here without a configuration to check the files against).
 

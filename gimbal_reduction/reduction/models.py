@@ -1,15 +1,8 @@
 """Reduced models named by compact strings, and their assembly from the body files.
 
-Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
-
-    model   := "truth" | "rigid" | family "-" counts statics | pooled "-" N statics
-             | "tol-" EPS [ "-att-" A ]   EPS, A positive numbers, e.g. tol-1e-4, tol-1e-4-att-2
-    family  := "freq" | "xmx" | "xmgmx" | "load"              vibration modes only
-             | "static" | "static-freq" | "static-xmx" | "static-xmgmx" | "static-load"
-    pooled  := "global" | "static-global"     N modes in total, pooled over the bodies
-    counts  := N | N,N,N,N        kept vibration modes, all bodies or per body 2..5
-    statics := ( "@" body ":" loadcase ( "+" loadcase )* )*
-    loadcase:= {input_motor|input_resolver|output_motor|output_resolver}_{f|m}{x|y|z}
+A name is read by ``gimbal_reduction.reduction.names`` (its grammar, ``names.parse``); this
+module says what the parsed name keeps (``model_spec``: ``select_modes`` for the mode families,
+``resolve_tolerance`` for a tol- request) and builds the chain.  What the names mean:
 
 * ``truth``: the 100 lowest-frequency vibration modes of every body (thesis).
 * ``rigid``: no elastic modes (the rigid limit).
@@ -28,7 +21,7 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
 * ``global-40``: 40 vibration modes in total, the first 40 of the pooled load-aware
   ranking of all four bodies' modes (thesis Section 5.1), however they fall on
   the bodies (``pooled/body``, ``pooled/mode`` of the same file).
-  ``load-*`` and ``global-*`` need the scene's ranking file (``needs_load_ranking``,
+  ``load-*`` and ``global-*`` need the scene's ranking file (``names.needs_load_ranking``,
   ``load_load_ranking``; ``simulate --load-ranking``).
 * ``tol-EPS`` (e.g. ``tol-1e-4``, ``tol-0.001``): accuracy on request.  The smallest
   pooled set ``global-N`` whose a-priori estimate of eq. 3.53 (the frozen linear chain of
@@ -44,7 +37,7 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
   **verified search** (``gimbal_reduction.reduction.verified_search``): candidate global-N are simulated
   against the truth with the default integrator, and the smallest N found passing (measured
   max E <= EPS, with global-(N - 1) measured failing) is taken; refused in one line if only
-  the truth itself passes.  ``parse_model`` alone (no scene, no simulation) and
+  the truth itself passes.  ``model_spec`` alone (no scene, no simulation) and
   ``--no-verified-search`` refuse instead (FrozenChainInvalid).  ``tol-EPS-att-A``
   (e.g. ``tol-1e-4-att-2``) also asks that the stable platform's attitude error against the
   truth, the largest angle between the two platform frames over the window, be at most A
@@ -57,23 +50,26 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
   ``static-10@2:output_motor_fz`` (outer gimbal only) or
   ``freq-6@2:output_motor_fz+output_motor_my@3:output_motor_fz``.
 
-``parse_model`` is a pure function of the name and the rankings; bad names,
-counts above what was computed and malformed load cases raise ModelError with
-a one-line message, before anything is integrated.
+``names.parse`` is a pure function of the name; ``model_spec`` of the name and the
+rankings (for a tol- request the a-priori estimates: ``resolve_tolerance``; the verified
+search is ``resolve_verified``, run by ``reduce_model``).  Bad names, counts above what was
+computed and malformed load cases raise ModelError with a one-line message, before anything is
+integrated.
 """
 
+import functools
 import hashlib
 import json
 import os
-import re
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import h5py
 import numpy as np
 
-from gimbal_reduction.reduction import frozen_chain, modal_integrals, verified_search
+from gimbal_reduction.reduction import frozen_chain, modal_integrals, names, verified_search
+from gimbal_reduction.reduction.names import DEFAULT_LOAD_CASE, TRUTH_MODES, ModelError, ModelName
 from gimbal_reduction.reduction.static_modes import load_case_vector, static_correction_modes
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.solver.bodydata import BODIES, BEARING_NAMES, check_config_hash, read_body_file
@@ -82,23 +78,14 @@ from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow import config as cfgmod
 from gimbal_reduction.workflow.provenance import versions
 
-TRUTH_MODES = 100
-FAMILIES = ("freq", "xmx", "xmgmx")
-RANKING_KEYS = {"freq": "rank_frequency", "xmx": "rank_xmx", "xmgmx": "rank_xmgmx"}
-LOAD_FAMILY, LOAD_KEY = "load", "rank_load"          # per-body load-aware ranking
-GLOBAL_FAMILY, POOLED_KEY = "global", "pooled"       # pooled ranking: rankings["pooled"]
-TOL_FAMILY = "tol"                                   # tol-EPS: smallest global-N with estimate <= EPS
-_NUMBER = r"((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
-_TOL_RE = re.compile(rf"tol-{_NUMBER}(?:-att-{_NUMBER})?")     # tol-EPS, tol-EPS-att-ARCSEC
+# the reduction stage's datasets, one per ranking it writes (results/reduction/body{n}.h5)
+RANKING_KEYS = {f: names.FAMILIES[f].ranking for f in ("freq", "xmx", "xmgmx")}
+LOAD_KEY = names.FAMILIES["load"].ranking            # per-body load-aware ranking
+POOLED_KEY = names.FAMILIES["global"].ranking        # pooled ranking: rankings["pooled"]
+TOL_FAMILY = names.TOL                               # tol-EPS: smallest global-N with estimate <= EPS
 TOL_COARSE = 8          # beyond the stored estimates: scan N in steps of 8, then refine the bracket
 BEARINGS = BEARING_NAMES
-DEFAULT_LOAD_CASE = {2: "output_motor_fz", 3: "output_motor_fz", 4: "output_motor_fz",
-                     5: "input_motor_fx"}
-_LOAD_RE = re.compile(r"^(input_motor|input_resolver|output_motor|output_resolver)_[fm][xyz]$")
-
-
-class ModelError(ValueError):
-    """A model name that cannot be built."""
+TOL_APRIORI, TOL_VERIFIED = "a-priori estimate", "verified search"
 
 
 class NeedsSimulation(ModelError):
@@ -120,99 +107,80 @@ class AttitudeRequested(NeedsSimulation):
 
 @dataclass(frozen=True)
 class ModelSpec:
-    """What a model name means: kept vibration mode indices and static load cases per body."""
+    """What a model name means: kept vibration mode indices and static load cases per body;
+    ``choice``: for a tol- request, how its N was chosen (the reduced-model file's ``tol_*``
+    attributes), else empty."""
     name: str
     kept: dict          # body -> int array (0-based indices into the body file's modes)
     static: dict        # body -> tuple of load case names
     ranking: str
+    choice: dict = field(default_factory=dict)
 
     def n_modes(self, body):
         return len(self.kept[body]) + len(self.static[body])
 
 
-def _counts(text, name):
-    parts = text.split(",")
-    if len(parts) not in (1, 4) or not all(re.fullmatch(r"\d+", p) for p in parts):
-        raise ModelError(f"model {name!r}: counts must be N or N,N,N,N (bodies 2..5), got {text!r}")
-    vals = [int(p) for p in parts]
-    return dict(zip(BODIES, vals * 4 if len(vals) == 1 else vals))
-
-
-def _statics(text, name):
-    out = {}
-    for chunk in text.split("@")[1:]:
-        body_s, sep, cases = chunk.partition(":")
-        if not sep or not re.fullmatch(r"[2-5]", body_s):
-            raise ModelError(f"model {name!r}: static spec must be @body:loadcase with body 2..5, "
-                             f"got '@{chunk}'")
-        body = int(body_s)
-        if body in out:
-            raise ModelError(f"model {name!r}: body {body} given twice")
-        names = tuple(cases.split("+"))
-        for c in names:
-            if not _LOAD_RE.match(c):
-                raise ModelError(f"model {name!r}: unknown load case {c!r} (expected "
-                                 f"{{bearing}}_{{f|m}}{{x|y|z}}, bearing in {', '.join(BEARINGS)})")
-        if len(set(names)) != len(names):
-            raise ModelError(f"model {name!r}: repeated load case on body {body}")
-        if body == 5 and any(c.startswith("output") for c in names):
-            raise ModelError(f"model {name!r}: the platform (body 5) has no output bearings")
-        out[body] = names
-    return out
-
-
-def parse_model(name, rankings):
-    """ModelSpec from a model name and the rankings.
+def model_spec(name, rankings):
+    """ModelSpec of a model name (or ModelName) from the rankings: ``names.parse``, then
+    ``select_modes``, or for a tol- request ``resolve_tolerance`` (the a-priori choice; raises
+    NeedsSimulation where only a verified search can answer).
 
     rankings: {body: {"rank_frequency": (D,), "rank_xmx": (D,), "rank_xmgmx": (D,)}}
     (0-based mode indices, most important first; D = computed modes)."""
-    if not isinstance(name, str) or not name:
-        raise ModelError(f"model name must be a non-empty string, got {name!r}")
-    base, _, _ = name.partition("@")
-    if base.startswith(TOL_FAMILY + "-"):
-        return _tol_spec(name, rankings)
-    statics = _statics(name, name) if "@" in name else {}
+    parsed = name if isinstance(name, ModelName) else names.parse(name)
+    if parsed.family == TOL_FAMILY:
+        return resolve_tolerance(parsed, rankings)
+    return select_modes(parsed, rankings)
+
+
+def _available(name, rankings):
+    """{body: computed modes D} from the frequency rankings; ModelError if a body has none."""
     available = {}
     for b in BODIES:
         if b not in rankings:
             raise ModelError(f"model {name!r}: no ranking data for body {b}")
         available[b] = len(np.asarray(rankings[b]["rank_frequency"]))
-    if base in ("truth", "rigid"):
-        if statics:
-            raise ModelError(f"model {name!r}: '{base}' takes no static modes")
-        n = TRUTH_MODES if base == "truth" else 0
-        counts = dict.fromkeys(BODIES, n)
-        family, with_static = "freq", False
-    else:
-        m = re.fullmatch(r"(static-)?(?:(freq|xmx|xmgmx|load|global)-)?([0-9,]+)", base)
-        if not m or (m.group(1) is None and m.group(2) is None):
-            raise ModelError(
-                f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, load-N, "
-                f"global-N, static-N, static-xmx-N, static-xmgmx-N, static-load-N "
-                f"(N or N,N,N,N; global-N: one total N; optional @body:loadcase) or tol-EPS")
-        with_static = m.group(1) is not None
-        family = m.group(2) or "freq"
-        if family == GLOBAL_FAMILY:
-            kept = _pooled_kept(name, m.group(3), rankings, available)
-            return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static),
-                             ranking=family)
-        counts = _counts(m.group(3), name)
-    if family == LOAD_FAMILY and any(LOAD_KEY not in rankings[b] for b in BODIES):
-        raise ModelError(f"model {name!r}: no load-aware ranking loaded (python -m "
-                         f"gimbal_reduction.reduction.load_aware; simulate --load-ranking PATH)")
-    key = LOAD_KEY if family == LOAD_FAMILY else RANKING_KEYS[family]
+    return available
+
+
+def select_modes(parsed, rankings):
+    """ModelSpec of a parsed name of a mode family (truth, rigid, FAMILY-counts, pooled-N): the
+    first modes of its ranking, checked against the computed modes."""
+    name = parsed.name
+    available = _available(name, rankings)
+    family = names.FAMILIES[parsed.ranking]
+    if family.pooled:
+        kept = _pooled_kept(name, parsed.total, rankings, available)
+        return ModelSpec(name=name, kept=kept, static=parsed.load_cases, ranking=family.name)
+    key = family.ranking
+    if any(key not in rankings[b] for b in BODIES):
+        if family.load_ranking:
+            raise ModelError(f"model {name!r}: no load-aware ranking loaded (python -m "
+                             f"gimbal_reduction.reduction.load_aware; simulate --load-ranking PATH)")
+        raise ModelError(f"model {name!r}: no {key} ranking loaded (the reduction stage's files)")
     kept = {}
     for b in BODIES:
-        if counts[b] > available[b]:
-            raise ModelError(f"model {name!r}: body {b} asks for {counts[b]} modes, only "
+        count = parsed.counts[b]
+        if count > available[b]:
+            raise ModelError(f"model {name!r}: body {b} asks for {count} modes, only "
                              f"{available[b]} computed")
         order = np.asarray(rankings[b][key], dtype=int)
         if order.size != available[b] or np.unique(order).size != order.size or \
                 (order.size and (order.min() < 0 or order.max() >= available[b])):
             raise ModelError(f"model {name!r}: ranking {key} of body {b} is not "
                              f"a permutation of 0..{available[b] - 1}")
-        kept[b] = np.sort(order[:counts[b]])
-    return ModelSpec(name=name, kept=kept, static=_static_spec(statics, with_static), ranking=family)
+        kept[b] = np.sort(order[:count])
+    return ModelSpec(name=name, kept=kept, static=parsed.load_cases, ranking=parsed.ranking)
+
+
+def identity_rankings(n_modes):
+    """Rankings of body files of ``n_modes`` modes each in which every ranking (per body, pooled)
+    is the identity: what the grammar and the counts are checked against when the order does
+    not matter (``check_name``)."""
+    order = np.arange(int(n_modes))
+    rankings = {b: {key: order for key in (*RANKING_KEYS.values(), LOAD_KEY)} for b in BODIES}
+    rankings[POOLED_KEY] = {"body": np.repeat(BODIES, order.size), "mode": np.tile(order, len(BODIES))}
+    return rankings
 
 
 def check_name(name, n_modes=TRUTH_MODES):
@@ -221,30 +189,15 @@ def check_name(name, n_modes=TRUTH_MODES):
     rankings' order does not matter here, so every ranking is taken as the identity).  The
     workflow calls it when the DAG is built (workflow/rules/common.smk), before any mesh or
     modal solve; a tol-EPS name is checked for its EPS (its N is chosen from the rankings)."""
-    if parse_tolerance(name) is not None:
-        return
-    order = np.arange(int(n_modes))
-    rankings = {b: {key: order for key in (*RANKING_KEYS.values(), LOAD_KEY)} for b in BODIES}
-    rankings[POOLED_KEY] = {"body": np.repeat(BODIES, order.size), "mode": np.tile(order, len(BODIES))}
-    parse_model(name, rankings)
+    parsed = names.parse(name)
+    if parsed.family != TOL_FAMILY:
+        select_modes(parsed, identity_rankings(n_modes))
 
 
-def _static_spec(statics, with_static):
-    """Static load cases per body: the @body:case list, the default case, or none."""
-    if statics:
-        return {b: statics.get(b, ()) for b in BODIES}
-    if with_static:
-        return {b: (DEFAULT_LOAD_CASE[b],) for b in BODIES}
-    return dict.fromkeys(BODIES, ())
-
-
-def _pooled_kept(name, text, rankings, available):
+def _pooled_kept(name, n, rankings, available):
     """Kept modes per body of ``global-N``: the first N entries of the pooled ranking
     rankings["pooled"] = {"body": (Q,), "mode": (Q,)} (body 2..5, 0-based mode)."""
-    if not re.fullmatch(r"\d+", text):
-        raise ModelError(f"model {name!r}: global-N takes one total count N (modes over all "
-                         f"bodies), got {text!r}")
-    n = int(text)
+    n = int(n)
     pooled = rankings.get(POOLED_KEY)
     if pooled is None:
         raise ModelError(f"model {name!r}: no pooled load-aware ranking loaded (python -m "
@@ -262,39 +215,6 @@ def _pooled_kept(name, text, rankings, available):
     return {b: np.sort(mode[:n][body[:n] == b]) for b in BODIES}
 
 
-def parse_request(name):
-    """(EPS, A) of a ``tol-EPS`` or ``tol-EPS-att-A`` name: E <= EPS on every gimbal rate, and
-    the platform's attitude error <= A arcsec (None: not asked); None if the name is not a tol-
-    name; ModelError (one line) for a malformed one."""
-    base = str(name).partition("@")[0]
-    if not base.startswith(TOL_FAMILY + "-"):
-        return None
-    m = _TOL_RE.fullmatch(base)
-    if "@" in str(name):
-        raise ModelError(f"model {name!r}: tol-EPS takes no static modes (@body:case)")
-    if not m:
-        raise ModelError(f"model {name!r}: tol-EPS needs a positive number EPS, e.g. tol-1e-4 "
-                         f"(or tol-1e-4-att-2: also the platform attitude within 2 arcsec)")
-    eps, att = float(m.group(1)), None if m.group(2) is None else float(m.group(2))
-    for what, value in (("tolerance", eps), ("attitude tolerance", att)):
-        if value is not None and (not np.isfinite(value) or value <= 0):
-            raise ModelError(f"model {name!r}: the {what} must be positive and finite, got {value}")
-    return eps, att
-
-
-def parse_tolerance(name):
-    """EPS of a ``tol-EPS`` name (float > 0), or None if the name is not a tol- name;
-    ModelError for a malformed one."""
-    request = parse_request(name)
-    return None if request is None else request[0]
-
-
-def parse_attitude(name):
-    """A [arcsec] of a ``tol-EPS-att-A`` name, or None (no attitude asked, or not a tol- name)."""
-    request = parse_request(name)
-    return None if request is None else request[1]
-
-
 def frozen_chain_valid(pooled):
     """(ok, reason): whether the scene's frozen-linear-chain estimate holds, from the ranking
     file's attributes (the same test as ``gimbal_reduction.reduction.load_aware``'s warning)."""
@@ -309,27 +229,34 @@ def frozen_chain_valid(pooled):
     return True, ""
 
 
-_TOL_CACHE = {}
+@functools.lru_cache(maxsize=4)
+def _linear_chain(path, mtime_ns):
+    """(frozen linear chain decimated to the stored curves' grid, pooled order (Q,) as indices
+    into its coordinates) of the ranking file ``path`` as of ``mtime_ns`` (the file's
+    modification time: a rewritten file is read again).  Read-only."""
+    model = frozen_chain.read_linear_model(path)
+    stride = max(1, int(np.ceil(len(model["t"]) / frozen_chain.CURVE_SAMPLES)))
+    model = frozen_chain.decimated(model, stride)
+    with h5py.File(path, "r") as f:
+        body, mode = np.asarray(f["pooled/body"][()], int), np.asarray(f["pooled/mode"][()], int)
+    return model, np.asarray(model["offsets"], int)[body - 2] + mode
+
+
+@functools.lru_cache(maxsize=1024)
+def _linear_estimate(path, mtime_ns, N):
+    """A-priori E (4,) of the pooled top N of ranking file ``path`` (as of ``mtime_ns``) by
+    ``frozen_chain.estimate_error`` on its frozen linear chain.  Read-only."""
+    model, order = _linear_chain(path, mtime_ns)
+    return np.asarray(frozen_chain.estimate_error(model, order[:N]), float)
 
 
 def _extended_estimate(pooled, N):
     """A-priori E (4,) of the pooled top N beyond the stored curve: ``frozen_chain.estimate_error``
     on the ranking file's frozen linear chain, on the grid the stored curves use."""
-    key = (pooled.get("path_key"), int(N))
-    if key in _TOL_CACHE:
-        return _TOL_CACHE[key]
-    lin_key = ("linear", pooled.get("path_key"))
-    model = _TOL_CACHE.get(lin_key)
-    if model is None:
-        if not pooled.get("path"):
-            raise ModelError("tol-EPS: the ranking's frozen linear chain is not available")
-        model = frozen_chain.read_linear_model(pooled["path"])
-        stride = max(1, int(np.ceil(len(model["t"]) / frozen_chain.CURVE_SAMPLES)))
-        model = _TOL_CACHE[lin_key] = frozen_chain.decimated(model, stride)
-    off = np.asarray(model["offsets"], int)
-    order = off[np.asarray(pooled["body"], int) - 2] + np.asarray(pooled["mode"], int)
-    E = _TOL_CACHE[key] = np.asarray(frozen_chain.estimate_error(model, order[:N]), float)
-    return E
+    if not pooled.get("path"):
+        raise ModelError("tol-EPS: the ranking's frozen linear chain is not available")
+    path, mtime_ns = pooled["path_key"]
+    return _linear_estimate(path, mtime_ns, int(N))
 
 
 def tolerance_choice(eps, pooled, total, extend=None, check_valid=True):
@@ -375,35 +302,40 @@ def tolerance_choice(eps, pooled, total, extend=None, check_valid=True):
                      f"on every gimbal rate (smallest estimate reached {best:.3e})")
 
 
-def _tol_spec(name, rankings):
-    """ModelSpec of ``tol-EPS``: global-N with N from ``tolerance_choice``; the choice is in
-    ``spec.choice``-like attributes returned by ``tolerance_attrs``."""
-    eps = parse_tolerance(name)
+def _pooled_rankings(name, rankings):
+    """(pooled ranking, {body: computed modes}, total) of a tol- request; ModelError if the
+    pooled ranking is not loaded."""
     pooled = rankings.get(POOLED_KEY)
     if pooled is None:
         raise ModelError(f"model {name!r}: no pooled load-aware ranking loaded (python -m "
                          f"gimbal_reduction.reduction.load_aware; simulate --load-ranking PATH)")
     available = {b: len(np.asarray(rankings[b]["rank_frequency"])) for b in BODIES}
-    total = sum(available.values())
+    return pooled, available, sum(available.values())
+
+
+def resolve_tolerance(parsed, rankings):
+    """ModelSpec of a tol- request (a parsed name) by the a-priori estimate: global-N with N from
+    ``tolerance_choice``, the choice in ``spec.choice``.  NeedsSimulation where the estimate
+    cannot answer (the frozen chain does not hold on the scene, or the attitude is asked):
+    ``resolve_verified`` answers it."""
+    name, eps = parsed.name, parsed.eps
+    pooled, available, total = _pooled_rankings(name, rankings)
     N, E, source = tolerance_choice(eps, pooled, total,
                                     extend=(lambda n: _extended_estimate(pooled, n))
                                     if pooled.get("path") else None)
-    if parse_attitude(name) is not None:
+    if parsed.attitude is not None:
         raise AttitudeRequested(
             f"tol-{eps:g}: the platform attitude has no a-priori estimate (the frozen chain gives the "
             f"gimbal rates only): gimbal_reduction.reduction.models answers {name} by verified search (simulations)",
             reason="the platform attitude has no a-priori estimate (the frozen chain gives the gimbal "
                    "rates only)", eps=eps)
-    kept = _pooled_kept(name, str(N), rankings, available)
-    _TOL_CHOICES[name] = {"tol_eps": eps, "tol_N": int(N), "tol_method": TOL_APRIORI,
-                          "tol_estimate": np.asarray(E, float), "tol_estimate_max": float(np.max(E)),
-                          "tol_estimate_source": source, "tol_frozen_chain_valid": 1,
-                          "tol_equivalent_model": f"global-{N}"}
-    return ModelSpec(name=name, kept=kept, static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
-
-
-TOL_APRIORI, TOL_VERIFIED = "a-priori estimate", "verified search"
-_TOL_CHOICES = {}
+    kept = _pooled_kept(name, N, rankings, available)
+    choice = {"tol_eps": eps, "tol_N": int(N), "tol_method": TOL_APRIORI,
+              "tol_estimate": np.asarray(E, float), "tol_estimate_max": float(np.max(E)),
+              "tol_estimate_source": source, "tol_frozen_chain_valid": 1,
+              "tol_equivalent_model": f"global-{N}"}
+    return ModelSpec(name=name, kept=kept, static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY,
+                     choice=choice)
 
 
 def apriori_estimate(pooled, N):
@@ -420,20 +352,20 @@ def apriori_estimate(pooled, N):
     return None, "no a-priori estimate of this N in the ranking file"
 
 
-def _verified_tol_spec(name, request, scene, body_data, rankings, log=None):
-    """ModelSpec of a tol- request the frozen-chain estimate cannot answer (``request``: the
-    NeedsSimulation that ``_tol_spec`` raised: the chain does not hold on this scene, or the
-    platform attitude is asked): the smallest global-N found passing by
+def resolve_verified(parsed, request, scene, body_data, rankings, log=None, runs=None):
+    """ModelSpec of a tol- request (a parsed name) the frozen-chain estimate cannot answer
+    (``request``: the NeedsSimulation that ``resolve_tolerance`` raised: the chain does not hold
+    on this scene, or the platform attitude is asked): the smallest global-N found passing by
     ``verified_search.smallest_verified``, each candidate simulated through the scene against the
     truth (``verified_search.SimulationJudge``); the frozen chain's own choice for the rates is its
-    first guess.  Records the choice, the measured E (and attitude error) and every probe for the
-    file's attributes (``tolerance_attrs``).  ModelError (one line) if only the truth passes."""
+    first guess.  ``spec.choice`` records the choice, the measured E (and attitude error) and every
+    probe for the file's attributes.  runs: a ``verified_search.Runs`` kept by the caller across
+    requests (the truth's run and each candidate's E, simulated once), or None.  ModelError
+    (one line) if only the truth passes."""
     log = log or (lambda text: None)
-    eps, att = parse_request(name)
+    name, eps, att = parsed.name, parsed.eps, parsed.attitude
     invalid = isinstance(request, FrozenChainInvalid)
-    pooled = rankings[POOLED_KEY]
-    available = {b: len(np.asarray(rankings[b]["rank_frequency"])) for b in BODIES}
-    total = sum(available.values())
+    pooled, available, total = _pooled_rankings(name, rankings)
     extend = (lambda n: _extended_estimate(pooled, n)) if pooled.get("path") else None
     try:
         guess = tolerance_choice(eps, pooled, total, extend=extend, check_valid=False)[0]
@@ -441,14 +373,14 @@ def _verified_tol_spec(name, request, scene, body_data, rankings, log=None):
         guess = None                # the estimate meets eps nowhere: plain bisection
 
     def chain_for(N):
-        spec = ModelSpec(f"global-{N}", _pooled_kept(name, str(N), rankings, available),
-                         dict.fromkeys(BODIES, ()), GLOBAL_FAMILY)
+        spec = ModelSpec(f"global-{N}", _pooled_kept(name, N, rankings, available),
+                         dict.fromkeys(BODIES, ()), names.FAMILIES["global"].name)
         return build_chain(restrict_to_bodies(spec, scene.elastic_bodies), body_data, scene.damping_ratio)
 
     key = ("tol", scene.config_hash(), pooled.get("path_key"), tuple(scene.elastic_bodies),
            tuple(str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES))
     judge = verified_search.SimulationJudge(
-        scene, chain_for, total, key=key, attitude=att is not None,
+        scene, chain_for, total, key=key, attitude=att is not None, runs=runs,
         log=lambda text: log(f"{name} verified search on {scene.name}: {text}"))
     limits = [eps] * 4 + ([att] if att is not None else [])
     asked = f"E <= {eps:g}" + (f" and attitude <= {att:g} arcsec" if att is not None else "")
@@ -467,7 +399,7 @@ def _verified_tol_spec(name, request, scene, body_data, rankings, log=None):
                          + (f" (smallest measured: global-{best[0]}, max E {best[1]:.3e})" if best else ""))
     E_est, source = apriori_estimate(pooled, result.N)
     measured = np.asarray(result.E[:4], float)
-    _TOL_CHOICES[name] = {
+    choice = {
         "tol_eps": eps, "tol_N": int(result.N), "tol_method": TOL_VERIFIED,
         "tol_measured": measured, "tol_measured_max": float(np.max(measured)),
         "tol_estimate": np.full(4, np.nan) if E_est is None else np.asarray(E_est, float),
@@ -481,32 +413,17 @@ def _verified_tol_spec(name, request, scene, body_data, rankings, log=None):
         "tol_search_time_s": wall, "tol_search_truth_time_s": judge.wall_time(total),
         "tol_equivalent_model": f"global-{result.N}"}
     if invalid:
-        _TOL_CHOICES[name]["tol_frozen_chain_reason"] = request.reason
+        choice["tol_frozen_chain_reason"] = request.reason
     if att is not None:
-        _TOL_CHOICES[name].update({"tol_attitude_arcsec": att,
-                                   "tol_measured_attitude_arcsec": float(result.E[4]),
-                                   "tol_search_attitude_arcsec": result.probe_attitude})
+        choice.update({"tol_attitude_arcsec": att,
+                       "tol_measured_attitude_arcsec": float(result.E[4]),
+                       "tol_search_attitude_arcsec": result.probe_attitude})
     got = f"max E {np.max(measured):.3e}" + (f", attitude {result.E[4]:.3g} arcsec" if att is not None else "")
     log(f"{name}: global-{result.N} by verified search (measured {got}, meets {asked}; global-{result.N - 1} "
         f"measured failing; {len(result.probes) - 1} simulated probes, {wall:.1f} s)" if result.N else
         f"{name}: rigid (global-0) by verified search (measured {got}, meets {asked})")
-    return ModelSpec(name=name, kept=_pooled_kept(name, str(result.N), rankings, available),
-                     static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY)
-
-
-def tolerance_attrs(name):
-    """The last choice made for a tol- name (for the reduced-model file's attributes)."""
-    return dict(_TOL_CHOICES.get(name, {}))
-
-
-def needs_reduction_rankings(name):
-    """True if the model's mode selection reads the reduction stage's rankings: xmx-*,
-    xmgmx-*, and load-* / global-* (whose ranking file is checked against them).  truth,
-    rigid, freq-* and static(-freq)-* select by frequency from the body files alone
-    (``frequency_rankings``), so their simulations do not wait for the reduction stage."""
-    base = str(name).partition("@")[0]
-    return re.fullmatch(r"(static-)?(xmx|xmgmx|load|global)-[0-9,]+", base) is not None or \
-        base.startswith(TOL_FAMILY + "-")
+    return ModelSpec(name=name, kept=_pooled_kept(name, result.N, rankings, available),
+                     static=dict.fromkeys(BODIES, ()), ranking=TOL_FAMILY, choice=choice)
 
 
 def frequency_rankings(body_data):
@@ -521,14 +438,7 @@ def restrict_to_bodies(spec, bodies):
     a scene's ``needs.bodies``."""
     kept = {b: (v if b in bodies else np.zeros(0, dtype=int)) for b, v in spec.kept.items()}
     static = {b: (v if b in bodies else ()) for b, v in spec.static.items()}
-    return ModelSpec(name=spec.name, kept=kept, static=static, ranking=spec.ranking)
-
-
-def needs_load_ranking(name):
-    """True if the model name uses the scene's load-aware ranking (load-*, global-*, tol-*)."""
-    base = str(name).partition("@")[0]
-    return re.fullmatch(r"(static-)?(load|global)-[0-9,]+", base) is not None or \
-        base.startswith(TOL_FAMILY + "-")
+    return ModelSpec(name=spec.name, kept=kept, static=static, ranking=spec.ranking, choice=spec.choice)
 
 
 def load_load_ranking(path, rankings=None):
@@ -575,9 +485,6 @@ def load_load_ranking(path, rankings=None):
 
 
 # ------------------------------------------------------------------ body files
-_BODY_CACHE = {}
-
-
 def load_body_file(path):
     """The FE stage's per-body file (docs/body-data.md), read and checked by its one owner
     (``gimbal_reduction.solver.bodydata.read_body_file``).  Kept in process for the next model (a study reduces
@@ -586,13 +493,13 @@ def load_body_file(path):
     if not os.path.isfile(path):
         return read_body_file(path)         # raises its one-line BodyFileError
     st = os.stat(path)
-    key = (os.path.abspath(path), st.st_size, st.st_mtime_ns)
-    data = _BODY_CACHE.get(key)
-    if data is None:
-        if len(_BODY_CACHE) >= 8:
-            _BODY_CACHE.clear()
-        data = _BODY_CACHE[key] = read_body_file(path)
-    return data
+    return _read_body_file(os.path.abspath(path), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=8)
+def _read_body_file(path, size, mtime_ns):
+    """``read_body_file(path)`` of the file as of (size, mtime_ns), the last 8 files kept."""
+    return read_body_file(path)
 
 
 RANKING_REMEDY = "rerun its target: snakemake --cores 2 --forcerun {path}"
@@ -776,14 +683,15 @@ def expected_body_hashes(config):
 
 
 def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None, config=None,
-                 verified=True, log=None):
+                 verified=True, log=None, runs=None):
     """(Chain, ModelSpec, attrs) of model ``name`` on ``scene`` (undamped: damping is the
     scene's, applied when the model file is read).
 
     verified: answer a tol- request the frozen-chain estimate cannot (the chain does not hold on
-    the scene, or the attitude is asked) by verified search (simulations; ``_verified_tol_spec``),
+    the scene, or the attitude is asked) by verified search (simulations; ``resolve_verified``),
     else refuse (NeedsSimulation);
-    log(text): its progress lines.
+    log(text): its progress lines; runs: the verified search's ``verified_search.Runs``, kept by
+    a caller that answers several requests on one scene (None: a fresh one).
 
     body_files: {body: path} of the modal stage's files; reduction_files: {body: path} of
     the reduction stage's files (needed by xmx-, xmgmx-, load- and global- models);
@@ -794,9 +702,10 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     if config is not None:
         for b, expected in expected_body_hashes(config).items():
             check_config_hash(body_data[b], expected)
-    if not needs_load_ranking(name):
+    parsed = names.parse(name)
+    if not names.needs_load_ranking(name):
         load_ranking = None         # given but not read by this model
-    if needs_reduction_rankings(name):
+    if names.needs_reduction_rankings(name):
         if not reduction_files:
             raise ModelError(f"model {name!r} ranks modes by the reduction stage: pass its files "
                              f"(--reductions)")
@@ -804,18 +713,18 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     else:       # truth, rigid, freq-*, static-*: no reduction stage needed
         rankings = frequency_rankings(body_data)
     ranking_hashes = []
-    if needs_load_ranking(name):
+    if names.needs_load_ranking(name):
         if load_ranking is None:
             raise ModelError(f"model {name!r} needs the scene's load-aware ranking (--load-ranking)")
         load_load_ranking(load_ranking, rankings)
         check_load_ranking(load_ranking, rankings, body_data)
         ranking_hashes.append(str(rankings[POOLED_KEY].get("body_config_hashes", "")))
     try:
-        spec = parse_model(name, rankings)
+        spec = model_spec(parsed, rankings)
     except NeedsSimulation as request:
         if not verified:
             raise
-        spec = _verified_tol_spec(name, request, scene, body_data, rankings, log)
+        spec = resolve_verified(parsed, request, scene, body_data, rankings, log, runs)
     spec = restrict_to_bodies(spec, scene.elastic_bodies)
     chain = build_chain(spec, body_data)
     attrs = {"model": spec.name, "scene": scene.name,
@@ -824,7 +733,7 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
              "body_config_hashes": json.dumps([str(body_data[b]["attrs"].get("config_hash", ""))
                                                for b in BODIES])}
     if spec.ranking == TOL_FAMILY:
-        attrs.update(tolerance_attrs(name))
+        attrs.update(spec.choice)
         attrs["tol_coordinates"] = int(sum(chain.n_modes))
     if load_ranking is not None:
         attrs["load_ranking"] = os.path.abspath(load_ranking)
@@ -832,7 +741,9 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     return chain, spec, attrs
 
 
-def main(argv=None):
+def main(argv=None, runs=None):
+    """The stage's command line; runs: the verified search's ``verified_search.Runs`` of a caller
+    that runs several stages in process (None: a fresh one)."""
     ap = cli.OneLineParser(prog="gimbal_reduction.reduction.models",
                            description="Reduce the chain to one model on one scene: the reduced-model "
                                        "file (gimbal_reduction/solver/dynamics/chainfile.py, docs/models.md) a "
@@ -864,7 +775,7 @@ def main(argv=None):
         chain, spec, attrs = reduce_model(
             args.model, scene, dict(zip(BODIES, args.bodies)),
             dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,
-            config=config, verified=not args.no_verified_search,
+            config=config, verified=not args.no_verified_search, runs=runs,
             log=lambda text: print(f"gimbal_reduction.reduction.models: {text}", file=sys.stderr, flush=True))
     except (ValueError, FileNotFoundError) as exc:
         print(f"gimbal_reduction.reduction.models: {' '.join(str(exc).split())}", file=sys.stderr)

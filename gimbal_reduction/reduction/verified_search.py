@@ -153,7 +153,17 @@ def smallest_verified(eps, measure, total, guess=None, known=None) -> SearchResu
 
 
 # ------------------------------------------------------------------ the simulation judge
-_RUNS = {}          # in process: key -> {"truth": (t, rates, s), N: (E (4,), s)}
+class Runs:
+    """The simulations of the judges one caller makes: key -> {"truth": (t, rates, frames, s),
+    N: (E, s)}, so that several requests on one scene (``gimbal_reduction.results.bench.tolerance``)
+    simulate each candidate once.  Passed to each ``SimulationJudge``; nothing is kept elsewhere."""
+
+    def __init__(self):
+        self._by_key = {}
+
+    def of(self, key):
+        """The runs kept under ``key`` (a dict the judge fills)."""
+        return self._by_key.setdefault(key, {})
 
 
 class SimulationJudge:
@@ -166,15 +176,16 @@ class SimulationJudge:
     chain_for(N) -> multibody.Chain of the candidate global-N (scene damping included);
     truth_N: the count whose chain is the truth's (its E is 0 by identity); key: a hashable
     naming everything the runs depend on (scene physics, body files, ranking), under which the
-    truth's run and every candidate's E are kept in process, so the requests of one process
-    (several EPS on one scene: ``gimbal_reduction.results.bench.tolerance``) simulate each N once.  A candidate
+    truth's run and every candidate's E are kept in ``runs`` (a ``Runs`` the caller keeps across
+    judges: several EPS on one scene, ``gimbal_reduction.results.bench.tolerance``, simulate each N
+    once; None: this judge's own).  A candidate
     whose integration diverges fails (E = inf).  log(text): one line per simulation."""
 
-    def __init__(self, scene, chain_for, truth_N, key=None, log=None, attitude=False):
+    def __init__(self, scene, chain_for, truth_N, key=None, log=None, attitude=False, runs=None):
         self.scene, self.chain_for, self.truth_N = scene, chain_for, int(truth_N)
         self.size = N_RATES + 1 if attitude else N_RATES
         self.log = log or (lambda text: None)
-        self.runs = _RUNS.setdefault(key, {}) if key is not None else {}
+        self.runs = runs.of(key) if runs is not None and key is not None else {}
         self.seconds = 0.0          # wall time of the simulations this judge ran itself
 
     def _run(self, N):
@@ -218,10 +229,3 @@ class SimulationJudge:
         entry = self.runs.get("truth" if N == self.truth_N else int(N))
         return float(entry[-1]) if entry else float("nan")
 
-
-def forget(key=None):
-    """Drop the in-process runs of ``key`` (all if None)."""
-    if key is None:
-        _RUNS.clear()
-    else:
-        _RUNS.pop(key, None)

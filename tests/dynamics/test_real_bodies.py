@@ -24,7 +24,7 @@ def test_coupled_frequency_above_kept_frequencies_on_real_bodies(real):
     """The root cause of the freq-10 divergence: the modes carry angular momentum about the
     free drive axes, so the coupled chain's top frequency is well above the kept one."""
     rankings, data = real
-    chain = models.build_chain(models.parse_model("freq-10", rankings), data)
+    chain = models.build_chain(models.model_spec("freq-10", rankings), data)
     scene = scenes.load_scene("thesis")
     prob = simulate.scene_problem(chain, scene)
     assert prob.omega_max > 2.5 * prob.modal_omega_max
@@ -71,7 +71,7 @@ def test_mass_matrix_columns_agree_with_the_jacobian_assembly_on_the_truth_model
     modal stiffness, whose K q ~ 1e5 |M| would cost digits) and the Jacobian (composite)
     assembly sum J^T N J of the dense baseline.  With K q left in, they differed by 8.7e-12."""
     rankings, data = real
-    chain = models.build_chain(models.parse_model("truth", rankings), data)
+    chain = models.build_chain(models.model_spec("truth", rankings), data)
     n = chain.n_coordinates
     y = np.zeros(n)
     y[:4] = scenes.load_scene("thesis").initial_angles

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from gimbal_reduction.reduction import models
+from gimbal_reduction.reduction import names
 from gimbal_reduction.solver.dynamics import scenes
 
 
@@ -21,7 +22,7 @@ def test_every_scene_file_parses_and_declares_valid_needs():
         assert set(scene.elastic_bodies) <= set(scenes.ALL_BODIES)
         for name in scene.models:
             if name.split("-")[0] not in ("load", "global"):     # need a scene ranking file
-                models.parse_model(name, rankings)
+                models.model_spec(name, rankings)
 
 
 def test_needs_default_to_all_bodies_and_no_models():
@@ -64,14 +65,14 @@ def test_what_a_scene_needs_does_not_change_its_physics_hash():
 
 
 def test_model_selection_sources_and_body_restriction():
-    assert not any(models.needs_reduction_rankings(m) for m in
+    assert not any(names.needs_reduction_rankings(m) for m in
                    ("truth", "rigid", "freq-10", "static-8", "static-freq-8@2:output_motor_fz"))
-    assert all(models.needs_reduction_rankings(m) for m in
+    assert all(names.needs_reduction_rankings(m) for m in
                ("xmx-10", "xmgmx-5,5,5,5", "static-xmx-8", "load-10", "global-40"))
     eig = {b: np.array([9.0, 1.0, 4.0]) for b in models.BODIES}
     ranks = models.frequency_rankings({b: {"eigenvalues": e} for b, e in eig.items()})
     assert ranks[2]["rank_frequency"].tolist() == [1, 2, 0]
-    spec = models.parse_model("static-2", ranks)
+    spec = models.model_spec("static-2", ranks)
     rigid_outer = models.restrict_to_bodies(spec, (3, 4, 5))
     assert rigid_outer.n_modes(2) == 0 and rigid_outer.n_modes(3) == 3
     assert rigid_outer.kept[3].tolist() == [1, 2] and rigid_outer.name == spec.name

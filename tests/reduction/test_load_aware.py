@@ -16,6 +16,7 @@ from gimbal_reduction.reduction import frozen_chain as fc
 from gimbal_reduction.reduction import load_aware as la
 from gimbal_reduction.results.bench import selection
 from gimbal_reduction.reduction import models
+from gimbal_reduction.reduction import names
 from gimbal_reduction.solver.dynamics import scenes, simulate
 from gimbal_reduction.results.bench.oracle import synthetic_body
 from tests.dynamics_fixtures import run_model
@@ -334,18 +335,18 @@ def rankings(D=6):
 
 def test_grammar_load_and_global():
     r = rankings()
-    s = models.parse_model("load-2", r)
+    s = models.model_spec("load-2", r)
     assert all(list(s.kept[b]) == [4, 5] for b in models.BODIES) and s.ranking == "load"
-    s = models.parse_model("load-1,2,0,3", r)
+    s = models.model_spec("load-1,2,0,3", r)
     assert [len(s.kept[b]) for b in models.BODIES] == [1, 2, 0, 3]
-    s = models.parse_model("global-8", r)
+    s = models.model_spec("global-8", r)
     assert [list(s.kept[b]) for b in models.BODIES] == [[4, 5], list(range(6)), [], []]
-    s = models.parse_model("static-global-8", r)
+    s = models.model_spec("static-global-8", r)
     assert s.static[2] == ("output_motor_fz",) and s.n_modes(3) == 7
-    s = models.parse_model("load-3@2:output_motor_my", r)
+    s = models.model_spec("load-3@2:output_motor_my", r)
     assert s.static[2] == ("output_motor_my",) and s.static[3] == ()
-    assert models.needs_load_ranking("global-4") and models.needs_load_ranking("static-load-2")
-    assert not models.needs_load_ranking("xmx-4") and not models.needs_load_ranking("truth")
+    assert names.needs_load_ranking("global-4") and names.needs_load_ranking("static-load-2")
+    assert not names.needs_load_ranking("xmx-4") and not names.needs_load_ranking("truth")
 
 
 @pytest.mark.parametrize("name, change, message", [
@@ -367,7 +368,7 @@ def test_grammar_errors(name, change, message):
     elif change == "bad_pooled":
         r["pooled"]["mode"][1] = r["pooled"]["mode"][0]
     with pytest.raises(models.ModelError, match=message):
-        models.parse_model(name, r)
+        models.model_spec(name, r)
 
 
 # ------------------------------------------------- the stage on synthetic files
@@ -495,7 +496,7 @@ def test_real_apriori_estimate_matches_measured_freq_10():
     from gimbal_reduction.results.study.tables import read_sim
     lin = fc.read_linear_model(REAL_RANKING)
     rk = models.load_rankings(os.path.join(ROOT, "results", "reduction"))
-    spec = models.parse_model("freq-10", rk)
+    spec = models.model_spec("freq-10", rk)
     keep = selection.kept_indices(spec, lin["offsets"])
     est = la.estimate_error(lin, keep)
     truth, case = read_sim(os.path.join(REAL_SIM, "truth.h5")), read_sim(os.path.join(REAL_SIM, "freq-10.h5"))

@@ -20,25 +20,25 @@ def rankings(D=12):
 
 
 # ---------------------------------------------------------------- model names
-def test_parse_model_families_and_counts():
+def test_model_spec_families_and_counts():
     r = rankings()
-    s = models.parse_model("freq-10", r)
+    s = models.model_spec("freq-10", r)
     assert all(list(s.kept[b]) == list(range(10)) for b in models.BODIES)
     assert all(s.static[b] == () for b in models.BODIES)
-    s = models.parse_model("xmx-3", r)
+    s = models.model_spec("xmx-3", r)
     assert list(s.kept[2]) == sorted(r[2]["rank_xmx"][:3])
-    s = models.parse_model("freq-10,10,5,5", r)
+    s = models.model_spec("freq-10,10,5,5", r)
     assert [len(s.kept[b]) for b in models.BODIES] == [10, 10, 5, 5]
-    s = models.parse_model("static-8", r)
+    s = models.model_spec("static-8", r)
     assert s.static == {2: ("output_motor_fz",), 3: ("output_motor_fz",),
                         4: ("output_motor_fz",), 5: ("input_motor_fx",)}
-    s = models.parse_model("static-xmx-8", r)
+    s = models.model_spec("static-xmx-8", r)
     assert s.ranking == "xmx" and s.n_modes(2) == 9
-    s = models.parse_model("static-10@2:output_motor_my", r)
+    s = models.model_spec("static-10@2:output_motor_my", r)
     assert s.static[2] == ("output_motor_my",) and s.static[3] == ()
-    s = models.parse_model("freq-4@2:output_motor_fz+output_motor_my@4:input_motor_mz", r)
+    s = models.model_spec("freq-4@2:output_motor_fz+output_motor_my@4:input_motor_mz", r)
     assert s.static[2] == ("output_motor_fz", "output_motor_my") and s.static[4] == ("input_motor_mz",)
-    assert all(len(models.parse_model("rigid", r).kept[b]) == 0 for b in models.BODIES)
+    assert all(len(models.model_spec("rigid", r).kept[b]) == 0 for b in models.BODIES)
 
 
 @pytest.mark.parametrize("name, message", [
@@ -52,9 +52,9 @@ def test_parse_model_families_and_counts():
     ("freq-", "unknown model"),
     ("", "non-empty"),
 ])
-def test_parse_model_errors(name, message):
+def test_model_spec_errors(name, message):
     with pytest.raises(models.ModelError, match=message):
-        models.parse_model(name, rankings())
+        models.model_spec(name, rankings())
 
 
 # --------------------------------------------------------------------- scenes
@@ -183,7 +183,7 @@ def test_selected_integrals_equal_those_computed_for_the_subset(files, rotate):
 def test_static_mode_model_builds_and_orthonormal(files):
     root, _ = files
     data = {b: models.load_body_file(str(root / "modes" / f"body{b}.h5")) for b in models.BODIES}
-    spec = models.parse_model("static-3", models.load_rankings(str(root / "reduction")))
+    spec = models.model_spec("static-3", models.load_rankings(str(root / "reduction")))
     chain = models.build_chain(spec, data)
     assert chain.n_modes == (4, 4, 4, 4)
     b2 = chain.bodies[0]

@@ -9,6 +9,7 @@ import pytest
 from gimbal_reduction.reduction import models as m
 from gimbal_reduction.reduction import frozen_chain as fc
 from gimbal_reduction.reduction import verified_search as vs
+from gimbal_reduction.reduction import names
 from gimbal_reduction.solver.bodydata import BODIES
 
 D = 5   # modes per body in the synthetic ranking
@@ -43,40 +44,38 @@ def _rankings(path):
 @pytest.mark.parametrize("name, eps", [("tol-1e-4", 1e-4), ("tol-0.01", 0.01), ("tol-2.5E-6", 2.5e-6),
                                        ("tol-3", 3.0)])
 def test_grammar(name, eps):
-    assert m.parse_tolerance(name) == eps
-    assert m.needs_load_ranking(name) and m.needs_reduction_rankings(name)
+    assert names.parse(name).eps == eps
+    assert names.needs_load_ranking(name) and names.needs_reduction_rankings(name)
 
 
 @pytest.mark.parametrize("parse, name, message", [
-    ("parse_tolerance", "tol-", "positive number"), ("parse_tolerance", "tol-abc", "positive number"),
-    ("parse_tolerance", "tol--1e-3", "positive number"), ("parse_tolerance", "tol-0", "positive"),
-    ("parse_tolerance", "tol-1e-4@2:output_motor_fz", "no static modes"),
-    ("parse_request", "tol-1e-4-att-", "positive number"), ("parse_request", "tol-1e-4-att-0", "attitude"),
-    ("parse_request", "tol-1e-4-att-x", "positive number"),
-    ("parse_request", "tol-1e-4-att-2-att-3", "positive number")])
+    ("parse", "tol-", "positive number"), ("parse", "tol-abc", "positive number"),
+    ("parse", "tol--1e-3", "positive number"), ("parse", "tol-0", "positive"),
+    ("parse", "tol-1e-4@2:output_motor_fz", "no static modes"),
+    ("request", "tol-1e-4-att-", "positive number"), ("request", "tol-1e-4-att-0", "attitude"),
+    ("request", "tol-1e-4-att-x", "positive number"),
+    ("request", "tol-1e-4-att-2-att-3", "positive number")])
 def test_grammar_errors(parse, name, message):
     """A bad accuracy request (tol-EPS, and tol-EPS-att-ARCSEC) is refused in one line naming why."""
     with pytest.raises(m.ModelError, match=message):
-        getattr(m, parse)(name)
+        getattr(names, parse)(name)
 
 
 def test_choice_on_synthetic_ranking(tmp_path):
     path = tmp_path / "rank.h5"
     body, mode = _ranking_file(path)
     r = _rankings(path)
-    spec = m.parse_model("tol-1e-4", r)             # estimate max: 1e-1, 1e-2, ... at N = 1, 2, ...
-    a = m.tolerance_attrs("tol-1e-4")
+    spec = m.model_spec("tol-1e-4", r)             # estimate max: 1e-1, 1e-2, ... at N = 1, 2, ...
+    a = spec.choice
     assert a["tol_N"] == 4 and a["tol_eps"] == 1e-4
     assert a["tol_estimate_max"] == pytest.approx(1e-4)
     assert a["tol_equivalent_model"] == "global-4"
     for b in BODIES:                                # the pooled top 4, as global-4
         assert sorted(spec.kept[b].tolist()) == sorted(mode[:4][body[:4] == b].tolist())
     # a looser tolerance keeps fewer modes; the rigid estimate (N = 0) counts too
-    assert m.tolerance_attrs("tol-1e-4")["tol_N"] == 4
-    m.parse_model("tol-0.05", r)
-    assert m.tolerance_attrs("tol-0.05")["tol_N"] == 2
-    m.parse_model("tol-1", r)
-    assert m.tolerance_attrs("tol-1")["tol_N"] == 0
+    assert m.model_spec("tol-1e-4", r).choice["tol_N"] == 4
+    assert m.model_spec("tol-0.05", r).choice["tol_N"] == 2
+    assert m.model_spec("tol-1", r).choice["tol_N"] == 0
 
 
 def test_choice_extends_beyond_stored_curve():
@@ -99,7 +98,7 @@ def test_unreachable_tolerance_one_line(tmp_path):
     r[m.POOLED_KEY].pop("path")                            # no frozen chain to extend with
     with pytest.raises(m.ModelError, match=r"no pooled set of up to 8 modes meets E <= 1e-12 .*"
                                            r"smallest estimate reached 1\.000e-08") as exc:
-        m.parse_model("tol-1e-12", r)
+        m.model_spec("tol-1e-12", r)
     assert "\n" not in str(exc.value)
 
 
@@ -109,7 +108,7 @@ def test_refusal_when_frozen_chain_invalid(tmp_path, excursion, rate, why):
     path = tmp_path / "rank.h5"
     _ranking_file(path, excursion=excursion, rate=rate)
     with pytest.raises(m.ModelError, match=f"refused on scene .synthetic.: .*{why}") as exc:
-        m.parse_model("tol-1e-4", _rankings(path))
+        m.model_spec("tol-1e-4", _rankings(path))
     assert "cannot promise" in str(exc.value) and "\n" not in str(exc.value)
 
 
@@ -299,16 +298,16 @@ def test_spin_scene_is_outside_the_frozen_chain_on_the_real_bodies():
 @pytest.mark.parametrize("name, request_", [("tol-1e-4-att-2", (1e-4, 2.0)), ("tol-0.01-att-0.5", (0.01, 0.5)),
                                             ("tol-1e-6-att-2.5e-1", (1e-6, 0.25)), ("tol-1e-4", (1e-4, None))])
 def test_attitude_grammar(name, request_):
-    assert m.parse_request(name) == request_
-    assert m.parse_tolerance(name) == request_[0] and m.parse_attitude(name) == request_[1]
-    assert m.needs_load_ranking(name) and m.parse_request("global-40") is None
+    assert names.request(name) == request_
+    assert names.parse(name).eps == request_[0] and names.parse(name).attitude == request_[1]
+    assert names.needs_load_ranking(name) and names.request("global-40") is None
 
 
 def test_attitude_request_has_no_a_priori_answer(tmp_path):
     path = tmp_path / "rank.h5"
     _ranking_file(path)
     with pytest.raises(m.AttitudeRequested, match="attitude has no a-priori estimate") as exc:
-        m.parse_model("tol-1e-4-att-2", _rankings(path))
+        m.model_spec("tol-1e-4-att-2", _rankings(path))
     assert "\n" not in str(exc.value) and isinstance(exc.value, m.NeedsSimulation)
 
 

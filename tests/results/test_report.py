@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from gimbal_reduction.results.study import figures, report
-from gimbal_reduction.results.study.cases import GROUPS, GROUP_LABELS
+from gimbal_reduction.reduction.names import STYLES
+from gimbal_reduction.results.study.cases import GROUPS
 from tests.results.synthetic_study import write_tables
 
 pytest.importorskip("typst")
@@ -133,7 +134,7 @@ def test_report_builds_without_inputs(tmp_path):
 
 
 def test_study_groups_have_labels():
-    assert set(GROUPS) <= set(GROUP_LABELS) and set(GROUPS) <= set(figures.GROUP_STYLE)
+    assert set(GROUPS) <= set(STYLES) and all(STYLES[g].label and STYLES[g].colour for g in GROUPS)
 
 
 def test_summary_names_the_rigid_baseline_and_the_best_reduced_model():

@@ -239,7 +239,7 @@ def test_cli_missing_inputs_one_line(tmp_path, capsys):
 @real_only
 def test_real_freq5_rk4_limit_within_5_percent_and_old_bound_diagnosed():
     rankings, data = load_real_bodies()
-    chain = models.build_chain(models.parse_model("freq-5", rankings), data)
+    chain = models.build_chain(models.model_spec("freq-5", rankings), data)
     res = chain_stability.measure_chain_rk4_limit(chain, n_steps=1500, rtol=1e-3)
     assert abs(res["ratio_bound"] - 1.0) < stability.LIMIT_TOLERANCE
     assert abs(res["ratio_imaginary"] - 1.0) < 2e-3

@@ -125,6 +125,7 @@ def code_hash(*stages):
 # ---- The rule files' helpers, here so that no rule file mixes rules and functions (Snakemake's
 # lint); each is used by the rule file named above it.
 models_mod = importlib.import_module("gimbal_reduction.reduction.models")
+names_mod = importlib.import_module("gimbal_reduction.reduction.names")
 scenes_mod = importlib.import_module("gimbal_reduction.solver.dynamics.scenes")
 
 
@@ -188,9 +189,9 @@ def model_inputs(wildcards):
         wildcards.model, f"results/models/{wildcards.scene}/{wildcards.model}.h5"
     )
     needed = {"bodies": [f"results/modes/body{n}.h5" for n in BODIES]}
-    if models_mod.needs_reduction_rankings(wildcards.model):
+    if names_mod.needs_reduction_rankings(wildcards.model):
         needed["reductions"] = [f"results/reduction/body{n}.h5" for n in BODIES]
-    if models_mod.needs_load_ranking(wildcards.model):
+    if names_mod.needs_load_ranking(wildcards.model):
         needed["load_ranking"] = f"results/reduction/load/{wildcards.scene}.h5"
     return needed
 

@@ -43,8 +43,8 @@ def log(message):
 
 
 def build(name, rankings, data, damping_ratio=0.0):
-    """Chain of a model name (``models.parse_model`` + ``models.build_chain``)."""
-    return models.build_chain(models.parse_model(name, rankings), data, damping_ratio)
+    """Chain of a model name (``models.model_spec`` + ``models.build_chain``)."""
+    return models.build_chain(models.model_spec(name, rankings), data, damping_ratio)
 
 
 # ============================================================== coupled modes of the chain

@@ -18,8 +18,8 @@ answer is None, which says the study's sizes do not reach it, not that the famil
 from __future__ import annotations
 
 import math
-import re
 
+from gimbal_reduction.reduction import names
 from gimbal_reduction.results.study.tables import RATE_COLUMNS
 
 FAMILIES = ("freq", "xmx", "global")
@@ -37,8 +37,9 @@ def max_error(row) -> float:
 def family_of(model) -> str | None:
     """``freq``, ``xmx`` or ``global`` for a model named FAMILY-N (one count, no static modes);
     None for any other model (rigid, truth, per-body counts, static-*, ...)."""
-    m = re.fullmatch(r"(freq|xmx|global)-(\d+)", str(model))
-    return m.group(1) if m else None
+    parsed = names.parse_or_none(model)
+    plain = None if parsed is None else parsed.plain
+    return plain[0] if plain is not None and plain[0] in FAMILIES else None
 
 
 def cheapest_within(rows, family, eps) -> dict | None:
@@ -50,7 +51,3 @@ def cheapest_within(rows, family, eps) -> dict | None:
         return None
     return min(ok, key=lambda r: (int(r["n_elastic"]), max_error(r)))
 
-
-def equal_error_models(rows, eps_list, families=FAMILIES) -> dict:
-    """{(family, eps): row or None} for every family and requested tolerance."""
-    return {(f, float(e)): cheapest_within(rows, f, float(e)) for f in families for e in eps_list}

@@ -286,7 +286,7 @@ def run_hard_cases(rankings, data, quick=False, model=HARD_MODEL):
     # 5: twelve static modes on one body (every output-bearing load case of the outer gimbal)
     name12 = "freq-6@2:" + "+".join(OUTPUT_LOADS)
     log(f"hard case static_modes: {name12} ...")
-    spec = models.parse_model(name12, rankings)
+    spec = models.model_spec(name12, rankings)
     cond = static_mode_conditioning(data[2], spec.kept[2], OUTPUT_LOADS)
     chain12 = models.build_chain(spec, data)
     y12 = np.zeros(chain12.n_coordinates)
@@ -304,7 +304,7 @@ def run_hard_cases(rankings, data, quick=False, model=HARD_MODEL):
     # 6: all 24 bearing load cases on one body: some act only on the supports
     name24 = "freq-6@2:" + "+".join(ALL_LOADS)
     try:
-        models.build_chain(models.parse_model(name24, rankings), data)
+        models.build_chain(models.model_spec(name24, rankings), data)
         res = {"model": name24, "outcome": "garbage", "message": "built a model with loads on supports"}
     except ValueError as exc:
         # the reduction's message names the load case, not the model (build_chain does not add it)

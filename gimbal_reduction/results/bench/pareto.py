@@ -48,7 +48,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import re  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from dataclasses import dataclass  # noqa: E402
@@ -56,9 +55,10 @@ from dataclasses import dataclass  # noqa: E402
 import numpy as np  # noqa: E402
 
 from gimbal_reduction.reduction import models  # noqa: E402
+from gimbal_reduction.reduction.names import STYLES, needs_load_ranking, parse_or_none  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
 from gimbal_reduction.results.study.cases import describe_model  # noqa: E402
-from gimbal_reduction.results.study.figures import GROUP_STYLE, STYLE, pareto_front  # noqa: E402
+from gimbal_reduction.results.study.figures import STYLE, pareto_front  # noqa: E402
 from gimbal_reduction.results.study.tables import RATE_COLUMNS  # noqa: E402
 from gimbal_reduction.solver.dynamics import dense_baseline, integrators, scenes, simulate  # noqa: E402
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
@@ -120,8 +120,10 @@ def model_family(name):
     group = describe_model(name)["group"]
     if group != "other":
         return group
-    m = re.match(r"^([a-z][a-z-]*?)-[0-9]", name)
-    return m.group(1) if m else "other"
+    parsed = parse_or_none(name)
+    if parsed is None:
+        return "other"
+    return parsed.group if parsed.group != "other" else parsed.family
 
 
 # ------------------------------------------------------------------ pure helpers
@@ -205,13 +207,13 @@ def load_models(names, scene, body_files, reduction_files, load_ranking=None):
     (one-line ModelError for a bad one).  load-N / global-N models read the scene's
     load-aware ranking (``gimbal_reduction.reduction.load_aware``).  body_files, reduction_files: {body: path}."""
     rankings = models.read_rankings(reduction_files)
-    load_aware = any(models.needs_load_ranking(n) for n in names)
+    load_aware = any(needs_load_ranking(n) for n in names)
     if load_aware:
         if load_ranking is None:
             raise models.ModelError("load-N / global-N models need the scene's load-aware ranking "
                                     "(--load-ranking)")
         models.load_load_ranking(load_ranking, rankings)
-    specs = [models.parse_model(n, rankings) for n in names]
+    specs = [models.model_spec(n, rankings) for n in names]
     body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
     if load_aware:
         models.check_load_ranking(load_ranking, rankings, body_data)   # same body files?
@@ -286,7 +288,7 @@ def _styles(rows):
     for r in rows:
         f = r["family"]
         if f not in colors:
-            colors[f] = FAMILY_COLORS.get(f) or (GROUP_STYLE[f][0] if f in GROUP_STYLE else next(cycle, "0.5"))
+            colors[f] = FAMILY_COLORS.get(f) or (STYLES[f].colour if f in STYLES else next(cycle, "0.5"))
     return markers, colors
 
 

@@ -25,13 +25,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import sys
 
 import h5py
 import numpy as np
 
-from gimbal_reduction.reduction import load_aware, models
+from gimbal_reduction.reduction import load_aware, models, names
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.results.study.cases import BODY_NAMES
 from gimbal_reduction.solver.bodydata import BODIES
@@ -39,15 +38,13 @@ from gimbal_reduction.solver.dynamics.error_measure import check_same_grid, erro
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow.provenance import csv_text, provenance, savefig, write_text
 
-FAMILIES = ("freq", "xmx", "xmgmx", "load", "global")
+FAMILIES = tuple(names.FAMILIES)
 RATES = tuple(BODY_NAMES[b] for b in BODIES)
 TABLE_COLUMNS = ("model", "family", "count", "n_elastic",
                  *(f"E_{r}" for r in RATES), "E_max",
                  *(f"apriori_{r}" for r in RATES), "apriori_max", "apriori_over_measured",
                  "additive_max", "wall_time_s", "file")
-STYLE = {"freq": ("tab:blue", "o"), "xmx": ("tab:orange", "s"), "xmgmx": ("tab:green", "^"),
-         "load": ("tab:red", "D"), "global": ("black", "*"), "global_xmx": ("tab:gray", "x"),
-         "other": ("tab:purple", ".")}
+POOLED_XMX_STYLE = ("tab:gray", "x")     # the pooled XMX ranking's a-priori curve (not a model)
 
 
 class SelectionInputError(ValueError):
@@ -59,8 +56,9 @@ def classify(name: str) -> tuple[str, int | None]:
     count = N of freq-N ... (per body) or global-N (total); None otherwise."""
     if name in ("rigid", "truth"):
         return name, 0 if name == "rigid" else None
-    m = re.fullmatch(r"(freq|xmx|xmgmx|load|global)-([0-9]+)", name)
-    return (m.group(1), int(m.group(2))) if m else ("other", None)
+    parsed = names.parse_or_none(name)
+    plain = None if parsed is None else parsed.plain
+    return plain if plain is not None else ("other", None)
 
 
 def kept_indices(spec, offsets) -> np.ndarray | None:
@@ -88,7 +86,7 @@ def case_rows(truth: dict, cases: list[dict], linear: dict | None, rankings: dic
         est = add = None
         if linear is not None and rankings is not None:
             try:
-                spec = models.parse_model(case["model"], rankings)
+                spec = models.model_spec(case["model"], rankings)
             except models.ModelError:
                 spec = None
             keep = None if spec is None else kept_indices(spec, linear["offsets"])
@@ -137,13 +135,14 @@ def plot(rows: list[dict], curves: dict, path: str, record: dict | None = None) 
         c = curves.get(fam)
         if c is not None:
             n = np.arange(1, c.shape[0] + 1)
-            ax.plot(4 * n, np.nanmax(c, axis=1), "-", color=STYLE[fam][0], lw=1, alpha=0.8,
+            ax.plot(4 * n, np.nanmax(c, axis=1), "-", color=names.style(fam).colour, lw=1, alpha=0.8,
                     label=f"{fam}-N a priori (4N coords)")
     for fam, label in (("global", "global-N a priori"), ("global_xmx", "pooled XMX a priori")):
         c = curves.get(fam)
         if c is not None:
             ax.plot(np.arange(1, c.shape[0] + 1), np.nanmax(c, axis=1), "-" if fam == "global"
-                    else ":", color=STYLE[fam][0], lw=1.4 if fam == "global" else 1, label=label)
+                    else ":", color=names.style(fam).colour if fam == "global" else POOLED_XMX_STYLE[0],
+                    lw=1.4 if fam == "global" else 1, label=label)
     if "rigid" in curves:
         ax.axhline(float(np.max(curves["rigid"])), color="k", ls="--", lw=0.8,
                    label="rigid model a priori")
@@ -151,8 +150,9 @@ def plot(rows: list[dict], curves: dict, path: str, record: dict | None = None) 
         pts = [(r["n_elastic"], r["E_max"]) for r in rows if r["family"] == fam]
         if pts:
             x, y = np.array(pts, float).T
-            ax.plot(x, y, STYLE[fam][1], color=STYLE[fam][0], ms=6, mfc="none" if fam != "global"
-                    else STYLE[fam][0], ls="", label=f"{fam}-N simulated")
+            look = names.style(fam)
+            ax.plot(x, y, look.marker, color=look.colour, ms=6, mfc="none" if fam != "global"
+                    else look.colour, ls="", label=f"{fam}-N simulated")
     ax.set_yscale("log")
     ax.set_xlabel("elastic coordinates in the model (all bodies)")
     ax.set_ylabel("E = max over the 4 gimbal rates (eq. 3.53)")

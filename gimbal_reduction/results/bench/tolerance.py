@@ -46,6 +46,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import contextlib  # noqa: E402
+import functools  # noqa: E402
 import io  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -55,6 +56,7 @@ import h5py  # noqa: E402
 import numpy as np  # noqa: E402
 
 from gimbal_reduction.reduction import models as reduction_models  # noqa: E402
+from gimbal_reduction.reduction import verified_search  # noqa: E402
 from gimbal_reduction.results.bench.equal_error import FAMILIES, cheapest_within, max_error  # noqa: E402
 from gimbal_reduction.results.bench.pareto import run_budget  # noqa: E402
 from gimbal_reduction.results.study.figures import STYLE, _plt, save  # noqa: E402
@@ -82,11 +84,12 @@ def _stage(fn, args):
     return rc, [line.strip() for line in err.getvalue().splitlines() if line.strip()]
 
 
-def reduce(model, scene_file, bodies, reductions, load_ranking, tmp):
-    """(status, stderr lines, model file, its attributes, wall time [s]) of the reduction stage."""
+def reduce(model, scene_file, bodies, reductions, load_ranking, tmp, runs=None):
+    """(status, stderr lines, model file, its attributes, wall time [s]) of the reduction stage;
+    runs: the verified search's ``verified_search.Runs`` shared by the scene's requests."""
     path = os.path.join(tmp, f"{model}.h5")
     t0 = time.perf_counter()
-    rc, lines = _stage(reduction_models.main,
+    rc, lines = _stage(functools.partial(reduction_models.main, runs=runs),
                        ["--model", model, "--scene", scene_file, "--bodies", *bodies,
                         "--reductions", *reductions, "--load-ranking", load_ranking, "--out", path])
     wall = time.perf_counter() - t0
@@ -152,6 +155,7 @@ def bench_scene(scene_file, eps_list, bodies, reductions, load_ranking, table=No
     scene = scenes.load_scene(scene_file)
     name = scene.name
     rows, comparisons = [], []
+    runs = verified_search.Runs()       # the verified searches of this scene's requests share runs
     with tempfile.TemporaryDirectory(prefix="tolerance_") as tmp:
         rc, lines, path, _, _ = reduce("rigid", scene_file, bodies, reductions, load_ranking, tmp)
         if rc:
@@ -165,7 +169,7 @@ def bench_scene(scene_file, eps_list, bodies, reductions, load_ranking, table=No
         for eps in eps_list:
             model = f"tol-{eps:g}"
             rc, lines, path, attrs, selection = reduce(model, scene_file, bodies, reductions,
-                                                       load_ranking, tmp)
+                                                       load_ranking, tmp, runs)
             for line in lines:
                 log(f"tolerance: {name}: {line}")
             if rc:
@@ -325,7 +329,7 @@ def main(argv=None) -> int:
                "scenes": [os.path.splitext(os.path.basename(s))[0] for s in args.scenes],
                "eps": args.eps, "repeats": args.repeats, "budget_s": args.budget,
                "wall_time_s": time.perf_counter() - t0, "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
-               "integrator": reduction_models.verified_search.INTEGRATOR,
+               "integrator": verified_search.INTEGRATOR,
                "note": "measured E of eq. 3.53 against the truth (100 modes per body) integrated the "
                        "same way; within_request: measured max E <= EPS; run_time_s: median "
                        "integration wall time of up to `repeats` runs"}

@@ -146,7 +146,7 @@ def oracle_checks(real_chain, real_chains=()):
 
 
 def conservation_checks(body_data, rankings):
-    chain = models.build_chain(models.parse_model(CONSERVATION_MODEL, rankings), body_data)
+    chain = models.build_chain(models.model_spec(CONSERVATION_MODEL, rankings), body_data)
     scene = scenes.load_scene("free")
     y0, yd0 = scenes.initial_state(scene, chain.n_coordinates)
     t0 = time.perf_counter()
@@ -160,7 +160,7 @@ def conservation_checks(body_data, rankings):
 
 
 def order_check(body_data, rankings):
-    chain = models.build_chain(models.parse_model(ORDER_MODEL, rankings), body_data)
+    chain = models.build_chain(models.model_spec(ORDER_MODEL, rankings), body_data)
     scene = scenes.load_scene("thesis")
     prob = simulate.scene_problem(chain, scene)
     limit = integrators.rk4_stability_limit(prob.omega_max)
@@ -173,12 +173,12 @@ def order_check(body_data, rankings):
 
 
 def rigid_checks(body_data, rankings):
-    chain = models.build_chain(models.parse_model(CONSERVATION_MODEL, rankings), body_data)
+    chain = models.build_chain(models.model_spec(CONSERVATION_MODEL, rankings), body_data)
     out = [_from_tuple(dc.rigid_spin_about_outer_axis("real bodies", chain, t_end=5e-3),
                        data=f"real elastic bodies, model {CONSERVATION_MODEL!r}, 5 ms")]
     inertias = []
     for b in models.BODIES:
-        m = models.build_chain(models.parse_model("rigid", rankings), body_data).bodies[b - 2].rigid_mass
+        m = models.build_chain(models.model_spec("rigid", rankings), body_data).bodies[b - 2].rigid_mass
         inertias.append((m[0, 0], m[3, 3], m[4, 4], m[5, 5]))
     out.append(_from_tuple(dc.rigid_motor_spin_up("real mass properties", inertias),
                            data="real bodies' mass and diagonal inertia about the gimbal point, "
@@ -262,7 +262,7 @@ def bad_input_checks(body_files, reduction_files, out_dir):
 # ------------------------------------------------ truth: convergence, benchmark
 def truth_runs(body_data, rankings, repeats):
     """Truth on thesis: default-step convergence, and every integrator's cost and accuracy."""
-    spec = models.parse_model("truth", rankings)
+    spec = models.model_spec("truth", rankings)
     chain = models.build_chain(spec, body_data)
     scene = scenes.load_scene("thesis")
     t0 = time.perf_counter()
@@ -355,7 +355,7 @@ def exponential_checks(body_data, rankings, truth):
                           1e-8 if tol == exponential.DEFAULT_TOL else 1e-9,
                           E_per_rate=np.asarray(E).tolist(), steps=run.steps, wall_time_s=wall,
                           stats={k: float(v) for k, v in run.stats.items()}))
-    small = models.build_chain(models.parse_model("freq-10", rankings), body_data)
+    small = models.build_chain(models.model_spec("freq-10", rankings), body_data)
     sp = simulate.scene_problem(small, scene)
     rk = integrators.integrate(sp, scene.duration, scene.output_interval, method="rk4", fraction=0.1)
     ex = integrators.integrate(sp, scene.duration, scene.output_interval, method="exponential")
@@ -417,8 +417,8 @@ def main(argv=None):
         progress.advance(note=f"{name} took {timing[name]:.0f} s")
         return res
 
-    real_small = models.build_chain(models.parse_model("freq-10", rankings), body_data)
-    truth_chain = models.build_chain(models.parse_model("truth", rankings), body_data)
+    real_small = models.build_chain(models.model_spec("freq-10", rankings), body_data)
+    truth_chain = models.build_chain(models.model_spec("truth", rankings), body_data)
     checks += section("oracle", oracle_checks, real_small, (real_small, truth_chain))
     checks += section("conservation", conservation_checks, body_data, rankings)
     checks.append(section("rk4 order", order_check, body_data, rankings))

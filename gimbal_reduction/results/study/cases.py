@@ -36,11 +36,8 @@ reduction folder.
 from __future__ import annotations
 
 import argparse
-import re
 
-import numpy as np
-
-from gimbal_reduction.reduction import models
+from gimbal_reduction.reduction import models, names
 from gimbal_reduction.reduction.static_modes import DEFAULT_LOAD_CASE
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.workflow import config
@@ -84,17 +81,6 @@ GROUPS = ("rigid", *THESIS_GROUPS, "load", "global", "truth-check")
 RANKING_TABLE_GROUPS = ("rigid", "freq", "xmx", "xmgmx", "load", "global",
                         "truth-check")                                  # Table 4.2 analogue + ours
 STATIC_TABLE_GROUPS = ("static-freq", "static-xmx", "static-xmgmx", "load-case")  # Table 4.3
-GROUP_LABELS = {"freq": "lowest-frequency modes", "xmx": "XMX-ranked modes",
-                "xmgmx": "XMGMX-ranked modes",
-                "static-freq": "1 static + lowest-frequency modes",
-                "static-xmx": "1 static + XMX-ranked modes",
-                "static-xmgmx": "1 static + XMGMX-ranked modes",
-                "load-case": "10 lowest modes + 1 static mode on the outer gimbal",
-                "rigid": "rigid bodies (no elastic mode)",
-                "load": "modes ranked by the scene's joint loads",
-                "global": "modes pooled over the bodies (total count)",
-                "truth-check": "truth + 1 static mode per body (residual flexibility)",
-                "truth": "truth model (100 modes per body)", "other": "other model"}
 
 
 def study_cases(rankings=RANKINGS, static_rankings=RANKINGS, extended=True) -> list[dict]:
@@ -158,8 +144,8 @@ def rate_figure_models(scene) -> list[str]:
 
 def study_models(include_truth=False, **kwargs) -> list[str]:
     """Model names of the study (``study_cases``), optionally preceded by ``truth``."""
-    names = [c["model"] for c in study_cases(**kwargs)]
-    return ([TRUTH] if include_truth else []) + names
+    models_ = [c["model"] for c in study_cases(**kwargs)]
+    return ([TRUTH] if include_truth else []) + models_
 
 
 def describe_model(name: str) -> dict:
@@ -170,54 +156,49 @@ def describe_model(name: str) -> dict:
     (None when the bodies differ); ``n_elastic`` is the total number of elastic
     coordinates (vibration + static modes over the four bodies), None if unknown.
     """
+    parsed = names.parse_or_none(name)
+    n_elastic = None if parsed is None else parsed.n_coordinates
     for case in study_cases():
         if case["model"] == name:
-            return {**case, "n_elastic": _n_elastic(name)}
+            return {**case, "n_elastic": n_elastic}
     if name == TRUTH:
-        return {**_case(TRUTH, "truth", "freq", 100, 0, None, "", "truth model (100 modes per body)"),
-                "n_elastic": 400}
-    return {**_case(name, "other", None, None, 0, None, "", name), "n_elastic": _n_elastic(name)}
+        return {**_case(TRUTH, "truth", "freq", 100, 0, None, "", names.label("truth")),
+                "n_elastic": n_elastic}
+    return {**_case(name, "other", None, None, 0, None, "", name), "n_elastic": n_elastic}
 
 
-def _n_elastic(name: str):
-    """Elastic coordinates implied by a model name (None if the name is not understood)."""
-    if name == TRUTH:
-        return 400
-    if name == "rigid":
-        return 0
-    base, _, rest = name.partition("@")
-    pooled = re.fullmatch(r"(static-)?global-([0-9]+)", base)
-    if pooled:
-        return int(pooled.group(2)) + (4 if pooled.group(1) and not rest else 0)
-    m = re.fullmatch(r"(static-)?(?:(freq|xmx|xmgmx|load)-)?([0-9]+(?:,[0-9]+){3}|[0-9]+)", base)
-    if not m:
-        return None
-    counts = [int(c) for c in m.group(3).split(",")]
-    counts = counts * 4 if len(counts) == 1 else counts
-    if rest:
-        statics = sum(len(chunk.partition(":")[2].split("+")) for chunk in ("@" + rest).split("@")[1:])
-    else:
-        statics = 4 if m.group(1) else 0
-    return sum(counts) + statics
+def classify(model: str) -> tuple[str, object]:
+    """(group, key) of a model name: the study group (GROUPS, ``truth``, or ``other``) and its
+    key: the count per body (global: the total count), the load case for the load-case group,
+    0 for rigid, the name for ``other``.  Any name, study case or not, from ``names.parse``."""
+    if model == TRUTH_CHECK:              # the truth's own error, not a reduced case
+        return "truth-check", 100
+    parsed = names.parse_or_none(model)
+    if parsed is None:
+        return "other", model
+    if parsed.family in (TRUTH, "rigid"):
+        return parsed.family, parsed.count
+    if parsed.statics:
+        cases = parsed.statics.get(2, ())
+        if list(parsed.statics) == [2] and len(cases) == 1 and parsed.static and parsed.family == "freq" \
+                and parsed.count == LOAD_CASE_COUNT and cases[0] in dict(LOAD_CASES):
+            return "load-case", cases[0]
+        return "other", model
+    if parsed.group in GROUPS:
+        return parsed.group, parsed.count
+    return "other", model
 
 
-def check_models(names, reduction_dir=None, n_modes=100) -> list[str]:
-    """Parse every name with ``gimbal_reduction.reduction.models.parse_model``; returns the names.
+def check_models(model_names, reduction_dir=None, n_modes=100) -> list[str]:
+    """Resolve every name with ``gimbal_reduction.reduction.models.model_spec``; returns the names.
 
     Without ``reduction_dir`` the rankings (load-aware and pooled too) are identity
     permutations of ``n_modes`` modes (the grammar check only); raises ``gimbal_reduction.reduction.models.ModelError``.
     """
-    if reduction_dir is None:
-        order = np.arange(n_modes)
-        rankings = {b: {k: order for k in (*models.RANKING_KEYS.values(), models.LOAD_KEY)}
-                    for b in models.BODIES}
-        rankings[models.POOLED_KEY] = {"body": np.repeat(models.BODIES, n_modes),
-                                       "mode": np.tile(order, len(models.BODIES))}
-    else:
-        rankings = models.load_rankings(reduction_dir)
-    for name in names:
-        models.parse_model(name, rankings)
-    return list(names)
+    rankings = models.identity_rankings(n_modes) if reduction_dir is None else models.load_rankings(reduction_dir)
+    for name in model_names:
+        models.model_spec(name, rankings)
+    return list(model_names)
 
 
 def main(argv=None) -> int:
@@ -225,8 +206,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m gimbal_reduction.results.study.cases", description=main.__doc__)
     parser.add_argument("--truth", action="store_true", help="list the truth model first")
     args = parser.parse_args(argv)
-    names = check_models(study_models(include_truth=args.truth))
-    print("\n".join(names))
+    listed = check_models(study_models(include_truth=args.truth))
+    print("\n".join(listed))
     return 0
 
 

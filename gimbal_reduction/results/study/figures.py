@@ -38,9 +38,9 @@ import textwrap
 
 import numpy as np
 
+from gimbal_reduction.reduction import names
 from gimbal_reduction.results.study import findings
 from gimbal_reduction.results.study.cases import (
-    GROUP_LABELS,
     LOAD_CASE_COUNT,
     LOAD_CASES,
     RANKING_TABLE_GROUPS,
@@ -56,13 +56,6 @@ from gimbal_reduction.workflow.provenance import provenance, savefig, write_json
 
 STYLE = {"pdf.fonttype": 42, "ps.fonttype": 42, "font.size": 9, "axes.grid": True,
          "grid.alpha": 0.3, "legend.fontsize": 8, "figure.dpi": 100}
-GROUP_STYLE = {"freq": ("tab:blue", "o", "-"), "xmx": ("tab:orange", "s", "-"),
-               "xmgmx": ("tab:green", "^", "--"), "static-freq": ("tab:purple", "D", "-"),
-               "static-xmx": ("tab:red", "v", "-"), "static-xmgmx": ("tab:brown", "P", "--"),
-               "load-case": ("tab:pink", "X", ""), "other": ("tab:gray", ".", ""),
-               "truth": ("black", "*", ""), "rigid": ("black", "_", "--"),
-               "load": ("tab:olive", "h", "-"), "global": ("tab:cyan", "p", "-"),
-               "truth-check": ("0.4", "*", "")}
 # Groups drawn as lines against modes per body: the rigid model is the dashed baseline and the
 # truth check a single point at 100, so neither is a line; global-N (N in total) is drawn at N/4
 LINE_GROUPS = tuple(g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check"))
@@ -476,9 +469,10 @@ def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=
             for g in groups:
                 x, y = _series(rows, g, col)
                 if x.size:
-                    c, m, ls = GROUP_STYLE.get(g, GROUP_STYLE["other"])
+                    look = names.style(g)
+                    c, m, ls = look.colour, look.marker, look.line
                     ax.plot(x, np.where(y > 0, y, np.nan), color=c, marker=m, ls=ls or "-",
-                            label=f"ours: {GROUP_LABELS.get(g, g)}")
+                            label=f"ours: {names.label(g)}")
             for j, (label, data) in enumerate((thesis or {}).items()):
                 xs = sorted(data)
                 ax.plot(xs, [data[n][k] for n in xs], color="0.55", marker="os"[j % 2], ms=3,
@@ -622,9 +616,9 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
         fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
         for g in dict.fromkeys(r["group"] for r in cases):
             sel = [r for r in cases if r["group"] == g]
-            c, m, _ = GROUP_STYLE.get(g, GROUP_STYLE["other"])
+            c, m = names.style(g).colour, names.style(g).marker
             ax.scatter([_size(r) for r in sel], [r[col] for r in sel], color=c, marker=m,
-                       label=GROUP_LABELS.get(g, g), zorder=3)
+                       label=names.label(g), zorder=3)
         cost = np.array([_size(r) for r in cases])
         err = np.array([r[col] for r in cases])
         front = pareto_front(cost, err)
@@ -758,10 +752,10 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
         ctrl = next((r for r in ranking_rows if r["model"] == f"freq-{LOAD_CASE_COUNT}"), None)
         if ctrl is not None:
             controls.append((f"no static\n(freq-{LOAD_CASE_COUNT})", [ctrl[c] for c in RATE_COLUMNS]))
-        names = [c[0].split(chr(10))[0] for c in controls]
+        titles = [c[0].split(chr(10))[0] for c in controls]
         add(plot_load_cases(static_rows, os.path.join(out_dir, "error_load_cases"), controls),
             id="error_load_cases", kind="error", model="", group="load-case",
-            thesis_figure="4-21..4-27", scene=scene or "", controls=names,
+            thesis_figure="4-21..4-27", scene=scene or "", controls=titles,
             baseline=RIGID if E_rigid is not None else None,
             caption=f"Error E of each gimbal rate{on} with the 10 lowest modes per body and one static "
                     "mode on the outer gimbal, for the seven load cases (Figs 4-21 to 4-27)"

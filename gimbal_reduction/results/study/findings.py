@@ -70,12 +70,12 @@ import io
 import json
 import math
 import os
-import re
 import sys
 
 import numpy as np
 
-from gimbal_reduction.results.study.cases import LOAD_CASE_COUNT, LOAD_CASES, TRUTH_CHECK
+from gimbal_reduction.reduction import names
+from gimbal_reduction.results.study.cases import LOAD_CASE_COUNT, LOAD_CASES, classify
 from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
 from gimbal_reduction.workflow.provenance import provenance, write_json, write_text
 
@@ -177,37 +177,10 @@ FIELDS = ("finding", "id", "source", "scene", "statement", "rule", "control", "v
 
 
 # ---------------------------------------------------------------- the study as cases
-_NAME = (
-    (re.compile(r"(freq|xmx|xmgmx|load|global)-([0-9]+)"), lambda m: (m[1], int(m[2]))),
-    (re.compile(r"static-([0-9]+)"), lambda m: ("static-freq", int(m[1]))),
-    (re.compile(r"static-(xmx|xmgmx)-([0-9]+)"), lambda m: (f"static-{m[1]}", int(m[2]))),
-    (re.compile(r"static-([0-9]+)@2:([a-z_]+)"),
-     lambda m: ("load-case", m[2]) if int(m[1]) == LOAD_CASE_COUNT and
-     m[2] in dict(LOAD_CASES) else ("other", m[0])),
-)
-
-
-def classify(model: str) -> tuple[str, object]:
-    """(group, key) of a model name: key is the count per body (global: the total count),
-    the load case for the load-case group, 0 for rigid, the name for ``other``."""
-    if model in ("truth", "rigid"):
-        return model, (100 if model == "truth" else 0)
-    if model == TRUTH_CHECK:              # the truth's own error, not a reduced case
-        return "truth-check", 100
-    for pattern, make in _NAME:
-        m = pattern.fullmatch(model)
-        if m:
-            return make(m)
-    return "other", model
-
-
-def _n_elastic(group, key):
-    if group in ("freq", "xmx", "xmgmx", "load"):
-        return 4 * key
-    if group.startswith("static-"):
-        return 4 * key + 4
-    return {"rigid": 0, "truth": 400, "global": key,
-            "load-case": 4 * LOAD_CASE_COUNT + 1}.get(group)
+def _n_elastic(model):
+    """Elastic coordinates implied by a model name (None if it is not a model name)."""
+    parsed = names.parse_or_none(model)
+    return None if parsed is None else parsed.n_coordinates
 
 
 class Study:
@@ -219,7 +192,7 @@ class Study:
         for r in rows:
             group, key = classify(str(r["model"]))
             n = r.get("n_elastic")
-            n = _n_elastic(group, key) if n is None or n == "" else int(n)
+            n = _n_elastic(str(r["model"])) if n is None or n == "" else int(n)
             E = np.array([float(r[c]) for c in RATE_COLUMNS])
             case = {"model": str(r["model"]), "group": group, "key": key, "n_elastic": n, "E": E}
             self.rows.append(case)
@@ -296,10 +269,6 @@ def _missing(why: str) -> dict:
     res["reason"] = f"missing input: {why}"
     res["ours"] = ""
     return res
-
-
-def _any_rate(res) -> bool:
-    return any(v != "not evaluated" for v in res["verdict_per_rate"].values())
 
 
 # ---------------------------------------------------------------- the findings

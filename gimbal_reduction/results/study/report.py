@@ -33,10 +33,10 @@ from importlib import metadata
 
 import numpy as np
 
+from gimbal_reduction.reduction import names
 from gimbal_reduction.results.study import findings
 from gimbal_reduction.results.study.cases import (
     BODY_LABELS,
-    GROUP_LABELS,
     LOAD_CASES,
     MODE_COUNTS,
     RANKING_TABLE_GROUPS,
@@ -606,7 +606,7 @@ def _results_section(ctx, root):
         base = [r for r in rr if r["group"] in ("rigid", "truth-check")]
         if base:
             out.append(table(["model", "what"] + [s(BODY_LABELS[b]) for b in BODIES],
-                             [[s(r["model"]), s(GROUP_LABELS.get(r["group"], r["group"]))] +
+                             [[s(r["model"]), s(names.label(r["group"]))] +
                               [sci(r[c]) for c in RATE_COLUMNS] for r in base],
                              "The baseline every reduced model must beat (rigid: no elastic mode) "
                              "and the truth's own error (static-100: the truth with residual "
@@ -617,7 +617,7 @@ def _results_section(ctx, root):
             if ok:
                 unit = "in total" if g == "global" else "per body"
                 out.append(table(["rate"] + [f"{n}" for n in counts], rows,
-                                 f"Error E (eq 3.53) using {s(GROUP_LABELS[g])}, by the number of modes "
+                                 f"Error E (eq 3.53) using {s(names.label(g))}, by the number of modes "
                                  f"{unit}" + (" (analogue of thesis Table 4.2)." if g in ("freq", "xmx", "xmgmx")
                                               else "."), f"tab-err-{g}", size="7.5pt"))
     else:
@@ -627,7 +627,7 @@ def _results_section(ctx, root):
             rows, ok = _pivot(sr, g, STATIC_COUNTS)
             if ok:
                 out.append(table(["rate"] + [f"{n} modes" for n in STATIC_COUNTS], rows,
-                                 f"Error E using {s(GROUP_LABELS[g])} per body "
+                                 f"Error E using {s(names.label(g))} per body "
                                  f"(analogue of thesis Table 4.3).", f"tab-err-{g}"))
         lc = [r for r in sr if r["group"] == "load-case"]
         if lc:

@@ -136,7 +136,7 @@ def main(argv=None) -> int:
             if args.load_ranking:
                 reduction_models.load_load_ranking(args.load_ranking, rankings)
             for m in args.models:
-                reduction_models.parse_model(m, rankings)
+                reduction_models.model_spec(m, rankings)
     except (ValueError, FileNotFoundError) as exc:
         print(f"run_scene: {exc}", file=sys.stderr)
         return 2

@@ -28,9 +28,10 @@ import time
 
 import numpy as np
 
+from gimbal_reduction.reduction import names
 from gimbal_reduction.results.bench.equal_error import FAMILIES, cheapest_within, max_error
-from gimbal_reduction.results.study.cases import GROUP_LABELS, MODE_COUNTS, TRUTH, TRUTH_CHECK
-from gimbal_reduction.results.study.figures import GROUP_STYLE, STYLE, _plt, save
+from gimbal_reduction.results.study.cases import MODE_COUNTS, TRUTH, TRUTH_CHECK
+from gimbal_reduction.results.study.figures import STYLE, _plt, save
 from gimbal_reduction.results.study.findings import THESIS, THESIS_TABLE_4_1
 from gimbal_reduction.results.study.report import (ROOT, _json, _versions, _yaml, compile_pdf, figure, note, note_revision, s,
                                   sci, stale_list, table)
@@ -287,7 +288,7 @@ def methods_section(ctx) -> str:
                      "The study's scenes (config/scenes/NAME.yaml; every number there carries its "
                      "unit and source).", "tab-scenes", columns="(auto, 3fr, auto, auto, auto)"))
     groups = sorted({r["group"] for sc in ctx["scenes"] for r in sc["rows"] if r["group"] != "truth"})
-    out.append("The cases, by group: " + "; ".join(f"{s(g)}: {s(GROUP_LABELS.get(g, g))}"
+    out.append("The cases, by group: " + "; ".join(f"{s(g)}: {s(names.label(g))}"
                                                    for g in groups) + ".\n\n")
     return "".join(out)
 
@@ -763,7 +764,7 @@ def draw_tolerance_chart(data, stem) -> dict:
             bx.plot(x, [p["run_time_s"] for p in pts], color="black", marker="o", ms=3, lw=1.2)
             handles["tol-EPS"] = h
             for k, family in enumerate(FAMILIES):
-                color, marker, _ = GROUP_STYLE[family]
+                color, marker = names.style(family).colour, names.style(family).marker
                 fs = [f for f in d["families"][family] if f["model"]]
                 shift = 1.0 + 0.12 * (k - 1)              # side by side at one EPS
                 handles[f"cheapest {family}-N of the study"] = ax.scatter(

@@ -71,22 +71,6 @@ def _axial_momentum(chain):
     return lambda y, yd: multibody.generalized_momentum(chain, y, yd)[0]
 
 
-def energy_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
-    """Scene with the case at rest and no torques: RK4 at ``fraction`` of its stability
-    limit for n_steps; max |E(t) - E(0)| / E(0) with E = T + U."""
-    (worst,) = _rk4_drift(chain, y0, yd0, [_energy(chain)], n_steps, fraction)
-    return check(f"{name}: energy drift over {n_steps} RK4 steps (h = {fraction} x limit)", worst, tol)
-
-
-def momentum_conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
-    """Case at rest: the momentum conjugate to gamma_1 (angular momentum of bodies 2-5
-    about the outer drive axis) over n_steps RK4 steps; max relative drift."""
-    (worst,) = _rk4_drift(chain, y0, yd0, [_axial_momentum(chain)], n_steps, fraction)
-    return check(f"{name}: axial angular momentum drift over {n_steps} RK4 steps", worst, tol)
-
-
-
-
 def conservation(name, chain, y0, yd0, n_steps=100_000, fraction=0.1, tol=1e-9):
     """Energy and axial angular momentum drift from one RK4 run (case at rest)."""
     dE, dp = _rk4_drift(chain, y0, yd0, [_energy(chain), _axial_momentum(chain)], n_steps, fraction)
