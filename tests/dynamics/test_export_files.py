@@ -44,3 +44,28 @@ def test_config_check_refuses_a_model_of_other_body_files(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and model in err and "another configuration" in err
     assert not out.exists() and not out.with_suffix(".npz").exists()
+
+
+def test_an_extension_the_export_does_not_write_is_refused_before_the_work(tmp_path, capsys):
+    model = model_file(tmp_path / "model.h5", ["a", "b", "c", "d"])
+    for out in (tmp_path / "model_ss.h5", tmp_path / "model_ss"):
+        code = export.main(["--model-file", model, "--scene", "no_such_scene", "--out", str(out)])
+        err = capsys.readouterr().err.strip()
+        # the extension is named first: the scene (which would fail later) is never read
+        assert code == 2 and len(err.splitlines()) == 1 and str(out) in err and ".mat and .npz" in err, err
+    assert sorted(os.listdir(tmp_path)) == ["model.h5"]
+
+
+def test_a_pair_that_cannot_be_written_whole_leaves_neither_file(tmp_path, capsys, monkeypatch):
+    """The .npz's write fails (a full disk, simulated): no .mat is left behind, and the message
+    names the .npz."""
+    model = model_file(tmp_path / "model.h5", ["a", "b", "c", "d"])
+    out = tmp_path / "export" / "freq-2.mat"
+
+    def full_disk(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(export.np, "savez_compressed", full_disk)
+    assert export.main(["--model-file", model, "--scene", "thesis", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "freq-2.npz" in err and "no space left" in err, err
+    assert not out.parent.exists() or os.listdir(out.parent) == []

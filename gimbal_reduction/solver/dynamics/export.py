@@ -45,6 +45,7 @@ import scipy.io
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics import chainfile, linearized, multibody, scenes
 from gimbal_reduction.solver.dynamics.multibody import CaseMotion
+from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow import config as cfgmod
 from gimbal_reduction.workflow.provenance import atomic_path, provenance
 
@@ -136,15 +137,34 @@ def export(model_file, scene_name):
     return ss
 
 
+EXTENSIONS = (".mat", ".npz")
+
+
+def out_pair(out):
+    """(.mat, .npz) paths of ``--out`` (either extension names the pair); ValueError, naming the
+    path, for any other extension (the export writes no other format)."""
+    stem, ext = os.path.splitext(str(out))
+    if ext not in EXTENSIONS:
+        raise ValueError(f"--out {out}: the export writes .mat and .npz, not {ext or 'a file without extension'} "
+                         f"(name the .mat or the .npz)")
+    return stem + ".mat", stem + ".npz"
+
+
 def write(ss, out):
-    """Write the .mat (scipy.io.savemat) and the .npz beside each other, each atomically
-    (``gimbal_reduction.workflow.provenance.atomic_path``); returns both paths."""
-    stem = os.path.splitext(out)[0]
-    mat, npz = stem + ".mat", stem + ".npz"
-    with atomic_path(mat) as tmp:
-        scipy.io.savemat(str(tmp), ss, do_compression=True, appendmat=False)
-    with atomic_path(npz) as tmp, open(tmp, "wb") as f:      # a file object: no ".npz" appended
-        np.savez_compressed(f, **ss)
+    """Write the .mat (scipy.io.savemat) and the .npz beside each other, both or neither: each
+    goes to a temporary file first (``gimbal_reduction.workflow.provenance.atomic_path``), and
+    both are renamed into place only when both are written.  Returns both paths; OSError with a
+    message naming the file that could not be written."""
+    mat, npz = out_pair(out)
+    target = mat
+    try:
+        with atomic_path(mat) as tmp_mat, atomic_path(npz) as tmp_npz:
+            scipy.io.savemat(str(tmp_mat), ss, do_compression=True, appendmat=False)
+            target = npz
+            with open(tmp_npz, "wb") as f:       # a file object: no ".npz" appended
+                np.savez_compressed(f, **ss)
+    except OSError as exc:
+        raise OSError(cli.write_failure(target, exc)) from None
     return mat, npz
 
 
@@ -158,7 +178,7 @@ def check_config(model_file, config_path):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m gimbal_reduction.solver.dynamics.export",
+    ap = argparse.ArgumentParser(prog="gimbal export",
                                  description="Linearised state space (A, B, C, D) of a reduced model "
                                              "about a scene's initial state, to .mat and .npz.")
     ap.add_argument("--model-file", required=True, help="reduced-model file (gimbal_reduction.reduction.models)")
@@ -168,6 +188,7 @@ def main(argv=None):
                                      "must have been made from it (their config hashes)")
     args = ap.parse_args(argv)
     try:
+        out_pair(args.out)                       # before any work
         if args.config is not None:
             check_config(args.model_file, args.config)
         ss = export(args.model_file, args.scene)
