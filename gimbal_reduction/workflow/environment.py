@@ -3,7 +3,7 @@
 The rules run their stages with the interpreter that runs Snakemake (``sys.executable``), so
 a Snakemake from elsewhere (a distribution's /usr/bin/snakemake, a pip install in another
 environment, an older pin such as 8.20.5) would run every stage without the project's packages: without Numba the dynamics
-would not run (and before issue 16 ran ~100x slower), without Typst the reports fail at the end.
+would not run (~100x slower without it), without Typst the reports fail at the end.
 ``problem()`` names what is wrong in one line, with the command that runs the workflow;
 ``workflow/rules/common.smk`` prints it and stops before anything runs.
 

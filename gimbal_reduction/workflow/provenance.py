@@ -419,7 +419,7 @@ def atomic_h5(path: str | Path):
     OSError from that write, and the temporary file is removed (``atomic_path``).  HDF5 itself
     never writes to the disk here: a flush or close that fails on a full disk is reported by h5py
     as RuntimeErrors, printed as ignored exceptions from every object it frees, and can end the
-    process with a segmentation fault at exit (issue 15)."""
+    process with a segmentation fault at exit."""
     with atomic_path(path) as tmp:
         h5 = h5py.File(str(tmp), "w", driver="core", backing_store=False)
         try:

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A real Slurm cluster of one node on localhost, to prove the workflow's cluster path (issue 16):
+# A real Slurm cluster of one node on localhost, to prove the workflow's cluster path:
 #   1. installs Slurm, munge, slurmdbd and MariaDB from Debian (apt) if missing (the Slurm executor
 #      plugin asks `sacct` for the jobs' states, which needs Slurm's accounting database);
 #   2. writes a single-node slurm.conf in a temporary folder, listening on 127.0.0.1 only, with

@@ -1,6 +1,6 @@
-# Stage 6: fast and stable (issue 6). Run time against error, the right-hand side's cost
+# Stage 6: fast and stable. Run time against error, the right-hand side's cost
 # against model size (with the dense-mass-matrix baseline timed in the same run), and the
-# stability stress tests; the exponential integrator's speed table (issue 13) against the converged
+# stability stress tests; the exponential integrator's speed table against the converged
 # DOP853 references. Every benchmark writes files; nothing here is a timed assertion.
 #   snakemake --cores 2 bench
 # Pareto: one model per family at ~40-100 elastic coordinates (each costs ~2 min of repeated
@@ -15,11 +15,10 @@ SELECTION_MODELS = (
     + [f"load-{n}" for n in (5, 10, 15, 20, 25, 30, 40)]
     + [f"global-{n}" for n in (20, 40, 60, 80, 100, 120, 160)]
 )
-# Exponential integrator speed (issue 13): one reduced model per family of the study on thesis
-# (each ~50-120 ms a run). The benchmark's cost (loaded 2-core machine, 2026-11-24): the DOP853
-# comparison ~3 min (6 DOP853 runs of 25-40 s), `long` ~2.5 min (6 runs of ~25 s), the rest < 1 min;
-# since 2026-11-25 a second DOP853 comparison at the tolerance sweep's fastest tolerance (~80 s) and
-# the sweep itself (7 tolerances, ~5 s): the whole rule took 167 s there that evening (one core).
+# Exponential integrator speed: one reduced model per family of the study on thesis (each ~50-120
+# ms a run). The benchmark's cost (loaded 2-core machine): the DOP853 comparison ~3 min (6 DOP853
+# runs of 25-40 s), `long` ~2.5 min (6 runs of ~25 s), a second DOP853 comparison at the tolerance
+# sweep's fastest tolerance (~80 s), the sweep itself (7 tolerances, ~5 s): ~170 s in all, one core.
 EXPONENTIAL_MODELS = [
     "freq-10",
     "xmx-10",
@@ -214,7 +213,7 @@ rule exponential_bench:
 
 
 # Scenes on which the exponential integrator's accuracy is verified against a converged DOP853
-# reference (issue 13); references cost (one core): thesis ~1 min, free ~2, damped ~1,
+# reference; references cost (one core): thesis ~1 min, free ~2, damped ~1,
 # stress_lock ~1, stress_rates_10 ~4, stress_rates_100 ~10 (and long ~1 h, see LONG_REFERENCE).
 ACCURACY_SCENES = [
     "thesis",
@@ -253,7 +252,7 @@ rule exponential_accuracy:
         "--out-md {output.md} --config {CONFIG} > {log} 2>&1"
 
 
-# The study's thesis table with both integrators (issue 13): the thesis's own cases (the RK4 runs are
+# The study's thesis table with both integrators: the thesis's own cases (the RK4 runs are
 # ~2.5 min; the exponential integrator's ~5 s)
 INTEGRATOR_TABLE_MODELS = importlib.import_module(
     "gimbal_reduction.results.study.cases"
@@ -261,7 +260,7 @@ INTEGRATOR_TABLE_MODELS = importlib.import_module(
 
 
 rule integrator_tables:
-    """The study's error table with the exponential integrator against RK4 (issue 13): every
+    """The study's error table with the exponential integrator against RK4: every
     study model and the truth integrated both ways, in one process (gimbal_reduction.results.bench.integrator_tables).
     """
     input:
@@ -292,7 +291,7 @@ rule integrator_tables:
         "--out-json {output.json} --out-csv {output.csv} --config {CONFIG} > {log} 2>&1"
 
 
-# Accuracy on request (issue 17): tol-EPS on every study scene and the fast-spinning one, measured
+# Accuracy on request: tol-EPS on every study scene and the fast-spinning one, measured
 # against the truth; the cheapest freq-, xmx- and global-N of the study tables at each EPS timed in
 # the same run. `long` and `spin` are outside the frozen chain's validity, so there tol-EPS is a
 # verified search (gimbal_reduction/reduction/verified_search.py: ~10 simulations per request, shared by the EPS).

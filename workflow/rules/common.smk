@@ -286,7 +286,7 @@ def checked_model_file(target):
     return model_input
 
 
-# ---- Cluster resources (issue 16): every rule that runs a job states mem_mb and runtime from its
+# ---- Cluster resources: every rule that runs a job states mem_mb and runtime from its
 # measured benchmark records (results/benchmarks/rules/*.tsv: max_rss [MB], s), with a margin: memory
 # 1.5 x the largest peak + 200 MB (at least 500 MB), runtime 2 x the longest run (at least 5 min). The
 # largest record and its file are quoted beside each rule; a rule without records says so and where

@@ -22,7 +22,7 @@ rule reduced_model:
         # records: models/thesis/static-8.tsv 5.9 s, models/thesis/static-xmx-4.tsv 431.1 MB (max of 134)
         mem_mb=mem_mb(431.1),
         # a tol-EPS model on a scene outside the frozen chain (long, spin) is chosen by a verified
-        # search that simulates (issue 17 bench: up to 156 s on long at 1e-8): 30 min for those
+        # search that simulates (the tolerance bench: up to 156 s on long at 1e-8): 30 min for those
         runtime=lambda wildcards: (
             30 if wildcards.model.startswith("tol-") else runtime_min(5.9)
         ),

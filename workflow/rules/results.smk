@@ -293,7 +293,7 @@ rule study_report:
 # scheduler runs ready jobs by priority, and priority belongs to a rule, not to a wildcard value: so the
 # longest scene has its own copies of the two rules on that path, with its name as their only scene and
 # a higher priority (ruleorder: they, not the general rules, make its files). Measured on a clean
-# clone's `all` (2026-11-25): without it the scheduler left `long`'s chain to the end.
+# clone's `all`: without it the scheduler left `long`'s chain to the end.
 FIRST_SCENE = max(STUDY_SCENES, key=lambda name: dag_scene(name).duration)
 
 

@@ -56,7 +56,7 @@ rule verify_convergence:
         "results/benchmarks/rules/verify_convergence_body{n}.tsv"
     resources:
         # records: verify_convergence_body2.tsv 24.1 s, verify_convergence_body3.tsv 402.9 MB; no
-        # record of body 4 (a ring: as bodies 2, 3) nor body 5: the finest level needs 7.0 GB (issue 16,
+        # record of body 4 (a ring: as bodies 2, 3) nor body 5: the finest level needs 7.0 GB (
         # measured; taken to be the platform, the largest mesh), its time unknown: 1 h assumed
         mem_mb=lambda wildcards: mem_mb(7000.0 if wildcards.n == "5" else 402.9),
         runtime=lambda wildcards: 60 if wildcards.n == "5" else runtime_min(24.1),
@@ -140,7 +140,7 @@ rule verify_fe:
         "--summary {output.summary} > {log} 2>&1"
 
 
-# The fast subset that `all` runs (issue 14: the main job in minutes): the body files against
+# The fast subset that `all` runs (the main job in minutes): the body files against
 # their contract and their spectra against the independent formulas, the thin-ring formula, the
 # discrete Hughes identities and the bearing connection. The fine meshes (convergence), the solid
 # ring, the plate and platform references and the MPI run are `verify` (results/verification/fe.json).
@@ -171,9 +171,9 @@ rule verify_fe_fast:
         "--summary {output.summary} > {log} 2>&1"
 
 
-# The truth's own error from a larger basis (issue 14): the modal stage with 200 modes per body on
+# The truth's own error from a larger basis: the modal stage with 200 modes per body on
 # the same meshes, and the truth (100 per body) against freq-200 on every study scene (the 1 s scene
-# long: ~31 s of the job, 346 bases of which 17 s are eigenproblems; measured 2026-11-25). Part of
+# long: ~31 s of the job, 346 bases of which 17 s are eigenproblems). Part of
 # `all`: the report states down to what error the truth can referee, and residual flexibility alone
 # (static-100) underestimates it.
 LARGE_BASIS_MODES = 200

@@ -1,4 +1,4 @@
-"""Stability experiments on the gimbal chain: the measured RK4 limit and the energy drift (issue 6).
+"""Stability experiments on the gimbal chain: the measured RK4 limit and the energy drift.
 
 * **Coupled modes.**  The chain linearised at a configuration has natural modes in
   all coordinates (the free joint angles eliminated by a Schur complement,

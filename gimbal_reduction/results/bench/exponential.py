@@ -1,4 +1,4 @@
-"""Speed of the modal exponential integrator (issue 13, "Speed"): the table, the ratio, the profile.
+"""Speed of the modal exponential integrator: the table, the ratio, the profile.
 
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python -m gimbal_reduction.results.bench.exponential \\
         --truth-model results/models/thesis/truth.h5 \\
@@ -814,7 +814,7 @@ class _Parser(argparse.ArgumentParser):
 def parser():
     ap = _Parser(prog=f"python -m {PROG}",
                  description="Speed of the modal exponential integrator on the real truth model and the "
-                             "reduced models (issue 13): medians, DOP853 ratio, profile.")
+                             "reduced models: medians, DOP853 ratio, profile.")
     ap.add_argument("--truth-model", required=True,
                     help="reduced-model file of the truth (results/models/thesis/truth.h5); used for every scene")
     ap.add_argument("--reference", nargs="+", default=[], metavar="SCENE=FILE",
@@ -961,7 +961,7 @@ def main(argv=None) -> int:
             f"bounds of an idle machine's).")
     if args.duration is not None:
         note += f" **Shortened to {args.duration:g} s per case (--duration): not the issue's cases.**"
-    header = {"title": "Speed of the modal exponential integrator (issue 13)", "note": note,
+    header = {"title": "Speed of the modal exponential integrator", "note": note,
               "provenance": f"Inputs hash {prov['config_hash']}, git {vers.get('git')}, "
                             f"{total:.0f} s of benchmark; made by `python -m {PROG}`."}
     record = provenance(prov["config_hash"])         # the inputs' hash (inputs_provenance)
@@ -969,7 +969,7 @@ def main(argv=None) -> int:
                                             sweep), record)
     write_text(args.out_csv, format_csv(rows), record)
     write_json(args.out_json, {
-        "description": "Speed of the modal exponential integrator (issue 13, Speed): medians of "
+        "description": "Speed of the modal exponential integrator: medians of "
                        f"{args.repeats} runs after a warm-up, DOP853 ratio in the same process, profile "
                        f"({PROG}).",
         "table": table, "targets": TARGETS, "truth_cases": truth_cases, "dop853_comparison": comparison,

@@ -1,4 +1,4 @@
-"""Accuracy of the modal exponential integrator on every scene (issue 13, "Verification").
+"""Accuracy of the modal exponential integrator on every scene.
 
     python -m gimbal_reduction.results.bench.exponential_accuracy --truth-model results/models/thesis/truth.h5 \\
         --reference thesis=results/reference/thesis/truth.h5 free=results/reference/free/truth.h5 ... \\
@@ -9,7 +9,7 @@ rule ``reference_simulation``), the truth model is integrated by the exponential
 integrator at its default tolerance (or the scene's exponential_tolerance where that is
 tighter, as the workflow runs it: ``long``) and at a tight one (``TIGHT_FACTOR`` times smaller),
 and the error measure of the thesis (eq. 3.53) is computed per gimbal rate against the
-reference.  The check: E_max <= ``E_BOUND`` at the default tolerance (issue 13's bound
+reference.  The check: E_max <= ``E_BOUND`` at the default tolerance (the bound
 on the truth model), and the tight run no worse than the default one (convergence).
 Also recorded: steps, right-hand-side evaluations, bases (re-linearisations, of them
 for the phase error), wall time.  The reference must be DOP853 at rtol <= 1e-10 of the
@@ -31,7 +31,7 @@ from gimbal_reduction.solver.dynamics.error_measure import error_measure
 from gimbal_reduction.solver.dynamics.simulate import scene_problem
 from gimbal_reduction.workflow.provenance import check_record, provenance, versions, write_json, write_text
 
-E_BOUND = 1e-8          # issue 13: E <= 1e-8 on every rate, truth model
+E_BOUND = 1e-8          # E <= 1e-8 on every rate, truth model
 TIGHT_FACTOR = 100.0    # the tight tolerance: default / TIGHT_FACTOR
 REFERENCE_RTOL = 1e-10  # a reference must be at least this converged
 

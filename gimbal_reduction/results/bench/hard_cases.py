@@ -1,4 +1,4 @@
-"""Hard cases of the gimbal-chain integrators (issue 6, part c of ``gimbal_reduction.results.bench.stability``).
+"""Hard cases of the gimbal-chain integrators (part c of ``gimbal_reduction.results.bench.stability``).
 
 Large gimbal rates, the case driven at the first coupled elastic resonance, gimbal
 lock, several static modes on one body, and steps beyond the limit.  Each must

@@ -1,4 +1,4 @@
-"""How far the study's error table moves when the integrator changes (issue 13).
+"""How far the study's error table moves when the integrator changes.
 
 The workflow runs every simulation with the modal exponential integrator; config
 ``simulation.integrator: rk4`` runs the whole study with RK4 at half its stability

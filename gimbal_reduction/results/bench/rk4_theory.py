@@ -1,4 +1,4 @@
-"""RK4's stability theory and the bisection that measures a stability limit (issue 6).
+"""RK4's stability theory and the bisection that measures a stability limit.
 
 One RK4 step multiplies the component of y' = lambda y along an eigenvector by the
 amplification factor R(h lambda) = 1 + z + z^2/2 + z^3/6 + z^4/24; the step is

@@ -1,4 +1,4 @@
-"""Numerical stability stress tests of the gimbal-chain integrators (issue 6, "Fast and stable").
+"""Numerical stability stress tests of the gimbal-chain integrators.
 
     MPLBACKEND=Agg .venv/bin/python -m gimbal_reduction.results.bench.stability --bodies results/modes/body{2,3,4,5}.h5 \\
         --reductions results/reduction/body{2,3,4,5}.h5 --out-dir results/stability \\
@@ -83,7 +83,7 @@ QUICK_SWEEP_MODELS = ("freq-5", "freq-6@2:output_motor_fz+output_motor_my+output
 # the output interval (10 ms here): it gets 1 ms (h omega_max = 12: every elastic mode is
 # filtered, the gimbal motion resolved), rho_inf 0.9.
 # The exponential integrator is not symplectic: its local errors (tol per step) accumulate
-# into the energy.  Measured on this model and scene (10 s): tol 5e-6 (its default until 2026-11-26) drift
+# into the energy.  Measured on this model and scene (10 s): tol 5e-6 drift
 # 1.3e-5 (438 steps, 1.1 s), 1e-7 1.3e-6 (9,974 steps), 1e-8 5.5e-8 (30,645 steps, 12.5 s);
 # 1e-8 is the setting that holds DRIFT_TOLERANCE (docs/exponential.md Section 9).
 DRIFT_OPTIONS = {"rk4": {}, "dop853": {}, "generalized-alpha": {"step": 1e-3},
@@ -276,7 +276,7 @@ class _Parser(argparse.ArgumentParser):
 
 def main(argv=None):
     ap = _Parser(prog="python -m gimbal_reduction.results.bench.stability",
-                 description="Numerical stability stress tests of the integrators (issue 6; "
+                 description="Numerical stability stress tests of the integrators ("
                              "docs/stability.md).")
     ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE",
                     help="the modal stage's body files of bodies 2, 3, 4, 5")
@@ -329,7 +329,7 @@ def main(argv=None):
              "hard_cases": all(r["pass"] for r in cases.values())}
     wall = time.perf_counter() - start
     report = {
-        "title": "Numerical stability stress tests (issue 6)",
+        "title": "Numerical stability stress tests",
         "quick": bool(args.quick),
         "theory": {"rk4_imaginary_axis": x_imag, "rk4_real_axis": rk4_real_axis_limit(),
                    "project_bound": RK4_BOUND,

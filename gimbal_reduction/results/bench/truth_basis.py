@@ -1,4 +1,4 @@
-"""The truth's own error from a larger basis: 100 modes per body against 200 (issue 14).
+"""The truth's own error from a larger basis: 100 modes per body against 200.
 
     python -m gimbal_reduction.results.bench.truth_basis --bodies results/verification/truth_basis/body{2,3,4,5}.h5 \\
         --scenes config/scenes/{thesis,damped,smooth,long}.yaml --out results/verification/truth_basis.json

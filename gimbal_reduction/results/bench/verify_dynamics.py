@@ -337,7 +337,7 @@ EXP_TIGHT_TOL = 1e-7      # the tight tolerance of the exponential integrator's 
 
 
 def exponential_checks(body_data, rankings, truth):
-    """The modal exponential integrator (issue 13) on the real bodies: the truth on thesis
+    """The modal exponential integrator on the real bodies: the truth on thesis
     against the converged DOP853 truth at the default and a tight tolerance; a reduced model
     against RK4 at a tenth of its stability limit; energy
     and axial momentum over the 10 s scene free_10s (case at rest)."""

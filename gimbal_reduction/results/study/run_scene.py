@@ -16,7 +16,7 @@ called in process with the same arguments, so a study file equals the file
 ``snakemake results/sim/{scene}/{model}.h5`` makes, but for one thing the study does not need: a
 reduced model's file has no energy history (``simulate --no-energy``; no stage of the study reads it,
 and on the 1 s scene ``long`` it cost as much as the run: 0.41 s of rhs and case power at 10,001
-samples against 0.41 s of integration for xmx-10, measured 2026-11-25). The truth's file keeps it,
+samples against 0.41 s of integration for xmx-10). The truth's file keeps it,
 the record of the reference run's energy balance.
 
 Progress (``gimbal_reduction.workflow.progress``, stderr): at most one line every ``progress.EVERY`` seconds with

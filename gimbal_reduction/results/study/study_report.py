@@ -590,7 +590,7 @@ def conclusions_section(ctx, an) -> str:
     return "".join(out)
 
 
-# ---------------------------------------------------------------- accuracy on request (issue 17)
+# ---------------------------------------------------------------- accuracy on request
 def _float_or_none(x):
     try:
         x = float(x)

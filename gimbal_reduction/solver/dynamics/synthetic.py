@@ -12,7 +12,7 @@ import numpy as np
 from gimbal_reduction.solver.dynamics import multibody
 
 # Modal spectrum of each real body, f_k = c k^beta [Hz] (least squares on log-log over modes
-# k = 10..100 of results/modes/body{n}.h5, bodies of 2026-11-21): the rings bend like plates
+# k = 10..100 of results/modes/body{n}.h5): the rings bend like plates
 # (beta ~ 1.25), the solid platform's count grows faster (beta ~ 0.65).
 SPECTRUM = {2: (843.1, 1.284), 3: (1178.9, 1.256), 4: (1721.3, 1.226), 5: (32903.0, 0.648)}
 RIGID = {2: (6.0e-4, 3.375), 3: (5.0e-4, 2.875), 4: (4.0e-4, 2.375), 5: (1.8e-3, 1.2)}  # mass, radius
