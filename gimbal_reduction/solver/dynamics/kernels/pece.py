@@ -51,6 +51,11 @@ from gimbal_reduction.solver.dynamics.kernels import JIT
 from gimbal_reduction.solver.dynamics.kernels.exponential import advance_diagonal, dense_diagonal, modal_xi, phi_table
 
 N_JOINTS = 4
+# The stages and their thin wrappers are inlined into ``pece_run`` by Numba (its IR, before LLVM):
+# compiled as functions of their own, each would be optimised by LLVM once alone and again inside
+# every caller (Numba links a callee's code into each caller's module), one level more for the
+# whole step's code
+STAGE = dict(JIT, inline="always")
 
 # what a stage returns: a request to Python, DONE, or CONTINUE (the next stage, no return)
 CONTINUE = -1
@@ -552,7 +557,7 @@ def weights(keys, used, E_re, E_im, F_re, F_im, wpos, wvel, H, inv_fact, fact, z
     return c
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def advance_over(m, offset, eta, etad, xi_re, xi_im, coef, out_eta, out_etad, version, tick, radius,
                  terms, w, bank):
     """The modal state after ``offset`` ticks of a step of m ticks from (eta, eta') (n,) (xi_re,
@@ -630,7 +635,7 @@ def accepted_joints(y_ref, rates, eta, etad, node_y, node_yd, predicted_node):
 # Each stage reads and writes the containers (named tuples of arrays, the LOOP and SETTINGS
 # records), returns a request to Python, DONE or CONTINUE, and sets Loop.stage to the next.
 # The helpers they call take arrays one by one: every call passes only what it reads.
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def history_nodes(hist_t, q, t, h, lead):
     """(lead + q,) nodes in units of the step h from t: lead free places (the corrector's
     1, the midpoint fit's 1 and 1/2), then (t_k - t) / h of the q newest history nodes
@@ -641,13 +646,13 @@ def history_nodes(hist_t, q, t, h, lead):
     return nodes
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def bank_of(b):
     """The oscillator bank's arrays of a ``Basis`` as ``advance_over`` takes them."""
     return (b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel)
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def advance_step(b, w, c, work, m, offset, coef, out_eta, out_etad):
     """``advance_over`` from the step's start (work.eta, work.etad) with the basis b, the
     weight cache w and the settings record c."""
@@ -655,7 +660,7 @@ def advance_step(b, w, c, work, m, offset, coef, out_eta, out_etad):
                  b.version[0], c.tick, c.series_radius, c.series_terms, w, bank_of(b))
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def physical_request(b, eta, etad, ev, t):
     """The physical form of a modal state (eta, eta') (n,) at t [s] into ev (a request's
     state)."""
@@ -663,13 +668,13 @@ def physical_request(b, eta, etad, ev, t):
     ev.t[0] = t
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def forcing_of(b, eta, etad, a, g):
     """``modal_forcing`` in the basis b: g (n,) of the accelerations a at (eta, eta')."""
     modal_forcing(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, eta, etad, a, g)
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def predict(b, w, cfg, st, hist, ev, work):
     """STEP: the step m (the rest of the run in whole output intervals if that is shorter,
     halved to fit), the predictor p through g at the last q = min(order, nodes) history nodes,
@@ -697,7 +702,7 @@ def predict(b, w, cfg, st, hist, ev, work):
     return NEED_RHS
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def correct(b, w, cfg, st, hist, ev, work):
     """PREDICTED: the corrector p through the predicted g at t + h and the same nodes, the
     local error of corrector - predictor.  The first step has one node: its predictor holds
@@ -733,7 +738,7 @@ def correct(b, w, cfg, st, hist, ev, work):
     return CONTINUE
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def midpoint(b, w, cfg, st, hist, ev, work):
     """MIDPOINT: the first step's quadratic fit through g(h), g(h/2) and g(0); its state is
     the corrected one, its difference to the linear fit's the error estimate."""
@@ -762,7 +767,7 @@ def midpoint(b, w, cfg, st, hist, ev, work):
     return CONTINUE
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def decide(b, cfg, st, ev, work):
     """DECIDE: accepted when the error is <= tol (ACCEPTED; with g at the accepted state under
     PECE, the predicted state's under PEC: cfg evaluate_accepted); a rejection halves m and,
@@ -808,7 +813,7 @@ def decide(b, cfg, st, ev, work):
     return NEED_RHS
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def dense_outputs(b, w, c, s, out, work, coef, first, last):
     """The outputs first..last (indices) inside or at the end of the accepted step (Loop s,
     settings c) by the exact formula: the undamped bank's from a step start on an output tick
@@ -840,7 +845,7 @@ def dense_outputs(b, w, c, s, out, work, coef, first, last):
     return first
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def accept(b, w, cfg, st, hist, ev, out, work):
     """ACCEPTED: the outputs inside the step (``dense_outputs``), the node joins the history,
     the accepted state becomes the step's start, the error scales and counters grow, the
@@ -885,7 +890,7 @@ def accept(b, w, cfg, st, hist, ev, out, work):
     return CONTINUE
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def probe(b, cfg, st, hist, ev, work):
     """PHASE (s.tick is the accepted tick from here on: t + h): the first basis's frequency
     probe once it has drifted probe_drift; the accepted state in ev, as for NEED_BASIS (under
@@ -901,7 +906,7 @@ def probe(b, cfg, st, hist, ev, work):
     return CONTINUE
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def check_phase(b, cfg, st, hist, ev, work):
     """PHASE_ERROR: the frozen frequencies' phase error of the step (``phase_error``) and what
     is due: new frequencies of the same shapes (UPDATED) or a new basis (REBASED) beyond the
@@ -943,7 +948,7 @@ def check_phase(b, cfg, st, hist, ev, work):
     return CONTINUE
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def carry_frequencies(b, st, hist, work):
     """UPDATED: new frequencies of the same shapes (undamped bank): X, y_ref and the projection
     are kept, so g = phi^-1 a + Lambda eta of each node moves by (Lambda_new - Lambda_old)
@@ -960,7 +965,7 @@ def carry_frequencies(b, st, hist, work):
     return CONTINUE
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def rebase(b, st, hist, ev, work):
     """REBASED, RETRY: a new basis is there: the history's g in it, the accepted state (eta,
     eta') in it from its physical form that ``physical_request`` wrote into ev before
@@ -978,7 +983,7 @@ def rebase(b, st, hist, ev, work):
     return CONTINUE
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def grow(cfg, st):
     """GROW: the step doubles (dyadic, aligned: on a tick that is a multiple of 2 m) after two
     accepted steps at its size, one before the run's first rejection, when err 2^(q+1) <=
