@@ -498,6 +498,8 @@ def soft_thesis():
     dict(no_such_option=1), dict(rho_inf=0.9), dict(fraction=0.5), dict(rtol=1e-8),
     dict(order=0), dict(order=7), dict(order=2.5), dict(step=0.0), dict(step=float("nan")),
     dict(step=1e-4, relinearise_every=-1.0), dict(drift=0.0),
+    dict(phase_tol=0.0), dict(grow_safety=float("nan")), dict(error_energy_weight=-1.0),
+    dict(max_rejections=-1), dict(subdivisions=2.5), dict(weight_cache_entries=0),
 ], ids=lambda o: ",".join(f"{k}={v}" for k, v in o.items()))
 def test_bad_exponential_options_refused_before_any_work(soft_thesis, options):
     scene, prob = soft_thesis
@@ -512,7 +514,8 @@ def test_bad_exponential_options_refused_before_any_work(soft_thesis, options):
 def test_exponential_option_with_rk4_refused_before_any_work(soft_thesis):
     scene, prob = soft_thesis
     counting = CountingProblem(prob)
-    for options in (dict(tol=1e-6), dict(relinearise_every=1e-3), dict(order=4), dict(drift=0.01)):
+    for options in (dict(tol=1e-6), dict(relinearise_every=1e-3), dict(order=4), dict(drift=0.01),
+                    dict(evaluate_accepted=True)):
         with pytest.raises(ValueError) as err:
             run(counting, scene, method="rk4", **options)
         assert "\n" not in str(err.value) and "exponential" in str(err.value)
