@@ -159,7 +159,7 @@ def forward(y, yd, ydd, has_acc, w1, dw1, ch, Pq, Pqd, Pqdd, fr):
               Pq[kk], Pqd[kk], Pqdd[kk], ch, fr, small)
 
 
-@numba.njit(**JIT)
+@numba.njit(**JIT, inline="always")
 def kinematics(y, yd, ydd, w1, dw1, ch, fr):
     """Forward pass, in place: joint poses fr.R (4,3,3), fr.p (4,3), the rotation part
     fr.Lw (4,3,3) of each joint map L = [R^T Psi; Lw Theta] of the parent's modes,
@@ -517,7 +517,7 @@ def solve(r, dg, unit, ch, fr):
     return x
 
 
-@numba.njit(**FAST)
+@numba.njit(**FAST, inline="always")
 def accelerations_lin(y, yd, w1, dw1, tau, LIN, lin_given, LIND, ch):
     """y'' = M(y)^-1 (tau - c(y, y', t)), with what is linear in q taken from LIN
     (3S + 108,) if lin_given (else computed into it) and the same of q' stored in LIND
