@@ -387,7 +387,7 @@ def test_moving_case_matches_converged_dop853(scene_name, chain_name):
     0.015 s): the frozen basis's phase error, which the corrector - predictor estimate
     does not see."""
     scene, prob, ref = dop853_reference(scene_name, chain_name)
-    loose = run(prob, scene)                                          # DEFAULT_TOL
+    loose = run(prob, scene)                                          # the default tol
     tight = run(prob, scene, tol=exponential.DEFAULTS.tol / 100)
     E_loose, E_tight = E_max(ref, loose), E_max(ref, tight)
     # the exponential integrator steps where an explicit method cannot
