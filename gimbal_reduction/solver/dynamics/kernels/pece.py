@@ -467,7 +467,7 @@ def accept_scales(omega2, eta, etad, yd, loop, rate_scales):
         rate_scales[k] = max(rate_scales[k], abs(yd[k]))
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def phase_error(b, st, rate_floor, eta, etad, h, drift0, drift1):
     """Add the phase every elastic mode gains in a step of h [s] while the gimbals drift from
     drift0 to drift1 [rad] (delta omega_i = kappa_i omega_i drift, st.phase) and return the
@@ -497,7 +497,7 @@ def phase_error(b, st, rate_floor, eta, etad, h, drift0, drift1):
 # ------------------------------------------------------------ the basis as the loop uses it
 # (arrays one by one, not the named tuples: every call passes only what it reads.  With the
 # tuples passed whole, the loop took 2-3x longer to compile.)
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def to_modal(y_ref, Lg, X, Ky, omega_ref, YT, y, yd, eta, etad):
     """(eta, eta') (n,) of a physical state (y, y') (n,): phi^-1 (y - y_ref), phi^-1 y'
     (``project``'s arrays)."""
@@ -505,7 +505,7 @@ def to_modal(y_ref, Lg, X, Ky, omega_ref, YT, y, yd, eta, etad):
     project(Lg, X, Ky, omega_ref, YT, yd, etad)
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def modal_forcing(Lg, X, Ky, omega_ref, YT, omega2, Ct, eta, etad, a, g):
     """g (n,) = phi^-1 a + Lambda eta + Ct eta': the modal forcing of the accelerations a (n,)
     at the modal state (eta, eta') (``project``'s and ``add_linear_terms``' arrays)."""
@@ -614,7 +614,7 @@ def all_finite(x):
     return True
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def accepted_joints(y_ref, rates, eta, etad, node_y, node_yd, predicted_node):
     """(2, 4): the accepted state's joint angles [rad] and rates [rad/s]: the newest node's
     (node_y, node_yd (n,)) when it is the accepted state (PECE), else from the modal state
