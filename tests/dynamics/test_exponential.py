@@ -305,39 +305,37 @@ def test_rayleigh_frequencies_follow_the_coupled_frequencies():
     assert np.max(np.abs(basis.rayleigh_frequencies_factored(prob.mass_factors(prob.y0)) / w0 - 1)) <= 1e-12
 
 
-def test_phase_error_is_met_by_frequency_updates_not_new_bases(monkeypatch):
+def test_phase_error_is_met_by_frequency_updates_not_new_bases():
     """STIFF_REDUCED on thesis (the chain whose frozen basis loses its phase, E 1.1e-7,
     test above): the gimbals turn by ~1e-4 rad only, so the phase error is met by new
-    frequencies of the same shapes (here for 5 modes, below FREQUENCY_UPDATE_MIN_MODES,
+    frequencies of the same shapes (here for 5 modes, below frequency_update_min_modes,
     where a new basis is the cheaper answer: the mechanism is tested).  Measured: 7
     frequency updates, one basis, E 6.0e-9 (the same E as with 8 bases)."""
-    monkeypatch.setattr(exponential, "FREQUENCY_UPDATE_MIN_MODES", 1)
     scene, prob, ref = dop853_reference("thesis", "STIFF_REDUCED")
-    r = run(prob, scene)
+    r = run(prob, scene, frequency_update_min_modes=1)
     assert r.stats["frequency_updates"] >= 1 and r.stats["relinearisations"] == 0, r.stats
     assert E_max(ref, r) <= 1e-8
     # a problem without the mass matrix's factors (NumPy path): the frequencies from M itself,
     # the same run to rounding
     dense = copy.copy(prob)
     dense.mass_factors = lambda y: None
-    r_dense = run(dense, scene)
+    r_dense = run(dense, scene, frequency_update_min_modes=1)
     assert (r_dense.steps, r_dense.stats["frequency_updates"]) == (r.steps, r.stats["frequency_updates"])
     assert E_max(r, r_dense) <= 1e-12
 
 
-def test_the_phase_is_held_to_its_own_bound_not_the_step_tolerance(monkeypatch):
-    """The frozen frequencies' phase error asks for new frequencies beyond min(tol, PHASE_TOL)
-    (``exponential.phase_bound``): a looser step tolerance does not loosen it.  STIFF_REDUCED on
+def test_the_phase_is_held_to_its_own_bound_not_the_step_tolerance():
+    """The frozen frequencies' phase error asks for new frequencies beyond min(tol, phase_tol)
+    (``ExponentialOptions.phase_bound``): a looser step tolerance does not loosen it.  STIFF_REDUCED on
     thesis at tol 1e-4: with the bound, 4 frequency updates and E 9.5e-9; with the bound at the
-    tolerance itself (PHASE_TOL raised) 2 updates and E 2.9e-8 (measured 2026-11-26)."""
-    monkeypatch.setattr(exponential, "FREQUENCY_UPDATE_MIN_MODES", 1)
-    assert exponential.phase_bound(1e-4) == exponential.PHASE_TOL
-    assert exponential.phase_bound(1e-7) == 1e-7
-    assert exponential.phase_bound(None) == exponential.PHASE_TOL
+    tolerance itself (phase_tol raised) 2 updates and E 2.9e-8 (measured 2026-11-26)."""
+    options = exponential.ExponentialOptions
+    assert options(tol=1e-4).phase_bound == exponential.DEFAULTS.phase_tol
+    assert options(tol=1e-7).phase_bound == 1e-7
+    assert options(step=1e-4).phase_bound == exponential.DEFAULTS.phase_tol
     scene, prob, ref = dop853_reference("thesis", "STIFF_REDUCED")
-    bound = run(prob, scene, tol=1e-4)
-    monkeypatch.setattr(exponential, "PHASE_TOL", 1.0)
-    at_tol = run(prob, scene, tol=1e-4)
+    bound = run(prob, scene, tol=1e-4, frequency_update_min_modes=1)
+    at_tol = run(prob, scene, tol=1e-4, frequency_update_min_modes=1, phase_tol=1.0)
     assert bound.stats["frequency_updates"] > at_tol.stats["frequency_updates"], \
         (bound.stats["frequency_updates"], at_tol.stats["frequency_updates"])
     assert E_max(ref, bound) < E_max(ref, at_tol), (E_max(ref, bound), E_max(ref, at_tol))
@@ -345,9 +343,9 @@ def test_the_phase_is_held_to_its_own_bound_not_the_step_tolerance(monkeypatch):
 
 
 @pytest.mark.parametrize("scene_name", ["thesis", "stress_rates_10"])
-def test_one_evaluation_per_step_matches_two(monkeypatch, scene_name):
+def test_one_evaluation_per_step_matches_two(scene_name):
     """The default adaptive step is PEC: the accepted node keeps the predicted state's g
-    (``EVALUATE_ACCEPTED`` False), one evaluation per step besides the first step's midpoint;
+    (``evaluate_accepted`` False), one evaluation per step besides the first step's midpoint;
     PECE evaluates again at every accepted state.  Both against the converged DOP853, E <= 1e-8,
     and PEC no worse than 2x PECE (thesis: one basis and frequency updates; stress_rates_10:
     the gimbals turn 0.15 rad, new bases, whose state must be the accepted one, not the newest
@@ -356,8 +354,7 @@ def test_one_evaluation_per_step_matches_two(monkeypatch, scene_name):
     against 471 evaluations, E 1.15e-10 against 1.08e-10."""
     scene, prob, ref = dop853_reference(scene_name, "FULL")
     pec = run(prob, scene)
-    monkeypatch.setattr(exponential, "EVALUATE_ACCEPTED", True)
-    pece_run = run(prob, scene)
+    pece_run = run(prob, scene, evaluate_accepted=True)
     for r in (pec, pece_run):
         assert E_max(ref, r) <= 1e-8, (E_max(ref, r), r.stats)
     assert E_max(ref, pec) <= 2.0 * E_max(ref, pece_run), (E_max(ref, pec), E_max(ref, pece_run))
@@ -390,8 +387,8 @@ def test_moving_case_matches_converged_dop853(scene_name, chain_name):
     0.015 s): the frozen basis's phase error, which the corrector - predictor estimate
     does not see."""
     scene, prob, ref = dop853_reference(scene_name, chain_name)
-    loose = run(prob, scene)                                          # DEFAULT_TOL
-    tight = run(prob, scene, tol=exponential.DEFAULT_TOL / 100)
+    loose = run(prob, scene)                                          # the default tol
+    tight = run(prob, scene, tol=exponential.DEFAULTS.tol / 100)
     E_loose, E_tight = E_max(ref, loose), E_max(ref, tight)
     # the exponential integrator steps where an explicit method cannot
     assert loose.stats["largest_step"] * prob.omega_max > integrators.RK4_STABILITY
@@ -405,9 +402,9 @@ def test_free_scene_with_large_rates_relinearises_and_matches_dop853():
     that triggers a new basis.  Measured: 257 steps, 15 re-linearisations, E 1.1e-10."""
     scene, prob, ref = dop853_reference("stress_rates_10", "FULL")
     turn = np.max(np.abs(ref.y[:, :4] - ref.y[0, :4]))
-    assert turn > 10 * exponential.DEFAULT_DRIFT
+    assert turn > 10 * exponential.DEFAULTS.drift
     r = run(prob, scene)
-    assert r.stats["relinearisations"] >= turn / exponential.DEFAULT_DRIFT / 2, r.stats
+    assert r.stats["relinearisations"] >= turn / exponential.DEFAULTS.drift / 2, r.stats
     assert E_max(ref, r) <= 1e-8
 
 
@@ -501,6 +498,8 @@ def soft_thesis():
     dict(no_such_option=1), dict(rho_inf=0.9), dict(fraction=0.5), dict(rtol=1e-8),
     dict(order=0), dict(order=7), dict(order=2.5), dict(step=0.0), dict(step=float("nan")),
     dict(step=1e-4, relinearise_every=-1.0), dict(drift=0.0),
+    dict(phase_tol=0.0), dict(grow_safety=float("nan")), dict(error_energy_weight=-1.0),
+    dict(max_rejections=-1), dict(subdivisions=2.5), dict(weight_cache_entries=0),
 ], ids=lambda o: ",".join(f"{k}={v}" for k, v in o.items()))
 def test_bad_exponential_options_refused_before_any_work(soft_thesis, options):
     scene, prob = soft_thesis
@@ -515,7 +514,8 @@ def test_bad_exponential_options_refused_before_any_work(soft_thesis, options):
 def test_exponential_option_with_rk4_refused_before_any_work(soft_thesis):
     scene, prob = soft_thesis
     counting = CountingProblem(prob)
-    for options in (dict(tol=1e-6), dict(relinearise_every=1e-3), dict(order=4), dict(drift=0.01)):
+    for options in (dict(tol=1e-6), dict(relinearise_every=1e-3), dict(order=4), dict(drift=0.01),
+                    dict(evaluate_accepted=True)):
         with pytest.raises(ValueError) as err:
             run(counting, scene, method="rk4", **options)
         assert "\n" not in str(err.value) and "exponential" in str(err.value)
@@ -526,7 +526,7 @@ def test_exponential_option_with_rk4_refused_before_any_work(soft_thesis):
 def drift_crossing(ref):
     """First output time [s] at which the gimbals are FROZEN_VALIDITY rad from the start."""
     drift = np.max(np.abs(ref.y[:, :4] - ref.y[0, :4]), axis=1)
-    return float(ref.t[np.argmax(drift > exponential.FROZEN_VALIDITY)])
+    return float(ref.t[np.argmax(drift > exponential.DEFAULTS.frozen_validity)])
 
 
 @pytest.mark.parametrize("options", [dict(relinearise=False), dict(step=1e-4, relinearise_every=1.0)],
@@ -596,7 +596,7 @@ def test_free_scene_conserves_energy_over_many_steps():
     assert r.steps > 500 and r.stats["relinearisations"] > 10
     E = energy(prob, r)
     drift = np.max(np.abs(E - E[0])) / E[0]
-    assert drift <= exponential.DEFAULT_TOL, drift
+    assert drift <= exponential.DEFAULTS.tol, drift
 
 
 def test_free_scene_with_elastic_energy_conserves_energy():
@@ -615,4 +615,4 @@ def test_free_scene_with_elastic_energy_conserves_energy():
     E = energy(prob, r)
     assert prob.potential_energy(r.y[0]) > 0.1 * E[0]
     drift = np.max(np.abs(E - E[0])) / E[0]
-    assert drift <= exponential.DEFAULT_TOL, drift
+    assert drift <= exponential.DEFAULTS.tol, drift

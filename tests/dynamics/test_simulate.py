@@ -118,3 +118,24 @@ def test_the_scene_tolerance_applies_unless_one_is_given(tmp_path, model_file):
     assert simulate.scene_options(s, "rk4", None, {}) == {}
     assert simulate.scene_options(s, "exponential", 1e-5, {}) == {}
     assert simulate.scene_options(scenes.load_scene("thesis"), "exponential", None, {}) == {}
+
+
+def test_the_file_records_the_exponential_options_and_what_the_timings_include(tmp_path, model_file):
+    """Every ``ExponentialOptions`` field is an attribute (stat_exponential_<field>, None as NaN,
+    the scene's tolerance in it); the timings: integration_time_s without kernel_load_s, both
+    inside wall_time_s."""
+    from gimbal_reduction.solver.dynamics import exponential
+    scene = copied_scene(tmp_path, "thesis_copy", "thesis_copy")
+    out = tmp_path / "run.h5"
+    assert simulate.main(["--scene", str(scene), "--model-file", str(model_file), "--out", str(out),
+                          "--no-energy", "--drift", "0.02"]) == 0
+    with h5py.File(out, "r") as f:
+        attrs = dict(f.attrs)
+    defaults = exponential.DEFAULTS
+    for name in exponential.ExponentialOptions.__dataclass_fields__:
+        assert f"stat_exponential_{name}" in attrs, name
+    assert attrs["stat_exponential_drift"] == 0.02 and attrs["stat_exponential_tol"] == defaults.tol
+    assert np.isnan(attrs["stat_exponential_step"])
+    assert attrs["stat_exponential_evaluate_accepted"] == defaults.evaluate_accepted
+    assert attrs["kernel_load_s"] >= 0 and attrs["integration_time_s"] > 0
+    assert attrs["integration_time_s"] + attrs["kernel_load_s"] <= attrs["wall_time_s"]

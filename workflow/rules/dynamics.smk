@@ -18,7 +18,9 @@ rule kernels:
     resources:
         # no record; a cold cache, two single runs per version: Numba 0.60 118 s of CPU (119 s
         # wall, quiet machine) and 143 s (loaded: 225-288 s wall), Numba 0.68 81 s (82 s wall,
-        # quiet) and 97 s (274 s wall at load 4.5 on 2 cores); ~300 MB
+        # quiet) and 97 s (274 s wall at load 4.5 on 2 cores); with the thin wrappers and the
+        # step loop's stages inlined (docs/dynamics.md Section 8) 85 s, median of 3 (190-284 s
+        # wall, load ~4), against 101 s for the code before in the same conditions; ~300 MB
         mem_mb=mem_mb(300.0),
         runtime=runtime_min(288.0),
     params:

@@ -30,7 +30,7 @@ bodies elastic, which ``check_truth_scene`` verifies), per run (``timed_run``):
 The cases (``TARGETS`` holds the issue's bounds, each with its source):
 
 1. truth on ``thesis`` at the exponential integrator's default tolerance
-   (``exponential.DEFAULT_TOL`` unless ``--tol``);
+   (``exponential.DEFAULTS.tol`` unless ``--tol``);
 2. the same against DOP853 at rtol ``--dop853-rtol`` (default 1e-6, atol 1e-14):
    the two integrators alternate in this process (DOP853, exponential, DOP853,
    ...), ``--repeats`` runs each after a warm-up of each (DOP853's warm-up over
@@ -825,7 +825,7 @@ def parser():
                     help="truth cases to run (thesis always runs)")
     ap.add_argument("--repeats", type=int, default=5, help="timed runs per case after one warm-up (median)")
     ap.add_argument("--tol", type=simulate.positive_number("--tol"), default=None,
-                    help=f"exponential tolerance (default exponential.DEFAULT_TOL = {exponential.DEFAULT_TOL:g})")
+                    help=f"exponential tolerance (default exponential.DEFAULTS.tol = {exponential.DEFAULTS.tol:g})")
     ap.add_argument("--dop853-rtol", type=simulate.positive_number("--dop853-rtol"), default=DOP853_RTOL,
                     help=f"DOP853 rtol of the comparison (default {DOP853_RTOL:g}, atol {DOP853_ATOL:g})")
     ap.add_argument("--sweep-tols", nargs="*", type=simulate.positive_number("--sweep-tols"),
@@ -851,7 +851,7 @@ def prepare(args):
     ref_paths = parse_references(args.reference, names)
     for path in (args.out_json, args.out_md, args.out_csv):
         simulate._check_writable(path)
-    exponential.check_options(args.tol)
+    exponential.ExponentialOptions(tol=args.tol)
     truth_attrs = model_attrs(args.truth_model)
     scene_objs = {n: scenes.load_scene(n) for n in names}
     for scene in scene_objs.values():
@@ -882,7 +882,7 @@ def inputs_provenance(args, inputs):
                            "integrator": r["attrs"].get("integrator"), "rtol": r["attrs"].get("stat_rtol")}
                        for s, r in inputs["references"].items()},
         "scenes": {n: s.config_hash() for n, s in inputs["scenes"].items()},
-        "options": {"repeats": args.repeats, "tol": args.tol, "default_tol": exponential.DEFAULT_TOL,
+        "options": {"repeats": args.repeats, "tol": args.tol, "default_tol": exponential.DEFAULTS.tol,
                     "sweep_tols": list(args.sweep_tols),
                     "dop853_rtol": args.dop853_rtol, "dop853_atol": DOP853_ATOL, "duration": args.duration}}
     return {"config_hash": inputs_hash(payload), "inputs": payload}
@@ -954,7 +954,7 @@ def main(argv=None) -> int:
     prov = inputs_provenance(args, inputs)
     vers = versions()
     total = time.perf_counter() - start
-    note = (f"Exponential integrator at tol {args.tol if args.tol is not None else exponential.DEFAULT_TOL:g}"
+    note = (f"Exponential integrator at tol {args.tol if args.tol is not None else exponential.DEFAULTS.tol:g}"
             f"{'' if args.tol is not None else ' (default)'}; medians of {args.repeats} runs after one warm-up; "
             f"E = eq 3.53 against the converged DOP853 (rtol 1e-10) per gimbal rate, max over the four. "
             f"Machine: {os.cpu_count()} cores, load {load0[0]:.2f} at the start (shared: timings are upper "
@@ -977,8 +977,8 @@ def main(argv=None) -> int:
         "tolerance_sweep": {"cases": sweep, "pareto_front_tols": pareto_front(sweep),
                             "fastest_meeting_E_1e-8": None if fastest is None else fastest["tol"],
                             "dop853_comparison": fastest_comparison},
-        "exponential": {"tol": args.tol if args.tol is not None else exponential.DEFAULT_TOL,
-                        "order": exponential.DEFAULT_ORDER, "drift_rad": exponential.DEFAULT_DRIFT},
+        "exponential": {"tol": args.tol if args.tol is not None else exponential.DEFAULTS.tol,
+                        "order": exponential.DEFAULTS.order, "drift_rad": exponential.DEFAULTS.drift},
         "duration_override_s": args.duration, "repeats": args.repeats, **prov,
         "environment": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
         | {"cpu_count": os.cpu_count(), "loadavg_start": load0, "loadavg_end": os.getloadavg()},

@@ -105,7 +105,7 @@ def main(argv=None) -> int:
                                              "DOP853 references, per scene.")
     ap.add_argument("--truth-model", required=True)
     ap.add_argument("--reference", nargs="+", required=True, metavar="SCENE=FILE")
-    ap.add_argument("--tol", type=float, default=exponential.DEFAULT_TOL)
+    ap.add_argument("--tol", type=float, default=exponential.DEFAULTS.tol)
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-md", required=True)
     ap.add_argument("--config", help="the current configuration file: input files of another "
@@ -114,7 +114,7 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     try:
         bodyconfig.check_files([args.truth_model], args.config)
-        exponential.check_options(tol=args.tol)
+        exponential.ExponentialOptions(tol=args.tol)
         refs = parse_references(args.reference)
         loaded = {}
         for name, path in refs.items():

@@ -115,7 +115,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scene", required=True, help="scene name or file (the study: thesis)")
     ap.add_argument("--truth-model", required=True, help="the truth's reduced-model file")
     ap.add_argument("--models", nargs="+", required=True, help="reduced-model files of the study")
-    ap.add_argument("--tol", type=float, default=exponential.DEFAULT_TOL,
+    ap.add_argument("--tol", type=float, default=exponential.DEFAULTS.tol,
                     help="the exponential integrator's tolerance (config simulation.tolerance)")
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-csv", required=True)
@@ -125,7 +125,7 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     try:
         bodyconfig.check_files([args.truth_model, *args.models], args.config)
-        exponential.check_options(tol=args.tol)
+        exponential.ExponentialOptions(tol=args.tol)
         scene = scenes.load_scene(args.scene)
         truth_chain, _ = chainfile.read_chain(args.truth_model, scene.damping_ratio)
         chains = {}

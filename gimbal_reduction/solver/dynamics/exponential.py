@@ -40,7 +40,7 @@ at the last q accepted times (order q), the corrector's adds the predicted g at 
 (order q + 1); every node pattern is handled by a q x q Vandermonde solve, so variable
 steps cost nothing extra.  Adaptive runs end the step there (PEC): the accepted node keeps
 the predicted state's g, one right-hand side per step; fixed steps evaluate again at the
-corrected state (PECE; ``EVALUATE_ACCEPTED``, docs/exponential.md Sec. 5).  The difference corrector - predictor estimates the local
+corrected state (PECE; ``ExponentialOptions.evaluate_accepted``, docs/exponential.md Sec. 5).  The difference corrector - predictor estimates the local
 error, in the energy norm of every modal coordinate and in the gimbal rates
 (``kernels.pece.local_error``); the step is halved or doubled on a
 dyadic grid of the output interval, so dense outputs reuse cached weights.  The basis is rebuilt
@@ -60,7 +60,7 @@ Units: in, lbf, s, rad as everywhere (``gimbal_reduction.solver.dynamics.multibo
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
@@ -70,35 +70,115 @@ from gimbal_reduction.solver.dynamics.kernels import pece
 from gimbal_reduction.solver.dynamics.linearized import free_joint_basis, free_joint_frequencies
 
 N_JOINTS = 4
-DEFAULT_TOL = 1e-5         # local error per step, relative (kernels.pece.local_error); docs/exponential.md 5
-DEFAULT_ORDER = 4          # Adams predictor order (corrector q + 1)
-DEFAULT_DRIFT = 0.01       # [rad] gimbal-angle drift that triggers a new basis (measured, Sec. 6)
-FROZEN_VALIDITY = 0.05     # [rad] drift beyond which a frozen basis is refused (Sec. 6)
-SUBDIVISIONS = 24          # the step grid: output interval / 2^SUBDIVISIONS
 JOINT_MASS_COND = 1e12     # refuse a basis whose joint mass block is this ill-conditioned
 SERIES_RADIUS = 2.0        # |z| below which phi_j uses its Taylor series
 SERIES_TERMS = 30
-GROW_SAFETY = 0.5          # double the step when the error estimate allows err 2^(q+1) <= SAFETY tol
-MAX_REJECTIONS_IN_BASIS = 3
-PROBE_DRIFT = 1e-5         # [rad] drift at which the first basis measures its frequency sensitivity
-PHASE_TOL = 5e-6           # new frequencies or a new basis when the estimated phase error exceeds
-#                            min(tol, PHASE_TOL) (``phase_bound``): the frozen frequencies' phase error is
-#                            held to the former default tolerance when the step tolerance is looser (with
-#                            the bound at tol, stress_rates_10 at tol 1e-5 had E 1.3e-8; at 5e-5 with this
-#                            bound E 6.4e-9; measured 2026-11-26, docs/exponential.md Section 6)
-FREQUENCY_UPDATE_DRIFT = 0.02  # a phase error at a drift <= this x drift: new frequencies, same shapes (Sec. 6)
-FREQUENCY_UPDATE_MIN_MODES = 200   # ... if the chain has this many elastic modes (else a new basis is cheaper)
-RATE_FLOOR = 1e-3          # a gimbal rate's error scale is at least this fraction of the largest
-ERROR_ENERGY_WEIGHT = 1.0  # local error: the energy norm of every modal coordinate and the gimbal rates (0: the
-#                            rates alone, what E measures: 2x fewer steps on thesis, but the truth's platform
-#                            attitude on long moved by 0.15 arcsec, 10x the rigid model's difference; measured
-#                            2026-11-25, docs/exponential.md Section 8)
-EVALUATE_ACCEPTED = False  # adaptive runs: PEC, the accepted node keeps the predicted state's g (one
-#                            evaluation per step; True: PECE, two).  The same E on every scene of the
-#                            verification within 10 % (thesis 6.20e-10 against 6.13e-10, 43 against 81
-#                            evaluations); fixed steps keep PECE (their start-up block and order study).
-#                            Measured 2026-11-26, docs/exponential.md Section 5
-WEIGHT_CACHE_ENTRIES = 128  # step weights kept per basis by the compiled loop (step, offset pairs)
+
+
+@dataclass(frozen=True)
+class ExponentialOptions:
+    """The exponential integrator's options (module docstring; docs/exponential.md Sections 5-8
+    give each its reason and measurements).  Adaptive (tol) or fixed steps (step), not both.
+
+    tol [1]: the local error per step, relative (``kernels.pece.local_error``); None: 1e-5
+        unless a fixed step is given (Section 5).
+    step [s]: a fixed step (PECE, the start-up block; no error control); None: adaptive.
+    relinearise_every [s]: fixed steps only, a new basis every this long (None: never).
+    order: the Adams predictor order q, 1..6 (the corrector's q + 1).
+    drift [rad]: the gimbal-angle drift from the basis's angles that asks for a new basis.
+    relinearise: False freezes the first basis (refused beyond frozen_validity of drift).
+    evaluate_accepted: adaptive steps, PECE (g at every accepted state, two evaluations per
+        step) instead of PEC (the accepted node keeps the predicted state's g, one); fixed
+        steps are always PECE (their start-up block and order study).  PEC gave the same E on
+        every verified scene within 10 % (Section 5).
+    frozen_validity [rad]: the drift beyond which a frozen basis is refused (Section 6).
+    probe_drift [rad]: the drift at which the first basis measures its frequency sensitivity.
+    phase_tol [1]: new frequencies or a new basis when the estimated phase error of the frozen
+        frequencies exceeds min(tol, phase_tol) (``phase_bound``; Section 6).
+    frequency_update_drift [1]: a phase error at a drift <= this x drift is met by new
+        frequencies of the same shapes, ...
+    frequency_update_min_modes: ... if the chain has this many elastic modes (else a new basis
+        is cheaper).
+    max_rejections: rejected steps in a basis that is not fresh before a new one is asked for.
+    grow_safety [1]: the step doubles when err 2^(q+1) <= grow_safety tol.
+    rate_floor [1]: a gimbal rate's phase-error scale is at least this fraction of the largest.
+    error_energy_weight [1]: the local error is the larger of the gimbal-rate difference and
+        this x the energy norm of every modal coordinate (0: the rates alone; Section 8).
+    subdivisions: the step grid is the output interval / 2^subdivisions.
+    weight_cache_entries: step weights (step, offset pairs) the compiled loop keeps per basis."""
+    tol: float | None = None
+    step: float | None = None
+    relinearise_every: float | None = None
+    order: int = 4
+    drift: float = 0.01
+    relinearise: bool = True
+    evaluate_accepted: bool = False
+    frozen_validity: float = 0.05
+    probe_drift: float = 1e-5
+    phase_tol: float = 5e-6
+    frequency_update_drift: float = 0.02
+    frequency_update_min_modes: int = 200
+    max_rejections: int = 3
+    grow_safety: float = 0.5
+    rate_floor: float = 1e-3
+    error_energy_weight: float = 1.0
+    subdivisions: int = 24
+    weight_cache_entries: int = 128
+
+    def __post_init__(self):
+        """ValueError (one line) on bad options, before any work; tol's default."""
+        if self.tol is None and self.step is None:
+            object.__setattr__(self, "tol", 1e-5)
+        tol, step, every = self.tol, self.step, self.relinearise_every
+        if tol is not None and (step is not None or every is not None):
+            raise ValueError("exponential: give a tolerance, or a fixed step (and re-linearisation "
+                             "interval), not both")
+        if tol is not None and not (np.isfinite(tol) and tol > 0):
+            raise ValueError(f"exponential: tolerance must be finite and > 0, got {tol}")
+        if step is not None and not (np.isfinite(step) and step > 0):
+            raise ValueError(f"exponential: step must be finite and > 0, got {step}")
+        if every is not None and not (np.isfinite(every) and every > 0):
+            raise ValueError(f"exponential: re-linearisation interval must be finite and > 0 s, "
+                             f"got {every}")
+        order = self.order
+        if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= order <= 6:
+            raise ValueError(f"exponential: order must be an integer in 1..6, got {order!r}")
+        if not (np.isfinite(self.drift) and self.drift > 0):
+            raise ValueError(f"exponential: drift must be finite and > 0 rad, got {self.drift}")
+        for name in ("frozen_validity", "probe_drift", "phase_tol", "frequency_update_drift",
+                     "grow_safety", "rate_floor"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"exponential: {name} must be finite and > 0, got {value}")
+        if not (np.isfinite(self.error_energy_weight) and self.error_energy_weight >= 0):
+            raise ValueError(f"exponential: error_energy_weight must be finite and >= 0, "
+                             f"got {self.error_energy_weight}")
+        for name, low in (("frequency_update_min_modes", 0), ("max_rejections", 0),
+                          ("subdivisions", 0), ("weight_cache_entries", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+                raise ValueError(f"exponential: {name} must be an integer >= {low}, got {value!r}")
+        object.__setattr__(self, "order", int(order))
+        object.__setattr__(self, "drift", float(self.drift))
+        object.__setattr__(self, "relinearise", bool(self.relinearise))
+        object.__setattr__(self, "evaluate_accepted", bool(self.evaluate_accepted))
+
+    @property
+    def phase_bound(self):
+        """The phase error (relative, as the local error) that asks for new frequencies or a
+        new basis: min(tol, phase_tol), phase_tol for fixed steps.  The step tolerance and the
+        frozen frequencies' phase are two error sources: the phase error accumulates over the
+        run, the local error of each step does not add up the same way (it is the predictor's,
+        the corrector is kept), so the phase keeps the tighter bound."""
+        return self.phase_tol if self.tol is None else min(float(self.tol), self.phase_tol)
+
+    def attributes(self):
+        """{exponential_<name>: value} of every option, None as NaN (the simulation file's
+        attributes)."""
+        return {f"exponential_{k}": (np.nan if v is None else v) for k, v in asdict(self).items()}
+
+
+DEFAULTS = ExponentialOptions()
 
 
 class ExponentialError(RuntimeError):
@@ -518,42 +598,13 @@ class ExponentialStats:
     weight_sets: int = 0                          # step weights computed (per basis and step pattern)
 
 
-def phase_bound(tol):
-    """The phase error (relative, as the local error) that asks for new frequencies or a new
-    basis: min(tol, PHASE_TOL) for a tolerance, PHASE_TOL for fixed steps (tol None).  The step
-    tolerance and the frozen frequencies' phase are two error sources: the phase error
-    accumulates over the run, the local error of each step does not add up the same way
-    (it is the predictor's, the corrector is kept), so the phase keeps the tighter bound."""
-    return PHASE_TOL if tol is None else min(float(tol), PHASE_TOL)
-
-
-def check_options(tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
-                  drift=DEFAULT_DRIFT):
-    """ValueError (one line) on bad exponential-integrator options, before any work."""
-    if tol is not None and (step is not None or relinearise_every is not None):
-        raise ValueError("exponential: give a tolerance, or a fixed step (and re-linearisation "
-                         "interval), not both")
-    if tol is not None and not (np.isfinite(tol) and tol > 0):
-        raise ValueError(f"exponential: tolerance must be finite and > 0, got {tol}")
-    if step is not None and not (np.isfinite(step) and step > 0):
-        raise ValueError(f"exponential: step must be finite and > 0, got {step}")
-    if relinearise_every is not None and not (np.isfinite(relinearise_every) and relinearise_every > 0):
-        raise ValueError(f"exponential: re-linearisation interval must be finite and > 0 s, "
-                         f"got {relinearise_every}")
-    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= order <= 6:
-        raise ValueError(f"exponential: order must be an integer in 1..6, got {order!r}")
-    if not (np.isfinite(drift) and drift > 0):
-        raise ValueError(f"exponential: drift must be finite and > 0 rad, got {drift}")
-
-
 class ExponentialAdams:
     """Exponential Adams (PEC adaptive, PECE fixed steps) in the coupled modal basis (module
     docstring).
 
     problem: the integrators' problem interface (rhs, mass_matrix, stiffness_diagonal,
-    damping_diagonal).  Adaptive (tol) or fixed step (step, optional relinearise_every
-    [s]); relinearise=False freezes the first basis (then refused beyond
-    FROZEN_VALIDITY rad of drift).
+    damping_diagonal); options: ``ExponentialOptions`` (adaptive or fixed steps, the basis's
+    drift, ...).
 
     The step loop is compiled (``kernels.pece.pece_run``, called until it is done); this class
     owns what it asks for: the right-hand side, the bases (eigenproblems), the frequency probe
@@ -561,14 +612,11 @@ class ExponentialAdams:
     loop and this class share arrays allocated once per run (``_allocate``) and passed on every
     call, so a new basis is copied into them (``_load_basis``), never rebound."""
 
-    def __init__(self, problem, tol=None, step=None, relinearise_every=None, order=DEFAULT_ORDER,
-                 drift=DEFAULT_DRIFT, relinearise=True, model=""):
-        if tol is None and step is None:
-            tol = DEFAULT_TOL
-        check_options(tol, step, relinearise_every, order, drift)
+    def __init__(self, problem, options=DEFAULTS, model=""):
         self.problem = problem
-        self.tol, self.step, self.every = tol, step, relinearise_every
-        self.order, self.drift, self.relinearise = int(order), float(drift), bool(relinearise)
+        self.options = options
+        self.tol, self.step, self.every = options.tol, options.step, options.relinearise_every
+        self.order, self.drift, self.relinearise = options.order, options.drift, options.relinearise
         self.model = model
         self.stats = ExponentialStats()
 
@@ -590,7 +638,7 @@ class ExponentialAdams:
             P_eta=np.zeros(damped_square, complex), P_vel=np.zeros(damped_square, complex),
             V_eta=np.zeros(damped_square, complex), V_vel=np.zeros(damped_square, complex),
             Ct=np.zeros(damped_square), version=np.zeros(1, dtype=np.int64))
-        C = WEIGHT_CACHE_ENTRIES
+        C = self.options.weight_cache_entries
         # the cache's entries are read only once filled (keys >= 0): np.empty, no 4 MB of fresh
         # zero pages to fault in while the loop fills them
         self.kw = pece.WeightCache(
@@ -599,10 +647,9 @@ class ExponentialAdams:
             wvel=np.empty((C, K + 1)),
             H=np.empty(C), used=np.array([0, -1, 0], dtype=np.int64), inv_fact=_INV_FACTORIALS,
             fact=_FACTORIALS, z=np.zeros(m, complex), phis=np.zeros((K + 2, m), complex))
-        reals = np.zeros(pece.N_REALS)
-        reals[pece.SMALLEST_STEP] = np.inf
-        self.kst = pece.State(ints=np.zeros(pece.N_INTS, dtype=np.int64), reals=reals,
-                              rate_scales=np.zeros(j), phase=np.zeros(m), kappa=np.zeros(m),
+        loop = np.zeros(1, dtype=pece.LOOP)
+        loop["smallest_step"] = np.inf
+        self.kst = pece.State(loop=loop, rate_scales=np.zeros(j), phase=np.zeros(m), kappa=np.zeros(m),
                               phase_ref=np.zeros(j))
         self.work = pece.Work(*(np.zeros(n) for _ in range(11)), coef=np.zeros((K + 2, n)),
                               xi_re=np.zeros(m), xi_im=np.zeros(m), omega2_old=np.zeros(n))
@@ -708,7 +755,7 @@ class ExponentialAdams:
             return self._result()
         dt_out = float(t_out[1] - t_out[0])
         if self.step is None:
-            tpo = 2 ** SUBDIVISIONS                         # grid points per output interval
+            tpo = 2 ** self.options.subdivisions                         # grid points per output interval
             m = tpo                                         # first try: one output interval
         elif self.step <= dt_out:
             tpo = max(int(math.ceil(dt_out / self.step - 1e-9)), 1)
@@ -726,30 +773,37 @@ class ExponentialAdams:
         g, y, yd, a = self._evaluate(0.0, eta, etad)
         self._push_history(0.0, y, yd, a, g)
         st = self.kst
-        pece.accept_scales(self.basis.omega2, eta, etad, yd, st.reals, st.rate_scales)
+        pece.accept_scales(self.basis.omega2, eta, etad, yd, st.loop, st.rate_scales)
         i = 0
         if fixed and self.order > 1 and self.order * m <= i_end:
             i, eta, etad = self._block_start(eta, etad, m, tick, tpo)
         self.work.eta[:], self.work.etad[:] = eta, etad
-        st.ints[pece.STAGE], st.ints[pece.TICK], st.ints[pece.STEP_TICKS] = pece.STEP, i, m
-        settings = pece.Settings(
-            tol=0.0 if fixed else float(self.tol), tick=tick, ticks_per_output=tpo, i_end=i_end,
-            order=self.order, relinearise=self.relinearise,
-            every_ticks=0 if self.every is None else max(int(round(self.every / tick)), 1),
-            drift=self.drift, frozen_validity=FROZEN_VALIDITY, probe_drift=PROBE_DRIFT,
-            phase_bound=phase_bound(self.tol), update_drift=FREQUENCY_UPDATE_DRIFT,
-            update_min_modes=FREQUENCY_UPDATE_MIN_MODES, max_rejections=MAX_REJECTIONS_IN_BASIS,
-            grow_safety=GROW_SAFETY, rate_floor=RATE_FLOOR, series_radius=SERIES_RADIUS,
-            series_terms=SERIES_TERMS, watch=on_outputs is not None,
-            error_energy_weight=ERROR_ENERGY_WEIGHT, evaluate_accepted=fixed or EVALUATE_ACCEPTED)
+        st.loop["stage"], st.loop["tick"], st.loop["step_ticks"] = pece.STEP, i, m
+        o = self.options
+        settings = np.zeros(1, dtype=pece.SETTINGS)
+        for name, value in (
+                ("tol", 0.0 if fixed else float(self.tol)), ("tick", tick), ("ticks_per_output", tpo),
+                ("i_end", i_end), ("order", self.order), ("relinearise", self.relinearise),
+                ("every_ticks", 0 if self.every is None else max(int(round(self.every / tick)), 1)),
+                ("drift", self.drift), ("frozen_validity", o.frozen_validity),
+                ("probe_drift", o.probe_drift), ("phase_bound", o.phase_bound),
+                ("update_drift", o.frequency_update_drift),
+                ("update_min_modes", o.frequency_update_min_modes),
+                ("max_rejections", o.max_rejections), ("grow_safety", o.grow_safety),
+                ("rate_floor", o.rate_floor), ("series_radius", SERIES_RADIUS),
+                ("series_terms", SERIES_TERMS), ("watch", on_outputs is not None),
+                ("error_energy_weight", o.error_energy_weight),
+                ("evaluate_accepted", fixed or o.evaluate_accepted)):
+            settings[name] = value
         outputs = pece.Outputs(self.out_eta, self.out_etad, self.out_segment)
-        self._drive((*self.kb, *self.kw, *settings, *st, *self.hist, *self.ev, *outputs, *self.work))
+        self._drive((self.kb, self.kw, settings, st, self.hist, self.ev, outputs, self.work))
         return self._result()
 
     def _drive(self, arguments):
         """Call the compiled loop (``kernels.pece.pece_run(*arguments)``) and answer its
         requests until it is done."""
         ev, st, rhs = self.ev, self.kst, self.problem.rhs
+        loop = st.loop[0]
         while True:
             request = pece.pece_run(*arguments)
             if request == pece.DONE:
@@ -757,31 +811,30 @@ class ExponentialAdams:
             if request == pece.NEED_RHS:
                 ev.a[:] = rhs(ev.t[0], ev.y, ev.yd)
             elif request == pece.NEED_PROBE:
-                self._phase_probe(ev.y, st.reals[pece.EVENT_VALUE])
+                self._phase_probe(ev.y, loop["event_value"])
             elif request == pece.NEED_FREQUENCIES:
                 self._update_frequencies(ev.y)
             elif request == pece.NEED_BASIS:
                 self._new_basis(ev.t[0], ev.y.copy())
                 self.stats.relinearisations += 1
             elif request == pece.OUTPUTS:
-                first, last = st.ints[pece.OUT_FIRST], st.ints[pece.OUT_LAST]
-                self._emit(np.arange(first, last + 1), st.reals[pece.EVENT_STEP])
+                self._emit(np.arange(loop["out_first"], loop["out_last"] + 1), loop["event_step"])
             elif request == pece.FAILED:
                 self._failure()
         s = self.stats
-        s.steps += int(st.ints[pece.STEPS])
-        s.rejected += int(st.ints[pece.REJECTED])
-        s.evaluations += int(st.ints[pece.EVALUATIONS])
-        s.phase_relinearisations += int(st.ints[pece.PHASE_RELINEARISATIONS])
+        s.steps += int(loop["steps"])
+        s.rejected += int(loop["rejected"])
+        s.evaluations += int(loop["evaluations"])
+        s.phase_relinearisations += int(loop["phase_relinearisations"])
         s.weight_sets = int(self.kw.used[2])
-        s.smallest_step = min(s.smallest_step, float(st.reals[pece.SMALLEST_STEP]))
-        s.largest_step = max(s.largest_step, float(st.reals[pece.LARGEST_STEP]))
+        s.smallest_step = min(s.smallest_step, float(loop["smallest_step"]))
+        s.largest_step = max(s.largest_step, float(loop["largest_step"]))
 
     def _failure(self):
         """The compiled loop's failure as ExponentialError (one line, the time and the cause)."""
-        st = self.kst
-        cause = st.ints[pece.FAILURE]
-        t, h, value = (float(st.reals[k]) for k in (pece.EVENT_TIME, pece.EVENT_STEP, pece.EVENT_VALUE))
+        loop = self.kst.loop[0]
+        cause = loop["failure"]
+        t, h, value = (float(loop[k]) for k in ("event_time", "event_step", "event_value"))
         if cause == pece.FAIL_STEP_TOO_SMALL:
             self._fail(t, f"the step fell to {h:.3g} s with the local error {value:.3g} "
                           f"above the tolerance {self.tol:.3g}"
@@ -792,7 +845,7 @@ class ExponentialAdams:
         if cause == pece.FAIL_NON_FINITE_RHS:
             self._fail(t, "non-finite accelerations")
         self._fail(t, f"the gimbals have turned {value:.3g} rad from the frozen basis (valid to "
-                      f"{FROZEN_VALIDITY} rad): re-linearise")
+                      f"{self.options.frozen_validity} rad): re-linearise")
 
     def _record(self, ks, eta, etad, h):
         """Keep the modal outputs ks (k,), eta, eta' (k, n) in the current basis's segment
@@ -863,7 +916,7 @@ class ExponentialAdams:
         m = self.basis.omega.size - N_JOINTS
         st.phase[:] = 0.0
         st.phase_ref[:] = self.basis.y_ref[:N_JOINTS]
-        st.ints[pece.PROBED] = old is not None or m == 0     # a rigid chain has no phase to lose
+        st.loop["probed"] = old is not None or m == 0     # a rigid chain has no phase to lose
         if old is None:
             st.kappa[:] = 0.0
             return
@@ -881,7 +934,7 @@ class ExponentialAdams:
         self.stats.basis_time += time.perf_counter() - t0
         w = self.basis.omega_ref[N_JOINTS:]
         self.kst.kappa[:] = np.abs(om - w) / (w * drift)
-        self.kst.ints[pece.PROBED] = 1
+        self.kst.loop["probed"] = 1
 
     def _frequencies_at(self, y):
         """The current shapes' elastic frequencies (m,) [rad/s] at the configuration y (n,): their

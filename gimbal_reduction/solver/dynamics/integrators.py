@@ -57,6 +57,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from gimbal_reduction.solver.dynamics import exponential
+from gimbal_reduction.solver.dynamics.kernels import kernel_load_timer
 from gimbal_reduction.workflow.progress import Progress
 
 RK4_STABILITY = 2.785          # h * omega_max at RK4's stability limit (real-axis bound)
@@ -66,9 +67,8 @@ METHODS = ("exponential", "rk4", "dop853", "generalized-alpha")
 # options that belong to one method only (``integrate`` refuses them with another)
 METHOD_OPTIONS = {"fraction": ("rk4",), "rtol": ("dop853",), "atol": ("dop853",),
                   "max_step": ("dop853",), "rho_inf": ("generalized-alpha",),
-                  "tol": ("exponential",), "relinearise_every": ("exponential",),
-                  "drift": ("exponential",), "order": ("exponential",),
-                  "relinearise": ("exponential",)}
+                  **{name: ("exponential",) for name in exponential.ExponentialOptions.__dataclass_fields__
+                     if name != "step"}}
 
 
 class DivergenceError(RuntimeError):
@@ -203,9 +203,11 @@ class Run:
     method: str
     step: float
     steps: int
-    wall_time: float
+    wall_time: float        # [s] the integration, without kernel_load_time
     stats: dict = field(default_factory=dict)
     energy: dict = field(default_factory=dict)   # kinetic, potential, power, input_work at t
+    kernel_load_time: float = 0.0   # [s] loading (or compiling) Numba kernels during the run: a
+    #                                 process's first run of a kind (``kernels.kernel_load_timer``)
 
 
 class Monitor:
@@ -272,7 +274,7 @@ class Monitor:
 
 def check_options(method, step, options):
     """ValueError (one line) on an unknown method or option, an option of another method, or
-    bad exponential options (``exponential.check_options``); None values count as not given.
+    bad exponential options (``exponential.ExponentialOptions``); None values count as not given.
     Nothing is computed before this check."""
     if method not in METHODS:
         raise ValueError(f"unknown integrator {method!r}; known: {', '.join(METHODS)}")
@@ -285,9 +287,7 @@ def check_options(method, step, options):
             raise ValueError(f"option --{key.replace('_', '-')} belongs to "
                              f"{METHOD_OPTIONS[key][0]}, not {method}")
     if method == "exponential":
-        exponential.check_options(options.get("tol"), step, options.get("relinearise_every"),
-                                  options.get("order", exponential.DEFAULT_ORDER),
-                                  options.get("drift", exponential.DEFAULT_DRIFT))
+        exponential.ExponentialOptions(step=step, **options)
 
 
 def integrate(problem, t_end, output_dt, method="rk4", step=None, growth_factor=1e3,
@@ -298,9 +298,10 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, growth_factor=
 
     Method options (``METHOD_OPTIONS``; an option of another method is refused): rk4
     ``fraction``; dop853 ``rtol`` (1e-10), ``atol`` (1e-14), ``max_step``;
-    generalized-alpha ``rho_inf`` (0.9); exponential ``tol`` (``exponential.DEFAULT_TOL``
-    unless a ``step`` is given), ``relinearise_every`` [s] (fixed step only), ``drift``
-    [rad], ``order``, ``relinearise``.  An option given as None counts as not given."""
+    generalized-alpha ``rho_inf`` (0.9); exponential: the fields of
+    ``exponential.ExponentialOptions`` but ``step`` (``tol``, ``relinearise_every`` [s] (fixed
+    step only), ``drift`` [rad], ``order``, ``relinearise``, ``evaluate_accepted``, ...).  An
+    option given as None counts as not given."""
     if method not in METHODS:
         raise ValueError(f"unknown integrator {method!r}; known: {', '.join(METHODS)}")
     options = {k: v for k, v in options.items() if v is not None}
@@ -330,24 +331,25 @@ def integrate(problem, t_end, output_dt, method="rk4", step=None, growth_factor=
         monitor(0.0, y, yd, 0.0, method)
     start = time.perf_counter()
     out = _Outputs(t_out, dt_out, Y, V, monitor, method, model)
-    if method == "exponential":
-        h, steps, stats = _exponential(problem, out, step, options)
-    elif method == "rk4":
-        h, steps, stats = _rk4(problem, out, step, options.get("fraction"), growth_factor, whole_run)
-    elif method == "dop853":
-        h, steps, stats = _dop853(problem, out, step, options.get("rtol", 1e-10),
-                                  options.get("atol", 1e-14), options.get("max_step", np.inf))
-    else:
-        h, steps, stats = _generalized_alpha(problem, out, step, options.get("rho_inf", 0.9),
-                                             newton_tol, max_newton)
-    wall = time.perf_counter() - start
+    with kernel_load_timer() as load:
+        if method == "exponential":
+            h, steps, stats = _exponential(problem, out, step, options)
+        elif method == "rk4":
+            h, steps, stats = _rk4(problem, out, step, options.get("fraction"), growth_factor, whole_run)
+        elif method == "dop853":
+            h, steps, stats = _dop853(problem, out, step, options.get("rtol", 1e-10),
+                                      options.get("atol", 1e-14), options.get("max_step", np.inf))
+        else:
+            h, steps, stats = _generalized_alpha(problem, out, step, options.get("rho_inf", 0.9),
+                                                 newton_tol, max_newton)
+    wall = time.perf_counter() - start - load.seconds
     if monitor.history:
         stats["energy_input"] = monitor.work
     hist = np.array(monitor.history)
     energy = {} if hist.shape[0] != t_out.size else {
         "kinetic": hist[:, 1], "potential": hist[:, 2], "power": hist[:, 3], "input_work": hist[:, 4]}
     return Run(t=t_out, y=out.Y, yd=out.V, method=method, step=float(h), steps=int(steps),
-               wall_time=wall, stats=stats, energy=energy)
+               wall_time=wall, stats=stats, energy=energy, kernel_load_time=load.seconds)
 
 
 # A run longer than this prints a progress line (stderr, the job's log) this often [s]: the
@@ -386,7 +388,8 @@ class _Outputs:
 def _exponential(problem, out, step, options):
     """The modal exponential integrator (``exponential.ExponentialAdams``); (h, steps, stats),
     h the largest step taken."""
-    integrator = exponential.ExponentialAdams(problem, step=step, model=out.model, **options)
+    settings = exponential.ExponentialOptions(step=step, **options)
+    integrator = exponential.ExponentialAdams(problem, settings, model=out.model)
     # adaptive: the error control watches the run, the energy is not sampled (Run.energy
     # stays empty; simulate.energy_history computes it afterwards); fixed step: the monitor
     watch = step is not None
@@ -398,7 +401,7 @@ def _exponential(problem, out, step, options):
                                       on_outputs if watch else None)
     return st.largest_step, st.steps, {
         "tol": integrator.tol if integrator.tol is not None else np.nan,
-        "order": integrator.order, "drift": integrator.drift,
+        "order": integrator.order, "drift": integrator.drift, **settings.attributes(),
         "evaluations": st.evaluations, "rejected": st.rejected,
         "relinearisations": st.relinearisations, "basis_time_s": st.basis_time,
         "first_basis_time_s": st.first_basis_time, "weight_sets": st.weight_sets,

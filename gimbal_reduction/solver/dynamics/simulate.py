@@ -14,9 +14,14 @@ a field inside it); the workflow passes every path explicitly.
 Everything is validated (scene file, model file, step, output folder) before the
 integration.  The output is the simulation file of ``gimbal_reduction.solver.dynamics.simfile``
 (datasets t, gamma, gamma_dot, energies; attributes scene, model, integrator,
-step, steps, wall_time_s, config_hash, omega_max (the coupled chain's highest
+step, steps, config_hash, omega_max (the coupled chain's highest
 frequency at the initial state, which sets the RK4 limit), modal_omega_max,
-stability_limit, n_modes, provenance), written atomically.
+stability_limit, n_modes, provenance; the exponential integrator's options as
+stat_exponential_<option> among its statistics stat_*), written atomically.  Timings [s]:
+wall_time_s the whole run (problem set-up, kernel loading and integration),
+integration_time_s the integration without kernel_load_s, the one-off loading (or
+compiling) of the Numba kernels a fresh process pays on its first run
+(``kernels.kernel_load_timer``).
 """
 
 import argparse
@@ -203,14 +208,14 @@ def build_parser():
     ap.add_argument("--step", type=positive_number("--step"), default=None,
                     help="fixed step [s] (rk4, generalized-alpha, exponential without --tol)")
     ap.add_argument("--tol", type=positive_number("--tol"), default=None,
-                    help=f"exponential: local error tolerance (default {exponential.DEFAULT_TOL:g})")
+                    help=f"exponential: local error tolerance (default {exponential.DEFAULTS.tol:g})")
     ap.add_argument("--relinearise-every", type=positive_number("--relinearise-every"), default=None,
                     help="exponential with --step: re-linearisation interval [s]")
     ap.add_argument("--drift", type=positive_number("--drift"), default=None,
                     help=f"exponential: gimbal-angle drift [rad] that triggers a new basis "
-                         f"(default {exponential.DEFAULT_DRIFT:g})")
+                         f"(default {exponential.DEFAULTS.drift:g})")
     ap.add_argument("--order", type=cli.positive_int("--order"), default=None,
-                    help=f"exponential: Adams order (default {exponential.DEFAULT_ORDER})")
+                    help=f"exponential: Adams order (default {exponential.DEFAULTS.order})")
     ap.add_argument("--fraction", type=positive_number("--fraction"), default=None,
                     help=f"rk4 step as a fraction of its stability limit (default "
                          f"{integrators.RK4_DEFAULT_FRACTION}; at most 1)")
@@ -301,6 +306,7 @@ def main(argv=None):
     omega_max = run.stats["coupled_omega_max"] if run.method == "exponential" else prob.omega_max
     attrs = {"scene": scene.name, "model": model, "integrator": run.method, "step": run.step,
              "steps": run.steps, "wall_time_s": wall, "integration_time_s": run.wall_time,
+             "kernel_load_s": run.kernel_load_time,
              "config_hash": chash, "model_config_hash": str(info.get("config_hash", "")),
              "omega_max": omega_max, "modal_omega_max": chain.omega_max,
              "stability_limit": integrators.rk4_stability_limit(omega_max),

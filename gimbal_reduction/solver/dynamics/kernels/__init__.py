@@ -18,9 +18,12 @@ optimisation level (below) before any kernel is compiled.
 """
 
 import os
+import time
+from contextlib import contextmanager
 
 import llvmlite.binding
 import numba
+from numba.core import event
 
 # Compiler options of the kernels.  JIT: IEEE arithmetic.  FAST: reassociation only (no
 # "no-NaN/no-Inf" assumptions: a diverging state must stay visible).
@@ -49,3 +52,34 @@ _allow_runtime_alias_checks()
 OPT_LEVEL = 2
 if "NUMBA_OPT" not in os.environ:
     numba.config.OPT = numba.core.config._process_opt_level(str(OPT_LEVEL))
+
+
+class KernelLoadTimer(event.Listener):
+    """The wall time [s] spent loading kernels from Numba's on-disk cache or compiling them
+    (Numba's compiler lock held: a dispatcher's first call with new argument types) while
+    installed (``kernel_load_timer``): the one-off cost of a process's first run, kept apart
+    from the integration time it would otherwise be counted in."""
+
+    def __init__(self):
+        self.seconds = 0.0
+        self._depth = 0
+        self._start = 0.0
+
+    def on_start(self, ev):
+        if self._depth == 0:
+            self._start = time.perf_counter()
+        self._depth += 1
+
+    def on_end(self, ev):
+        self._depth -= 1
+        if self._depth == 0:
+            self.seconds += time.perf_counter() - self._start
+
+
+@contextmanager
+def kernel_load_timer():
+    """``with kernel_load_timer() as load:`` ... ``load.seconds``: the kernel loading and
+    compiling inside the block (``KernelLoadTimer``)."""
+    timer = KernelLoadTimer()
+    with event.install_listener("numba:compiler_lock", timer):
+        yield timer

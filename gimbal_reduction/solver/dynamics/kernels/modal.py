@@ -344,7 +344,7 @@ def project_all(y, yd, ydd, has_acc, ch, pq_given, Pq, Pqd, Pqdd):
     return Pq, Pqd, Pqdd
 
 
-@numba.njit(**FAST)
+@numba.njit(**FAST, inline="always")
 def projections(y, yd, ydd, has_acc, ch):
     """Pq, Pqd (4, 27), Pqdd (4, 12): every body's ``project``, in new arrays."""
     return project_all(y, yd, ydd, has_acc, ch, False, np.zeros((4, 27)),

@@ -3,12 +3,11 @@
 Why: the exponential Adams step of ``docs/exponential.md`` (Sections 4-6) is a few
 dozen small array operations per step -- two polynomial fits, two phi-weighted advances
 of the modal state, one or two physical transforms and projections (PEC or PECE), the
-error norm, the dense
-outputs, the phase-error estimate and the step-size decisions.  As NumPy calls from a
-Python loop that cost ~0.3 ms per step on the truth model (~60 calls of ~5 us overhead
-each) besides the arithmetic.  Here the whole loop is one compiled function, ``pece_run``.
-It returns to Python only with a request for something Python owns, and is called again to
-go on from where it stopped (st.ints[STAGE]):
+error norm, the dense outputs, the phase-error estimate and the step-size decisions.  As
+NumPy calls from a Python loop that cost ~0.3 ms per step on the truth model (~60 calls of
+~5 us overhead each) besides the arithmetic.  Here the whole loop is compiled: ``pece_run``
+calls one function per stage of the step (``STAGES``) until a stage asks Python for
+something it owns, and is called again to go on from where it stopped (``Loop.stage``):
 
 * ``NEED_RHS``: the right-hand side a(t, y, y') at (ev.t, ev.y, ev.yd), written into ev.a by
   Python (the problem's own, compiled or not, wrapped or overridden: the loop never needs to
@@ -17,31 +16,29 @@ go on from where it stopped (st.ints[STAGE]):
   sensitivity, new frequencies of the same shapes, a new basis (eigenproblem) at the
   accepted state in ev (Section 6); Python rewrites the basis arrays ``b`` and the phase
   arrays of ``st`` in place, the loop then carries its history into the new basis;
-* ``OUTPUTS`` (fixed steps only): outputs st.ints[OUT_FIRST..OUT_LAST] are new (the
+* ``OUTPUTS`` (fixed steps only): outputs Loop.out_first..out_last are new (the
   integrators' energy watch);
-* ``FAILED``: the run cannot go on (st.ints[FAILURE] says why, st.reals the numbers);
+* ``FAILED``: the run cannot go on (Loop.failure says why, Loop.event_* the numbers);
 * ``DONE``: the last output is reached.
 
 Why a function called again and not a Numba generator that yields the requests: the
-generator was the same code, but LLVM took ~460 s to optimise it against ~50 s for this
-plain function (measured on the loaded 2-core machine; 20 s with NUMBA_OPT=0).  Why the
-right-hand side is not evaluated in here (for the compiled one): it saved ~7 us per
-evaluation (1 ms of a thesis truth run) but the recursion, linked into this function,
-doubled its compile time (~50 s more).
+generator was the same code, but LLVM took ~460 s to optimise it against ~50 s for a
+plain function.  Why the right-hand side is not evaluated in here (for the compiled one):
+it saved ~7 us per evaluation (1 ms of a thesis truth run) but the recursion, linked into
+the loop, doubled its compile time.
 
 Every array the loop and Python share is allocated once per run (``exponential.
 ExponentialAdams``) and rewritten in place.  The arithmetic is that of the Python loop it
-replaced, up to rounding: with the same formulas and order of operations the runs measured
-gave the same steps and bitwise the same outputs; with the weights in real and imaginary
-parts and the faster phi-functions since, the same steps and outputs within 1.5e-13
-relative (the damped bank, whose eigenvectors amplify the rounding, within 4e-10), E
-unchanged (docs/exponential.md Sec. 8).
+replaced, up to rounding (docs/exponential.md Sec. 8).
 
-The containers (named tuples, each field documented in its class): ``Basis`` b,
-``WeightCache`` w, ``Settings`` cfg, ``State`` st, ``History`` hist, ``Evaluation`` ev,
-``Outputs`` out, ``Work`` work.  Shapes: n coordinates (4 joint angles first), m = n - 4
-elastic modes, K + 1 polynomial coefficients at most (K = max(order, 2): the first step's
-midpoint fit has one node more than the corrector).  Units: s, rad, the chain's units.
+The containers: the named tuples ``Basis`` b, ``WeightCache`` w, ``State`` st, ``History``
+hist, ``Evaluation`` ev, ``Outputs`` out, ``Work`` work (each field documented in its class),
+and two NumPy records of one element each, ``SETTINGS`` cfg (what does not change in a run)
+and ``LOOP`` (st.loop: the loop's counters, flags and scalars), read and written by field
+name in the kernels and in Python (``st.loop["steps"]``).  Shapes: n coordinates (4 joint
+angles first), m = n - 4 elastic modes, K + 1 polynomial coefficients at most (K =
+max(order, 2): the first step's midpoint fit has one node more than the corrector).  Units:
+s, rad, the chain's units.
 """
 
 import math
@@ -54,16 +51,14 @@ from gimbal_reduction.solver.dynamics.kernels import JIT
 from gimbal_reduction.solver.dynamics.kernels.exponential import advance_diagonal, dense_diagonal, modal_xi, phi_table
 
 N_JOINTS = 4
-# the undamped bank's dense outputs by the particular polynomial (dense_diagonal), not per-output weights
-DENSE_POLYNOMIAL = True
-# adaptive runs: the last step takes the rest of the run when that is whole output intervals
-# (28 of them on thesis, instead of 16 + 8 + 4); before the run's first rejection the step may
-# double after one accepted step at its size, not two (thesis truth: 41 -> 34 steps, the same
-# E; docs/exponential.md Sec. 8 item 9)
-LAST_STEP_REST = True
-RAMP_UNTIL_REJECTION = True
+# The stages and their thin wrappers are inlined into ``pece_run`` by Numba (its IR, before LLVM):
+# compiled as functions of their own, each would be optimised by LLVM once alone and again inside
+# every caller (Numba links a callee's code into each caller's module), one level more for the
+# whole step's code
+STAGE = dict(JIT, inline="always")
 
-# what pece_run returns: a request to Python, or DONE (module docstring)
+# what a stage returns: a request to Python, DONE, or CONTINUE (the next stage, no return)
+CONTINUE = -1
 DONE = 0
 NEED_RHS = 1
 NEED_PROBE = 2
@@ -72,7 +67,7 @@ NEED_BASIS = 4
 OUTPUTS = 5
 FAILED = 6
 
-# where pece_run goes on when called again (st.ints[STAGE]); the step's order of work
+# the stages (Loop.stage: where pece_run goes on); the step's order of work
 STEP = 0            # a step attempt starts: predict, ask for g at the predicted state
 PREDICTED = 1       # the predicted state's g is there: correct, estimate the error
 MIDPOINT = 2        # the first step's midpoint g is there: the quadratic fit
@@ -85,44 +80,61 @@ REBASED = 8         # a new basis after an accepted step: carry the history, sta
 RETRY = 9           # a new basis after repeated rejections: the same, then the step again
 GROW = 10           # double the step if the error allows
 
-# st.ints: the loop's integers between calls, counters and flags shared with Python
-STAGE = 0                   # where to go on (above)
-TICK = 1                    # i: the grid tick of the current state
-STEP_TICKS = 2              # m: the step in ticks
-SINCE_CHANGE = 3            # accepted steps since the step last changed
-BASIS_TICK = 4              # the tick of the current basis
-REJECTIONS_IN_BASIS = 5
-SEGMENT = 6                 # the current basis's index in the run's list of bases
-NODES = 7                   # q: history nodes of the current step's fits
-COEF_ROWS = 8               # rows of work.coef in use (the corrector's polynomial)
-STEPS = 9                   # accepted steps
-REJECTED = 10               # rejected step attempts
-EVALUATIONS = 11            # right-hand sides evaluated
-PHASE_RELINEARISATIONS = 12  # bases asked for by the phase error (not the drift)
-PROBED = 13                 # 1 once the current basis knows its frequency sensitivity (Python sets it)
-OUT_FIRST = 14              # OUTPUTS: the first and last new output index
-OUT_LAST = 15
-FAILURE = 16                # FAILED: one of the FAIL_* causes below
-PREDICTED_NODE = 17         # 1: the newest history node is the predicted state's (PEC, no final evaluation)
-N_INTS = 18
-# st.reals
-SMALLEST_STEP = 0           # [s]
-LARGEST_STEP = 1            # [s]
-EVENT_TIME = 2              # [s] time of a basis request or a failure
-EVENT_STEP = 3              # [s] the step h of a failure or of new outputs
-EVENT_VALUE = 4             # a failure's error estimate, or the drift [rad] of a probe / frozen basis
-ENERGY_SCALE = 5            # the error norm's scales: the largest energy norm of the solution so far
-RATE_SCALE = 6              # ... and the largest gimbal rate so far [rad/s]
-ERROR = 7                   # the current step's local error estimate
-DRIFT = 8                   # [rad] the accepted state's gimbal drift from the basis's angles
-PHASE_DRIFT = 9             # [rad] ... from the angles the phase is counted from
-DRIFT_PREVIOUS = 10         # [rad] PHASE_DRIFT of the previous step (0 after a basis change)
-N_REALS = 11
-# failure causes (st.ints[FAILURE]); the messages are written in exponential.py
-FAIL_STEP_TOO_SMALL = 1     # the step fell below the grid with the error above tol (t = EVENT_TIME)
-FAIL_NON_FINITE_STATE = 2   # non-finite state after a step (t = EVENT_TIME)
+# failure causes (Loop.failure); the messages are written in exponential.py
+FAIL_STEP_TOO_SMALL = 1     # the step fell below the grid with the error above tol (t = event_time)
+FAIL_NON_FINITE_STATE = 2   # non-finite state after a step (t = event_time)
 FAIL_NON_FINITE_RHS = 3     # non-finite accelerations at an accepted state
-FAIL_FROZEN_DRIFT = 4       # a frozen basis beyond its validity (EVENT_VALUE: the drift)
+FAIL_FROZEN_DRIFT = 4       # a frozen basis beyond its validity (event_value: the drift)
+
+# What does not change during a run (``exponential.ExponentialOptions`` and the run's grid),
+# one record: tol (local error per step; <= 0: fixed steps), tick [s] (the step grid: dt_out /
+# ticks_per_output), ticks_per_output, i_end (the last tick), order (Adams predictor order),
+# relinearise, every_ticks (fixed steps: re-linearise every this many ticks, 0: never), drift
+# [rad] (new basis beyond this gimbal drift), frozen_validity [rad], probe_drift [rad],
+# phase_bound (the phase error that asks for new frequencies or a new basis:
+# ``ExponentialOptions.phase_bound``), update_drift (a phase error at a drift <= update_drift x
+# drift: new frequencies), update_min_modes, max_rejections (in a basis that is not fresh),
+# grow_safety, rate_floor, series_radius and series_terms (``phi_table``), watch (return
+# OUTPUTS), error_energy_weight (the energy norm's weight in ``local_error``, 0: the gimbal
+# rates alone), evaluate_accepted (PECE, g at every accepted state; False: PEC, the accepted
+# node keeps the predicted state's g; docs/exponential.md Section 5).
+SETTINGS = np.dtype([
+    ("tol", np.float64), ("tick", np.float64), ("ticks_per_output", np.int64), ("i_end", np.int64),
+    ("order", np.int64), ("relinearise", np.bool_), ("every_ticks", np.int64), ("drift", np.float64),
+    ("frozen_validity", np.float64), ("probe_drift", np.float64), ("phase_bound", np.float64),
+    ("update_drift", np.float64), ("update_min_modes", np.int64), ("max_rejections", np.int64),
+    ("grow_safety", np.float64), ("rate_floor", np.float64), ("series_radius", np.float64),
+    ("series_terms", np.int64), ("watch", np.bool_), ("error_energy_weight", np.float64),
+    ("evaluate_accepted", np.bool_)])
+
+# The loop's state between calls, counters and flags shared with Python, one record:
+# stage (where to go on), tick (i: the grid tick of the current state), step_ticks (m: the step
+# in ticks), since_change (accepted steps since the step last changed), basis_tick (the tick of
+# the current basis), rejections_in_basis, segment (the current basis's index in the run's list
+# of bases), nodes (q: history nodes of the current step's fits), coef_rows (rows of work.coef
+# in use: the corrector's polynomial), steps (accepted), rejected (step attempts),
+# evaluations (right-hand sides), phase_relinearisations (bases asked for by the phase error,
+# not the drift), probed (1 once the current basis knows its frequency sensitivity; Python sets
+# it), out_first, out_last (OUTPUTS: the new output indices), failure (FAIL_*), predicted_node
+# (1: the newest history node is the predicted state's: PEC), finite (the step's corrected
+# state is finite); smallest_step, largest_step [s]; event_time [s] (of a basis request or a
+# failure), event_step [s] (the step h of a failure or of new outputs), event_value (a
+# failure's error estimate, or the drift [rad] of a probe or a frozen basis); energy_scale,
+# rate_scale [rad/s] (the error norm's scales: the largest energy norm and gimbal rate of the
+# solution so far); error (the current step's local error estimate); drift, phase_drift [rad]
+# (the accepted state's gimbal drift from the basis's angles, and from the angles the phase is
+# counted from), drift_previous [rad] (phase_drift of the previous step, 0 after a basis change).
+LOOP = np.dtype([
+    ("stage", np.int64), ("tick", np.int64), ("step_ticks", np.int64), ("since_change", np.int64),
+    ("basis_tick", np.int64), ("rejections_in_basis", np.int64), ("segment", np.int64),
+    ("nodes", np.int64), ("coef_rows", np.int64), ("steps", np.int64), ("rejected", np.int64),
+    ("evaluations", np.int64), ("phase_relinearisations", np.int64), ("probed", np.int64),
+    ("out_first", np.int64), ("out_last", np.int64), ("failure", np.int64),
+    ("predicted_node", np.int64), ("finite", np.int64),
+    ("smallest_step", np.float64), ("largest_step", np.float64), ("event_time", np.float64),
+    ("event_step", np.float64), ("event_value", np.float64), ("energy_scale", np.float64),
+    ("rate_scale", np.float64), ("error", np.float64), ("drift", np.float64),
+    ("phase_drift", np.float64), ("drift_previous", np.float64)])
 
 
 class Basis(NamedTuple):
@@ -186,53 +198,14 @@ class WeightCache(NamedTuple):
     phis: np.ndarray
 
 
-class Settings(NamedTuple):
-    """What does not change during a run (``exponential`` constants and options, read from the
-    module when the run starts): tol (local error per step; <= 0: fixed steps), tick [s] (the
-    step grid: dt_out / ticks_per_output), ticks_per_output, i_end (the last tick), order (Adams
-    predictor order), relinearise (bool), every_ticks
-    (fixed steps: re-linearise every this many ticks, 0: never), drift [rad] (new basis beyond
-    this gimbal drift), frozen_validity [rad], probe_drift [rad], phase_bound (the phase error
-    that asks for new frequencies or a new basis: ``exponential.phase_bound``), update_drift
-    (a phase error at a drift <= update_drift x drift: new frequencies), update_min_modes,
-    max_rejections (in a basis that is not fresh), grow_safety, rate_floor, series_radius and
-    series_terms (``phi_functions``), watch (bool: return OUTPUTS), error_energy_weight (the
-    energy norm's weight in ``local_error``, 0: the gimbal rates alone), evaluate_accepted (bool:
-    PECE, g at every accepted state; False: PEC, the accepted node keeps the predicted state's g,
-    one evaluation per step; docs/exponential.md Section 5).  The first step and the
-    tick the run starts at are st.ints[STEP_TICKS], st.ints[TICK], set by Python."""
-    tol: float
-    tick: float
-    ticks_per_output: int
-    i_end: int
-    order: int
-    relinearise: bool
-    every_ticks: int
-    drift: float
-    frozen_validity: float
-    probe_drift: float
-    phase_bound: float
-    update_drift: float
-    update_min_modes: int
-    max_rejections: int
-    grow_safety: float
-    rate_floor: float
-    series_radius: float
-    series_terms: int
-    watch: bool
-    error_energy_weight: float
-    evaluate_accepted: bool
-
-
 class State(NamedTuple):
-    """The loop's state between calls and what Python reads or sets: ints (N_INTS,) and reals
-    (N_REALS,) (indices above); rate_scales (4,) [rad/s] each gimbal rate's largest magnitude
-    so far (the error norm's); phase (m,) [rad] the accumulated phase error estimate of the
-    frozen frequencies, kappa (m,) [1/rad] their relative sensitivity to drift, phase_ref (4,)
-    [rad] the angles the phase is counted from (Python resets the three on a new basis or a
-    frequency update)."""
-    ints: np.ndarray
-    reals: np.ndarray
+    """The loop's state between calls and what Python reads or sets: loop (1,) ``LOOP`` record
+    (counters, flags, scalars by name); rate_scales (4,) [rad/s] each gimbal rate's largest
+    magnitude so far (the error norm's); phase (m,) [rad] the accumulated phase error estimate
+    of the frozen frequencies, kappa (m,) [1/rad] their relative sensitivity to drift,
+    phase_ref (4,) [rad] the angles the phase is counted from (Python resets the three on a new
+    basis or a frequency update)."""
+    loop: np.ndarray
     rate_scales: np.ndarray
     phase: np.ndarray
     kappa: np.ndarray
@@ -244,7 +217,7 @@ class Work(NamedTuple):
     by Python at the start), eta_p, etad_p the predicted, eta_c, etad_c the corrected, eta_q,
     etad_q the first step's midpoint and quadratic states; g_p, g_m, g_1 the modal forcing at
     the predicted state, the midpoint and the accepted state; coef (K + 2, n) the corrector's
-    polynomial (st.ints[COEF_ROWS] rows), which the dense outputs reuse; xi_re, xi_im (m,) the
+    polynomial (Loop.coef_rows rows), which the dense outputs reuse; xi_re, xi_im (m,) the
     undamped bank's complex coordinates of the step's start (``modal_xi``; unused damped);
     omega2_old (n,) Lambda before a frequency update (the history's g follows the change)."""
     eta: np.ndarray
@@ -269,7 +242,7 @@ class History(NamedTuple):
     physical state and accelerations (to carry g into a new basis), g (order + 1, n) the modal
     forcing in the current basis; length (1,) int the rows in use.  A node's y, y', a and g
     belong to one state: the accepted (corrected) state's with a final evaluation (PECE), the
-    predicted state's of the same time without (PEC, st.ints[PREDICTED_NODE]); the accepted
+    predicted state's of the same time without (PEC, Loop.predicted_node); the accepted
     state itself is (work.eta, work.etad)."""
     t: np.ndarray
     y: np.ndarray
@@ -461,46 +434,47 @@ def gimbal_rates(rates, v, out):
 
 
 @numba.njit(**JIT)
-def local_error(omega2, rates, scales, eta_c, etad_c, eta_p, etad_p, energy_weight):
+def local_error(omega2, rates, energy_scale, rate_scale, eta_c, etad_c, eta_p, etad_p, energy_weight):
     """The relative local error of a step: the largest gimbal-rate difference of corrector -
-    predictor (rates (4, n) = phi[:4]) over the largest gimbal rate so far (scales[RATE_SCALE],
+    predictor (rates (4, n) = phi[:4]) over the largest gimbal rate so far (rate_scale [rad/s],
     or the corrector's): all four rates share that scale, so a rate that stays ~0 does not
     demand an absolute accuracy.  With energy_weight > 0, the larger of that and energy_weight
     x the energy norm of corrector - predictor over the largest energy norm of the solution
-    (scales[ENERGY_SCALE], or the corrector's): every modal coordinate weighted by its energy
-    (the default, weight 1: it holds the platform attitude too; docs/exponential.md Sec. 8)."""
+    (energy_scale, or the corrector's): every modal coordinate weighted by its energy (the
+    default, weight 1: it holds the platform attitude too; docs/exponential.md Sec. 8)."""
     d_etad = etad_c - etad_p
     err = 0.0
     if energy_weight > 0.0:
         d_eta = eta_c - eta_p
-        e_scale = max(scales[ENERGY_SCALE], energy_norm(omega2, eta_c, etad_c), 1e-300)
+        e_scale = max(energy_scale, energy_norm(omega2, eta_c, etad_c), 1e-300)
         err = energy_weight * energy_norm(omega2, d_eta, d_etad) / e_scale
     r = np.empty(N_JOINTS)
     gimbal_rates(rates, etad_c, r)
-    r_scale = max(scales[RATE_SCALE], np.abs(r).max(), 1e-300)
+    r_scale = max(rate_scale, np.abs(r).max(), 1e-300)
     gimbal_rates(rates, d_etad, r)
     return max(err, np.abs(r).max() / r_scale)
 
 
 @numba.njit(**JIT)
-def accept_scales(omega2, eta, etad, yd, scales, rate_scales):
+def accept_scales(omega2, eta, etad, yd, loop, rate_scales):
     """The error scales grow with an accepted state (eta, eta', y') (n,): the energy norm and
-    the largest gimbal rate into scales (ENERGY_SCALE, RATE_SCALE), each gimbal rate's largest
-    magnitude into rate_scales (4,) [rad/s]."""
-    scales[ENERGY_SCALE] = max(scales[ENERGY_SCALE], energy_norm(omega2, eta, etad))
-    scales[RATE_SCALE] = max(scales[RATE_SCALE], np.abs(yd[:N_JOINTS]).max())
+    the largest gimbal rate into the ``LOOP`` record loop (1,) (energy_scale, rate_scale), each
+    gimbal rate's largest magnitude into rate_scales (4,) [rad/s]."""
+    s = loop[0]
+    s.energy_scale = max(s.energy_scale, energy_norm(omega2, eta, etad))
+    s.rate_scale = max(s.rate_scale, np.abs(yd[:N_JOINTS]).max())
     for k in range(N_JOINTS):
         rate_scales[k] = max(rate_scales[k], abs(yd[k]))
 
 
-@numba.njit(**JIT)
-def phase_error(b, st, cfg, eta, etad, h, drift0, drift1):
+@numba.njit(**STAGE)
+def phase_error(b, st, rate_floor, eta, etad, h, drift0, drift1):
     """Add the phase every elastic mode gains in a step of h [s] while the gimbals drift from
     drift0 to drift1 [rad] (delta omega_i = kappa_i omega_i drift, st.phase) and return the
     error it causes: the larger of the energy norm of the state's change (``phase_shift``)
     over the solution's and of its gimbal rates, each over that rate's own scale (the phase
     error accumulates, and E weighs every rate against its own signal), floored at
-    rate_floor of the largest."""
+    rate_floor of the largest (b, st: ``Basis``, ``State``)."""
     j = N_JOINTS
     w = b.omega[j:]
     nm = w.shape[0]
@@ -509,9 +483,9 @@ def phase_error(b, st, cfg, eta, etad, h, drift0, drift1):
     d_etad = np.empty(nm)
     phase_shift(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, st.phase, eta[j:], etad[j:],
                 d_eta, d_etad)
-    e_scale = max(st.reals[ENERGY_SCALE], 1e-300)
+    e_scale = max(st.loop[0].energy_scale, 1e-300)
     energy = math.sqrt(np.dot(d_etad, d_etad) + np.dot((w * d_eta) ** 2, np.ones(nm)))
-    floor = cfg.rate_floor * max(st.reals[RATE_SCALE], 1e-300)
+    floor = rate_floor * max(st.loop[0].rate_scale, 1e-300)
     d_rates = np.empty(j)
     gimbal_rates(b.rates, d_etad, d_rates)
     rates = 0.0
@@ -523,7 +497,7 @@ def phase_error(b, st, cfg, eta, etad, h, drift0, drift1):
 # ------------------------------------------------------------ the basis as the loop uses it
 # (arrays one by one, not the named tuples: every call passes only what it reads.  With the
 # tuples passed whole, the loop took 2-3x longer to compile.)
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def to_modal(y_ref, Lg, X, Ky, omega_ref, YT, y, yd, eta, etad):
     """(eta, eta') (n,) of a physical state (y, y') (n,): phi^-1 (y - y_ref), phi^-1 y'
     (``project``'s arrays)."""
@@ -531,7 +505,7 @@ def to_modal(y_ref, Lg, X, Ky, omega_ref, YT, y, yd, eta, etad):
     project(Lg, X, Ky, omega_ref, YT, yd, etad)
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def modal_forcing(Lg, X, Ky, omega_ref, YT, omega2, Ct, eta, etad, a, g):
     """g (n,) = phi^-1 a + Lambda eta + Ct eta': the modal forcing of the accelerations a (n,)
     at the modal state (eta, eta') (``project``'s and ``add_linear_terms``' arrays)."""
@@ -583,19 +557,20 @@ def weights(keys, used, E_re, E_im, F_re, F_im, wpos, wvel, H, inv_fact, fact, z
     return c
 
 
-@numba.njit(**JIT)
-def advance_over(m, offset, eta, etad, xi, coef, out_eta, out_etad, grid, keys, used, E_re, E_im,
-                 F_re, F_im, wpos, wvel, H, inv_fact, fact, z, phis, mu, delta, P_eta, P_vel, V_eta, V_vel):
-    """The modal state after ``offset`` ticks of a step of m ticks from (eta, eta') (n,) (xi: the
-    undamped bank's (xi_re, xi_im) of it) with the forcing polynomial coef (kk, n), into
-    out_eta, out_etad (n,): the cached weights of that length (``weights``; grid = (basis
-    version, tick [s], series radius, series terms), then the ``WeightCache`` arrays), the
-    bank's advance (``advance_bank``: mu, delta, P+, V+)."""
-    version, tick, radius, terms = grid
-    c = weights(keys, used, E_re, E_im, F_re, F_im, wpos, wvel, H, inv_fact, fact, z, phis, mu, delta,
-                version, tick, radius, terms, m, offset)
-    advance_bank(mu, xi[0], xi[1], P_eta, P_vel, V_eta, V_vel, E_re[c], E_im[c], F_re[c], F_im[c],
-                 wpos[c], wvel[c], H[c], eta, etad, coef, np.ones(coef.shape[0]), out_eta, out_etad)
+@numba.njit(**STAGE)
+def advance_over(m, offset, eta, etad, xi_re, xi_im, coef, out_eta, out_etad, version, tick, radius,
+                 terms, w, bank):
+    """The modal state after ``offset`` ticks of a step of m ticks from (eta, eta') (n,) (xi_re,
+    xi_im: the undamped bank's complex coordinates of it) with the forcing polynomial coef
+    (kk, n), into out_eta, out_etad (n,): the cached weights of that length (``weights``: the
+    ``WeightCache`` w of the basis ``version``, tick [s], the series radius and terms), then
+    the bank's advance (``advance_bank``; bank = (mu, delta, P_eta, P_vel, V_eta, V_vel))."""
+    mu, delta, P_eta, P_vel, V_eta, V_vel = bank
+    c = weights(w.keys, w.used, w.E_re, w.E_im, w.F_re, w.F_im, w.wpos, w.wvel, w.H, w.inv_fact,
+                w.fact, w.z, w.phis, mu, delta, version, tick, radius, terms, m, offset)
+    advance_bank(mu, xi_re, xi_im, P_eta, P_vel, V_eta, V_vel, w.E_re[c], w.E_im[c], w.F_re[c],
+                 w.F_im[c], w.wpos[c], w.wvel[c], w.H[c], eta, etad, coef, np.ones(coef.shape[0]),
+                 out_eta, out_etad)
 
 
 # ------------------------------------------------------------ the history
@@ -639,7 +614,7 @@ def all_finite(x):
     return True
 
 
-@numba.njit(**JIT)
+@numba.njit(**STAGE)
 def accepted_joints(y_ref, rates, eta, etad, node_y, node_yd, predicted_node):
     """(2, 4): the accepted state's joint angles [rad] and rates [rad/s]: the newest node's
     (node_y, node_yd (n,)) when it is the accepted state (PECE), else from the modal state
@@ -656,336 +631,408 @@ def accepted_joints(y_ref, rates, eta, etad, node_y, node_yd, predicted_node):
     return out
 
 
-# ------------------------------------------------------------ the loop
-@numba.njit(**JIT)
-def history_nodes(hist, q, t, h, lead):
+# ------------------------------------------------------------ the stages of a step
+# Each stage reads and writes the containers (named tuples of arrays, the LOOP and SETTINGS
+# records), returns a request to Python, DONE or CONTINUE, and sets Loop.stage to the next.
+# The helpers they call take arrays one by one: every call passes only what it reads.
+@numba.njit(**STAGE)
+def history_nodes(hist_t, q, t, h, lead):
     """(lead + q,) nodes in units of the step h from t: lead free places (the corrector's
-    1, the midpoint fit's 1 and 1/2), then (t_k - t) / h of the q newest history nodes."""
+    1, the midpoint fit's 1 and 1/2), then (t_k - t) / h of the q newest history nodes
+    (hist_t: ``History.t``)."""
     nodes = np.empty(lead + q)
     for k in range(q):
-        nodes[lead + k] = (hist.t[k] - t) / h
+        nodes[lead + k] = (hist_t[k] - t) / h
     return nodes
 
 
-@numba.njit(**JIT)
-def pece_run(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J, b_Lg, b_rates,
-             b_mu, b_delta, b_P_eta, b_P_vel, b_V_eta, b_V_vel, b_Ct, b_version, w_keys, w_E_re,
-             w_E_im, w_F_re, w_F_im, w_wpos, w_wvel, w_H, w_used, w_inv_fact, w_fact, w_z, w_phis,
-             cfg_tol, cfg_tick, cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise,
-             cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift, cfg_phase_bound,
-             cfg_update_drift, cfg_update_min_modes, cfg_max_rejections, cfg_grow_safety,
-             cfg_rate_floor, cfg_series_radius, cfg_series_terms, cfg_watch,
-             cfg_error_energy_weight, cfg_evaluate_accepted, st_ints, st_reals, st_rate_scales, st_phase, st_kappa,
-             st_phase_ref, hist_t, hist_y, hist_yd, hist_a,
-             hist_g, hist_length, ev_t, ev_y, ev_yd, ev_a, out_eta, out_etad, out_segment,
-             work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
-             work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im,
-             work_omega2_old):
-    """The exponential Adams PEC / PECE loop from where it stopped (st.ints[STAGE]) to the next
-    request or to the end (module docstring); returns DONE or the request.
+@numba.njit(**STAGE)
+def bank_of(b):
+    """The oscillator bank's arrays of a ``Basis`` as ``advance_over`` takes them."""
+    return (b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel)
 
-    Arguments: the fields of the eight containers in order,
-    ``pece_run(*b, *w, *cfg, *st, *hist, *ev, *out, *work)``.
-    The containers are built here: handing Numba's dispatcher named tuples of many arrays
-    costs ~0.3 ms per call (``gimbal_reduction.solver.dynamics.compiled``), the arrays one by one a few us; and
-    the loop is this function's body, not a second function, because LLVM's optimisation of
-    the one inlined into the other took ~90 s more to compile.
 
-    The algorithm is ``docs/exponential.md`` Sections 5-6, stage by stage:
+@numba.njit(**STAGE)
+def advance_step(b, w, c, work, m, offset, coef, out_eta, out_etad):
+    """``advance_over`` from the step's start (work.eta, work.etad) with the basis b, the
+    weight cache w and the settings record c."""
+    advance_over(m, offset, work.eta, work.etad, work.xi_re, work.xi_im, coef, out_eta, out_etad,
+                 b.version[0], c.tick, c.series_radius, c.series_terms, w, bank_of(b))
 
-    * STEP, predict: p through g at the last q = min(order, nodes) history nodes, the state
-      advanced over h = m tick; g at the predicted state;
-    * PREDICTED, correct: p through the predicted g at t + h and the same nodes, the local
-      error of corrector - predictor; the first step (one node) adds a midpoint evaluation
-      (MIDPOINT) and the quadratic fit, its estimate quadratic - linear;
-    * DECIDE: accepted when the error is <= tol (ACCEPTED; with g at the accepted state
-      under PECE, the predicted state's under PEC: cfg.evaluate_accepted); a
-      rejection halves m and, after max_rejections in an aged basis, asks for a new basis
-      (RETRY);
-    * ACCEPTED: the outputs at the output ticks inside the step by the exact formula (dense),
-      the node joins the history, the gimbal drift; PHASE: the first basis's frequency
-      probe once it has drifted probe_drift; PHASE_ERROR: the phase error, new frequencies
-      (UPDATED) or a new basis (REBASED) when due;
-    * GROW: the step doubles after two accepted steps (one before the run's first rejection,
-      ``RAMP_UNTIL_REJECTION``) when err 2^(q+1) <= grow_safety tol on a tick that is a
-      multiple of 2 m; the last step takes the rest in whole output intervals
-      (``LAST_STEP_REST``)."""
-    b = Basis(b_y_ref, b_X, b_YT, b_Ky, b_omega_ref, b_omega, b_omega2, b_Lt, b_J, b_Lg, b_rates,
-              b_mu, b_delta, b_P_eta, b_P_vel, b_V_eta, b_V_vel, b_Ct, b_version)
-    w = WeightCache(w_keys, w_E_re, w_E_im, w_F_re, w_F_im, w_wpos, w_wvel, w_H, w_used,
-                    w_inv_fact, w_fact, w_z, w_phis)
-    cfg = Settings(cfg_tol, cfg_tick, cfg_ticks_per_output, cfg_i_end, cfg_order, cfg_relinearise,
-                   cfg_every_ticks, cfg_drift, cfg_frozen_validity, cfg_probe_drift,
-                   cfg_phase_bound, cfg_update_drift, cfg_update_min_modes, cfg_max_rejections,
-                   cfg_grow_safety, cfg_rate_floor, cfg_series_radius, cfg_series_terms,
-                   cfg_watch, cfg_error_energy_weight, cfg_evaluate_accepted)
-    st = State(st_ints, st_reals, st_rate_scales, st_phase, st_kappa, st_phase_ref)
-    hist = History(hist_t, hist_y, hist_yd, hist_a, hist_g, hist_length)
-    ev = Evaluation(ev_t, ev_y, ev_yd, ev_a)
-    out = Outputs(out_eta, out_etad, out_segment)
-    work = Work(work_eta, work_etad, work_eta_p, work_etad_p, work_eta_c, work_etad_c, work_eta_q,
-                work_etad_q, work_g_p, work_g_m, work_g_1, work_coef, work_xi_re, work_xi_im,
-                work_omega2_old)
-    j = N_JOINTS
+
+@numba.njit(**STAGE)
+def physical_request(b, eta, etad, ev, t):
+    """The physical form of a modal state (eta, eta') (n,) at t [s] into ev (a request's
+    state)."""
+    to_physical(b.y_ref, b.Lt, b.J, b.X, eta, etad, ev.y, ev.yd)
+    ev.t[0] = t
+
+
+@numba.njit(**STAGE)
+def forcing_of(b, eta, etad, a, g):
+    """``modal_forcing`` in the basis b: g (n,) of the accelerations a at (eta, eta')."""
+    modal_forcing(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, eta, etad, a, g)
+
+
+@numba.njit(**STAGE)
+def predict(b, w, cfg, st, hist, ev, work):
+    """STEP: the step m (the rest of the run in whole output intervals if that is shorter,
+    halved to fit), the predictor p through g at the last q = min(order, nodes) history nodes,
+    the state advanced over h = m tick; asks for g at the predicted state."""
+    c, s = cfg[0], st.loop[0]
+    i, m = s.tick, s.step_ticks
+    if i >= c.i_end:
+        return DONE
+    if m > c.i_end - i and i % c.ticks_per_output == 0 and not c.tol <= 0.0:
+        m = c.i_end - i                     # the last step: the rest (output intervals)
+    while m > c.i_end - i:
+        m //= 2
+    s.step_ticks = m
+    h = m * c.tick
+    t = i * c.tick
+    q = min(c.order, hist.length[0])
+    s.nodes = q
+    if b.P_eta.shape[0] == 0:
+        modal_xi(work.eta, work.etad, b.mu, b.delta, work.xi_re, work.xi_im)  # for every advance
+    cP = poly_coefficients(history_nodes(hist.t, q, t, h, 0), hist.g[:q])
+    advance_step(b, w, c, work, m, m, cP, work.eta_p, work.etad_p)
+    physical_request(b, work.eta_p, work.etad_p, ev, t + h)
+    s.evaluations += 1
+    s.stage = PREDICTED
+    return NEED_RHS
+
+
+@numba.njit(**STAGE)
+def correct(b, w, cfg, st, hist, ev, work):
+    """PREDICTED: the corrector p through the predicted g at t + h and the same nodes, the
+    local error of corrector - predictor.  The first step has one node: its predictor holds
+    g(0), so from rest under a forcing that starts at zero (scene smooth) the predictor is
+    exactly the rest state and the estimate is 100 % at every step size.  Instead: one more
+    evaluation at the midpoint (MIDPOINT), the quadratic through g(0), g(h/2), g(h), and the
+    difference quadratic - linear as the estimate (the higher order is kept)."""
+    c, s = cfg[0], st.loop[0]
+    i, m, q = s.tick, s.step_ticks, s.nodes
+    h = m * c.tick
+    t = i * c.tick
     n = work.eta.shape[0]
-    nm = n - j
-    fixed = cfg.tol <= 0.0
-    tpo = cfg.ticks_per_output
-    tick = cfg.tick
-    ints, reals = st.ints, st.reals
-    eta, etad = work.eta, work.etad
-    eta_p, etad_p, eta_c, etad_c = work.eta_p, work.etad_p, work.eta_c, work.etad_c
-    eta_q, etad_q = work.eta_q, work.etad_q
-    # the arrays the helpers take, grouped and star-unpacked into the calls: the helpers take
-    # arrays one by one, not the containers (passing the containers whole made this function
-    # take 2-3x longer to compile: every call passes every field)
-    physical_map = (b.y_ref, b.Lt, b.J, b.X)                # to_physical
-    projection = (b.Lg, b.X, b.Ky, b.omega_ref, b.YT)       # project
-    linear = (b.omega2, b.Ct)                               # add_linear_terms
-    bank = (b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel)
-    cache = (w.keys, w.used, w.E_re, w.E_im, w.F_re, w.F_im, w.wpos, w.wvel, w.H, w.inv_fact, w.fact, w.z,
-             w.phis)
-    xi = (work.xi_re, work.xi_im)
-    grid = (b.version[0], tick, cfg.series_radius, cfg.series_terms)
-    finite = True
+    forcing_of(b, work.eta_p, work.etad_p, ev.a, work.g_p)
+    nodes = history_nodes(hist.t, q, t, h, 1)
+    nodes[0] = 1.0
+    values = np.empty((q + 1, n))
+    values[0] = work.g_p
+    values[1:] = hist.g[:q]
+    work.coef[:q + 1] = poly_coefficients(nodes, values)
+    s.coef_rows = q + 1
+    advance_step(b, w, c, work, m, m, work.coef[:q + 1], work.eta_c, work.etad_c)
+    finite = all_finite(work.g_p) and all_finite(work.eta_c) and all_finite(work.etad_c)
+    s.error = local_error(b.omega2, b.rates, s.energy_scale, s.rate_scale, work.eta_c, work.etad_c,
+                          work.eta_p, work.etad_p, c.error_energy_weight) if finite else np.inf
+    s.finite = finite
+    s.stage = DECIDE
+    if finite and not c.tol <= 0.0 and q == 1 and m >= 2:
+        advance_step(b, w, c, work, m, m // 2, work.coef[:q + 1], work.eta_q, work.etad_q)
+        physical_request(b, work.eta_q, work.etad_q, ev, t + 0.5 * h)
+        s.evaluations += 1
+        s.stage = MIDPOINT
+        return NEED_RHS
+    return CONTINUE
+
+
+@numba.njit(**STAGE)
+def midpoint(b, w, cfg, st, hist, ev, work):
+    """MIDPOINT: the first step's quadratic fit through g(h), g(h/2) and g(0); its state is
+    the corrected one, its difference to the linear fit's the error estimate."""
+    c, s = cfg[0], st.loop[0]
+    i, m, q = s.tick, s.step_ticks, s.nodes
+    h = m * c.tick
+    t = i * c.tick
+    n = work.eta.shape[0]
+    forcing_of(b, work.eta_q, work.etad_q, ev.a, work.g_m)
+    nodes = history_nodes(hist.t, q, t, h, 2)
+    nodes[0], nodes[1] = 1.0, 0.5
+    values = np.empty((q + 2, n))
+    values[0] = work.g_p
+    values[1] = work.g_m
+    values[2:] = hist.g[:q]
+    work.coef[:q + 2] = poly_coefficients(nodes, values)
+    s.coef_rows = q + 2
+    advance_step(b, w, c, work, m, m, work.coef[:q + 2], work.eta_q, work.etad_q)
+    finite = all_finite(work.eta_q) and all_finite(work.etad_q)
+    s.error = local_error(b.omega2, b.rates, s.energy_scale, s.rate_scale, work.eta_q, work.etad_q,
+                          work.eta_c, work.etad_c, c.error_energy_weight) if finite else np.inf
+    s.finite = finite
+    work.eta_c[:] = work.eta_q
+    work.etad_c[:] = work.etad_q
+    s.stage = DECIDE
+    return CONTINUE
+
+
+@numba.njit(**STAGE)
+def decide(b, cfg, st, ev, work):
+    """DECIDE: accepted when the error is <= tol (ACCEPTED; with g at the accepted state under
+    PECE, the predicted state's under PEC: cfg evaluate_accepted); a rejection halves m and,
+    after max_rejections in an aged basis, asks for a new basis (RETRY)."""
+    c, s = cfg[0], st.loop[0]
+    i, m, q = s.tick, s.step_ticks, s.nodes
+    h = m * c.tick
+    t = i * c.tick
+    err = s.error
+    if not c.tol <= 0.0 and not err <= c.tol:
+        s.rejected += 1
+        s.rejections_in_basis += 1
+        if c.relinearise and i > s.basis_tick and s.rejections_in_basis > c.max_rejections:
+            # a new basis at the last accepted state; the step is retried in it
+            physical_request(b, work.eta, work.etad, ev, t)
+            s.stage = RETRY
+            return NEED_BASIS
+        if m == 1:
+            s.failure = FAIL_STEP_TOO_SMALL
+            s.event_time, s.event_step, s.event_value = t, h, err
+            return FAILED
+        s.step_ticks = m // 2
+        s.since_change = 0
+        s.stage = STEP
+        return CONTINUE
+    if not s.finite:
+        s.failure = FAIL_NON_FINITE_STATE
+        s.event_time = t + h
+        return FAILED
+    s.stage = ACCEPTED
+    if not c.evaluate_accepted and s.coef_rows == q + 1:
+        # PEC: the node at t + h keeps g, y, y', a of the predicted state (ev still holds
+        # them; not after the first step's midpoint, which overwrote ev).  The final evaluation
+        # at the corrected state would change g by dg/dy (y_c - y_p), the corrector's own
+        # O(h^(q+1)) difference: the same order, one evaluation and two passes through X fewer
+        # per step (docs/exponential.md Section 5)
+        work.g_1[:] = work.g_p
+        s.predicted_node = 1
+        return CONTINUE
+    physical_request(b, work.eta_c, work.etad_c, ev, t + h)
+    s.evaluations += 1
+    s.predicted_node = 0
+    return NEED_RHS
+
+
+@numba.njit(**STAGE)
+def dense_outputs(b, w, c, s, out, work, coef, first, last):
+    """The outputs first..last (indices) inside or at the end of the accepted step (Loop s,
+    settings c) by the exact formula: the undamped bank's from a step start on an output tick
+    by the particular polynomial + free oscillation, one set of weights (one output interval)
+    for all outputs before t + h (``kernels.exponential.dense_diagonal``), the others one
+    advance each (the end of the step: the corrected state).  Returns the first output of the
+    second kind (what the OUTPUTS request reports from)."""
+    i, m = s.tick, s.step_ticks
+    tpo = c.ticks_per_output
+    inside = last - first + 1 if (i + m) % tpo else last - first     # outputs before t + h
+    if b.P_eta.shape[0] == 0 and i % tpo == 0 and inside >= 1:
+        k = weights(w.keys, w.used, w.E_re, w.E_im, w.F_re, w.F_im, w.wpos, w.wvel, w.H, w.inv_fact,
+                    w.fact, w.z, w.phis, b.mu, b.delta, b.version[0], c.tick, c.series_radius,
+                    c.series_terms, tpo, tpo)
+        dense_diagonal(work.eta, work.etad, work.xi_re, work.xi_im, coef, b.mu, b.delta, m * c.tick,
+                       tpo * c.tick, inside, w.E_re[k], w.E_im[k], c.series_radius, c.series_terms,
+                       w.inv_fact, w.fact, out.eta[first:first + inside], out.etad[first:first + inside])
+        for k in range(first, first + inside):
+            out.segment[k] = s.segment
+        first += inside
+    for k in range(first, last + 1):
+        offset = k * tpo - i
+        if offset < m:
+            advance_step(b, w, c, work, m, offset, coef, out.eta[k], out.etad[k])
+        else:
+            out.eta[k] = work.eta_c
+            out.etad[k] = work.etad_c
+        out.segment[k] = s.segment
+    return first
+
+
+@numba.njit(**STAGE)
+def accept(b, w, cfg, st, hist, ev, out, work):
+    """ACCEPTED: the outputs inside the step (``dense_outputs``), the node joins the history,
+    the accepted state becomes the step's start, the error scales and counters grow, the
+    gimbal drift from the basis and from the phase's angles; OUTPUTS if watched."""
+    c, s = cfg[0], st.loop[0]
+    i, m = s.tick, s.step_ticks
+    h = m * c.tick
+    t = i * c.tick
+    tpo = c.ticks_per_output
+    if not s.predicted_node:
+        forcing_of(b, work.eta_c, work.etad_c, ev.a, work.g_1)
+    if not all_finite(work.g_1):
+        s.failure = FAIL_NON_FINITE_RHS
+        s.event_time = t + h
+        return FAILED
+    first = i // tpo + 1
+    last = (i + m) // tpo
+    first = dense_outputs(b, w, c, s, out, work, work.coef[:s.coef_rows], first, last)
+    push_history(hist.t, hist.y, hist.yd, hist.a, hist.g, hist.length, c.order, t + h,
+                 ev.y, ev.yd, ev.a, work.g_1)
+    work.eta[:] = work.eta_c
+    work.etad[:] = work.etad_c
+    joints = accepted_joints(b.y_ref, b.rates, work.eta, work.etad, hist.y[0], hist.yd[0],
+                             s.predicted_node)
+    accept_scales(b.omega2, work.eta, work.etad, joints[1], st.loop, st.rate_scales)
+    s.steps += 1
+    s.smallest_step = min(s.smallest_step, h)
+    s.largest_step = max(s.largest_step, h)
+    s.tick = i + m
+    s.since_change += 1
+    drift = 0.0
+    phase_drift = 0.0
+    for k in range(N_JOINTS):
+        drift = max(drift, abs(joints[0, k] - b.y_ref[k]))
+        phase_drift = max(phase_drift, abs(joints[0, k] - st.phase_ref[k]))
+    s.drift, s.phase_drift = drift, phase_drift
+    s.stage = PHASE
+    if c.watch and last >= first:
+        s.out_first, s.out_last = first, last
+        s.event_step = h
+        return OUTPUTS
+    return CONTINUE
+
+
+@numba.njit(**STAGE)
+def probe(b, cfg, st, hist, ev, work):
+    """PHASE (s.tick is the accepted tick from here on: t + h): the first basis's frequency
+    probe once it has drifted probe_drift; the accepted state in ev, as for NEED_BASIS (under
+    PECE the newest node's y, y' to the bit: the same transform of the same eta; under PEC that
+    node is the predicted state)."""
+    c, s = cfg[0], st.loop[0]
+    s.stage = PHASE_ERROR
+    if not c.tol <= 0.0 and c.relinearise and work.eta.shape[0] > N_JOINTS and not s.probed \
+            and s.drift >= c.probe_drift:
+        physical_request(b, work.eta, work.etad, ev, hist.t[0])
+        s.event_value = s.drift
+        return NEED_PROBE
+    return CONTINUE
+
+
+@numba.njit(**STAGE)
+def check_phase(b, cfg, st, hist, ev, work):
+    """PHASE_ERROR: the frozen frequencies' phase error of the step (``phase_error``) and what
+    is due: new frequencies of the same shapes (UPDATED) or a new basis (REBASED) beyond the
+    drift or the phase bound (fixed steps: every every_ticks), or the failure of a frozen basis
+    beyond its validity; else GROW."""
+    c, s = cfg[0], st.loop[0]
+    i, m = s.tick, s.step_ticks
+    h = m * c.tick
+    fixed = c.tol <= 0.0
+    nm = work.eta.shape[0] - N_JOINTS
+    drift = s.drift
+    phase_err = 0.0
+    if not fixed and c.relinearise and nm > 0:
+        phase_err = phase_error(b, st, c.rate_floor, work.eta, work.etad, h, s.drift_previous,
+                                s.phase_drift)
+    s.drift_previous = s.phase_drift
+    s.stage = GROW
+    if i < c.i_end:
+        if fixed:
+            due = c.every_ticks > 0 and i - s.basis_tick >= c.every_ticks
+        else:
+            due = c.relinearise and (drift > c.drift or phase_err > c.phase_bound)
+            if due and drift <= c.drift:
+                if (drift <= c.update_drift * c.drift and b.P_eta.shape[0] == 0
+                        and nm >= c.update_min_modes):
+                    physical_request(b, work.eta, work.etad, ev, hist.t[0])
+                    work.omega2_old[:] = b.omega2
+                    s.stage = UPDATED
+                    return NEED_FREQUENCIES
+                s.phase_relinearisations += 1
+        if due:
+            physical_request(b, work.eta, work.etad, ev, hist.t[0])
+            s.stage = REBASED
+            return NEED_BASIS
+        if drift > c.frozen_validity and (not c.relinearise or fixed):
+            s.failure = FAIL_FROZEN_DRIFT
+            s.event_time, s.event_value = hist.t[0], drift
+            return FAILED
+    return CONTINUE
+
+
+@numba.njit(**STAGE)
+def carry_frequencies(b, st, hist, work):
+    """UPDATED: new frequencies of the same shapes (undamped bank): X, y_ref and the projection
+    are kept, so g = phi^-1 a + Lambda eta of each node moves by (Lambda_new - Lambda_old)
+    eta_k, eta_k from one projection (carry_history's three projections per node give the
+    same to rounding)."""
+    s = st.loop[0]
+    d_lambda = b.omega2 - work.omega2_old
+    eta_k = np.empty(work.eta.shape[0])
+    for k in range(hist.length[0]):
+        project(b.Lg, b.X, b.Ky, b.omega_ref, b.YT, hist.y[k] - b.y_ref, eta_k)
+        hist.g[k] += d_lambda * eta_k
+    s.drift_previous = 0.0
+    s.stage = GROW
+    return CONTINUE
+
+
+@numba.njit(**STAGE)
+def rebase(b, st, hist, ev, work):
+    """REBASED, RETRY: a new basis is there: the history's g in it, the accepted state (eta,
+    eta') in it from its physical form that ``physical_request`` wrote into ev before
+    NEED_BASIS (not the newest node: under PEC that is the predicted state); then GROW, or the
+    step again (RETRY)."""
+    s = st.loop[0]
+    carry_history(b.y_ref, b.Lg, b.X, b.Ky, b.omega_ref, b.YT, b.omega2, b.Ct, hist.y, hist.yd,
+                  hist.a, hist.g, hist.length[0])
+    s.segment += 1
+    s.rejections_in_basis = 0
+    to_modal(b.y_ref, b.Lg, b.X, b.Ky, b.omega_ref, b.YT, ev.y, ev.yd, work.eta, work.etad)
+    s.basis_tick = s.tick
+    s.drift_previous = 0.0
+    s.stage = GROW if s.stage == REBASED else STEP
+    return CONTINUE
+
+
+@numba.njit(**STAGE)
+def grow(cfg, st):
+    """GROW: the step doubles (dyadic, aligned: on a tick that is a multiple of 2 m) after two
+    accepted steps at its size, one before the run's first rejection, when err 2^(q+1) <=
+    grow_safety tol; then the next STEP."""
+    c, s = cfg[0], st.loop[0]
+    m = s.step_ticks
+    wait = 1 if s.rejected == 0 else 2
+    if not c.tol <= 0.0 and s.since_change >= wait and s.tick % (2 * m) == 0 \
+            and s.error * 2.0 ** (s.nodes + 1) <= c.grow_safety * c.tol:
+        s.step_ticks = 2 * m
+        s.since_change = 0
+    s.stage = STEP
+    return CONTINUE
+
+
+# ------------------------------------------------------------ the loop
+@numba.njit(**JIT)
+def pece_run(b, w, cfg, st, hist, ev, out, work):
+    """The exponential Adams PEC / PECE loop from where it stopped (st.loop stage) to the next
+    request or to the end (module docstring); returns DONE or the request.  b ``Basis``, w
+    ``WeightCache``, cfg (1,) ``SETTINGS``, st ``State``, hist ``History``, ev ``Evaluation``,
+    out ``Outputs``, work ``Work``.
+
+    The algorithm is ``docs/exponential.md`` Sections 5-6, one function per stage: ``predict``
+    (STEP), ``correct`` (PREDICTED), ``midpoint`` (MIDPOINT), ``decide`` (DECIDE), ``accept``
+    (ACCEPTED), ``probe`` (PHASE), ``check_phase`` (PHASE_ERROR), ``carry_frequencies``
+    (UPDATED), ``rebase`` (REBASED, RETRY), ``grow`` (GROW)."""
+    loop = st.loop
     while True:
-        stage = ints[STAGE]
-        i = ints[TICK]
-        m = ints[STEP_TICKS]
-        q = ints[NODES]
-        h = m * tick
-        t = i * tick
+        stage = loop[0].stage
         if stage == STEP:
-            if i >= cfg.i_end:
-                return DONE
-            if LAST_STEP_REST and m > cfg.i_end - i and i % tpo == 0 and not fixed:
-                m = cfg.i_end - i                   # the last step: the rest (output intervals)
-            while m > cfg.i_end - i:
-                m //= 2
-            ints[STEP_TICKS] = m
-            h = m * tick
-            q = min(cfg.order, hist.length[0])
-            ints[NODES] = q
-            if b.P_eta.shape[0] == 0:
-                modal_xi(eta, etad, b.mu, b.delta, work.xi_re, work.xi_im)    # for every advance below
-            cP = poly_coefficients(history_nodes(hist, q, t, h, 0), hist.g[:q])
-            advance_over(m, m, eta, etad, xi, cP, eta_p, etad_p, grid, *cache, *bank)
-            to_physical(*physical_map, eta_p, etad_p, ev.y, ev.yd)
-            ev.t[0] = t + h
-            ints[EVALUATIONS] += 1
-            ints[STAGE] = PREDICTED
-            return NEED_RHS
+            r = predict(b, w, cfg, st, hist, ev, work)
         elif stage == PREDICTED:
-            modal_forcing(*projection, *linear, eta_p, etad_p, ev.a, work.g_p)
-            nodes = history_nodes(hist, q, t, h, 1)
-            nodes[0] = 1.0
-            values = np.empty((q + 1, n))
-            values[0] = work.g_p
-            values[1:] = hist.g[:q]
-            work.coef[:q + 1] = poly_coefficients(nodes, values)
-            ints[COEF_ROWS] = q + 1
-            advance_over(m, m, eta, etad, xi, work.coef[:q + 1], eta_c, etad_c, grid, *cache, *bank)
-            finite = all_finite(work.g_p) and all_finite(eta_c) and all_finite(etad_c)
-            reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_c, etad_c, eta_p, etad_p,
-                                       cfg.error_energy_weight) \
-                if finite else np.inf
-            ints[STAGE] = DECIDE
-            if finite and not fixed and q == 1 and m >= 2:
-                # The first step has one node: its predictor holds g(0), so from rest under a
-                # forcing that starts at zero (scene smooth) the predictor is exactly the rest
-                # state and the estimate is 100 % at every step size.  Instead: one more
-                # evaluation at the midpoint, the quadratic through g(0), g(h/2), g(h), and the
-                # difference quadratic - linear as the estimate (the higher order is kept).
-                advance_over(m, m // 2, eta, etad, xi, work.coef[:q + 1], eta_q, etad_q, grid, *cache,
-                             *bank)
-                to_physical(*physical_map, eta_q, etad_q, ev.y, ev.yd)
-                ev.t[0] = t + 0.5 * h
-                ints[EVALUATIONS] += 1
-                ints[STAGE] = MIDPOINT
-                return NEED_RHS
+            r = correct(b, w, cfg, st, hist, ev, work)
         elif stage == MIDPOINT:
-            modal_forcing(*projection, *linear, eta_q, etad_q, ev.a, work.g_m)
-            nodes = history_nodes(hist, q, t, h, 2)
-            nodes[0], nodes[1] = 1.0, 0.5
-            values = np.empty((q + 2, n))
-            values[0] = work.g_p
-            values[1] = work.g_m
-            values[2:] = hist.g[:q]
-            work.coef[:q + 2] = poly_coefficients(nodes, values)
-            ints[COEF_ROWS] = q + 2
-            advance_over(m, m, eta, etad, xi, work.coef[:q + 2], eta_q, etad_q, grid, *cache, *bank)
-            finite = all_finite(eta_q) and all_finite(etad_q)
-            reals[ERROR] = local_error(b.omega2, b.rates, reals, eta_q, etad_q, eta_c, etad_c,
-                                       cfg.error_energy_weight) \
-                if finite else np.inf
-            eta_c[:] = eta_q
-            etad_c[:] = etad_q
-            ints[STAGE] = DECIDE
+            r = midpoint(b, w, cfg, st, hist, ev, work)
         elif stage == DECIDE:
-            err = reals[ERROR]
-            if not fixed and not err <= cfg.tol:
-                ints[REJECTED] += 1
-                ints[REJECTIONS_IN_BASIS] += 1
-                if cfg.relinearise and i > ints[BASIS_TICK] \
-                        and ints[REJECTIONS_IN_BASIS] > cfg.max_rejections:
-                    # a new basis at the last accepted state; the step is retried in it
-                    to_physical(*physical_map, eta, etad, ev.y, ev.yd)
-                    ev.t[0] = t
-                    ints[STAGE] = RETRY
-                    return NEED_BASIS
-                if m == 1:
-                    ints[FAILURE] = FAIL_STEP_TOO_SMALL
-                    reals[EVENT_TIME], reals[EVENT_STEP], reals[EVENT_VALUE] = t, h, err
-                    return FAILED
-                ints[STEP_TICKS] = m // 2
-                ints[SINCE_CHANGE] = 0
-                ints[STAGE] = STEP
-                continue
-            if not finite:
-                ints[FAILURE] = FAIL_NON_FINITE_STATE
-                reals[EVENT_TIME] = t + h
-                return FAILED
-            ints[STAGE] = ACCEPTED
-            if not cfg.evaluate_accepted and ints[COEF_ROWS] == q + 1:
-                # PEC: the node at t + h keeps g, y, y', a of the predicted state (ev still
-                # holds them; not after the first step's midpoint, which overwrote ev).  The
-                # final evaluation at the corrected state would change g by dg/dy (y_c - y_p),
-                # the corrector's own O(h^(q+1)) difference: the same order, one evaluation
-                # and two passes through X fewer per step (docs/exponential.md Section 5)
-                work.g_1[:] = work.g_p
-                ints[PREDICTED_NODE] = 1
-                continue
-            to_physical(*physical_map, eta_c, etad_c, ev.y, ev.yd)
-            ev.t[0] = t + h
-            ints[EVALUATIONS] += 1
-            ints[PREDICTED_NODE] = 0
-            return NEED_RHS
+            r = decide(b, cfg, st, ev, work)
         elif stage == ACCEPTED:
-            if not ints[PREDICTED_NODE]:
-                modal_forcing(*projection, *linear, eta_c, etad_c, ev.a, work.g_1)
-            if not all_finite(work.g_1):
-                ints[FAILURE] = FAIL_NON_FINITE_RHS
-                reals[EVENT_TIME] = t + h
-                return FAILED
-            coef = work.coef[:ints[COEF_ROWS]]
-            first = i // tpo + 1
-            last = (i + m) // tpo
-            inside = last - first + 1 if (i + m) % tpo else last - first   # outputs before t + h
-            if DENSE_POLYNOMIAL and b.P_eta.shape[0] == 0 and i % tpo == 0 and inside >= 1:
-                # the undamped bank: particular polynomial + free oscillation, one set of weights
-                # (one output interval) for all outputs (kernels.exponential.dense_diagonal)
-                c = weights(*cache, *bank[:2], grid[0], tick, grid[2], grid[3], tpo, tpo)
-                dense_diagonal(eta, etad, work.xi_re, work.xi_im, coef, b.mu, b.delta, h, tpo * tick,
-                               inside, w.E_re[c], w.E_im[c], cfg.series_radius, cfg.series_terms,
-                               w.inv_fact, w.fact, out.eta[first:first + inside],
-                               out.etad[first:first + inside])
-                for k in range(first, first + inside):
-                    out.segment[k] = ints[SEGMENT]
-                first += inside
-            for k in range(first, last + 1):
-                offset = k * tpo - i
-                if offset < m:
-                    advance_over(m, offset, eta, etad, xi, coef, out.eta[k], out.etad[k], grid, *cache,
-                                 *bank)
-                else:
-                    out.eta[k] = eta_c
-                    out.etad[k] = etad_c
-                out.segment[k] = ints[SEGMENT]
-            push_history(hist.t, hist.y, hist.yd, hist.a, hist.g, hist.length, cfg.order, t + h,
-                         ev.y, ev.yd, ev.a, work.g_1)
-            eta[:] = eta_c
-            etad[:] = etad_c
-            joints = accepted_joints(b.y_ref, b.rates, eta, etad, hist.y[0], hist.yd[0],
-                                     ints[PREDICTED_NODE])
-            accept_scales(b.omega2, eta, etad, joints[1], reals, st.rate_scales)
-            ints[STEPS] += 1
-            reals[SMALLEST_STEP] = min(reals[SMALLEST_STEP], h)
-            reals[LARGEST_STEP] = max(reals[LARGEST_STEP], h)
-            ints[TICK] = i + m
-            ints[SINCE_CHANGE] += 1
-            drift = 0.0
-            phase_drift = 0.0
-            for k in range(j):
-                drift = max(drift, abs(joints[0, k] - b.y_ref[k]))
-                phase_drift = max(phase_drift, abs(joints[0, k] - st.phase_ref[k]))
-            reals[DRIFT], reals[PHASE_DRIFT] = drift, phase_drift
-            ints[STAGE] = PHASE
-            if cfg.watch and last >= first:
-                ints[OUT_FIRST], ints[OUT_LAST] = first, last
-                reals[EVENT_STEP] = h
-                return OUTPUTS
-        elif stage == PHASE:                # i is the accepted tick from here on: t + h = i tick
-            ints[STAGE] = PHASE_ERROR
-            if not fixed and cfg.relinearise and nm > 0 and not ints[PROBED] \
-                    and reals[DRIFT] >= cfg.probe_drift:
-                # the accepted state in ev, as for NEED_BASIS (under PECE the newest node's
-                # y, y' to the bit: the same transform of the same eta; under PEC that node is
-                # the predicted state)
-                to_physical(*physical_map, eta, etad, ev.y, ev.yd)
-                ev.t[0] = hist.t[0]
-                reals[EVENT_VALUE] = reals[DRIFT]
-                return NEED_PROBE
+            r = accept(b, w, cfg, st, hist, ev, out, work)
+        elif stage == PHASE:
+            r = probe(b, cfg, st, hist, ev, work)
         elif stage == PHASE_ERROR:
-            drift = reals[DRIFT]
-            phase_err = 0.0
-            if not fixed and cfg.relinearise and nm > 0:
-                phase_err = phase_error(b, st, cfg, eta, etad, h,
-                                        reals[DRIFT_PREVIOUS], reals[PHASE_DRIFT])
-            reals[DRIFT_PREVIOUS] = reals[PHASE_DRIFT]
-            ints[STAGE] = GROW
-            if i < cfg.i_end:
-                if fixed:
-                    due = cfg.every_ticks > 0 and i - ints[BASIS_TICK] >= cfg.every_ticks
-                else:
-                    due = cfg.relinearise and (drift > cfg.drift
-                                               or phase_err > cfg.phase_bound)
-                    if due and drift <= cfg.drift:
-                        if (drift <= cfg.update_drift * cfg.drift and b.P_eta.shape[0] == 0
-                                and nm >= cfg.update_min_modes):
-                            to_physical(*physical_map, eta, etad, ev.y, ev.yd)
-                            ev.t[0] = hist.t[0]
-                            work.omega2_old[:] = b.omega2
-                            ints[STAGE] = UPDATED
-                            return NEED_FREQUENCIES
-                        ints[PHASE_RELINEARISATIONS] += 1
-                if due:
-                    to_physical(*physical_map, eta, etad, ev.y, ev.yd)
-                    ev.t[0] = hist.t[0]
-                    ints[STAGE] = REBASED
-                    return NEED_BASIS
-                if drift > cfg.frozen_validity and (not cfg.relinearise or fixed):
-                    ints[FAILURE] = FAIL_FROZEN_DRIFT
-                    reals[EVENT_TIME], reals[EVENT_VALUE] = hist.t[0], drift
-                    return FAILED
+            r = check_phase(b, cfg, st, hist, ev, work)
         elif stage == UPDATED:
-            # new frequencies of the same shapes (undamped bank): X, y_ref and the projection
-            # are kept, so g = phi^-1 a + Lambda eta of each node moves by (Lambda_new -
-            # Lambda_old) eta_k, eta_k from one projection (carry_history's three projections
-            # per node give the same to rounding)
-            d_lambda = b.omega2 - work.omega2_old
-            eta_k = np.empty(n)
-            for k in range(hist.length[0]):
-                project(*projection, hist.y[k] - b.y_ref, eta_k)
-                hist.g[k] += d_lambda * eta_k
-            reals[DRIFT_PREVIOUS] = 0.0
-            ints[STAGE] = GROW
+            r = carry_frequencies(b, st, hist, work)
         elif stage == REBASED or stage == RETRY:
-            carry_history(b.y_ref, *projection, *linear, hist.y, hist.yd, hist.a, hist.g,
-                          hist.length[0])
-            ints[SEGMENT] += 1
-            ints[REJECTIONS_IN_BASIS] = 0
-            # the accepted state (eta, eta') in the new basis, from its physical form that
-            # to_physical wrote into ev before NEED_BASIS (not the newest node: under PEC
-            # that is the predicted state)
-            to_modal(b.y_ref, *projection, ev.y, ev.yd, eta, etad)
-            ints[BASIS_TICK] = i
-            reals[DRIFT_PREVIOUS] = 0.0
-            ints[STAGE] = GROW if stage == REBASED else STEP
-        else:                               # GROW (dyadic, aligned, after >= 2 steps at this size,
-            #                                   >= 1 before the run's first rejection)
-            wait = 1 if RAMP_UNTIL_REJECTION and ints[REJECTED] == 0 else 2
-            if not fixed and ints[SINCE_CHANGE] >= wait and i % (2 * m) == 0 \
-                    and reals[ERROR] * 2.0 ** (q + 1) <= cfg.grow_safety * cfg.tol:
-                ints[STEP_TICKS] = 2 * m
-                ints[SINCE_CHANGE] = 0
-            ints[STAGE] = STEP
+            r = rebase(b, st, hist, ev, work)
+        else:
+            r = grow(cfg, st)
+        if r != CONTINUE:
+            return r

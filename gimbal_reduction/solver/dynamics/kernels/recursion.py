@@ -13,6 +13,12 @@ import numba
 import numpy as np
 
 from gimbal_reduction.solver.dynamics.kernels import FAST, JIT
+
+# Thin wrappers (a few allocations around one or three calls) are inlined by Numba into their
+# callers (inline="always", on Numba's IR): a compiled function of their own would put one level
+# more into the call tree, and Numba optimises a callee's whole code again in every caller's
+# module (docs/dynamics.md Section 8).  Their arithmetic stays in the functions they call, under
+# those functions' flags.
 from gimbal_reduction.solver.dynamics.kernels.linalg import (add, adinv, adinv_matrix, cr, inv6, mm6, mtv3, mv3,
                                             mv6, scale, sub)
 from gimbal_reduction.solver.dynamics.kernels.modal import (add_inertia_rows, axpy, coriolis_pass,
@@ -153,7 +159,7 @@ def forward(y, yd, ydd, has_acc, w1, dw1, ch, Pq, Pqd, Pqdd, fr):
               Pq[kk], Pqd[kk], Pqdd[kk], ch, fr, small)
 
 
-@numba.njit(**JIT)
+@numba.njit(**JIT, inline="always")
 def kinematics(y, yd, ydd, w1, dw1, ch, fr):
     """Forward pass, in place: joint poses fr.R (4,3,3), fr.p (4,3), the rotation part
     fr.Lw (4,3,3) of each joint map L = [R^T Psi; Lw Theta] of the parent's modes,
@@ -290,7 +296,7 @@ def backward(y, yd, ydd, has_acc, ch, fr, Pqdd, out, LIN, hq_given, LIND):
     return Fc
 
 
-@numba.njit(**FAST)
+@numba.njit(**FAST, inline="always")
 def inverse_dynamics_into(y, yd, ydd, has_acc, w1, dw1, ch, out, fr, LIN, lin_given, LIND):
     """out (n,) = M(y) ydd + c(y, y', t) (ydd taken as 0 if not has_acc), and the data the
     solve reuses (the Frames fr), in place; returns F0 (6,), the composite wrench on body 2.
@@ -308,7 +314,7 @@ def inverse_dynamics_into(y, yd, ydd, has_acc, w1, dw1, ch, out, fr, LIN, lin_gi
     return backward(y, yd, ydd, has_acc, ch, fr, Pqdd, out, LIN, lin_given, LIND)
 
 
-@numba.njit(**JIT)
+@numba.njit(**JIT, inline="always")
 def inverse_dynamics(y, yd, ydd, w1, dw1, ch):
     """(out, fr, F0): out (n,) = M(y) ydd + c(y, y', t) by the recursive Newton-Euler
     passes, the Frames fr the solve reuses (joint data, M_X(q) per body, HB (3, S) =
@@ -511,7 +517,7 @@ def solve(r, dg, unit, ch, fr):
     return x
 
 
-@numba.njit(**FAST)
+@numba.njit(**FAST, inline="always")
 def accelerations_lin(y, yd, w1, dw1, tau, LIN, lin_given, LIND, ch):
     """y'' = M(y)^-1 (tau - c(y, y', t)), with what is linear in q taken from LIN
     (3S + 108,) if lin_given (else computed into it) and the same of q' stored in LIND
@@ -528,7 +534,7 @@ def accelerations_lin(y, yd, w1, dw1, tau, LIN, lin_given, LIND, ch):
     return solve(c, c, True, ch, fr)
 
 
-@numba.njit(**FAST)
+@numba.njit(**FAST, inline="always")
 def accelerations(y, yd, w1, dw1, tau, ch):
     """y'' = M(y)^-1 (tau - c(y, y', t))."""
     S = y.shape[0] - 4
@@ -571,7 +577,7 @@ def kinetic_energy_lin(y, yd, w1, LIN, Pqd, ch):
     return T
 
 
-@numba.njit(**JIT)
+@numba.njit(**JIT, inline="always")
 def kinetic_energy(y, yd, w1, ch):
     """T = sum_n 1/2 w^T M_X(q) w + w^T B(q) q' + 1/2 q'^T q' (multibody.kinetic_energy)."""
     LIN, Pqd = linear_data(y, yd, ch)
