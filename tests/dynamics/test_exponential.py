@@ -328,7 +328,7 @@ def test_the_phase_is_held_to_its_own_bound_not_the_step_tolerance():
     """The frozen frequencies' phase error asks for new frequencies beyond min(tol, phase_tol)
     (``ExponentialOptions.phase_bound``): a looser step tolerance does not loosen it.  STIFF_REDUCED on
     thesis at tol 1e-4: with the bound, 4 frequency updates and E 9.5e-9; with the bound at the
-    tolerance itself (phase_tol raised) 2 updates and E 2.9e-8 (measured 2026-11-26)."""
+    tolerance itself (phase_tol raised) 2 updates and E 2.9e-8."""
     options = exponential.ExponentialOptions
     assert options(tol=1e-4).phase_bound == exponential.DEFAULTS.phase_tol
     assert options(tol=1e-7).phase_bound == 1e-7
@@ -349,7 +349,7 @@ def test_one_evaluation_per_step_matches_two(scene_name):
     PECE evaluates again at every accepted state.  Both against the converged DOP853, E <= 1e-8,
     and PEC no worse than 2x PECE (thesis: one basis and frequency updates; stress_rates_10:
     the gimbals turn 0.15 rad, new bases, whose state must be the accepted one, not the newest
-    node's predicted one).  Measured 2026-11-26 on FULL, PEC against PECE: thesis 52 steps,
+    node's predicted one).  Measured on FULL, PEC against PECE: thesis 52 steps,
     55 against 106 evaluations, E 1.43e-10 both; stress_rates_10 230 steps, 20 bases, 242
     against 471 evaluations, E 1.15e-10 against 1.08e-10."""
     scene, prob, ref = dop853_reference(scene_name, "FULL")
@@ -587,7 +587,7 @@ def energy(prob, r):
 
 def test_free_scene_conserves_energy_over_many_steps():
     """Case at rest, no torques, undamped, initial rates 0.3 rad/s, 2 s: the gimbals turn
-    by 0.57 rad.  Measured at the default tol (1e-5), 2026-11-26: 996 steps, 1008
+    by 0.57 rad.  Measured at the default tol (1e-5): 996 steps, 1008
     evaluations, 62 bases, relative drift of T + U 2.4e-6 (with a final evaluation per step,
     PECE: 1060 steps, 2130 evaluations, 3.5e-6)."""
     scene = scene_with("free", duration=2.0, output_interval=1e-3)

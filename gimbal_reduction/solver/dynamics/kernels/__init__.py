@@ -44,7 +44,7 @@ def _allow_runtime_alias_checks(limit=16):
 
 _allow_runtime_alias_checks()
 
-# LLVM optimisation level of the kernels: -O2, not Numba's default -O3.  Measured 2026-11-25
+# LLVM optimisation level of the kernels: -O2, not Numba's default -O3.  Measured
 # (cold cache, the workflow's warm-up: gimbal_reduction.solver.dynamics.warmup): 118 CPU-s to compile at 2
 # against 176 at 3; the same run times (alternating processes, CPU time: thesis truth run
 # 57-63 ms at both, right-hand side of the truth 42-46 us at both, freq-10 run 9-11 ms).
