@@ -460,6 +460,7 @@ def load_load_ranking(path, rankings=None):
                 out.setdefault(b, {})[LOAD_KEY] = f[f"body{b}/{LOAD_KEY}"][()]
             out[POOLED_KEY] = {"body": f["pooled/body"][()], "mode": f["pooled/mode"][()],
                                "scene": str(f.attrs.get("scene", "")),
+                               "scene_hash": str(f.attrs.get("scene_hash", "")),
                                "body_config_hashes": str(f.attrs.get("body_config_hashes", "")),
                                "path": os.path.abspath(path),
                                "path_key": (os.path.abspath(path), os.stat(path).st_mtime_ns)}
@@ -699,6 +700,10 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     current configuration (validated dict): each body file's config_hash must be the one it
     gives (``expected_body_hashes``), else BodyFileError naming the file and its target."""
     body_data = {b: load_body_file(body_files[b]) for b in BODIES}
+    for b in BODIES:            # each file in its own slot: a body file copied over another's is refused
+        if int(body_data[b]["number"]) != b:
+            raise ModelError(f"{body_files[b]}: the body file of body {body_data[b]['number']} given as "
+                             f"body {b}'s (the files go in the order of bodies 2, 3, 4, 5)")
     if config is not None:
         for b, expected in expected_body_hashes(config).items():
             check_config_hash(body_data[b], expected)
@@ -718,6 +723,13 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
             raise ModelError(f"model {name!r} needs the scene's load-aware ranking (--load-ranking)")
         load_load_ranking(load_ranking, rankings)
         check_load_ranking(load_ranking, rankings, body_data)
+        made_for = rankings[POOLED_KEY]["scene_hash"]
+        if made_for != scene.config_hash():
+            # a ranking (and its a-priori estimates) holds for the loads of its own scene only
+            raise ModelError(f"load-aware ranking {load_ranking} was made for scene "
+                             f"{rankings[POOLED_KEY]['scene']!r} (scene hash {made_for or 'missing'}), not "
+                             f"for scene {scene.name!r} (hash {scene.config_hash()}): make it for this scene "
+                             f"(gimbal load-ranking --scene {scene.name})")
         ranking_hashes.append(str(rankings[POOLED_KEY].get("body_config_hashes", "")))
     try:
         spec = model_spec(parsed, rankings)

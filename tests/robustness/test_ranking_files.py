@@ -92,3 +92,36 @@ def test_load_ranking_without_pooled(work, refused):
 
 def test_load_ranking_not_given(work, refused):
     refused(models.main, run_args(work, "global-8"), ("global-8", "--load-ranking"), work / "out")
+
+
+def write_load_ranking(path, scene_path):
+    """A small, valid load-aware ranking file made for the scene at ``scene_path``."""
+    from gimbal_reduction.solver.dynamics import scenes
+    with h5py.File(path, "w") as f:
+        for b in models.BODIES:
+            f[f"body{b}/rank_load"] = np.arange(6)
+        f["pooled/body"] = np.repeat(np.array(models.BODIES), 6)
+        f["pooled/mode"] = np.tile(np.arange(6), len(models.BODIES))
+        scene = scenes.load_scene(str(scene_path))
+        f.attrs["scene"], f.attrs["scene_hash"] = scene.name, scene.config_hash()
+    return path
+
+
+def test_a_ranking_made_for_another_scene_is_refused(work, refused):
+    """The ranking's scene (its physics hash) must be the scene being reduced: a ranking of the
+    scene's own is accepted, the same file made for another scene (thesis: 15 ms, not 1 ms) is
+    refused in one line naming the file and both scenes."""
+    path = write_load_ranking(work / "reduction" / "load.h5", work / "scene.yaml")
+    assert models.main([str(a) for a in run_args(work, "load-2", ["--load-ranking", path])]) == 0
+    (work / "out" / "m.h5").unlink()
+    write_load_ranking(path, models.scenes.SCENES_DIR + "/thesis.yaml")
+    refused(models.main, run_args(work, "load-2", ["--load-ranking", path]),
+            (str(path), "made for scene 'thesis'", "not for scene 'scene'"), work / "out")
+
+
+def test_a_body_file_in_another_bodys_slot_is_refused(work, refused):
+    """body 3's file given as body 4's: refused by the file's own body number, no config needed."""
+    args = run_args(work)
+    i = args.index("--bodies")
+    args[i + 3] = args[i + 2]          # body 3's file in body 4's place
+    refused(models.main, args, (str(args[i + 2]), "body 3", "body 4's"), work / "out")
