@@ -774,7 +774,8 @@ def main(argv=None):
                "drop_fraction": args.drop_fraction, "greedy_steps": args.greedy_steps}
     attrs = {"options": json.dumps(options, sort_keys=True), "format_version": FORMAT_VERSION, "scene": scene.name,
              "config_hash": ranking_config_hash(scene, body_hashes, options),
-             "scene_hash": scene.config_hash(), "body_config_hashes": json.dumps(body_hashes),
+             "scene_hash": scene.config_hash(), "scene_loads_hash": scene.loads_hash(),
+             "body_config_hashes": json.dumps(body_hashes),
              "pool": int(min(args.pool, result["order"].size)), "curve": int(args.curve),
              "criterion": "J = max over the 4 gimbal rates of eq. 3.53, frozen linear chain",
              "n_modes": np.diff(model["offsets"]),

@@ -461,6 +461,7 @@ def load_load_ranking(path, rankings=None):
             out[POOLED_KEY] = {"body": f["pooled/body"][()], "mode": f["pooled/mode"][()],
                                "scene": str(f.attrs.get("scene", "")),
                                "scene_hash": str(f.attrs.get("scene_hash", "")),
+                               "scene_loads_hash": str(f.attrs.get("scene_loads_hash", "")),
                                "body_config_hashes": str(f.attrs.get("body_config_hashes", "")),
                                "path": os.path.abspath(path),
                                "path_key": (os.path.abspath(path), os.stat(path).st_mtime_ns)}
@@ -723,12 +724,14 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
             raise ModelError(f"model {name!r} needs the scene's load-aware ranking (--load-ranking)")
         load_load_ranking(load_ranking, rankings)
         check_load_ranking(load_ranking, rankings, body_data)
-        made_for = rankings[POOLED_KEY]["scene_hash"]
-        if made_for != scene.config_hash():
-            # a ranking (and its a-priori estimates) holds for the loads of its own scene only
-            raise ModelError(f"load-aware ranking {load_ranking} was made for scene "
-                             f"{rankings[POOLED_KEY]['scene']!r} (scene hash {made_for or 'missing'}), not "
-                             f"for scene {scene.name!r} (hash {scene.config_hash()}): make it for this scene "
+        # a ranking (and its a-priori estimates) holds for the loads of its own scene only: the same
+        # loads under another name are accepted (the file's loads hash), else the whole scene's hash
+        pooled = rankings[POOLED_KEY]
+        made_for, here = ((pooled["scene_loads_hash"], scene.loads_hash()) if pooled["scene_loads_hash"]
+                          else (pooled["scene_hash"], scene.config_hash()))
+        if made_for != here:
+            raise ModelError(f"load-aware ranking {load_ranking} was made for scene {pooled['scene']!r} "
+                             f"(its loads differ from scene {scene.name!r}'s): make it for this scene "
                              f"(gimbal load-ranking --scene {scene.name})")
         ranking_hashes.append(str(rankings[POOLED_KEY].get("body_config_hashes", "")))
     try:

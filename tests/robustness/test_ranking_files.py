@@ -94,8 +94,9 @@ def test_load_ranking_not_given(work, refused):
     refused(models.main, run_args(work, "global-8"), ("global-8", "--load-ranking"), work / "out")
 
 
-def write_load_ranking(path, scene_path):
-    """A small, valid load-aware ranking file made for the scene at ``scene_path``."""
+def write_load_ranking(path, scene_path, loads_hash=True):
+    """A small, valid load-aware ranking file made for the scene at ``scene_path`` (with the loads
+    hash the ranking stage writes, or, as an older file, with the whole scene's hash only)."""
     from gimbal_reduction.solver.dynamics import scenes
     with h5py.File(path, "w") as f:
         for b in models.BODIES:
@@ -104,19 +105,22 @@ def write_load_ranking(path, scene_path):
         f["pooled/mode"] = np.tile(np.arange(6), len(models.BODIES))
         scene = scenes.load_scene(str(scene_path))
         f.attrs["scene"], f.attrs["scene_hash"] = scene.name, scene.config_hash()
+        if loads_hash:
+            f.attrs["scene_loads_hash"] = scene.loads_hash()
     return path
 
 
-def test_a_ranking_made_for_another_scene_is_refused(work, refused):
-    """The ranking's scene (its physics hash) must be the scene being reduced: a ranking of the
-    scene's own is accepted, the same file made for another scene (thesis: 15 ms, not 1 ms) is
-    refused in one line naming the file and both scenes."""
-    path = write_load_ranking(work / "reduction" / "load.h5", work / "scene.yaml")
+@pytest.mark.parametrize("loads_hash", [True, False])
+def test_a_ranking_made_for_another_scene_is_refused(work, refused, loads_hash):
+    """The ranking's scene (its loads) must be the scene being reduced: a ranking of the scene's
+    own is accepted, the same file made for another scene (thesis: 15 ms, not 1 ms) is refused in
+    one line naming the file and both scenes."""
+    path = write_load_ranking(work / "reduction" / "load.h5", work / "scene.yaml", loads_hash)
     assert models.main([str(a) for a in run_args(work, "load-2", ["--load-ranking", path])]) == 0
     (work / "out" / "m.h5").unlink()
-    write_load_ranking(path, models.scenes.SCENES_DIR + "/thesis.yaml")
+    write_load_ranking(path, models.scenes.SCENES_DIR + "/thesis.yaml", loads_hash)
     refused(models.main, run_args(work, "load-2", ["--load-ranking", path]),
-            (str(path), "made for scene 'thesis'", "not for scene 'scene'"), work / "out")
+            (str(path), "made for scene 'thesis'", "scene 'scene'"), work / "out")
 
 
 def test_a_body_file_in_another_bodys_slot_is_refused(work, refused):

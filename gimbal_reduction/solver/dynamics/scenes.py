@@ -92,6 +92,12 @@ class Scene:
         """Hash of ``physics``: editing what the scene needs does not invalidate its simulations."""
         return hashlib.sha256(json.dumps(self.physics, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
+    def loads_hash(self):
+        """Hash of what the scene does to the chain (``physics`` without its name): a load-aware
+        ranking made for one scene holds for every scene of the same loads."""
+        loads = {k: v for k, v in self.physics.items() if k != "name"}
+        return hashlib.sha256(json.dumps(loads, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
 
 def _converted(origin, key, entry, unit):
     """``entry``'s value in ``unit`` (gimbal_reduction.workflow.units.convert); SceneError naming the key."""
