@@ -21,6 +21,7 @@ SIMULATE = {
     "step not a number": (["--integrator", "rk4", "--step", "1ms"], ("--step", "number")),
     "rtol negative": (["--integrator", "dop853", "--rtol", "-1"], ("--rtol", "positive")),
     "tol negative": (["--tol", "-1e-8"], ("--tol", "positive")),
+    "tol below double precision": (["--tol", "1e-300"], ("tolerance 1e-300", "below 1e-13")),
     "fraction negative": (["--integrator", "rk4", "--fraction", "-0.5"], ("--fraction",)),
     "fraction above 1": (["--integrator", "rk4", "--fraction", "2"], ("--fraction",)),
     "step with fraction": (["--integrator", "rk4", "--step", "1e-6", "--fraction", "0.5"],
@@ -118,3 +119,14 @@ def test_load_aware_option(case, work, refused):
 def test_reduction_stage_negative_count(extra, words, work, refused):
     refused(stage.main, ["--body-file", work / "modes" / "body2.h5", "--out", work / "out" / "r.h5", *extra],
             words, work / "out")
+
+
+def test_a_scene_the_default_integrator_cannot_run_stops_in_one_line(work, refused):
+    """Heavy damping makes coupled modes overdamped, which the exponential integrator's oscillator
+    bank does not solve: one line with the scene, its damping and the integrators that run it,
+    not a traceback (the same scene runs with dop853)."""
+    from .conftest import write_scene
+    scene = write_scene(work / "heavy.yaml", damping_ratio={"value": 2.0, "unit": "1", "source": "test"})
+    argv = ["--scene", scene, "--model-file", work.joinpath(*MODEL), "--out", work / "out" / "s.h5"]
+    refused(simulate.main, argv, ("overdamped", "scene heavy", "damping_ratio 2", "dop853"), work / "out")
+    assert simulate.main([str(a) for a in argv] + ["--integrator", "dop853"]) == 0

@@ -75,6 +75,10 @@ SERIES_RADIUS = 2.0        # |z| below which phi_j uses its Taylor series
 SERIES_TERMS = 30
 
 
+TOL_FLOOR = 1e-13           # [1] the smallest tolerance: a local error in double precision
+#                             is rounding below it (the state's own ~1e-16 times the step's terms)
+
+
 @dataclass(frozen=True)
 class ExponentialOptions:
     """The exponential integrator's options (module docstring; docs/exponential.md Sections 5-8
@@ -135,6 +139,11 @@ class ExponentialOptions:
                              "interval), not both")
         if tol is not None and not (np.isfinite(tol) and tol > 0):
             raise ValueError(f"exponential: tolerance must be finite and > 0, got {tol}")
+        if tol is not None and tol < TOL_FLOOR:
+            # the local error of a step is a difference of double-precision states: below this
+            # floor the estimate is its own rounding, and the step would shrink to nothing
+            raise ValueError(f"exponential: tolerance {tol:g} is below {TOL_FLOOR:g}, the smallest "
+                             f"relative local error a double-precision step can resolve")
         if step is not None and not (np.isfinite(step) and step > 0):
             raise ValueError(f"exponential: step must be finite and > 0, got {step}")
         if every is not None and not (np.isfinite(every) and every > 0):

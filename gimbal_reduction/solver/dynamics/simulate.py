@@ -301,6 +301,12 @@ def main(argv=None):
     except (ValueError, FileNotFoundError, integrators.DivergenceError) as exc:
         print(f"simulate: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
+    except exponential.ExponentialError as exc:
+        # the default integrator stops where it cannot go on (an overdamped coupled mode, a step
+        # falling to nothing): one line, with the scene and the integrators that run any scene
+        print(f"simulate: {' '.join(str(exc).split())} (scene {scene.name}, damping_ratio "
+              f"{scene.damping_ratio:g}; --integrator dop853 or rk4 runs it)", file=sys.stderr)
+        return 2
     # the coupled chain's highest frequency at the initial state: the exponential integrator's
     # first basis has it; the others computed it for the RK4 bound (Problem.omega_max)
     omega_max = run.stats["coupled_omega_max"] if run.method == "exponential" else prob.omega_max
