@@ -669,13 +669,23 @@ def model_config_hash(spec, body_data, scene, ranking_hashes=()):
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def check_load_ranking(path, rankings, body_data):
-    """ModelError (one line) if a load-aware ranking was made from other body files."""
-    stored = rankings[POOLED_KEY].get("body_config_hashes") or ""
+def check_load_ranking(path, rankings, body_data, scene):
+    """ModelError (one line) if a load-aware ranking was made from other body files, or for
+    another scene: a ranking (and its a-priori estimates) holds for its own scene's loads only;
+    the same loads under another name are accepted (the file's loads hash; a file without it is
+    judged by the whole scene's hash)."""
+    pooled = rankings[POOLED_KEY]
+    stored = pooled.get("body_config_hashes") or ""
     current = [str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES]
     if stored and json.loads(stored) != current:
         raise ModelError(f"load-aware ranking {path} was made from other body files (config "
                          f"hashes differ): rerun python -m gimbal_reduction.reduction.load_aware")
+    made_for, here = ((pooled["scene_loads_hash"], scene.loads_hash()) if pooled["scene_loads_hash"]
+                      else (pooled["scene_hash"], scene.config_hash()))
+    if made_for != here:
+        raise ModelError(f"load-aware ranking {path} was made for scene {pooled['scene']!r} (its loads "
+                         f"differ from scene {scene.name!r}'s): make it for this scene "
+                         f"(gimbal load-ranking --scene {scene.name})")
 
 
 def expected_body_hashes(config):
@@ -723,16 +733,7 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
         if load_ranking is None:
             raise ModelError(f"model {name!r} needs the scene's load-aware ranking (--load-ranking)")
         load_load_ranking(load_ranking, rankings)
-        check_load_ranking(load_ranking, rankings, body_data)
-        # a ranking (and its a-priori estimates) holds for the loads of its own scene only: the same
-        # loads under another name are accepted (the file's loads hash), else the whole scene's hash
-        pooled = rankings[POOLED_KEY]
-        made_for, here = ((pooled["scene_loads_hash"], scene.loads_hash()) if pooled["scene_loads_hash"]
-                          else (pooled["scene_hash"], scene.config_hash()))
-        if made_for != here:
-            raise ModelError(f"load-aware ranking {load_ranking} was made for scene {pooled['scene']!r} "
-                             f"(its loads differ from scene {scene.name!r}'s): make it for this scene "
-                             f"(gimbal load-ranking --scene {scene.name})")
+        check_load_ranking(load_ranking, rankings, body_data, scene)
         ranking_hashes.append(str(rankings[POOLED_KEY].get("body_config_hashes", "")))
     try:
         spec = model_spec(parsed, rankings)

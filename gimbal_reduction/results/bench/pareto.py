@@ -216,7 +216,7 @@ def load_models(names, scene, body_files, reduction_files, load_ranking=None):
     specs = [models.model_spec(n, rankings) for n in names]
     body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
     if load_aware:
-        models.check_load_ranking(load_ranking, rankings, body_data)   # same body files?
+        models.check_load_ranking(load_ranking, rankings, body_data, scene)   # same bodies, scene?
     out = {}
     for spec in specs:
         t0 = time.perf_counter()
