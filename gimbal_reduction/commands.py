@@ -37,6 +37,8 @@ STAGES: dict[str, tuple[str, str]] = {
     "mode-shapes": ("results.study.mode_shapes", "print-ready mode shapes and the mode-shape VTU"),
     "scene-report": ("results.study.report", "one scene's report PDF"),
     "study-report": ("results.study.study_report", "the study report PDF"),
+    "decision": ("results.study.decision", "the cheapest model per accuracy requirement, with its cost"),
+    "runtime": ("results.bench.runtime", "run and set-up times of a scene's decision models (timing job)"),
     "bench-summary": ("results.bench.summary", "summaries of the stages' run-time records"),
     "verify-dynamics": ("results.bench.verify_dynamics", "the dynamics against its JAX oracle"),
     "exponential-accuracy": ("results.bench.exponential_accuracy",

@@ -177,6 +177,76 @@ rule study_figures:
         "> {log} 2>&1"
 
 
+rule runtime:
+    """A timing job: run and set-up times (medians of 5 runs in one process) of the models the
+    scene's decision names, the rigid model and the truth (gimbal_reduction.results.bench.runtime).
+    """
+    input:
+        scene=scene_file,
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        load_ranking="results/reduction/load/{scene}.h5",
+        ranking="results/tables/{scene}/errors_ranking.csv",
+        static="results/tables/{scene}/errors_static.csv",
+        truth="results/study/{scene}/sim/truth.h5",
+        truth_basis="results/verification/truth_basis.json",
+        kernels=ancient(KERNELS),
+    output:
+        "results/benchmarks/runtime/{scene}.json",
+    log:
+        "logs/results/runtime_{scene}.log",
+    benchmark:
+        "results/benchmarks/rules/runtime_{scene}.tsv"
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
+    # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
+    threads: 2
+    resources:
+        # no record: estimate, 5 repeats of ~5 models; long's truth ~1 s a run
+        mem_mb=1000,
+        runtime=10,
+    params:
+        code=code_hash("runtime"),
+        integrator=cfgmod.value(config, "simulation.integrator"),
+        options=integrator_options,
+        cfg=body_files_hash,
+    shell:
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} runtime --scene {input.scene} "
+        "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
+        "--ranking-table {input.ranking} --static-table {input.static} --truth {input.truth} "
+        "--truth-basis {input.truth_basis} --repeats 5 --integrator {params.integrator} {params.options} "
+        "--config {CONFIG} --out {output} > {log} 2>&1"
+
+
+rule decision:
+    """The decision table: per scene and accuracy requirement, the cheapest model meeting it,
+    its coordinates and measured times (gimbal_reduction.results.study.decision).
+    """
+    input:
+        rankings=expand("results/tables/{scene}/errors_ranking.csv", scene=STUDY_SCENES),
+        statics=expand("results/tables/{scene}/errors_static.csv", scene=STUDY_SCENES),
+        truths=expand("results/study/{scene}/sim/truth.h5", scene=STUDY_SCENES),
+        runtimes=expand("results/benchmarks/runtime/{scene}.json", scene=STUDY_SCENES),
+        truth_basis="results/verification/truth_basis.json",
+    output:
+        json="results/tables/decision.json",
+        csv="results/tables/decision.csv",
+    log:
+        "logs/results/decision.log",
+    benchmark:
+        "results/benchmarks/rules/decision.tsv"
+    resources:
+        mem_mb=300,
+        runtime=2,
+    params:
+        code=code_hash("decision"),
+        scenes=" ".join(STUDY_SCENES),
+    shell:
+        "{GIMBAL} decision --scenes {params.scenes} --ranking-tables {input.rankings} "
+        "--static-tables {input.statics} --truths {input.truths} --runtimes {input.runtimes} "
+        "--truth-basis {input.truth_basis} --out-json {output.json} --out-csv {output.csv} > {log} 2>&1"
+
+
 # What the reports show from the `bench` and `verify` targets: read if present (with their date),
 # never built for the report (they are minutes of timing repeats and fine meshes).
 REPORT_OPTIONAL = {

@@ -1,0 +1,127 @@
+"""The decision table and the truth's resolution (gimbal_reduction.results.study.decision).
+
+Synthetic tables: E per rate and attitude per model are chosen, so every expected answer is
+worked out by hand here (RMS error = sqrt(E) x RMS rate; bounds by the triangle inequality)."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from gimbal_reduction.results.study import decision
+from gimbal_reduction.results.study.tables import RATE_COLUMNS
+
+RMS = np.array([2.0, 1.0, 0.5, 0.5])          # rad/s, the truth's RMS rates
+
+
+def row(model, n_elastic, E, attitude):
+    E = np.broadcast_to(np.asarray(E, float), (4,))
+    return {"model": model, "n_elastic": n_elastic, "attitude_max_arcsec": attitude,
+            **{c: float(e) for c, e in zip(RATE_COLUMNS, E)}}
+
+
+def scene_rows(rigid_E=1e-1, check_E=1e-6):
+    """truth, its check, rigid and three reduced models of increasing size and accuracy."""
+    return [row("truth", 400, 0.0, 0.0), row("static-100", 404, check_E, 0.01),
+            row("rigid", 0, rigid_E, 500.0), row("freq-5", 20, 1e-2, 50.0),
+            row("xmx-10", 40, 1e-4, 5.0), row("global-100", 100, 1e-5, 0.5)]
+
+
+def test_resolution_is_the_larger_check_per_rate():
+    rows = scene_rows(check_E=[1e-6, 1e-3, 1e-6, 1e-6])
+    res = decision.resolution(rows, {"E": [1e-4, 1e-5, 1e-5, 1e-5], "attitude_max_arcsec": 0.2}, RMS)
+    assert res["E_per_rate"] == pytest.approx([1e-4, 1e-3, 1e-5, 1e-5])
+    assert res["E"] == pytest.approx(1e-3)
+    assert res["attitude"] == pytest.approx(0.2)
+    assert res["rate_per_rate"][1] == pytest.approx(math.sqrt(1e-3) * 1.0)
+    assert res["sources"] == ["static-100", "freq-200"]
+
+
+def test_rate_rms_of_a_sine():
+    t = np.linspace(0.0, 1.0, 20001)
+    gd = np.stack([3.0 * np.sin(2 * np.pi * 5 * t)] * 4, axis=1)
+    assert decision.rate_rms(t, gd) == pytest.approx(np.full(4, 3.0 / math.sqrt(2)), rel=1e-6)
+
+
+def test_must_say_not_resolvable_when_the_truth_error_exceeds_the_difference():
+    """The long scene's case: the truth's own error (2.29e-3) above the rigid model's E (1.11e-3)."""
+    assert not decision.resolvable(1.11e-3, 0.0, 2.29e-3)
+    rows = scene_rows(rigid_E=1.11e-3)
+    res = decision.resolution(rows, {"E": [2.29e-3] * 4, "attitude_max_arcsec": 1.0}, RMS)
+    assert not decision.rate_resolved(rows, 0, res["E_per_rate"][0])
+    b = decision.best(rows, 0, res["E_per_rate"][0])
+    assert b["status"] == decision.NOT_RESOLVABLE and "rigid" in b["ties"]
+    findings = [{"finding": 8, "verdict": "reproduced", "reason": "",
+                 "verdict_per_rate": dict.fromkeys(("outer", "middle", "inner", "platform"), "reproduced")}]
+    out = decision.resolve_findings(findings, rows, res)[0]
+    assert out["verdict"] == decision.NOT_RESOLVABLE
+    assert set(out["verdict_per_rate"].values()) == {decision.NOT_RESOLVABLE}
+    # a requirement below the resolution: no model, "not resolvable"
+    c = decision.choose("E", 1e-4, rows, RMS, res)
+    assert c["status"] == decision.NOT_RESOLVABLE and c["model"] is None
+    assert decision.cell(1e-3, 2.29e-3) == decision.NOT_RESOLVABLE
+
+
+def test_must_not_say_not_resolvable_when_the_difference_exceeds_the_truth_error():
+    """The thesis scene's case: rigid E ~ 0.1 against a resolution of 6.9e-4."""
+    assert decision.resolvable(1e-1, 0.0, 6.9e-4)
+    rows = scene_rows(rigid_E=1e-1)
+    res = decision.resolution(rows, {"E": [6.9e-4] * 4, "attitude_max_arcsec": 0.3}, RMS)
+    assert decision.rate_resolved(rows, 0, res["E_per_rate"][0])
+    findings = [{"finding": 8, "verdict": "reproduced", "reason": "",
+                 "verdict_per_rate": dict.fromkeys(("outer", "middle", "inner", "platform"), "reproduced")}]
+    assert decision.resolve_findings(findings, rows, res)[0]["verdict"] == "reproduced"
+    assert decision.cell(1e-1, 6.9e-4) == pytest.approx(1e-1)
+    c = decision.choose("E", 1e-1, rows, RMS, res)
+    assert c["status"] == "met"
+
+
+def test_best_is_resolved_only_when_no_other_model_is_within_the_resolution():
+    rows = scene_rows()
+    # global-100 (1e-5) against xmx-10 (1e-4): sqrt differ by 6.8e-3; with E_res 1e-6 (1e-3) resolved
+    assert decision.best(rows, 0, 1e-6)["status"] == "resolved"
+    assert decision.best(rows, 0, 1e-6)["model"] == "global-100"
+    # with E_res 1e-4 (sqrt 1e-2 > 6.8e-3): xmx-10 ties
+    b = decision.best(rows, 0, 1e-4)
+    assert b["status"] == decision.NOT_RESOLVABLE and b["ties"] == ["xmx-10"]
+
+
+def test_choose_the_cheapest_model_whose_bound_meets_the_requirement():
+    rows = scene_rows(check_E=1e-8)
+    res = decision.resolution(rows, None, RMS)           # E_res 1e-8, attitude 0.01 arcsec
+    # E <= 1e-2: freq-5's bound (sqrt(1e-2) + 1e-4)^2 > 1e-2, so the next, xmx-10
+    c = decision.choose("E", 1e-2, rows, RMS, res)
+    assert c["model"] == "xmx-10" and c["coordinates"] == 44
+    assert c["error_bound"] == pytest.approx((1e-2 + 1e-4) ** 2)
+    # attitude <= 100 arcsec: freq-5 (50 + 0.01)
+    c = decision.choose("attitude", 100.0, rows, RMS, res)
+    assert c["model"] == "freq-5" and c["error"] == 50.0
+    # rate <= 0.25 rad/s RMS: freq-5's worst rate sqrt(1e-2) x 2 = 0.2 (+ 2e-4) meets it; rigid 0.63 not
+    c = decision.choose("rate", 0.25, rows, RMS, res)
+    assert c["model"] == "freq-5" and c["error"] == pytest.approx(0.2)
+    # tighter than every reduced model's bound but above the resolution: the truth
+    c = decision.choose("attitude", 0.1, rows, RMS, res)
+    assert c["model"] == "truth" and c["error_bound"] == pytest.approx(0.01)
+
+
+def test_inconclusive_reads_not_evaluated():
+    rows = scene_rows()
+    res = decision.resolution(rows, None, RMS)
+    f = [{"finding": 6, "verdict": "not reproduced", "reason": "inconclusive: effect 1.02",
+          "verdict_per_rate": dict.fromkeys(("outer", "middle", "inner", "platform"), "not reproduced")}]
+    out = decision.resolve_findings(f, rows, res)[0]
+    assert out["verdict"] == "not evaluated"
+
+
+def test_decision_rows_carry_the_benchmark_times(tmp_path):
+    rows = scene_rows()
+    runtime = {"models": {"truth": {"run_ms": 12.0, "setup_ms": 300.0},
+                          "xmx-10": {"run_ms": 3.0, "setup_ms": 40.0, "run_ms_spread": 0.5}}}
+    d = decision.decide_scene("thesis", rows, RMS, None, runtime)
+    r = next(r for r in d["rows"] if r["model"] == "xmx-10")
+    assert (r["run_ms"], r["setup_ms"], r["truth_run_ms"], r["truth_setup_ms"]) == (3.0, 40.0, 12.0, 300.0)
+    assert r["speedup"] == pytest.approx(4.0) and r["state_dimension"] == 88
+    assert set(decision.chosen_models(rows, RMS, None)) >= {"truth", "rigid", "xmx-10"}
+    json.dumps(d)          # the file the report reads
