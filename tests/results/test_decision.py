@@ -125,3 +125,16 @@ def test_decision_rows_carry_the_benchmark_times(tmp_path):
     assert r["speedup"] == pytest.approx(4.0) and r["state_dimension"] == 88
     assert set(decision.chosen_models(rows, RMS, None)) >= {"truth", "rigid", "xmx-10"}
     json.dumps(d)          # the file the report reads
+
+
+def test_sampling_check_sees_a_grid_that_misweights_a_mode():
+    """A mode at exactly the half grid's Nyquist frequency: on every second sample its samples are
+    all at one phase, so E moves by ~100 %; away from it, hardly at all."""
+    t = np.arange(0.0, 0.1 + 1e-12, 1e-4)
+    base = np.stack([np.sin(2 * np.pi * 10 * t)] * 4, axis=1)
+    truth = {"t": t, "gamma_dot": base, "model": "truth"}
+
+    def case(f):
+        return {"t": t, "gamma_dot": base + 1e-2 * np.cos(2 * np.pi * f * t)[:, None], "model": f"m{f}"}
+    assert decision.sampling_check(truth, [case(2500.0)])["max_relative_change"] > 0.5
+    assert decision.sampling_check(truth, [case(1234.5)])["max_relative_change"] < 0.02

@@ -106,7 +106,7 @@ def test_reused_rate_panels_draw_as_a_fresh_figure(sims, tmp_path):
             fresh = {}
             figures.plot_rates(truth, case, str(tmp_path / f"f{n}"), title, rigid=base, panels=fresh)
             (r,), (f,) = reused.values(), fresh.values()
-            with figures._plt().rc_context(figures.RATE_RC):
+            with figures.pyplot().rc_context(figures.RATE_RC):
                 assert np.array_equal(_pixels(r.fig), _pixels(f.fig)), n
             f.close()
             for ax in r.fig.get_axes():                      # every curve inside its panel
@@ -133,7 +133,7 @@ def test_rate_panels_layout_ignores_no_frame(sims, tmp_path):
         for ax in p.fig.get_axes():
             for spine in ax.spines.values():
                 spine.set_in_layout(True)
-        with figures._plt().rc_context(figures.RATE_RC):
+        with figures.pyplot().rc_context(figures.RATE_RC):
             for ax, start in p.start:                       # from the same start, frames measured
                 ax.set_position(start)
                 ax.set_in_layout(True)
@@ -145,7 +145,7 @@ def test_rate_panels_layout_ignores_no_frame(sims, tmp_path):
 
 
 def _panels_figure():
-    plt = figures._plt()
+    plt = figures.pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(7.0, 5.6), constrained_layout=True)
     for k, ax in enumerate(axes.flat):
         ax.plot([0.0, 10.0 ** k], [0.0, 3e-4 * 10.0 ** k])
@@ -158,7 +158,7 @@ def _panels_figure():
 def test_layout_solved_as_the_pdf_draws_it(tmp_path):
     """fix_layout places the axes exactly where savefig's own layout pass for the PDF would, and
     leaves the figure without a layout engine (so savefig draws it once)."""
-    plt = figures._plt()
+    plt = figures.pyplot()
     own, fixed = _panels_figure(), _panels_figure()
     own.savefig(tmp_path / "own.pdf")
     figures.fix_layout(fixed)
@@ -172,7 +172,7 @@ def test_layout_solved_as_the_pdf_draws_it(tmp_path):
 def test_pinning_empty_decorations_changes_no_pixel():
     """Empty titles and axis labels pinned in place: the figure draws the same (the non-empty
     ones still move clear of the tick labels)."""
-    plt = figures._plt()
+    plt = figures.pyplot()
     free, pinned = _panels_figure(), _panels_figure()
     figures.pin_empty_decorations(pinned)
     for fig in (free, pinned):
@@ -200,7 +200,7 @@ def test_font_subsets_made_once_per_font_and_grown(monkeypatch, tmp_path):
 
     monkeypatch.setattr(pdf_ps, "get_glyphs_subset", spy)
     monkeypatch.setattr(figures, "_SUBSETS", {})
-    plt = figures._plt()
+    plt = figures.pyplot()
     with plt.rc_context(figures.STYLE):
         path = font_manager.findfont(font_manager.FontProperties())
     with TTFont(path, lazy=True) as font:
@@ -323,7 +323,7 @@ def _tick_value(text):
 def test_log_axis_labels_several_values_over_a_short_span(low, high, at_least):
     """Errors spanning 1.4 decades (thesis) or under one (long) get several labelled y ticks, not a
     lone "10^-2"; the labels are the tick values to three digits (no 0.00125 shown as 0.0013)."""
-    plt = figures._plt()
+    plt = figures.pyplot()
     fig, ax = plt.subplots()
     ax.semilogy([0, 1], [low, high])
     figures.log_ticks_for(ax, [low, high], plt)

@@ -10,7 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from gimbal_reduction.results.study import figures, report
+from gimbal_reduction.results.study import decision, figures, report
 from gimbal_reduction.reduction.names import STYLES
 from gimbal_reduction.results.study.cases import GROUPS
 from tests.results.synthetic_study import write_tables
@@ -94,14 +94,14 @@ def test_report_pdf_has_sections_tables_and_figures(study_outputs, tmp_path):
     assert code == 0 and out.read_bytes()[:5] == b"%PDF-"
     assert (tmp_path / "report" / "report.typ").exists()
     text = _pdf_text(out)
-    for heading in ("Summary", "The model", "Geometry and material", "Natural frequencies",
-                    "Methods", "Mode ranking criteria", "Static correction modes",
-                    "Equations of motion", "Integrator", "Error measure", "Results", "Error tables",
-                    "Findings", "Cost against error", "Provenance"):
+    for heading in ("Summary", "Methods", "Equations of motion", "Integrator", "Error measure",
+                    "Results", "Error tables", "Findings", "Cost against error", "Provenance"):
         assert heading in text, heading
+    for heading in ("Geometry and material", "Natural frequencies", "Mode ranking criteria"):
+        assert heading not in text, heading                     # the model report's, once
     # tables typeset as text, with numbered captions
     assert "Table 1:" in text and "analogue of thesis Table 4.2" in text
-    assert "analogue of thesis Table 4.3" in text and "The findings on this scene, with their controls" in text
+    assert "analogue of thesis Table 4.3" in text and "The findings on this scene: rule, control and verdict" in text
     # run times are not quoted from single runs: the benchmark is named as missing
     assert "no run time is quoted from single runs" in (tmp_path / "report" / "report.typ").read_text()
     assert "output_motor_my" in text and "reproduced" in text
@@ -119,6 +119,18 @@ def test_report_pdf_has_sections_tables_and_figures(study_outputs, tmp_path):
     ink = [float(np.mean(mpimg.imread(p)[..., :3] < 0.5)) for p in pngs]
     # a sparse 7-pt table page at 40 dpi inks ~7e-4; a blank page ~0
     assert max(ink) > 0.02 and all(i > 3e-4 for i in ink), [(k, i) for k, i in enumerate(ink) if i <= 3e-4]
+
+
+@needs_poppler
+def test_model_report_holds_what_does_not_depend_on_the_scene(tmp_path):
+    out = tmp_path / "model.pdf"
+    assert report.main(["--part", "model", "--out", str(out),
+                        "--ranking-table", str(tmp_path / "none.csv")]) == 0
+    text = _pdf_text(out)
+    for heading in ("Geometry and material", "Natural frequencies", "Mode ranking criteria",
+                    "Static correction modes", "coupled chain"):
+        assert heading in text, heading
+    assert "Error tables" not in text and "Findings" not in text
 
 
 @needs_poppler
@@ -145,11 +157,24 @@ def test_summary_names_the_rigid_baseline_and_the_best_reduced_model():
         return {"group": group, "model": model, "E_outer_gimbal": e, "n_elastic": n}
     rows = [row("rigid", "rigid", 0.04, 0), row("freq", "freq-5", 0.05, 20), row("freq", "freq-25", 0.03, 100),
             row("global", "global-40", 0.02, 40), row("truth-check", "static-100", 2e-12, 404)]
-    text = "".join(report._summary({"ranking_rows": rows, "static_rows": [], "findings": [],
-                                    "truth": True, "missing": {}}))
+    ctx = {"ranking_rows": rows, "static_rows": [], "findings": [], "truth": True, "missing": {},
+           "scene": {"name": "thesis"}}
+    text = "".join(report._summary(ctx))
     assert '#"2" of #"3" reduced models beat it' in text           # Typst source: #"..." is text
     assert 'Most accurate reduced model on the outer gimbal rate: #"global-40"' in text
-    assert "static-100" not in text
+    assert "static-100" not in text.split("Baseline")[1]      # named only as the truth check
+    # with the truth's resolution: resolvable (a small truth error) and not (one above rigid's E)
+    res = {"E_per_rate": [1e-8] * 4, "rate_per_rate": [1e-6] * 4, "attitude": 0.1, "E": 1e-8,
+           "rate": 1e-6, "sources": ["static-100"]}
+    for E_res, resolved in ((1e-8, True), (0.05, False)):
+        res = {**res, "E_per_rate": [E_res] * 4, "E": E_res}
+        full = [{**r, **{c: r["E_outer_gimbal"] for c in ("E_middle_gimbal", "E_inner_gimbal",
+                                                          "E_stable_platform")}} for r in rows]
+        d = {"resolution": res, "rows": [], "rate_resolved": [decision.rate_resolved(full, 0, E_res)] * 4,
+             "best": [decision.best(full, k, E_res) for k in range(4)]}
+        text = "".join(report._summary({**ctx, "ranking_rows": full, "decision": d}))
+        assert ("reduced models beat it" in text) == resolved
+        assert ("no reduced model can be shown better" in text) != resolved
 
 
 @pytest.mark.parametrize("name, duration, start", [("thesis", "lasts 15 ms", "steps from zero to 1 rad"),

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from gimbal_reduction.results.study import findings, study_report, tables
-from gimbal_reduction.results.study.report import sci
+from gimbal_reduction.results.markup import sci
 from gimbal_reduction.results.study.tables import RATE_COLUMNS
 from tests.results.synthetic_study import write_study
 

@@ -88,7 +88,7 @@ def test_every_kind_of_file_carries_it(tmp_path):
 
 def test_typst_report_pdf_carries_it(tmp_path):
     pytest.importorskip("typst")
-    from gimbal_reduction.results.study.report import compile_pdf
+    from gimbal_reduction.results.markup import compile_pdf
     rec = P.provenance("beef02")
     out = tmp_path / "r.pdf"
     compile_pdf('#set document(title: "x")\n= Quoted "title" (with) \\ backslash\n', str(out), str(tmp_path), rec)

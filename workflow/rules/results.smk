@@ -228,6 +228,7 @@ rule decision:
         truths=expand("results/study/{scene}/sim/truth.h5", scene=STUDY_SCENES),
         runtimes=expand("results/benchmarks/runtime/{scene}.json", scene=STUDY_SCENES),
         truth_basis="results/verification/truth_basis.json",
+        sims=[f for s in STUDY_SCENES for f in study_sims(s)],
     output:
         json="results/tables/decision.json",
         csv="results/tables/decision.csv",
@@ -244,7 +245,8 @@ rule decision:
     shell:
         "{GIMBAL} decision --scenes {params.scenes} --ranking-tables {input.rankings} "
         "--static-tables {input.statics} --truths {input.truths} --runtimes {input.runtimes} "
-        "--truth-basis {input.truth_basis} --out-json {output.json} --out-csv {output.csv} > {log} 2>&1"
+        "--truth-basis {input.truth_basis} --sims {input.sims} --out-json {output.json} "
+        "--out-csv {output.csv} > {log} 2>&1"
 
 
 # What the reports show from the `bench` and `verify` targets: read if present (with their date),
@@ -272,7 +274,6 @@ REPORT_BENCH_FIGURES = [
 rule report_scene:
     input:
         scene=scene_file,
-        mode_shapes=expand("results/figures/mode_shapes_body{n}.json", n=BODIES),
         truth="results/study/{scene}/sim/truth.h5",
         ranking="results/tables/{scene}/errors_ranking.csv",
         static="results/tables/{scene}/errors_static.csv",
@@ -282,6 +283,7 @@ rule report_scene:
         modes="results/benchmarks/modes.json",
         reduction="results/verification/reduction.json",
         coupled="results/study/{scene}/coupled_modes.json",
+        decision="results/tables/decision.json",
     output:
         report(
             "results/report/{scene}.pdf",
@@ -302,20 +304,56 @@ rule report_scene:
     params:
         code=code_hash("scene-report"),
         cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
-        optional=optional_report_inputs,
-        bench_figures=" ".join(REPORT_BENCH_FIGURES),
     shell:
         "{GIMBAL} scene-report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures {input.figures} --fe {input.fe} "
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
-        "--config {CONFIG} --scene {input.scene} --mode-shapes {input.mode_shapes} "
-        "--coupled-modes {input.coupled} {params.optional} --bench-figures {params.bench_figures} "
+        "--config {CONFIG} --scene {input.scene} --mode-shapes --bench-figures "
+        "--coupled-modes {input.coupled} --decision {input.decision} --part scene "
         "--out {output} > {log} 2>&1"
+
+
+rule model_report:
+    """What does not depend on the scene, once: geometry, FE checks, mode shapes and static modes,
+    the mode selection, the coupled modes (at the thesis scene's initial state) and the benchmarks
+    of `bench` if present (gimbal_reduction.results.study.report --part model).
+    """
+    input:
+        scene=scene_path("thesis"),
+        mode_shapes=expand("results/figures/mode_shapes_body{n}.json", n=BODIES),
+        fe="results/verification/fe_fast.json",
+        modes="results/benchmarks/modes.json",
+        reduction="results/verification/reduction.json",
+        coupled="results/study/thesis/coupled_modes.json",
+    output:
+        report(
+            "results/report/model.pdf",
+            category="Reports",
+            caption="../report/scene_report.rst",
+        ),
+    log:
+        "logs/results/report_model.log",
+    benchmark:
+        "results/benchmarks/rules/report_model.tsv"
+    resources:
+        mem_mb=mem_mb(376.1),
+        runtime=runtime_min(3.4),
+    params:
+        code=code_hash("scene-report"),
+        cfg=config_hash(),
+        optional=optional_report_inputs,
+        bench_figures=" ".join(REPORT_BENCH_FIGURES),
+    shell:
+        "{GIMBAL} scene-report --part model --fe {input.fe} --modes-benchmark {input.modes} "
+        "--reduction {input.reduction} --config {CONFIG} --scene {input.scene} "
+        "--mode-shapes {input.mode_shapes} --coupled-modes {input.coupled} {params.optional} "
+        "--bench-figures {params.bench_figures} --out {output} > {log} 2>&1"
 
 
 rule report:
     input:
         expand("results/report/{scene}.pdf", scene=STUDY_SCENES),
+        "results/report/model.pdf",
         "results/report/report.pdf",
 
 
@@ -333,6 +371,7 @@ rule study_report:
         reduction="results/verification/reduction.json",
         mode_ranking="results/tables/ranking.csv",
         truth_basis="results/verification/truth_basis.json",
+        decision="results/tables/decision.json",
     output:
         report(
             "results/report/report.pdf",
@@ -353,7 +392,8 @@ rule study_report:
     shell:
         "{GIMBAL} study-report --scenes {input.scenes} --ranking-tables {input.rankings} "
         "--static-tables {input.statics} --findings {input.findings} --figures {input.figures} "
-        "--fe {input.fe} --reduction {input.reduction} --mode-ranking {input.mode_ranking} --truth-basis {input.truth_basis} {params.optional} "
+        "--fe {input.fe} --reduction {input.reduction} --mode-ranking {input.mode_ranking} --truth-basis {input.truth_basis} "
+        "--decision {input.decision} {params.optional} "
         "--out {output} > {log} 2>&1"
 
 

@@ -59,7 +59,7 @@ from gimbal_reduction.reduction import models as reduction_models  # noqa: E402
 from gimbal_reduction.reduction import verified_search  # noqa: E402
 from gimbal_reduction.results.bench.equal_error import FAMILIES, cheapest_within, max_error  # noqa: E402
 from gimbal_reduction.results.bench.pareto import run_budget  # noqa: E402
-from gimbal_reduction.results.study.figures import STYLE, _plt, save  # noqa: E402
+from gimbal_reduction.results.study.figures import STYLE, pyplot, save  # noqa: E402
 from gimbal_reduction.results.study.tables import read_table  # noqa: E402
 from gimbal_reduction.solver.dynamics import chainfile, scenes, simulate  # noqa: E402
 from gimbal_reduction.solver.dynamics.error_measure import error_measure  # noqa: E402
@@ -251,7 +251,7 @@ def plot(rows, stem, record=None):
     """Measured max E against the requested EPS per scene (filled markers; the a-priori estimate
     of the same model open), the line E = EPS, and the measured / estimated ratio; writes
     stem.pdf and stem.png."""
-    plt = _plt()
+    plt = pyplot()
     ok = [r for r in rows if r.get("status") == "ok"]
     with plt.rc_context(STYLE):
         fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4.2), constrained_layout=True)

@@ -58,11 +58,12 @@ import numpy as np
 
 from gimbal_reduction.results.study.cases import TRUTH, TRUTH_CHECK
 from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
-from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError
+from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, error_measure
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow.provenance import csv_text, provenance, write_json, write_text
 
+RATES = ("outer", "middle", "inner", "platform")     # the order of RATE_COLUMNS
 N_JOINTS = 4                      # the four joint angles every model keeps (gamma_1..gamma_4)
 NOT_RESOLVABLE = "not resolvable"
 MEASURES = ("attitude", "rate", "E")
@@ -235,13 +236,12 @@ def resolve_findings(findings, rows, res) -> list[dict]:
     else partly; no resolvable rate -> ``NOT_RESOLVABLE``).  A finding about the rankings alone
     (no per-rate errors: finding 2) is kept as is.  "inconclusive" verdicts read "not evaluated"
     (the findings stage's own word for a test whose premise fails)."""
-    rates = ("outer", "middle", "inner", "platform")
-    ok = {rate: rate_resolved(rows, k, res["E_per_rate"][k]) for k, rate in enumerate(rates)}
+    ok = {rate: rate_resolved(rows, k, res["E_per_rate"][k]) for k, rate in enumerate(RATES)}
     out = []
     for f in findings:
         per = dict(f.get("verdict_per_rate") or {})
-        if "inconclusive" in str(f.get("reason", "")):
-            per = {r: ("not evaluated" if v == "not reproduced" else v) for r, v in per.items()}
+        why = f.get("reason_per_rate") or dict.fromkeys(per, f.get("reason", ""))
+        per = {r: ("not evaluated" if "inconclusive" in str(why.get(r, "")) else v) for r, v in per.items()}
         if f.get("uses_errors", True) and f.get("finding") != 2:
             per = {r: (v if ok.get(r, True) or v == "not evaluated" else NOT_RESOLVABLE)
                    for r, v in per.items()}
@@ -300,6 +300,25 @@ def chosen_models(rows, truth_rms, basis_scene, requirements=Requirements()) -> 
     return sorted(n for n in names | {"rigid", TRUTH} if n)
 
 
+def sampling_check(truth, cases) -> dict:
+    """How much E depends on the output grid: E of every case on every second sample against E on
+    the full grid (``error_measure``), the largest relative change over cases and rates where E
+    is resolvable at all (E > 1e-12).  truth, cases: simulation files (``simfile.read_sim``).
+    Returns {max_relative_change, model, rate, samples, half_samples}."""
+    t, r = truth["t"], truth["gamma_dot"]
+    worst = (0.0, None, None)
+    for c in cases:
+        full = error_measure(t, r, c["gamma_dot"])
+        half = error_measure(t[::2], r[::2], c["gamma_dot"][::2])
+        for k, (a, b) in enumerate(zip(full, half)):
+            if np.isfinite(a) and np.isfinite(b) and a > 1e-12:
+                change = abs(b - a) / a
+                if change > worst[0]:
+                    worst = (float(change), c["model"], RATES[k])
+    return {"max_relative_change": worst[0], "model": worst[1], "rate": worst[2],
+            "samples": int(t.size), "half_samples": int(t[::2].size)}
+
+
 # ---------------------------------------------------------------- files
 def read_scene(ranking, static, truth):
     """(rows of both tables, truth RMS rates (4,) [rad/s]) of one scene."""
@@ -325,6 +344,8 @@ def main(argv=None) -> int:
     ap.add_argument("--truths", nargs="+", required=True, help="the truth's simulation file per scene")
     ap.add_argument("--truth-basis", help="results/verification/truth_basis.json")
     ap.add_argument("--runtimes", nargs="+", required=True, help="the timing job's JSON per scene")
+    ap.add_argument("--sims", nargs="*", default=[],
+                    help="the study's simulation files (any scenes): E's dependence on the output grid")
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-csv", required=True)
     args = ap.parse_args(argv)
@@ -342,6 +363,12 @@ def main(argv=None) -> int:
             with open(args.runtimes[k]) as f:
                 runtime = json.load(f)
             scenes.append(decide_scene(name, rows, rms, basis.get(name), runtime))
+        sims = [read_sim(p) for p in args.sims]
+        for sc in scenes:
+            mine = [x for x in sims if x["attrs"].get("scene") == sc["scene"]]
+            truth = next((x for x in mine if x["model"] == TRUTH), None)
+            if truth is not None:
+                sc["sampling"] = sampling_check(truth, [x for x in mine if x["model"] != TRUTH])
     except (ErrorsInputError, OSError, ValueError) as exc:
         print(f"decision: {exc}", file=sys.stderr)
         return 2

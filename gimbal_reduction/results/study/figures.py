@@ -66,7 +66,9 @@ ZOOM_S = 2e-3           # zoom windows: the first and the last 2 ms of a run
 ENVELOPE_BINS = 1000    # columns of a min/max envelope (~ pixels of a panel at 600 dpi)
 
 
-def _plt():
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (every figure of the project is drawn through it, with
+    ``STYLE``)."""
     import matplotlib  # optional heavy dependency: imported only when a figure is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -159,7 +161,7 @@ def save(fig, stem, record=None) -> dict:
     paths = save_pdf(fig, stem, record, close=False)
     paths["png"] = f"{stem}.png"
     savefig(fig, paths["png"], record or run_provenance(), dpi=PNG_DPI)
-    _plt().close(fig)
+    pyplot().close(fig)
     return paths
 
 
@@ -175,7 +177,7 @@ def save_pdf(fig, stem, record=None, close=True) -> dict:
     with glyph_subsets_cached():
         savefig(fig, paths["pdf"], record)
     if close:
-        _plt().close(fig)
+        pyplot().close(fig)
     return paths
 
 
@@ -189,7 +191,7 @@ def fix_layout(fig) -> None:
         return
     pin_empty_decorations(fig)
     solve_layout(fig, engine)
-    plt = _plt()
+    plt = pyplot()
     with plt.rc_context({"figure.autolayout": False, "figure.constrained_layout.use": False}):
         fig.set_layout_engine(None)
 
@@ -274,7 +276,7 @@ class RatePanels:
     ``RATE_RC``."""
 
     def __init__(self, early, late):
-        plt = _plt()
+        plt = pyplot()
         self.fig = fig = plt.figure(figsize=(7.0, 8.8), constrained_layout=True)
         # as fig.subfigures(5, 1, hspace=0, height_ratios=...), keeping the grid to resize its rows
         self.grid = plt.GridSpec(5, 1, figure=fig, hspace=0.0, height_ratios=_row_ratios(1))
@@ -380,7 +382,7 @@ class RatePanels:
         solve_layout(self.fig, self.engine)
 
     def close(self) -> None:
-        _plt().close(self.fig)
+        pyplot().close(self.fig)
 
 
 def _row_ratios(heading_lines: int) -> list[float]:
@@ -422,7 +424,7 @@ def plot_rates(truth: dict, case: dict, stem: str, title: str | None = None, rig
     key = (early, late)
     own = panels is None
     panels = {} if own else panels
-    with _plt().rc_context(RATE_RC):
+    with pyplot().rc_context(RATE_RC):
         if key not in panels:
             panels[key] = RatePanels(early, late)
         fig = panels[key]
@@ -454,14 +456,22 @@ def _series(rows, group, col):
     return np.array([p[0] for p in pts], float), np.array([p[1] for p in pts], float)
 
 
+def _has_typo(thesis_keys) -> bool:
+    """Whether any table of ``thesis_keys`` ({label: THESIS key}) has a suspected typo."""
+    keys = set((thesis_keys or {}).values())
+    return any(key in keys for key, _, _ in findings.THESIS_SUSPECTED_TYPOS)
+
+
 def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=None,
-                        rigid_E=None) -> dict:
+                        rigid_E=None, thesis_keys=None) -> dict:
     """E (log) against vibration modes per body, one panel per gimbal rate, one line per group.
 
-    rows: table rows (``read_table``); thesis: optional {label: {count: (4,) E}} in grey;
+    rows: table rows (``read_table``); thesis: optional {label: {count: (4,) E}} in grey, with
+    thesis_keys {label: key of findings.THESIS}: the entries of findings.THESIS_SUSPECTED_TYPOS are
+    drawn apart (red x, not joined: the legend's entry is drawn on the first panel);
     rigid_E: optional (4,) E of the rigid model, a horizontal dashed line.  The legend sits
     below the panels."""
-    plt = _plt()
+    plt = pyplot()
     with plt.rc_context(STYLE):
         fig, axes = plt.subplots(2, 2, figsize=(7.0, 5.6), sharex=True, constrained_layout=True)
         for k, (ax, b) in enumerate(zip(axes.flat, BODIES)):
@@ -475,8 +485,15 @@ def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=
                             label=f"ours: {names.label(g)}")
             for j, (label, data) in enumerate((thesis or {}).items()):
                 xs = sorted(data)
-                ax.plot(xs, [data[n][k] for n in xs], color="0.55", marker="os"[j % 2], ms=3,
-                        ls=":", lw=0.8, label=f"thesis: {label}")
+                key = (thesis_keys or {}).get(label)
+                bad = [n for n in xs if (key, n, k) in findings.THESIS_SUSPECTED_TYPOS]
+                ax.plot(xs, [np.nan if n in bad else data[n][k] for n in xs], color="0.55",
+                        marker="os"[j % 2], ms=3, ls=":", lw=0.8, label=f"thesis: {label}")
+                ax.plot(bad, [data[n][k] for n in bad], ls="none", marker="x", ms=6, mew=1.2,
+                        color="tab:red", label="_nolegend_")
+            if k == 0 and _has_typo(thesis_keys):      # the legend is the first panel's
+                ax.plot([], [], ls="none", marker="x", ms=6, mew=1.2, color="tab:red",
+                        label="thesis: suspected misprint (not joined)")
             if rigid_E is not None and np.isfinite(rigid_E[k]) and rigid_E[k] > 0:
                 ax.axhline(rigid_E[k], color="black", ls="--", lw=1.0,
                            label="ours: rigid model (no elastic modes)")
@@ -504,7 +521,7 @@ def plot_load_cases(rows: list[dict], stem: str, controls=()) -> dict:
     """Grouped bars: E (log) of each gimbal rate for the seven static-mode load cases, after the
     controls (``controls``: [(label, (4,) E)], e.g. the rigid model and the same vibration modes
     without a static mode), separated by a vertical line.  Legend above the axes."""
-    plt = _plt()
+    plt = pyplot()
     lc = [r for r in rows if r["group"] == "load-case"]
     order = [c for c, _ in LOAD_CASES]
     lc.sort(key=lambda r: order.index(r["load_case"]) if r["load_case"] in order else len(order))
@@ -608,7 +625,7 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
     are labelled with their model, except the rigid one (at size 0, its line is labelled).  (Sizes,
     not the study's single-run wall times: run times come from the benchmark's medians,
     ``snakemake bench``.)"""
-    plt = _plt()
+    plt = pyplot()
     # the truth check (the truth + residual flexibility) referees the truth: not a case
     cases = [r for r in rows if r["group"] not in ("truth", "truth-check") and np.isfinite(_size(r))]
     truth = [r for r in rows if r["group"] == "truth"]
@@ -726,25 +743,28 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
         add(plot_error_vs_modes(ranking_rows, LINE_GROUPS,
                                 os.path.join(out_dir, "error_ranking"),
                                 f"Error against mode count{on}: lowest-frequency vs ranked modes", th,
-                                E_rigid),
+                                E_rigid, {"freq (Table 4.2)": "freq", "XMX/XMGMX (Table 4.2)": "ranked"}),
             id="error_ranking", kind="error", model="", group="", thesis_figure="4-28",
             scene=scene or "", baseline=RIGID if E_rigid is not None else None,
             caption="Error E (eq 3.53) of each gimbal rate against the number of vibration modes "
                     "per body, lowest-frequency, XMX- and XMGMX-ranked modes (analogue of Fig 4-28), "
                     "and the scene-aware selections (load-N per body; global-N pooled, drawn at N/4); "
-                    "grey: the thesis's Table 4.2; " + rigid_note)
+                    "grey: the thesis's Table 4.2 (red x: an entry that is probably a misprint, "
+                    "study report); " + rigid_note)
     if any(r["group"].startswith("static-") for r in static_rows):
         th = {"1 static + lowest (Table 4.3)": thesis["static-freq"],
               "1 static + ranked (Table 4.3)": thesis["static-ranked"]}
         add(plot_error_vs_modes(static_rows, ("static-freq", "static-xmx", "static-xmgmx"),
                                 os.path.join(out_dir, "error_static"),
                                 f"Error against mode count with one static mode per body{on}", th,
-                                E_rigid),
+                                E_rigid, {"1 static + lowest (Table 4.3)": "static-freq",
+                                          "1 static + ranked (Table 4.3)": "static-ranked"}),
             id="error_static", kind="error", model="", group="", thesis_figure="4-29",
             scene=scene or "", baseline=RIGID if E_rigid is not None else None,
             caption="Error E (eq 3.53) of each gimbal rate against the number of vibration modes "
                     "per body with one static correction mode per body, lowest-frequency and ranked "
-                    "modes (analogue of Fig 4-29); grey: the thesis's Table 4.3; " + rigid_note)
+                    "modes (analogue of Fig 4-29); grey: the thesis's Table 4.3 (red x: an entry that is probably a misprint, "
+                    "study report); " + rigid_note)
     if any(r["group"] == "load-case" for r in static_rows):
         controls = []
         if E_rigid is not None:

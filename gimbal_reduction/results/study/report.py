@@ -25,16 +25,14 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import os
 import sys
 import time
-from importlib import metadata
 
 import numpy as np
 
 from gimbal_reduction.reduction import names
-from gimbal_reduction.results.study import findings
+from gimbal_reduction.results.study import decision, findings
 from gimbal_reduction.results.study.cases import (
     BODY_LABELS,
     LOAD_CASES,
@@ -46,11 +44,12 @@ from gimbal_reduction.results.study.cases import (
 from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics.simfile import read_sim
-from gimbal_reduction.workflow import units, yamlfile
+from gimbal_reduction.workflow import units
 from gimbal_reduction.workflow import config as cfgmod
 from gimbal_reduction.workflow.config import BODY_NAMES, load_config
-from gimbal_reduction.workflow.provenance import (atomic_path, git_revision, other_revision, provenance, typst_metadata,
-                                 versions)
+from gimbal_reduction.results.markup import (MARKS_LEGEND, compile_pdf, figure, note, page_setup, read_json,
+                                             read_yaml, report_versions, s, sci, table, verdict_marks)
+from gimbal_reduction.workflow.provenance import git_revision, other_revision, provenance
 
 ROOT = str(cfgmod.ROOT)   # the project folder (workflow.config.project_dir)
 DEFAULTS = {
@@ -74,6 +73,7 @@ DEFAULTS = {
     "exponential_bench": "results/benchmarks/exponential.json",
     "fe_full": "results/verification/fe.json",
     "coupled_modes": "results/study/thesis/coupled_modes.json",
+    "decision": "results/tables/decision.json",
     "out": "results/report/report.pdf",
 }
 MAKES = {"ranking_table": "python -m gimbal_reduction.results.study.tables", "static_table": "python -m gimbal_reduction.results.study.tables",
@@ -86,7 +86,8 @@ MAKES = {"ranking_table": "python -m gimbal_reduction.results.study.tables", "st
          "integrators": "snakemake results/benchmarks/integrator_tables.json",
          "dynamics": "snakemake verify", "exponential": "snakemake verify",
          "exponential_bench": "snakemake bench", "fe_full": "snakemake verify",
-         "coupled_modes": "snakemake study (gimbal_reduction.results.study.run_scene --coupled-modes)"}
+         "coupled_modes": "snakemake study (gimbal_reduction.results.study.run_scene --coupled-modes)",
+         "decision": "snakemake results/tables/decision.json"}
 # The inputs made by other targets than the report's (bench, verify): the report names their revision
 OPTIONAL_KEYS = ("stability", "pareto", "scaling", "selection", "integrators", "dynamics", "exponential",
                  "exponential_bench", "fe_full")
@@ -119,15 +120,6 @@ N_FREQ_ROWS = 10
 # ---------------------------------------------------------------- reading inputs
 def _abs(p):
     return p if os.path.isabs(p) else os.path.join(ROOT, p)
-
-
-def _json(path):
-    with open(path) as f:
-        return json.load(f)
-
-
-def _yaml(path):
-    return yamlfile.load_file(path)        # a duplicate key is refused
 
 
 def _csv_rows(path):
@@ -190,19 +182,19 @@ def gather(paths: dict) -> dict:
 
     ctx["ranking_rows"] = load("ranking_table", read_table) or []
     ctx["static_rows"] = load("static_table", read_table) or []
-    ctx["fe"] = load("fe", _json)
-    ctx["modes_benchmark"] = load("modes_benchmark", _json)
-    ctx["reduction"] = load("reduction", _json)
+    ctx["fe"] = load("fe", read_json)
+    ctx["modes_benchmark"] = load("modes_benchmark", read_json)
+    ctx["reduction"] = load("reduction", read_json)
     ctx["config"] = load("config", load_config)    # values in the units the report prints (inch, lbf, s)
-    ctx["scene"] = load("scene", _yaml)
+    ctx["scene"] = load("scene", read_yaml)
     ctx["truth"] = load("truth", lambda q: read_sim(q)["attrs"])
-    fj = load("findings", _json)
+    fj = load("findings", read_json)
     if fj and "findings" in fj:
         ctx["findings"], ctx["findings_source"] = fj["findings"], "file"
     else:
         ctx["findings"] = findings.evaluate(ctx["ranking_rows"], ctx["static_rows"], ctx["reduction"])
         ctx["findings_source"] = "computed"
-    manifest = load("figures", _json)
+    manifest = load("figures", read_json)
     figs = []
     for e in (manifest or {}).get("figures", []):
         pdf = os.path.join(os.path.dirname(p["figures"]), e["pdf"])
@@ -210,17 +202,24 @@ def gather(paths: dict) -> dict:
             figs.append({**e, "pdf": pdf})
     ctx["figures"] = figs
     ctx["mode_shapes"] = _mode_shape_figures(p["mode_shapes"])
-    ctx["stability"] = load("stability", _json)
+    ctx["stability"] = load("stability", read_json)
     ctx["pareto_rows"] = load("pareto", _csv_rows) or []
-    ctx["scaling"] = load("scaling", _json)
+    ctx["scaling"] = load("scaling", read_json)
     ctx["selection_rows"] = load("selection", _csv_rows) or []
-    ctx["integrators"] = load("integrators", _json)
+    ctx["integrators"] = load("integrators", read_json)
     for key in ("dynamics", "exponential", "exponential_bench", "fe_full", "coupled_modes"):
-        ctx[key] = load(key, _json)
+        ctx[key] = load(key, read_json)
+    # this scene's decision: the truth's resolution, the decision rows, the sampling check
+    name = (ctx["scene"] or {}).get("name")
+    ctx["decision"] = next((d for d in (load("decision", read_json) or {}).get("scenes", [])
+                            if d["scene"] == name), None)
+    if ctx["decision"]:
+        ctx["findings"] = decision.resolve_findings(ctx["findings"], ctx["ranking_rows"] + ctx["static_rows"],
+                                                    ctx["decision"]["resolution"])
     ctx["bench_figures"] = [(key, path, cap) for key, rel, cap in BENCH_FIGURES
                             for path in p["bench_figures"]
                             if path.endswith(os.sep + rel) and os.path.exists(path)]
-    ctx["versions"] = _versions()
+    ctx["versions"] = report_versions()
     ctx["date"] = time.strftime("%Y-%m-%d %H:%M:%S %Z")
     return ctx
 
@@ -235,65 +234,13 @@ def _mode_shape_figures(files):
             continue
         if f.endswith(".json"):
             base = os.path.dirname(os.path.abspath(f))
-            for e in _json(f).get("figures", []):
+            for e in read_json(f).get("figures", []):
                 png = os.path.join(base, e["png"])
                 if os.path.exists(png):
                     out.append((png, e.get("caption", "")))
         else:
             out.append((f, "Supported mode shapes of one body."))
     return out
-
-
-def _versions():
-    out = versions()
-    for mod in ("typst", "matplotlib", "numba", "jax"):
-        try:
-            out[mod] = metadata.version(mod)
-        except metadata.PackageNotFoundError:
-            pass
-    return out
-
-
-# ---------------------------------------------------------------- Typst helpers
-def s(text) -> str:
-    """A Typst string literal inserted as text: #"..." (any characters are safe)."""
-    text = "" if text is None else str(text)
-    return '#"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
-
-
-def sci(x, digits=3) -> str:
-    """A number as Typst math: 0.0123 -> $1.23 times 10^(-2)$; plain for 0.01 <= |x| < 1000."""
-    if x is None or not np.isfinite(x):
-        return "--"
-    if x == 0:
-        return "$0$"
-    e = int(np.floor(np.log10(abs(x))))
-    if -2 <= e < 3:
-        return f"${x:.{digits}g}$"
-    m = x / 10 ** e
-    return f"${m:.{digits}g} times 10^({e})$"
-
-
-def table(header, rows, caption, label=None, columns=None, size="8pt") -> str:
-    """A numbered Typst table figure; header: list of markup, rows: list of lists of markup."""
-    ncol = len(header)
-    cols = columns or f"{ncol}"
-    cells = ", ".join(f"[{c}]" for r in rows for c in r)
-    head = ", ".join(f"[*{h}*]" for h in header)
-    lab = f" <{label}>" if label else ""
-    return (f"#figure(text(size: {size}, table(columns: {cols}, align: left, inset: 4pt, "
-            f"stroke: 0.4pt + luma(160), table.header({head}), {cells})), caption: [{caption}], "
-            f"kind: table){lab}\n\n")
-
-
-def figure(path, caption, root, width="100%", label=None) -> str:
-    lab = f" <{label}>" if label else ""
-    rel = "/" + os.path.relpath(os.path.abspath(path), root).replace(os.sep, "/")
-    return f'#figure(image("{rel}", width: {width}), caption: [{caption}]){lab}\n\n'
-
-
-def note(text) -> str:
-    return f"#block(fill: luma(235), inset: 6pt, radius: 3pt, width: 100%)[_Not available:_ {text}]\n\n"
 
 
 def _cv(cfg, *keys, default=None):
@@ -308,37 +255,69 @@ def _cv(cfg, *keys, default=None):
 # ---------------------------------------------------------------- sections
 def _summary(ctx):
     rows = [r for r in ctx["ranking_rows"] + ctx["static_rows"] if r["group"] != "truth"]
-    planned = len(study_cases())
-    verdicts = {}
-    for f in ctx["findings"]:
-        verdicts[f["verdict"]] = verdicts.get(f["verdict"], 0) + 1
+    thesis = study_cases(extended=False)
+    added = [c for c in study_cases() if c["model"] not in {x["model"] for x in thesis}]
+    have = {r["model"] for r in rows}
+    dec = ctx.get("decision")
+    name = (ctx["scene"] or {}).get("name", "")
     out = ["= Summary\n\n",
-           "This report reproduces the results chapter of P. J. Balucan, _Model Reduction of a Set of "
-           "Elastic, Nested Gimbals by Component Mode Selection Criteria and Static Correction Modes_ "
-           "(S.M. thesis, MIT, 2001) with our own finite-element bodies and flexible multibody "
-           "simulation. Reduced models keep the lowest-frequency modes, XMX- or XMGMX-ranked modes, "
-           "with or without one static correction mode per body; each is compared with the truth "
-           "model (100 modes per body) through the error measure of eq 3.53 on the four gimbal "
-           "rates.\n\n"]
-    out.append(f"- Cases with results: {s(len(rows))} of the {s(planned)} cases of the thesis study"
-               f"{' (truth model available)' if ctx['truth'] else ' (truth model missing)'}.\n")
-    if verdicts:
-        out.append("- Thesis findings: " + ", ".join(f"{s(v)} {s(k)}" for k, v in verdicts.items())
-                   + " (@findings).\n")
+           f"This report holds the results of one scene, {s(name)}, of the reproduction of P. J. "
+           "Balucan, _Model Reduction of a Set of Elastic, Nested Gimbals by Component Mode Selection "
+           "Criteria and Static Correction Modes_ (S.M. thesis, MIT, 2001). The bodies, their modes and "
+           "the mode selection are in the model report (results/report/model.pdf); the decision which "
+           "model to use, on every scene, is page 1 of the study report (results/report/report.pdf).\n\n"]
+    out.append(f"- Cases with results: {s(sum(c['model'] in have for c in thesis))} of the thesis's "
+               f"{s(len(thesis))} cases (its 25 figures and table columns, with its one \"ranked\" "
+               f"selection run as both XMX and XMGMX), and {s(sum(c['model'] in have for c in added))} of "
+               f"the project's {s(len(added))} additions (the rigid baseline, the no-static controls "
+               f"freq-2..8, load-N, global-N and the truth check static-100)"
+               f"{'' if ctx['truth'] else ' (truth model missing)'}.\n")
+    counts = {}
+    for f in ctx["findings"]:
+        key = "thesis" if f["finding"] <= 6 else "ours"
+        counts.setdefault(key, {}).setdefault(f["verdict"], 0)
+        counts[key][f["verdict"]] += 1
+    for key, what in (("thesis", "The thesis's findings 1-6"), ("ours", "The project's findings 7-9")):
+        if key in counts:
+            out.append(f"- {what}: " + ", ".join(f"{s(v)} {s(k)}" for k, v in counts[key].items())
+                       + " (@findings).\n")
     # the truth check (the truth + residual flexibility) referees the truth: not a reduced model
     reduced = [r for r in rows if r["group"] not in ("rigid", "truth-check")]
     rigid = next((r for r in rows if r["group"] == "rigid"), None)
     if rigid is not None and np.isfinite(rigid["E_outer_gimbal"]):
         beat = [r for r in reduced if r["E_outer_gimbal"] < rigid["E_outer_gimbal"]]
+        unresolved = dec is not None and not dec["rate_resolved"][0]
         out.append(f"- Baseline: the rigid model (no elastic modes) has outer-gimbal E = "
-                   f"{sci(rigid['E_outer_gimbal'])}; {s(len(beat))} of {s(len(reduced))} reduced models "
-                   f"beat it on that rate.\n")
-    best = _best_case(reduced)
-    if best:
-        out.append(f"- Most accurate reduced model on the outer gimbal rate: {s(best['model'])} "
-                   f"(E = {sci(best['E_outer_gimbal'])}, {s(best['n_elastic'])} elastic coordinates); model "
-                   f"size against error: @runtime. How far the truth itself can referee: the study "
-                   f"report (the truth against 200 modes per body).\n")
+                   f"{sci(rigid['E_outer_gimbal'])}; "
+                   + ("not resolvable: the truth's own error on that rate is as large, so no reduced "
+                      "model can be shown better than the rigid one.\n" if unresolved else
+                      f"{s(len(beat))} of {s(len(reduced))} reduced models beat it on that rate.\n"))
+    if not dec:
+        best = _best_case(reduced)
+        if best:
+            out.append(f"- Most accurate reduced model on the outer gimbal rate: {s(best['model'])} "
+                       f"(E = {sci(best['E_outer_gimbal'])}; not checked against the truth's own error: "
+                       "the decision file is missing).\n")
+    if dec:
+        res = dec["resolution"]
+        out.append(f"- The truth's own error on this scene (the larger of its two checks, "
+                   f"{s(', '.join(res['sources']))}): E = {sci(res['E'])} on the worst rate, "
+                   f"{sci(res['rate'])} rad/s RMS, {sci(res['attitude'])} arcsec of platform attitude. "
+                   "Errors and differences below it are marked not resolvable (n.r.) throughout.\n")
+        items = []
+        for label, b in zip(("outer", "middle", "inner", "platform"), dec["best"]):
+            if b["status"] == decision.NOT_RESOLVABLE:
+                items.append(f"{label}: not resolvable ({s(b['model'])} and {s(len(b['ties']))} other "
+                             "models within the truth's own error of it)")
+            elif b["model"]:
+                items.append(f"{label}: {s(b['model'])} (E = {sci(b['E'])})")
+        out.append("- Most accurate reduced model per rate: " + "; ".join(items) + ".\n")
+        met = [r for r in dec["rows"] if r["status"] == "met" and r["measure"] == "attitude"]
+        if met:
+            items = [f"{s(format(r['requirement'], 'g'))} arcsec: {s(r['model'])} "
+                     f"({s(r['coordinates'])} coordinates)" for r in met]
+            out.append("- Cheapest model for a platform attitude error of at most: " + "; ".join(items)
+                       + ".\n")
     if ctx["missing"]:
         out.append("\n*Incomplete report.* These inputs are missing, so the sections that need them "
                    "say so:\n")
@@ -437,7 +416,7 @@ def _model_section(ctx, root):
 
 
 def _methods_section(ctx):
-    out = ["= Methods\n\n== Mode ranking criteria\n\n",
+    out = ["= Mode selection\n\n== Mode ranking criteria\n\n",
            "Each body's modes are ranked by how much of the body's rigid-body inertia they carry "
            "through its bearings. With $P_i$ and $H_i$ the momentum coefficients of mode $i$ (the "
            "rigid translations and rotations it excites), its contribution is "
@@ -476,6 +455,13 @@ def _methods_section(ctx):
                "load case is a z-force at the output motor bearing (thesis Figure 4-12); the seven "
                "load cases of Figs 4-21 to 4-27 are " +
                ", ".join(s(c) for c, _ in LOAD_CASES) + ".\n\n")
+    return "".join(out)
+
+
+def _scene_methods_section(ctx):
+    out = ["= Methods\n\n",
+           "The bodies, their modes, the ranking criteria and the static correction modes do not "
+           "depend on the scene: the model report (results/report/model.pdf) holds them.\n\n"]
     out.append("== Equations of motion\n\n"
                "The chain case - outer gimbal - middle gimbal - inner gimbal - platform is a tree of "
                "floating-frame bodies: each body's motion is the rigid rotation of its joint angle "
@@ -501,8 +487,51 @@ def _methods_section(ctx):
                "the truth model's rate and $e(t)$ the reduced model's rate minus $r(t)$:\n\n"
                "$ E_n = (integral_0^T e_n (t)^2 dif t) / (integral_0^T r_n (t)^2 dif t) $\n\n"
                "Both integrals use the trapezoid rule on the common output grid. $E = 1$ is an "
-               "error as large as the signal itself.\n\n")
+               "error as large as the signal itself; $sqrt(E)$ is the RMS error as a fraction of the "
+               "RMS rate, so $E = 0.04$ is an error of 20 % RMS of the rate and $E = 10^(-4)$ one of "
+               "1 %. The decision (study report) also states it in rad/s: "
+               "$\"RMS\"(e_n) = sqrt(E_n) \"RMS\"(r_n)$.\n\n")
+    out.append(_sampling_paragraph(ctx))
     return "".join(out)
+
+
+def _sampling_paragraph(ctx):
+    """What the output grid resolves: its interval and Nyquist frequency against the truth chain's
+    coupled modes, and what that means for E (a mean square over the samples)."""
+    sc, cm = ctx.get("scene") or {}, ctx.get("coupled_modes") or {}
+    try:
+        dt = units.convert(sc["output_interval"], "s", "output_interval")
+        duration = units.convert(sc["duration"], "s", "duration")
+    except (KeyError, TypeError, ValueError):
+        return ""
+    nyquist = 0.5 / dt
+    f = list(cm.get("frequencies_hz") or [])
+    above = [x for x in f if x > nyquist]
+    text = (f"*Sampling.* Every model is sampled on the scene's output grid: every {dt * 1e6:.4g} µs "
+            f"({int(round(duration / dt)) + 1} samples over {duration_text(duration)}, Nyquist frequency "
+            f"{nyquist / 1e3:.4g} kHz); the integrator's own steps are finer where the solution needs "
+            "it, and each output sample is the integrator's solution at that instant, not an average. ")
+    if f:
+        n = int(round(duration / dt)) + 1
+        # the mean square of n samples of a unit sinusoid at f differs from 1/2 by at most
+        # 1 / (2 n |sin(2 pi f dt)|) (a geometric sum): small unless f is near a multiple of Nyquist
+        worst = max(f, key=lambda x: 1.0 / max(abs(np.sin(2 * np.pi * x * dt)), 1e-300))
+        bound = 1.0 / (n * max(abs(np.sin(2 * np.pi * worst * dt)), 1e-300))
+        text += (f"The truth chain's coupled modes reach {f[-1] / 1e3:.3g} kHz"
+                 + (f"; {len(above)} of the {len(f)} lie above the Nyquist frequency "
+                    f"({above[0] / 1e3:.3g} to {above[-1] / 1e3:.3g} kHz) and alias to lower "
+                    "frequencies on this grid. E is a mean square over the samples, and the mean square "
+                    "of the samples of a sinusoid is its true mean square to within "
+                    "$1 \\/ (n |sin(2 pi f Delta t)|)$ relative ($n$ samples): for these modes at most "
+                    f"{bound:.2g} (mode at {worst / 1e3:.4g} kHz), so aliasing moves where a mode appears "
+                    "in a plotted rate, not its weight in E." if above else
+                    ", all below the Nyquist frequency: the grid resolves every mode the truth keeps."))
+        chk = (ctx.get("decision") or {}).get("sampling")
+        if chk:
+            text += (f" Measured: E of every case computed on every second sample (Nyquist "
+                     f"{nyquist / 2e3:.4g} kHz) differs from E on the full grid by at most "
+                     f"{100 * chk['max_relative_change']:.2g} % ({s(chk['model'])}, {s(chk['rate'])} rate).")
+    return text + "\n\n"
 
 
 def duration_text(seconds) -> str:
@@ -563,12 +592,28 @@ def _integrators(ctx):
     return ", ".join(k if k.startswith("truth") else f"{k} ({v} cases)" for k, v in seen.items())
 
 
-def _pivot(rows, group, counts):
+def _cell(ctx, row, k):
+    """An E cell: the number, or "n.r." where it is within the truth's own error of zero on that
+    rate (``decision.cell``; the number itself without the decision file)."""
+    res = (ctx.get("decision") or {}).get("resolution")
+    x = row[RATE_COLUMNS[k]]
+    if res is None or row["group"] in ("truth", "truth-check"):
+        return sci(x)
+    v = decision.cell(x, res["E_per_rate"][k])
+    return s("n.r.") if v == decision.NOT_RESOLVABLE else sci(v)
+
+
+def _nr_caption(ctx) -> str:
+    res = (ctx.get("decision") or {}).get("resolution")
+    return "" if res is None else (" n.r. = not resolvable: within the truth's own error on that rate (E "
+                                   + ", ".join(sci(x) for x in res["E_per_rate"]) + ").")
+
+
+def _pivot(ctx, rows, group, counts):
     sel = {r["count"]: r for r in rows if r["group"] == group}
     out = []
     for k, b in enumerate(BODIES):
-        col = RATE_COLUMNS[k]
-        out.append([s(BODY_LABELS[b])] + [sci(sel[n][col]) if n in sel else "--" for n in counts])
+        out.append([s(BODY_LABELS[b])] + [_cell(ctx, sel[n], k) if n in sel else "--" for n in counts])
     return out, bool(sel)
 
 
@@ -600,7 +645,7 @@ def _coupled_section(ctx):
 
 
 def _results_section(ctx, root):
-    out = ["= Results\n\n", _coupled_section(ctx), "== Error tables\n\n"]
+    out = ["= Results\n\n== Error tables\n\n"]
     rr, sr = ctx["ranking_rows"], ctx["static_rows"]
     if rr:
         base = [r for r in rr if r["group"] in ("rigid", "truth-check")]
@@ -613,29 +658,29 @@ def _results_section(ctx, root):
                              "flexibility).", "tab-baseline", size="7.5pt"))
         for g in [g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check")]:
             counts = _group_counts(rr, g)
-            rows, ok = _pivot(rr, g, counts)
+            rows, ok = _pivot(ctx, rr, g, counts)
             if ok:
                 unit = "in total" if g == "global" else "per body"
                 out.append(table(["rate"] + [f"{n}" for n in counts], rows,
                                  f"Error E (eq 3.53) using {s(names.label(g))}, by the number of modes "
                                  f"{unit}" + (" (analogue of thesis Table 4.2)." if g in ("freq", "xmx", "xmgmx")
-                                              else "."), f"tab-err-{g}", size="7.5pt"))
+                                              else ".") + _nr_caption(ctx), f"tab-err-{g}", size="7.5pt"))
     else:
         out.append(note(ctx["missing"].get("ranking_table", "ranking table")))
     if sr:
         for g in ("static-freq", "static-xmx", "static-xmgmx"):
-            rows, ok = _pivot(sr, g, STATIC_COUNTS)
+            rows, ok = _pivot(ctx, sr, g, STATIC_COUNTS)
             if ok:
                 out.append(table(["rate"] + [f"{n} modes" for n in STATIC_COUNTS], rows,
                                  f"Error E using {s(names.label(g))} per body "
-                                 f"(analogue of thesis Table 4.3).", f"tab-err-{g}"))
+                                 f"(analogue of thesis Table 4.3)." + _nr_caption(ctx), f"tab-err-{g}"))
         lc = [r for r in sr if r["group"] == "load-case"]
         if lc:
             rows = [[s(r["load_case"]), s(r["thesis_figure"])] +
-                    [sci(r[c]) for c in RATE_COLUMNS] for r in lc]
+                    [_cell(ctx, r, k) for k in range(len(RATE_COLUMNS))] for r in lc]
             out.append(table(["load case", "thesis fig.", "outer", "middle", "inner", "platform"],
                              rows, "Error E with the 10 lowest modes per body and one static mode on "
-                                   "the outer gimbal, per load case (Figs 4-21 to 4-27).",
+                                   "the outer gimbal, per load case (Figs 4-21 to 4-27)." + _nr_caption(ctx),
                              "tab-err-load"))
     else:
         out.append(note(ctx["missing"].get("static_table", "static table")))
@@ -650,8 +695,13 @@ def _results_section(ctx, root):
     rate_figs = [f for f in figs if f["kind"] == "rates"]
     out.append("== Gimbal rates of every case\n\n")
     if rate_figs:
-        out.append("Each figure compares the truth model's four gimbal rates with one reduced "
-                   "model's, in the order of the thesis's Figures 4-2 to 4-27.\n\n")
+        thesis_figs = sum(1 for f in rate_figs if f.get("thesis_figure"))
+        out.append(f"Each of the {len(rate_figs)} figures compares the truth model's four gimbal rates "
+                   "with one reduced model's"
+                   + (", in the order of the thesis's Figures 4-2 to 4-27." if thesis_figs > 20 else
+                      ": the rigid baseline and one model per family (every case is in the error "
+                      "tables; the thesis scene's report has a figure for each of the thesis's cases).")
+                   + "\n\n")
         for f in rate_figs:
             out.append(figure(f["pdf"], s(f["caption"]), root, width="92%"))
     else:
@@ -660,29 +710,30 @@ def _results_section(ctx, root):
     return "".join(out)
 
 
-_SYMBOL = {"reproduced": "✓", "partly reproduced": "◐", "not reproduced": "✗", "not evaluated": "–"}
-
-
 def _findings_section(ctx):
+    res = (ctx.get("decision") or {}).get("resolution")
     out = ["= Findings <findings>\n\n",
-           "Each finding (1-6: the thesis's, Sections 4.3-4.5; 7-9: ours) is decided by an explicit "
-           "rule on this scene's error tables, on every gimbal rate, against a control "
-           "(gimbal_reduction/results/study/findings.py, docs/findings.md). The thesis column applies the same rule "
-           "to the thesis's own Tables 4.2 and 4.3 where they hold the data. Per-rate symbols: "
-           "outer, middle, inner, platform (✓ reproduced or holds, ◐ partly, ✗ not, – not "
-           "evaluated). Findings are "
-           + ("read from results/tables/SCENE/findings.json" if ctx["findings_source"] == "file"
-              else "computed from the available tables") + ".\n\n"]
+           "Each finding (1-6: the thesis's, Sections 4.3-4.5; 7-9: the project's) is decided by the "
+           "rule printed beside its verdict, on this scene's error tables, on every gimbal rate, "
+           "against the control named. \"Better\" means smaller by more than 10 % (a tie band). The "
+           "thesis column applies the same rule to the thesis's own Tables 4.2 and 4.3 where they "
+           "hold the data. A rate on which even the rigid model lies within the truth's own error of "
+           "a perfect model is not resolvable: no verdict is given there"
+           + (f" (the truth's E per rate: {', '.join(sci(x) for x in res['E_per_rate'])})" if res else
+              " (the decision file is missing, so no rate is marked)")
+           + ". A finding whose premise fails on a rate (\"inconclusive\") is not evaluated there. "
+           + s(MARKS_LEGEND) + ".\n\n"]
     rows = []
     for f in ctx["findings"]:
-        per = "".join(_SYMBOL.get((f.get("verdict_per_rate") or {}).get(r, "not evaluated"), "?")
-                      for r in ("outer", "middle", "inner", "platform"))
         th = (f.get("thesis_check") or {}).get("verdict") or "--"
-        rows.append([s(f["finding"]), s(f["statement"]), s(f.get("control", "")),
-                     f"*{s(f['verdict'])}* {s(per)}", s(th), s(f["reason"])])
-    out.append(table(["no.", "finding", "control", "verdict", "thesis", "reason"],
-                     rows, "The findings on this scene, with their controls.", "tab-findings",
-                     columns="(auto, 1.3fr, 1fr, 0.8fr, 0.6fr, 2fr)", size="6.5pt"))
+        before = f.get("verdict_before")
+        changed = f" (rule alone: {before})" if before and before != f["verdict"] else ""
+        rows.append([s(f["finding"]), s(f["statement"]), s(f.get("rule", "")), s(f.get("control", "")),
+                     f"*{s(f['verdict'])}*{s(changed)} \\ {s(verdict_marks(f.get('verdict_per_rate')))}",
+                     s(th), s(f["reason"])])
+    out.append(table(["no.", "finding", "rule and thresholds", "control", "verdict", "thesis", "reason"],
+                     rows, "The findings on this scene: rule, control and verdict.", "tab-findings",
+                     columns="(auto, 1.1fr, 1.3fr, 0.9fr, 0.8fr, 0.6fr, 1.6fr)", size="6.5pt"))
     return "".join(out)
 
 
@@ -857,35 +908,23 @@ def _provenance_section(ctx):
     return "".join(out)
 
 
-def typst_source(ctx: dict, root: str) -> str:
-    """The report's Typst markup (figures addressed relative to ``root``)."""
-    head = ('#set document(title: "Model reduction of elastic nested gimbals: results")\n'
-            '#set page(paper: "a4", margin: 2cm, numbering: "1")\n'
-            '#set text(size: 10pt)\n#set par(justify: true)\n'
-            '#set heading(numbering: "1.1")\n'
-            '#show figure.where(kind: table): set figure.caption(position: top)\n'
-            '#show table: set par(justify: false)\n'
-            '#align(center)[#text(size: 16pt, weight: "bold")[Model reduction of a set of elastic, '
-            'nested gimbals: results of the reproduction study] \\ '
-            '#text(size: 10pt)[after P. J. Balucan, S.M. thesis, MIT (2001). Built '
-            f'{s(ctx["date"])}, revision {s(ctx["versions"].get("git", "unknown"))}]]\n\n'
-            '#outline(depth: 2)\n\n')
-    return (head + _summary(ctx) + _model_section(ctx, root) + _methods_section(ctx) +
-            _results_section(ctx, root) + _findings_section(ctx) + _runtime_section(ctx, root) +
-            _performance_section(ctx, root) + _provenance_section(ctx))
+PARTS = ("scene", "model")
 
 
-def compile_pdf(source: str, out_pdf: str, root: str, record: dict | None = None) -> str:
-    """Write ``source`` beside ``out_pdf`` (report.typ) and compile it atomically, with the
-    provenance record (default ``gimbal_reduction.workflow.provenance.provenance()``) in the PDF's ``/Subject``."""
-    import typst  # optional heavy dependency (the Typst compiler): imported only to compile the PDF
-    os.makedirs(os.path.dirname(os.path.abspath(out_pdf)), exist_ok=True)
-    typ = os.path.splitext(os.path.abspath(out_pdf))[0] + ".typ"
-    with open(typ, "w") as f:
-        f.write(typst_metadata(record) + source)
-    with atomic_path(out_pdf) as tmp:
-        typst.compile(typ, output=str(tmp), root=root)
-    return out_pdf
+def typst_source(ctx: dict, root: str, part: str = "scene") -> str:
+    """The report's Typst markup (figures addressed relative to ``root``): ``part`` "model" is what
+    does not depend on the scene (bodies, FE checks, mode shapes and static modes, mode selection,
+    the coupled modes, the benchmarks), "scene" one scene's results only."""
+    sub = (f"after P. J. Balucan, S.M. thesis, MIT (2001). Built {s(ctx['date'])}, revision "
+           f"{s(ctx['versions'].get('git', 'unknown'))}")
+    if part == "model":
+        return (page_setup("Model reduction of elastic nested gimbals: the model", sub)
+                + _model_section(ctx, root) + _methods_section(ctx) + "= The coupled chain\n\n"
+                + _coupled_section(ctx) + _performance_section(ctx, root) + _provenance_section(ctx))
+    name = (ctx["scene"] or {}).get("name", "?")
+    return (page_setup(f"Model reduction of elastic nested gimbals: scene {name}", sub)
+            + _summary(ctx) + _scene_methods_section(ctx) + _results_section(ctx, root)
+            + _findings_section(ctx) + _runtime_section(ctx, root) + _provenance_section(ctx))
 
 
 def report_root(ctx, out_pdf):
@@ -903,6 +942,8 @@ def main(argv=None) -> int:
     for key, default in LIST_DEFAULTS.items():
         parser.add_argument("--" + key.replace("_", "-"), nargs="*", default=default,
                             help=f"files (default {' '.join(default)})")
+    parser.add_argument("--part", choices=PARTS, default="scene",
+                        help="scene: one scene's results; model: what does not depend on the scene")
     args = parser.parse_args(argv)
     paths = {k: getattr(args, k) for k in (*DEFAULTS, *LIST_DEFAULTS)}
     ctx = gather(paths)
@@ -912,7 +953,7 @@ def main(argv=None) -> int:
     record = provenance(sources=[ctx["paths"][k] for k in ("truth", "ranking_table", "static_table")
                                  if os.path.exists(ctx["paths"][k])])
     try:
-        compile_pdf(typst_source(ctx, root), out, root, record)
+        compile_pdf(typst_source(ctx, root, args.part), out, root, record)
     except Exception as exc:  # noqa: BLE001 - typst raises RuntimeError with the diagnostics
         msg = " ".join(str(exc).split())[:400]
         print(f"gimbal_reduction.results.study.report: error: typst failed: {msg}", file=sys.stderr)
