@@ -214,3 +214,13 @@ def test_the_methods_name_the_truth_integrators_tolerance():
     assert "tolerance 1e-06" in report._integrators(ctx)
     ctx["truth"]["stat_tol"] = float("nan")
     assert "tolerance" not in report._integrators(ctx)
+
+
+def test_inert_load_cases_are_those_within_the_tolerance_of_the_control():
+    cols = ("E_outer_gimbal", "E_middle_gimbal", "E_inner_gimbal", "E_stable_platform")
+    control = dict(zip(cols, (0.5, 0.1, 1e-3, 1e-4)))
+    same = {"load_case": "output_motor_mz", **{c: v * (1 + 1e-5) for c, v in control.items()}}
+    moved = {"load_case": "output_motor_fz", **{c: v * (1 + 1e-5) for c, v in control.items()},
+             "E_stable_platform": 2e-4}
+    assert report.inert_load_cases(control, [same, moved]) == ["output_motor_mz"]
+    assert report.inert_load_cases(None, [same]) == []

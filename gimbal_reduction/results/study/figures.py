@@ -639,9 +639,11 @@ def plot_runtime_error(rows: list[dict], stem: str, col: str = "E_outer_gimbal",
         cost = np.array([_size(r) for r in cases])
         err = np.array([r[col] for r in cases])
         front = pareto_front(cost, err)
-        if front:
-            ax.step(cost[front], err[front], where="post", color="0.3", lw=1, ls="--",
-                    label="Pareto front", zorder=2)
+        if front:       # ringed points and a staircase: drawn even when the front is one point
+            ax.plot(cost[front], err[front], drawstyle="steps-post", color="0.3", lw=1, ls="--",
+                    marker="o", ms=10, mfc="none", mec="0.3",
+                    label="Pareto front (ringed)" if len(front) > 1 else
+                    f"Pareto front: one point ({cases[front[0]]['model']}, ringed)", zorder=2)
         if truth and np.isfinite(_size(truth[0])):
             ax.plot([], [], ls="none", label=f"truth (off the axis): {_size(truth[0]):.0f} coordinates")
         if rigid_E is not None and np.isfinite(rigid_E) and rigid_E > 0:
