@@ -138,3 +138,42 @@ def test_sampling_check_sees_a_grid_that_misweights_a_mode():
         return {"t": t, "gamma_dot": base + 1e-2 * np.cos(2 * np.pi * f * t)[:, None], "model": f"m{f}"}
     assert decision.sampling_check(truth, [case(2500.0)])["max_relative_change"] > 0.5
     assert decision.sampling_check(truth, [case(1234.5)])["max_relative_change"] < 0.02
+
+
+def test_the_decision_file_quotes_the_benchmark_and_the_error_tables(tmp_path):
+    """End to end on a synthetic study: every decision row's run and set-up times are the timing
+    job's medians of that model, its error is the error table's (attitude, E; rate from E and the
+    truth's RMS rate), and a requirement below the truth's resolution names no model."""
+    from gimbal_reduction.results.study.tables import read_table
+    from tests.results.synthetic_study import write_tables
+    truth, cases, rt, st, _ = write_tables(tmp_path, tmp_path / "tables")
+    rows = read_table(rt) + read_table(st)
+    models = {r["model"]: {"run_ms": 1.0 + k, "setup_ms": 10.0 + k, "run_ms_spread": 0.1}
+              for k, r in enumerate(rows)}
+    runtime = tmp_path / "runtime.json"
+    runtime.write_text(json.dumps({"models": models, "runs": 5}))
+    basis = tmp_path / "basis.json"
+    basis.write_text(json.dumps({"scenes": {"thesis": {"E": [1e-3] * 4, "attitude_max_arcsec": 1.0}}}))
+    out = tmp_path / "decision.json"
+    assert decision.main(["--scenes", "thesis", "--ranking-tables", rt, "--static-tables", st,
+                          "--truths", truth, "--runtimes", str(runtime), "--truth-basis", str(basis),
+                          "--sims", truth, *cases[:3],
+                          "--out-json", str(out), "--out-csv", str(tmp_path / "decision.csv")]) == 0
+    d = json.loads(out.read_text())["scenes"][0]
+    by = {r["model"]: r for r in rows}
+    rms = decision.rate_rms(*(lambda s: (s["t"], s["gamma_dot"]))(decision.read_sim(truth)))
+    assert d["resolution"]["E"] == pytest.approx(max(1e-3, max(by["static-100"][c] for c in RATE_COLUMNS)))
+    met = [r for r in d["rows"] if r["status"] == "met"]
+    assert met and any(r["model"] != "truth" for r in met)
+    for r in met:
+        assert r["run_ms"] == models[r["model"]]["run_ms"] and r["setup_ms"] == models[r["model"]]["setup_ms"]
+        assert r["truth_run_ms"] == models["truth"]["run_ms"]
+        if r["model"] == "truth":
+            continue
+        E = np.array([by[r["model"]][c] for c in RATE_COLUMNS])
+        expected = {"E": E.max(), "attitude": by[r["model"]]["attitude_max_arcsec"],
+                    "rate": float(np.max(np.sqrt(E) * rms))}[r["measure"]]
+        assert r["error"] == pytest.approx(expected, rel=1e-12) and r["error_bound"] <= r["requirement"]
+    for r in d["rows"]:
+        assert (r["status"] == decision.NOT_RESOLVABLE) == (r["requirement"] <= r["resolution"])
+    assert "max_relative_change" in d["sampling"]
