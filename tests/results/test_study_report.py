@@ -300,3 +300,33 @@ def test_a_truth_whose_own_error_exceeds_the_rigid_models_is_said_not_to_referee
     basis["scenes"]["long"]["E"][0] = 0.5 * rigid
     assert study_report.unrefereed_scenes(an, basis) == []
     assert "below what this truth resolves" not in study_report.truth_error_section(ctx, an)
+
+
+def test_page_one_is_the_decision_with_the_measured_times(study, tmp_path):
+    """With a decision file, the study report opens with the decision tables (before the outline),
+    every answer quoting the decision's model, coordinates and timing-job medians; a requirement
+    below the truth's resolution reads "not resolvable"; the findings on an unresolved rate too."""
+    import json
+    from gimbal_reduction.results.study import decision
+    scenes = []
+    for name, rt, st in zip(("thesis", "smooth"), study["rank"], study["static"]):
+        rows = tables.read_table(rt) + tables.read_table(st)
+        runtime = {"models": {r["model"]: {"run_ms": 2.5, "setup_ms": 30.0} for r in rows}}
+        basis = {"E": [1e-3 if name == "thesis" else 10.0] * 4, "attitude_max_arcsec": 1.0}
+        scenes.append(decision.decide_scene(name, rows, np.ones(4), basis, runtime))
+    dec = tmp_path / "decision.json"
+    dec.write_text(json.dumps({"measures": {m: {"unit": decision.MEASURE_UNITS[m],
+                                                "label": decision.MEASURE_LABELS[m]} for m in decision.MEASURES},
+                               "scenes": scenes}))
+    pdf = tmp_path / "report.pdf"
+    assert study_report.main(["--scenes", *study["scenes"], "--ranking-tables", *study["rank"],
+                              "--static-tables", *study["static"], "--findings", *study["findings"],
+                              "--figures", *study["figures"], "--fe", "x", "--reduction", "y",
+                              "--decision", str(dec), "--out", str(pdf)]) == 0
+    src = (tmp_path / "report.typ").read_text()
+    assert src.index("= The decision") < src.index("#outline") < src.index("= Summary")
+    met = next(r for r in scenes[0]["rows"] if r["status"] == "met" and r["model"] != "truth")
+    assert f'*#"{met["model"]}"* \\ #"{met["coordinates"]}" coord., run #"2.5", set-up #"30" ms' in src
+    assert '#"not resolvable"' in src
+    # smooth: the truth's error (E = 10) exceeds every model's: no finding is judged there
+    assert "not resolvable: the truth's own error exceeds it" in src
