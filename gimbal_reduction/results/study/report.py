@@ -759,7 +759,9 @@ def _findings_section(ctx):
     for f in ctx["findings"]:
         th = (f.get("thesis_check") or {}).get("verdict") or "--"
         before = f.get("verdict_before")
-        changed = f" (rule alone: {before})" if before and before != f["verdict"] else ""
+        changed = (f" (without the truth's resolution: {before})"
+                   if before and before != f["verdict"] and decision.NOT_RESOLVABLE in
+                   (f.get("verdict_per_rate") or {}).values() else "")
         rows.append([s(f["finding"]), s(f["statement"]), s(f.get("rule", "")), s(f.get("control", "")),
                      f"*{s(f['verdict'])}*{s(changed)} \\ {s(verdict_marks(f.get('verdict_per_rate')))}",
                      s(th), s(f["reason"])])
