@@ -603,7 +603,10 @@ def _cell(ctx, row, k):
     return s("n.r.") if v == decision.NOT_RESOLVABLE else sci(v)
 
 
-INERT_RTOL = 1e-3     # a load case "changes nothing" when every rate's E is within this of freq-10's
+# a load case "changes nothing" when every rate's E is within this of freq-10's: the third digit of
+# the tables; on the thesis scene the two z-moment cases differ from freq-10 by 6.5e-4 and 1.9e-3,
+# the other five by 1.2e-2 to 1.1e-1
+INERT_RTOL = 5e-3
 
 
 def inert_load_cases(control, load_rows, rtol=INERT_RTOL) -> list[str]:
@@ -624,14 +627,17 @@ def _inert_caption(ranking_rows, load_rows) -> str:
     inert = inert_load_cases(control, load_rows)
     if not inert:
         return ""
-    return (f" The static modes of {', '.join(s(c) for c in inert)} change no rate's E by more than "
-            f"{INERT_RTOL:g} relative from freq-10's: those are moments about the ring's z axis, whose "
-            "static modes deform the outer gimbal out of the plane of the scene's motion (their momentum "
-            "coefficients have only P_y, H_x and H_z, their bearing motions only u_y, theta_x, theta_z: "
-            "results/reduction/body2.h5), while the case rocks about the outer gimbal's own axis and the "
-            "loads on the ring lie in that plane; the scene gives them no generalised force, so they stay "
-            "at rest. A property of the scene, not a defect: a static mode helps only where the scene "
-            "loads the body as the mode was built.")
+    text = (f" The static modes of {', '.join(s(c) for c in inert)} change no rate's E by more than "
+            f"{INERT_RTOL:g} relative from freq-10's (the tables' third digit).")
+    if all(c.endswith("_mz") for c in inert):
+        text += (" They are moments about the ring's z axis, whose static modes deform the outer gimbal out "
+                 "of the plane of the scene's motion (momentum coefficients P_y, H_x and H_z only, bearing "
+                 "motions u_y, theta_x and theta_z only: results/reduction/body2.h5), while the case rocks "
+                 "about the outer gimbal's own axis and the loads on the ring lie in that plane: the scene "
+                 "gives them almost no generalised force, so they stay nearly at rest. A property of the "
+                 "scene, not a defect: a static mode helps only where the scene loads the body as the mode "
+                 "was built.")
+    return text
 
 
 def _nr_caption(ctx) -> str:
