@@ -75,8 +75,11 @@ def sci(x, digits=3) -> str:
 
 
 def ms(x) -> str:
-    """A time in milliseconds for a table cell (3 significant digits), "--" when unknown."""
-    return "--" if x is None or not np.isfinite(x) else s(f"{x:.3g}")
+    """A time given in milliseconds, as text with its unit (3 significant digits): "1.31 ms",
+    "30.1 s" from 1000 ms on; "--" when unknown."""
+    if x is None or not np.isfinite(x):
+        return "--"
+    return s(f"{x:.3g} ms" if x < 1e3 else f"{x / 1e3:.3g} s")
 
 
 def table(header, rows, caption, label=None, columns=None, size="8pt") -> str:

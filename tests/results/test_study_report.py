@@ -326,7 +326,7 @@ def test_page_one_is_the_decision_with_the_measured_times(study, tmp_path):
     src = (tmp_path / "report.typ").read_text()
     assert src.index("= The decision") < src.index("#outline") < src.index("= Summary")
     met = next(r for r in scenes[0]["rows"] if r["status"] == "met" and r["model"] != "truth")
-    assert f'*#"{met["model"]}"* \\ #"{met["coordinates"]}" coord., run #"2.5", set-up #"30" ms' in src
+    assert f'*#"{met["model"]}"* (#"{met["coordinates"]}") #"2.5 ms" + #"30 ms"' in src
     assert '#"not resolvable"' in src
     # smooth: the truth's error (E = 10) exceeds every model's: no finding is judged there
     assert "not resolvable: the truth's own error exceeds it" in src

@@ -24,7 +24,7 @@ The rounds interleave the models (round k runs every model once), so a slow spel
 machine falls on every model alike rather than on one.  This is a timing job: the workflow gives it
 both cores so that no other job runs beside it.  Output JSON: {scene, repeats, duration_s, samples,
 integrator, models: {name: {run_ms, run_ms_spread, run_ms_all, setup_ms, setup_ms_all, n_modes
-(4,), coordinates}}, environment}.
+(4,), coordinates}}, environment, cpu_count, load_average (before, after)}.
 """
 from __future__ import annotations
 
@@ -111,6 +111,7 @@ def main(argv=None) -> int:
         basis = decision.read_basis(args.truth_basis).get(scene.name)
         names = decision.chosen_models(rows, rms, basis)
         options = {"tol": args.tol} if args.tol else {}
+        load_before = os.getloadavg()[0]
         timed = time_models(names, scene, dict(zip(models.BODIES, args.bodies)),
                             dict(zip(models.BODIES, args.reductions)), args.load_ranking,
                             args.repeats, args.integrator, options)
@@ -121,7 +122,10 @@ def main(argv=None) -> int:
     write_json(args.out, {"scene": scene.name, "repeats": args.repeats, "integrator": args.integrator,
                           "duration_s": scene.duration, "output_interval_s": scene.output_interval,
                           "samples": samples, "models": timed, "environment": versions(),
-                          "cpu_count": os.cpu_count()},
+                          "cpu_count": os.cpu_count(),
+                          # the machine's 1-minute load average before and after the runs: on a shared
+                          # machine the absolute times are inflated by about load / cores
+                          "load_average": [load_before, os.getloadavg()[0]]},
                provenance(sources=[args.ranking_table, args.static_table, args.truth]))
     print(f"runtime: {len(timed)} models on {scene.name} x {args.repeats} -> {args.out}")
     return 0

@@ -290,7 +290,9 @@ def decide_scene(name, rows, truth_rms, basis_scene, runtime, requirements=Requi
             "rate_resolved": [rate_resolved(rows, k, res["E_per_rate"][k]) for k in range(4)],
             "runtime": {"truth": truth_t, "rigid": timed.get("rigid", {}), "runs": (runtime or {}).get("repeats"),
                         "duration_s": (runtime or {}).get("duration_s"),
-                        "samples": (runtime or {}).get("samples")}}
+                        "samples": (runtime or {}).get("samples"),
+                        "load_average": (runtime or {}).get("load_average"),
+                        "cpu_count": (runtime or {}).get("cpu_count")}}
 
 
 def chosen_models(rows, truth_rms, basis_scene, requirements=Requirements()) -> list[str]:
