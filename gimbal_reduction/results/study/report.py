@@ -402,13 +402,23 @@ def _model_section(ctx, root):
                            for k in BODY_NAMES if k in bodies)
         out.append(f"Structural masses [lbf s#super[2]/in]: {s(masses)}. FE verification: "
                    f"{s(sum(c.get('passed', False) for c in fe.get('checks', [])))} of "
-                   f"{s(len(fe.get('checks', [])))} checks passed.\n\n")
+                   f"{s(len(fe.get('checks', [])))} checks passed"
+                   + (" (@tab-fe-checks).\n\n" if fe.get("checks") else ".\n\n"))
+        rows = [[s(c.get("name")), sci(c.get("value")), sci(c.get("tolerance")),
+                 s("pass" if c.get("passed") else "FAIL")] for c in fe.get("checks", [])]
+        if rows:
+            out.append("== Finite-element checks\n\n")
+            out.append(table(["check", "value", "tolerance", "verdict"], rows,
+                             "Finite-element checks against independent references (results/verification/"
+                             "fe_fast.json; fine meshes and MPI: `snakemake verify`).", "tab-fe-checks",
+                             columns="(3fr, auto, auto, auto)", size="7.5pt"))
     else:
         out.append(note(ctx["missing"].get("fe", "fe.json")))
     if ctx["mode_shapes"]:
-        # one body per figure at the full text width (the figures are drawn for it: 8 pt text)
+        out.append("== Mode shapes and static modes\n\n")
+        # two bodies' figures per page: 85 % of the text width (drawn for the full width at 8 pt)
         for png, caption in ctx["mode_shapes"]:
-            out.append(figure(png, s(caption), root, width="100%"))
+            out.append(figure(png, s(caption), root, width="85%"))
     else:
         out.append(note(f"mode-shape plots {s(', '.join(os.path.relpath(f, ROOT) for f in ctx['paths']['mode_shapes']))} "
                         f"missing (made by python -m gimbal_reduction.results.study.mode_shapes)"))
@@ -942,13 +952,15 @@ def _provenance_section(ctx):
     out.append(table(["item", "value"], [[s(a), s(b)] for a, b in items],
                      "Software versions and configuration.", "tab-provenance"))
     rows = [[s(k), s(os.path.relpath(ctx["paths"][k], ROOT)), s(ctx["status"].get(k, "--"))]
-            for k in DEFAULTS if k != "out"]
+            for k in DEFAULTS if k != "out" and (k in (ctx.get("part_inputs") or DEFAULTS))]
     out.append(table(["input", "path", "modified / status"], rows,
                      "Inputs of this report.", "tab-inputs"))
     return "".join(out)
 
 
 PARTS = ("scene", "model")
+# the inputs the model report reads (its provenance table lists these only)
+MODEL_INPUTS = ("fe", "modes_benchmark", "reduction", "config", "scene", "coupled_modes", *OPTIONAL_KEYS)
 
 
 def typst_source(ctx: dict, root: str, part: str = "scene") -> str:
@@ -958,6 +970,7 @@ def typst_source(ctx: dict, root: str, part: str = "scene") -> str:
     sub = (f"after P. J. Balucan, S.M. thesis, MIT (2001). Built {s(ctx['date'])}, revision "
            f"{s(ctx['versions'].get('git', 'unknown'))}")
     if part == "model":
+        ctx = {**ctx, "part_inputs": MODEL_INPUTS}
         return (page_setup("Model reduction of elastic nested gimbals: the model", sub)
                 + _model_section(ctx, root) + _methods_section(ctx) + "= The coupled chain\n\n"
                 + _coupled_section(ctx) + _performance_section(ctx, root) + _provenance_section(ctx))

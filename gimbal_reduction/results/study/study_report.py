@@ -451,7 +451,7 @@ def results_section(ctx, an, root) -> str:
     for sc in ctx["scenes"]:
         err = [f for f in sc["figures"] if f.get("kind") == "error"]
         for f in err[:1]:
-            out.append(figure(f["pdf"], f"Scene {s(sc['name'])}: " + s(f["caption"]), root, width="85%"))
+            out.append(figure(f["pdf"], f"Scene {s(sc['name'])}: " + s(f["caption"]), root, width="66%"))
         if not err:
             out.append(note(f"scene {s(sc['name'])}: no error figure"))
     out.append(tolerance_section(ctx, root))
