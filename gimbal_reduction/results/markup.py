@@ -76,10 +76,13 @@ def sci(x, digits=3) -> str:
 
 def ms(x) -> str:
     """A time given in milliseconds, as text with its unit (3 significant digits): "1.31 ms",
-    "30.1 s" from 1000 ms on; "--" when unknown."""
+    "30.1 s" from 1 s, "14.4 min" from 10 min, "2.31 h" from 10 h; "--" when unknown."""
     if x is None or not np.isfinite(x):
         return "--"
-    return s(f"{x:.3g} ms" if x < 1e3 else f"{x / 1e3:.3g} s")
+    for scale, unit in ((3.6e6, "h"), (6e4, "min"), (1e3, "s")):
+        if x >= 10 * scale if unit != "s" else x >= scale:
+            return s(f"{x / scale:.3g} {unit}")
+    return s(f"{x:.3g} ms")
 
 
 def table(header, rows, caption, label=None, columns=None, size="8pt") -> str:

@@ -323,7 +323,8 @@ def pays_section(dec) -> str:
         batch = (tr.get("setup_ms") or 0.0) + 1000 * tr["run_ms"]
         rows.append([s(sc["scene"]), s(format(sc["runtime"].get("duration_s") or float("nan"), "g") + " s"),
                      f"{ms(tr['run_ms'])} + {ms(tr.get('setup_ms'))}", ms(rg.get("run_ms")),
-                     s(f"{min(sp):.2g} to {max(sp):.2g}") if sp else "--",
+                     (s(f"{min(sp):.3g}" if f"{min(sp):.3g}" == f"{max(sp):.3g}" else
+                        f"{min(sp):.3g} to {max(sp):.3g}") if sp else "--"),
                      s(f"{2 * (sc['truth_coordinates'] or 0)} / {dims[0]} to {dims[-1]}"), ms(batch)])
         (pays if tr["run_ms"] >= PAYS_RUN_MS else not_pays).append(
             f"{sc['scene']} ({tr['run_ms'] / 1e3:.3g} s)" if tr["run_ms"] >= PAYS_RUN_MS else
@@ -394,7 +395,7 @@ def methods_section(ctx) -> str:
     out = ["= Methods\n\n",
            "*Bodies and modes.* The three gimbal rings are Reissner-Mindlin shells (P2, DOLFINx "
            "0.5), the stable platform a solid of curved P3 tetrahedra; 100 supported modes per "
-           "body from SLEPc (the per-scene reports list the frequencies and the FE checks). "
+           "body from SLEPc (the model report, results/report/model.pdf, lists the frequencies and the FE checks). "
            "*Reduction.* Frequency cutoff, XMX and XMGMX rankings (Hughes identities), "
            "residual-attachment static correction modes, and two scene-aware selections: "
            "load-N (each body's modes ranked by what the scene's joint loads make them contribute "
@@ -653,7 +654,7 @@ def discussion_section(ctx, an) -> str:
             f"{s(_frac(beat, th['n_reduced']))} reduced models do better "
             f"({s(', '.join(beat[:12]) + (' ...' if len(beat) > 12 else '') if beat else 'none')}). "
             "The thesis scene starts the case's angular acceleration with a step at t = 0 (cos(2 pi 2 t) "
-            "from rest), which sets the chain's coupled modes ringing, undamped (the scene report lists "
+            "from rest), which sets the chain's coupled modes ringing, undamped (the model report lists "
             "them). ")
         if has(sm) and sm["rigid"][0] > 0:
             ratio = th["rigid"][0] / sm["rigid"][0]
