@@ -47,7 +47,7 @@ from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow import units
 from gimbal_reduction.workflow import config as cfgmod
 from gimbal_reduction.workflow.config import BODY_NAMES, load_config
-from gimbal_reduction.results.markup import (MARKS_LEGEND, compile_pdf, figure, note, page_setup, read_json,
+from gimbal_reduction.results.markup import (MARKS_LEGEND, compile_pdf, figure, ms, note, page_setup, read_json,
                                              read_yaml, report_versions, s, sci, table, verdict_marks)
 from gimbal_reduction.workflow.provenance import git_revision, other_revision, provenance
 
@@ -797,6 +797,13 @@ def _runtime_section(ctx, root):
     rt = [f for f in ctx["figures"] if f["kind"] == "cost"]
     for f in rt:
         out.append(figure(f["pdf"], s(f["caption"]), root, width="85%", label="fig-runtime"))
+    d = ctx.get("decision")
+    if d and d["runtime"]["truth"].get("run_ms"):
+        tr, rg = d["runtime"]["truth"], d["runtime"].get("rigid", {})
+        out.append(f"Measured run times on this scene (the timing job: medians of 5 runs in one process; "
+                   f"the decision on page 1 of the study report quotes them per answer): the truth "
+                   f"{ms(tr['run_ms'])} (set-up {ms(tr.get('setup_ms'))}), the rigid model "
+                   f"{ms(rg.get('run_ms'))}.\n\n")
     eb = ctx.get("exponential_bench")
     if eb:
         out.append(f"Run times (medians of repeated runs) are those of the exponential integrator's "
