@@ -416,9 +416,9 @@ def _model_section(ctx, root):
         out.append(note(ctx["missing"].get("fe", "fe.json")))
     if ctx["mode_shapes"]:
         out.append("== Mode shapes and static modes\n\n")
-        # two bodies' figures per page: 85 % of the text width (drawn for the full width at 8 pt)
+        # two figures per page: 62 % of the text width (drawn for the full width at 8 pt)
         for png, caption in ctx["mode_shapes"]:
-            out.append(figure(png, s(caption), root, width="85%"))
+            out.append(figure(png, s(caption), root, width="62%"))
     else:
         out.append(note(f"mode-shape plots {s(', '.join(os.path.relpath(f, ROOT) for f in ctx['paths']['mode_shapes']))} "
                         f"missing (made by python -m gimbal_reduction.results.study.mode_shapes)"))
