@@ -848,7 +848,7 @@ def _eps_label(eps) -> str:
     return f"$10^({int(round(k))})$" if abs(k - round(k)) < 1e-9 else sci(eps, 2)
 
 
-TOL_MARK = {True: "✓", False: "✗", None: ""}
+TOL_MARK = {True: "(within)", False: "(beyond)", None: ""}    # words of the body font, no symbol glyphs
 
 
 def _damping(sc) -> float:
@@ -859,7 +859,7 @@ def _damping(sc) -> float:
 
 def tolerance_table(data) -> str:
     """Estimated against measured E: per scene the kept coordinates, the a-priori estimate and the
-    measured E (✓ within the request) of tol-EPS, one column per EPS."""
+    measured E ("within" the request or "beyond" it) of tol-EPS, one column per EPS."""
     eps = sorted({p["eps"] for d in data.values() for p in d["points"]}, reverse=True)
     rows, own_choice = [], False
     for scene, d in data.items():
@@ -881,7 +881,7 @@ def tolerance_table(data) -> str:
                          if e in by and by[e]["apriori_measured"] is not None else "--" for e in eps])
     return table(["scene", ""] + [f"EPS {_eps_label(e)}" for e in eps], rows,
                  "tol-EPS on every bench scene: elastic coordinates kept, the frozen chain's a-priori E "
-                 "(max over the four gimbal rates) and the E measured against the truth (✓: within the "
+                 "(max over the four gimbal rates) and the E measured against the truth (within: the E is within the "
                  "request). Where the frozen chain does not hold, the model was chosen by verified "
                  "search and its estimate is shown only for comparison"
                  + (", with the set the frozen chain would have chosen and its measured E (the search's "
