@@ -519,8 +519,9 @@ def _sampling_paragraph(ctx):
     above = [x for x in f if x > nyquist]
     text = (f"*Sampling.* Every model is sampled on the scene's output grid: every {dt * 1e6:.4g} µs "
             f"({int(round(duration / dt)) + 1} samples over {duration_text(duration)}, Nyquist frequency "
-            f"{nyquist / 1e3:.4g} kHz); the integrator's own steps are finer where the solution needs "
-            "it, and each output sample is the integrator's solution at that instant, not an average. ")
+            f"{nyquist / 1e3:.4g} kHz); each sample is the integrator's solution at that instant (the "
+            "exponential integrator evaluates its modal solution there, whatever its own step), not an "
+            "average over the interval. ")
     if f:
         n = int(round(duration / dt)) + 1
         # the mean square of n samples of a unit sinusoid at f differs from 1/2 by at most
