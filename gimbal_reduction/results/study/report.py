@@ -815,15 +815,14 @@ def _runtime_section(ctx, root):
                         " no run time is quoted from single runs."))
     if rows:
         body = [[s(r["model"] + (" (truth check)" if r["group"] == "truth-check" else "")),
-                 s(r["n_elastic"]), sci(r["E_outer_gimbal"]), sci(r["E_middle_gimbal"]),
-                 sci(r["E_inner_gimbal"]), sci(r["E_stable_platform"]),
+                 s(r["n_elastic"]), *(_cell(ctx, r, k) for k in range(len(RATE_COLUMNS))),
                  sci(r.get("attitude_max_arcsec", float("nan"))), s(r["steps"])] for r in rows]
         out.append(table(["model", "elastic coord.", "E outer", "E middle", "E inner", "E platform",
                           "attitude [arcsec]", "steps"], body,
                          "Every case by its size (elastic coordinates): E per rate, the largest "
                          "platform attitude error against the truth, and the integrator's steps. "
                          "The truth check (the truth + 1 static mode per body) measures the truth's "
-                         "truncation, not a reduced model.",
+                         "truncation, not a reduced model." + _nr_caption(ctx),
                          "tab-runtime", size="6.5pt"))
     elif not rt:
         out.append(note(ctx["missing"].get("ranking_table", "error tables")))
