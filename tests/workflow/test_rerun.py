@@ -27,11 +27,11 @@ ROOT = Path(__file__).resolve().parents[2]
 BODIES = (2, 3, 4, 5)
 NAMES = dict(zip(BODIES, cfgmod.BODY_NAMES))
 # rules whose params.cfg hashes the whole config (they record or print all of it)
-WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "report_scene"}
+WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "report_scene", "model_report"}
 # rules whose stage checks the body files it reads (directly, or through the reduction, ranking and
 # reduced-model files made from them) against the configuration (--config {CONFIG},
 # gimbal_reduction/solver/bodyconfig.py): params.cfg is what it compares them with, every body file's config hash
-BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "load_ranking_first", "study_scene_first", "reduced_model", "simulate", "study_scene", "truth_basis",
+BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "load_ranking_first", "study_scene_first", "reduced_model", "simulate", "study_scene", "truth_basis", "runtime",
                  "reference_simulation", "dynamics_verification", "stability", "pareto", "selection",
                  "exponential_bench", "exponential_accuracy", "integrator_tables", "control_export",
                  "simulate_modal"}

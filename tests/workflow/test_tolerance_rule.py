@@ -47,5 +47,6 @@ def test_the_study_report_reads_the_tolerance_bench_if_present(workflow):
     rule = workflow.get_rule("study_report")
     assert "--tolerance results/benchmarks/tolerance.json" in rule.params.optional(Wildcards())
     assert "results/benchmarks/tolerance.json" not in {str(f) for f in rule.input}
-    # the scene reports do not take it (gimbal_reduction.results.study.report has no such option)
-    assert "--tolerance" not in workflow.get_rule("report_scene").params.optional(Wildcards())
+    # the scene and model reports do not take it (gimbal_reduction.results.study.report has no such option)
+    assert "--tolerance" not in workflow.get_rule("report_scene").shellcmd
+    assert "--tolerance" not in workflow.get_rule("model_report").params.optional(Wildcards())
