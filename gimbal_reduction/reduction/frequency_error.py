@@ -9,10 +9,10 @@ order in the deviation x = y - y0 and the inputs,
 
     M x'' + D x' + K x = B u,      M = M(y0),  K = diag(0_4, Omega^2),
 
-with D the damping (below) and the inputs u = [a (3,); tau (4,)]: the case's angular acceleration a [rad/s^2] in case axes and
-the four motor torques tau [in lbf] on the joint angles.  B = [-H, E_4]: H (n, 3) is the inverse
-dynamics' response to a unit case acceleration at rest (the inertial load it puts on every
-coordinate), E_4 the torques' columns (1 on joint j).  Velocity-squared terms (centrifugal,
+with D the damping (below) and the inputs u = [a (3,); tau (4,)]: the case's angular acceleration
+a [rad/s^2] in case axes and the four motor torques tau [in lbf] on the joint angles.
+B = [-H, E_4]: H (n, 3) is the inverse dynamics' response to a unit case acceleration at rest (the
+inertial load it puts on every coordinate), E_4 the torques' columns (1 on joint j).  Velocity-squared terms (centrifugal,
 Coriolis) are second order at rest and dropped; every study scene starts at rest.
 
 The outputs are rates, y = C x' (7,): the four gimbal rates and the stable platform's angular
@@ -48,9 +48,9 @@ zeta = max(scene's, ``damping_floor``) (1 %, the damped study scene's) in its ow
 modes X (X^T S X = I, X^T K_q X = diag(omega^2): ``linearized.free_joint_basis``), D_q = S X
 diag(2 zeta omega) X^T S (``coupled_damping``).  (The simulations damp the body modes instead;
 in the coupled modes that damping is not diagonal, and diagonalising the (2m, 2m) first-order
-matrix of the 400-mode truth costs ~10x the symmetric eigenproblem.  The damping is a device of
-the measure here: a misplaced resonance costs an error of the order of (frequency shift) /
-(half-power width), so the numbers hold at this damping.)  Then
+matrix of the 400-mode truth took ~10x the symmetric eigenproblem, measured.)  The damping is a
+device of the measure: a misplaced resonance costs an error of the order of (frequency shift) /
+(half-power width), so the numbers hold at this damping.  Then
 
     G_e(i w) = sum_k (C T X)[:, k] (X^T T^T B)[k, :] i w / (omega_k^2 - w^2 + 2 i zeta omega_k w),
 
@@ -74,10 +74,11 @@ Norms on a grid
 ---------------
 The grid (``frequency_grid``): a log grid of ``points_per_decade`` from 1e-3 of the lowest coupled
 frequency to the band's edge, plus points at w_d + sigma x ``PEAK_OFFSETS`` around every damped pole
-lambda = -sigma + i w_d of the truth and of the model in the band (a resonance is 2 sigma wide).
-H-infinity: max over the grid of sigma_max(G_e,truth - G_e,model), polished by a golden-section
-search between the neighbours of the largest sample; relative to the truth's (same grid).
-H2 over the band: (1/pi int_0^w_band ||G(i w)||_F^2 dw)^1/2 by the trapezoid rule; relative to
+lambda = -sigma + i w_d of the truth reaching into the band (a resonance is 2 sigma wide), and
+``MODEL_PEAK_OFFSETS`` around the model's.  H-infinity: max over the grid of
+sigma_max((G_e,truth - G_e,model) W), polished by a golden-section search between the neighbours of
+the largest sample; relative to the truth's (polished too).
+H2 over the band: (1/pi int_0^w_band ||G(i w) W||_F^2 dw)^1/2 by the trapezoid rule; relative to
 the truth's.
 
 Units: in, lbf, s, rad; frequencies in rad/s unless named _hz.
@@ -87,7 +88,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from gimbal_reduction.reduction.frozen_chain import modal_rates
 from gimbal_reduction.solver.dynamics import compiled, linearized, multibody

@@ -55,7 +55,8 @@ RATE_COLUMNS = tuple(f"E_{BODY_NAMES[b]}" for b in BODIES)
 ATTITUDE_COLUMNS = ("attitude_max_arcsec", "attitude_rms_arcsec")
 FREQUENCY_COLUMNS = ("hinf_error", "h2_error", "hinf_peak_hz")
 TABLE_COLUMNS = ("group", "model", "ranking", "count", "static", "load_case", "thesis_figure",
-                 "n_elastic", *RATE_COLUMNS, *ATTITUDE_COLUMNS, *FREQUENCY_COLUMNS, "wall_time_s", "integration_time_s", "integrator",
+                 "n_elastic", *RATE_COLUMNS, *ATTITUDE_COLUMNS, *FREQUENCY_COLUMNS, "wall_time_s",
+                 "integration_time_s", "integrator",
                  "step_s", "steps", "samples", "scene", "config_hash", "file")
 
 
@@ -111,7 +112,8 @@ def read_frequency_errors(path) -> dict:
         with open(path) as f:
             data = json.load(f)
     except (OSError, ValueError) as exc:
-        raise ErrorsInputError(f"{path}: unreadable frequency-error file ({exc.__class__.__name__})") from None
+        raise ErrorsInputError(f"{path}: unreadable frequency-error file "
+                               f"({exc.__class__.__name__})") from None
     if not isinstance(data, dict) or not isinstance(data.get("models"), dict):
         raise ErrorsInputError(f"{path}: not a frequency-error file (no 'models' mapping)")
     return data
@@ -121,7 +123,8 @@ def _num(v):
     return float(v) if v is not None and v != "" else float("nan")
 
 
-def build_tables(truth: dict, cases: list[dict], frequency: dict | None = None) -> tuple[list[dict], list[dict]]:
+def build_tables(truth: dict, cases: list[dict],
+                 frequency: dict | None = None) -> tuple[list[dict], list[dict]]:
     """(ranking rows, static rows) of the cases, each sorted in study order (group, count);
     frequency: the run_scene frequency-error JSON (optional)."""
     rows = [case_row(truth, truth, frequency)] + [case_row(truth, c, frequency) for c in cases]
@@ -149,7 +152,8 @@ def read_table(path) -> list[dict]:
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     for r in rows:
-        for k in (*RATE_COLUMNS, *ATTITUDE_COLUMNS, *FREQUENCY_COLUMNS, "wall_time_s", "integration_time_s", "step_s"):
+        for k in (*RATE_COLUMNS, *ATTITUDE_COLUMNS, *FREQUENCY_COLUMNS, "wall_time_s",
+                  "integration_time_s", "step_s"):
             r[k] = float(r[k]) if r.get(k) not in (None, "") else float("nan")
         for k in ("count", "static", "n_elastic", "steps", "samples"):
             r[k] = int(float(r[k])) if r.get(k) not in (None, "") else None
@@ -176,8 +180,9 @@ def main(argv=None) -> int:
     except ErrorsInputError as exc:
         print(f"gimbal_reduction.results.study.tables: error: {exc}", file=sys.stderr)
         return 2
+    # the simulations' config hashes (and the frequency-error file's, itself theirs)
     record = provenance(sources=[args.truth, *args.cases,
-                                 *([args.frequency_error] if args.frequency_error else [])])       # the simulations' config hashes
+                                 *([args.frequency_error] if args.frequency_error else [])])
     write_text(args.ranking_table, format_csv(ranking), record)
     write_text(args.static_table, format_csv(static), record)
     print(f"gimbal_reduction.results.study.tables: {len(ranking)} rows -> {args.ranking_table}, {len(static)} rows -> "
