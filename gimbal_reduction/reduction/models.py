@@ -76,7 +76,7 @@ from gimbal_reduction.solver.bodydata import BODIES, BEARING_NAMES, check_config
 from gimbal_reduction.solver.dynamics import chainfile, multibody, scenes
 from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow import config as cfgmod
-from gimbal_reduction.workflow.provenance import versions
+from gimbal_reduction.workflow.provenance import check_content, versions
 
 # the reduction stage's datasets, one per ranking it writes (results/reduction/body{n}.h5)
 RANKING_KEYS = {f: names.FAMILIES[f].ranking for f in ("freq", "xmx", "xmgmx")}
@@ -451,6 +451,10 @@ def load_load_ranking(path, rankings=None):
     out = {} if rankings is None else rankings
     try:
         with h5py.File(path, "r") as f:
+            try:
+                check_content(f, f"load-aware ranking {path}")
+            except ValueError as exc:
+                raise ModelError(str(exc)) from None
             missing = [k for k in [f"body{b}/{LOAD_KEY}" for b in BODIES] + ["pooled/body", "pooled/mode"]
                        if k not in f]
             if missing:
@@ -522,6 +526,10 @@ def read_reduction_rankings(path, body=None):
         raise FileNotFoundError(f"ranking file {path} missing (make it: snakemake --cores 2 {path})")
     try:
         with h5py.File(path, "r") as f:
+            try:
+                check_content(f, f"ranking file {path}")
+            except ValueError as exc:
+                raise ModelError(str(exc)) from None
             missing = [k for k in RANKING_KEYS.values() if k not in f]
             if missing:
                 raise _ranking_error(path, f"dataset(s) {', '.join(missing)} missing (stale or incomplete)")
@@ -771,8 +779,7 @@ def main(argv=None, runs=None):
     ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE",
                     help="the reduction stage's files of bodies 2..5 (xmx-, xmgmx-, load-, global-)")
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global-)")
-    ap.add_argument("--config", help="the current configuration file: every body file's config_hash "
-                                     "must be the one it gives (a body file of another config is refused)")
+    cli.add_config_option(ap, "every body file's config_hash must be the one it gives")
     ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
     ap.add_argument("--no-verified-search", action="store_true",
                     help="tol-EPS where the frozen-chain estimate does not hold: refuse, instead of "

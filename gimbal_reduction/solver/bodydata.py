@@ -22,6 +22,8 @@ import h5py
 import numpy as np
 import scipy.sparse as sp
 
+from gimbal_reduction.workflow.provenance import check_content
+
 
 BODIES = (2, 3, 4, 5)   # outer, middle, inner gimbal, stable platform (thesis numbering)
 
@@ -104,6 +106,10 @@ def read_body_file(path, expect_config_hash=None, mass_normalisation_tol=1e-6, c
         raise BodyFileError(f"{where}: body file not found (make it: snakemake --cores 2 {where})")
     try:
         with h5py.File(where, "r") as f:
+            try:
+                check_content(f, where)
+            except ValueError as exc:
+                raise BodyFileError(str(exc)) from None
             missing = [k for k in DENSE_DATASETS + SPARSE_DATASETS if k not in f]
             if missing:
                 raise BodyFileError(

@@ -110,8 +110,7 @@ def main(argv=None) -> int:
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global- models)")
     ap.add_argument("--out-dir", required=True, help="folder of the simulation files")
     ap.add_argument("--coupled-modes", help="JSON: the truth's coupled modes at the initial state")
-    ap.add_argument("--config", help="the current configuration file: body files from another one "
-                                     "are refused (gimbal_reduction.reduction.models / simulate --config)")
+    cli.add_config_option(ap, "body files from another one are refused")
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
                     help="simulate's --integrator (default its own)")
     ap.add_argument("--tol", default=None, type=cli.positive_number("--tol"),

@@ -38,7 +38,7 @@ import numpy as np
 
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics import multibody
-from gimbal_reduction.workflow.provenance import atomic_h5
+from gimbal_reduction.workflow.provenance import atomic_h5, check_content
 
 FORMAT = "gimbal-reduced-model/1"
 BODY_DATASETS = ("rigid_mass", "momentum", "inertia_gradient", "coriolis", "omega2", "labels")
@@ -103,6 +103,10 @@ def read_chain(path, damping_ratio=0.0):
             if info.get("format") != FORMAT:
                 raise ChainFileError(f"{where}: not a reduced-model file of format {FORMAT} "
                                      f"(format {info.get('format')!r})")
+            try:
+                check_content(h5, where)
+            except ValueError as exc:
+                raise ChainFileError(str(exc)) from None
             bodies, kept, static = [], {}, {}
             for number in BODIES:
                 group = f"body{number}"

@@ -18,7 +18,7 @@ import h5py
 import numpy as np
 
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError
-from gimbal_reduction.workflow.provenance import atomic_h5
+from gimbal_reduction.workflow.provenance import atomic_h5, check_content
 
 
 def write_sim(path, run, energies, attrs, store_modal=False, attitude=None):
@@ -53,6 +53,10 @@ def read_sim(path) -> dict:
         raise ErrorsInputError(f"{path}: simulation file missing (run gimbal_reduction.solver.dynamics.simulate first)")
     try:
         with h5py.File(path, "r") as f:
+            try:
+                check_content(f, path)
+            except ValueError as exc:
+                raise ErrorsInputError(str(exc)) from None
             for key in ("t", "gamma_dot"):
                 if key not in f:
                     raise ErrorsInputError(f"{path}: dataset '{key}' missing (not a simulation file)")

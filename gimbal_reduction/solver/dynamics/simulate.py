@@ -200,8 +200,8 @@ def build_parser():
     ap.add_argument("--model-file", help="reduced-model file (default results/models/SCENE/MODEL.h5)")
     ap.add_argument("--model", help="model name, to find the default model file and output")
     ap.add_argument("--out", help="simulation file to write (default results/sim/SCENE/MODEL.h5)")
-    ap.add_argument("--config", help="the current configuration file: the reduced model's body "
-                                     "files must have been made from it (their config hashes)")
+    cli.add_config_option(ap, "the reduced model's body files must have been made from it "
+                              "(their config hashes)")
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
                     help=f"default {DEFAULT_INTEGRATOR} (docs/exponential.md); dop853 at rtol "
                          f"1e-10 is the converged reference, rk4 the thesis's method")
@@ -274,12 +274,10 @@ def main(argv=None):
             cli.check_writable(args.out)
         chain, info = chainfile.read_chain(model_file, scene.damping_ratio)
         model = str(info.get("model", ""))
-        if args.model is not None and args.model != model:
-            raise ValueError(f"{model_file} holds model {model!r}, not {args.model!r}")
+        check_identity(model_file, info, args.model, args.out, scene)
         out = args.out or os.path.join(ROOT, "results", "sim", stem, f"{model}.h5")
         cli.check_writable(out)
-        if args.config is not None:
-            chainfile.check_body_hashes(model_file, info, expected_body_hashes(args.config))
+        chainfile.check_body_hashes(model_file, info, expected_body_hashes(args.config))
         if args.integrator is None:
             args.integrator = DEFAULT_INTEGRATOR
         options = scene_options(scene, args.integrator, args.step, integrator_options(args))
@@ -336,6 +334,26 @@ def main(argv=None):
           f"(coupled omega_max {omega_max:.4g} rad/s, RK4 limit "
           f"{integrators.rk4_stability_limit(omega_max):.3e} s)")
     return 0
+
+
+def check_identity(model_file, info, model=None, out=None, scene=None):
+    """ValueError (one line) unless the reduced-model file is the one its target expects: the
+    model ``model`` (--model), or, in the workflow's layout where the model file and the output
+    share their name (results/models/{scene}/{model}.h5 -> results/sim/{scene}/{model}.h5), the
+    model that name says, made for ``scene`` when its folder is the scene's.  A freq-10 file copied
+    over freq-2.h5 is refused, not simulated as freq-2."""
+    held = str(info.get("model", ""))
+    stem = _scene_stem(model_file)
+    named = model if model is not None else (stem if out is not None and _scene_stem(out) == stem else None)
+    if named is not None and named != held:
+        raise ValueError(f"{model_file} holds model {held!r}, not {named!r}"
+                         + (" (its target's name: a file copied over another model's?)" if model is None else "")
+                         + f": remake it: snakemake --cores 2 --forcerun {model_file}")
+    folder = os.path.basename(os.path.dirname(os.path.abspath(str(model_file))))
+    made_for = str(info.get("scene", ""))
+    if scene is not None and named is not None and folder == scene.name and made_for and made_for != scene.name:
+        raise ValueError(f"{model_file} was made for scene {made_for!r}, not {scene.name!r} (its "
+                         f"folder's): remake it: snakemake --cores 2 --forcerun {model_file}")
 
 
 def expected_body_hashes(config_path):
