@@ -466,26 +466,34 @@ def content_hashes(h5) -> dict:
     return out
 
 
-def check_content(h5, path) -> None:
-    """ValueError (one line naming the file and the dataset) if a numeric dataset of an open HDF5
-    file is not what its writer hashed (``content_hashes``: changed, or removed).  A file without
-    the attribute (written by hand, or by a tool outside the project) is not judged here; its
-    reader's own checks apply."""
+def content_problem(h5, path) -> str | None:
+    """The one-line message (naming the file and the dataset) if a numeric dataset of an open HDF5
+    file is not what its writer hashed (``content_hashes``: changed, or removed), else None.  A
+    file without the attribute (written by hand, or by a tool outside the project) is not judged
+    here; its reader's own checks apply.  Readers ask after their structural checks, so a NaN or a
+    wrong shape is named as such, and a plausible changed number by this."""
     stored = h5.attrs.get(CONTENT_ATTR)
     if stored is None:
-        return
+        return None
     try:
         stored = json.loads(stored)
     except (TypeError, ValueError):
-        raise ValueError(f"{path}: attribute {CONTENT_ATTR} unreadable: the file was edited; "
-                         f"delete it and rerun its rule") from None
+        return f"{path}: attribute {CONTENT_ATTR} unreadable: the file was edited; delete it and rerun its rule"
     for name, digest in stored.items():
         if name not in h5:
-            raise ValueError(f"{path}: dataset '{name}' missing (the file was edited after it was "
-                             f"written): delete it and rerun its rule")
+            return (f"{path}: dataset '{name}' missing (the file was edited after it was written): "
+                    f"delete it and rerun its rule")
         if dataset_digest(h5[name][()]) != digest:
-            raise ValueError(f"{path}: dataset '{name}' was changed after the file was written (its "
-                             f"content hash differs): delete it and rerun its rule")
+            return (f"{path}: dataset '{name}' was changed after the file was written (its content "
+                    f"hash differs): delete it and rerun its rule")
+    return None
+
+
+def check_content(h5, path) -> None:
+    """ValueError with ``content_problem``'s message, if any."""
+    problem = content_problem(h5, path)
+    if problem:
+        raise ValueError(problem)
 
 
 def write_json(path: str | Path, data: dict, record: dict | None = None) -> None:

@@ -113,6 +113,13 @@ def project_body_hash(number):
     return bodyconfig.expected_hashes(str(DEFAULT_CONFIG))[int(number)]
 
 
+def project_model_attrs():
+    """The reduced-model file attribute of body files made from the project's configuration (a
+    synthetic model file with it passes simulate's and export's check against the configuration)."""
+    import json
+    return {"body_config_hashes": json.dumps([project_body_hash(b) for b in (2, 3, 4, 5)])}
+
+
 def write_body(path, d, number=None, config_hash=None):
     """A body file in the contract's layout (docs/body-data.md) from a synthetic body dict
     (``gimbal_reduction.results.bench.oracle.synthetic_body``); the body number from ``d`` unless given;
@@ -146,6 +153,7 @@ def files(tmp_path_factory):
             f["rank_frequency"] = np.arange(6)
             f["rank_xmx"] = np.array([3, 1, 0, 2, 5, 4])
             f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
+            f.attrs["body"], f.attrs["config_hash"] = b, project_body_hash(b)   # as the reduction stage copies
     return root, datas
 
 
