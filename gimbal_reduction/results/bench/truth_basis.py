@@ -30,9 +30,9 @@ from gimbal_reduction.solver.dynamics import simulate
 from gimbal_reduction.solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error, error_measure
 from gimbal_reduction.solver.dynamics.scenes import load_scene
 from gimbal_reduction.solver.dynamics.simfile import read_sim
+from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow.progress import Progress
 from gimbal_reduction.workflow.provenance import provenance, versions, write_json
-from gimbal_reduction.workflow import cli
 
 LARGE = "freq-200"
 

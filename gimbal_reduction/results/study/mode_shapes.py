@@ -41,8 +41,8 @@ from gimbal_reduction.reduction.static_modes import DEFAULT_LOAD_CASE  # noqa: E
 from gimbal_reduction.results import vtk  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
 from gimbal_reduction.solver.bodydata import BEARING_NAMES  # noqa: E402
+from gimbal_reduction.workflow import cli  # noqa: E402
 from gimbal_reduction.workflow.provenance import (provenance, read_h5_checked, savefig, write_json,  # noqa: E402
-from gimbal_reduction.workflow import cli
                                  write_sidecar)
 
 FONT = 8                  # pt at 7.0 in; >= 7 pt when the figure is printed at 6.3 in
