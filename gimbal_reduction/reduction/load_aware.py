@@ -733,6 +733,8 @@ def main(argv=None):
     log = (lambda *_: None) if args.quiet else (lambda m: print(f"load_aware: {m}", flush=True))
     start = time.perf_counter()
     try:
+        bodyconfig.check_slots(args.bodies)
+        bodyconfig.check_slots(args.reductions)
         bodyconfig.check_files(args.bodies + args.reductions, args.config)
         if args.search_stride is None:
             scene0 = scenes.load_scene(args.scene)

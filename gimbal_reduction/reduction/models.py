@@ -819,6 +819,8 @@ def main(argv=None, runs=None):
         scene = scenes.load_scene(args.scene)
         config = cfgmod.load_config(args.config) if args.config else None
         # the body files' attributes first (the configuration file named in the remedy), then their data
+        bodyconfig.check_slots(args.bodies)
+        bodyconfig.check_slots(args.reductions or [])
         bodyconfig.check_files(args.bodies, args.config)
         chain, spec, attrs = reduce_model(
             args.model, scene, dict(zip(BODIES, args.bodies)),

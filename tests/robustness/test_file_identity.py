@@ -148,3 +148,23 @@ def test_content_hashes_cover_every_numeric_dataset_and_no_string(tmp_path):
     # the digest sees dtype and shape, not only the bytes
     assert provenance.dataset_digest(np.zeros(4)) != provenance.dataset_digest(np.zeros((2, 2)))
     assert provenance.dataset_digest(np.zeros(2, np.float64)) != provenance.dataset_digest(np.zeros(4, np.float32))
+
+
+@pytest.mark.parametrize("kind", ["bodies", "reductions"])
+def test_a_file_in_another_bodys_slot_is_refused_by_the_load_ranking(kind, work, refused):
+    """body 3's (body or reduction) file given as body 4's to the load-aware ranking: refused by its
+    own body number before the work, with no configuration needed."""
+    from gimbal_reduction.reduction import load_aware
+    args = ["--scene", work / "scene.yaml", *body_args(work), *reduction_args(work),
+            "--out", work / "out" / "l.h5"]
+    i = args.index(f"--{kind}")
+    args[i + 3] = args[i + 2]
+    refused(load_aware.main, args, (str(args[i + 2]), "body 3", "body 4's"), work / "out")
+
+
+def test_a_reduction_file_in_another_bodys_slot_is_refused_by_the_model_stage(work, refused):
+    args = ["--model", "xmx-2", "--scene", work / "scene.yaml", *body_args(work), *reduction_args(work),
+            "--out", work / "out" / "m.h5"]
+    i = args.index("--reductions")
+    args[i + 1], args[i + 2] = args[i + 2], args[i + 1]
+    refused(models.main, args, (str(args[i + 1]), "body 3", "body 2's"), work / "out")

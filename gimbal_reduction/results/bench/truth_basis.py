@@ -94,6 +94,7 @@ def main(argv=None) -> int:
     cli.add_config_option(ap, "body files of another configuration are refused before the work")
     args = ap.parse_args(argv)
     try:
+        bodyconfig.check_slots(args.bodies)
         bodyconfig.check_files(args.bodies, args.config)
         results = run(args.bodies, args.scenes, config=args.config)
     except (RuntimeError, ValueError, FileNotFoundError) as exc:

@@ -128,6 +128,8 @@ def main(argv=None) -> int:
     # every name is checked before any work (a typo in the last model must not cost the others)
     try:
         # and every input file against the configuration, before any work (gimbal_reduction.solver.bodyconfig)
+        bodyconfig.check_slots(args.bodies)
+        bodyconfig.check_slots(args.reductions or [])
         bodyconfig.check_files([*args.bodies, *(args.reductions or []),
                                 *([args.load_ranking] if args.load_ranking else [])], args.config)
         if args.reductions:
