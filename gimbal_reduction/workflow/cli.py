@@ -25,6 +25,8 @@ import errno
 import math
 import os
 
+from gimbal_reduction.workflow.provenance import run_config
+
 
 class OneLineParser(argparse.ArgumentParser):
     """Argument errors as one line (no usage block), exit status 2."""
@@ -97,7 +99,6 @@ def add_config_option(parser: argparse.ArgumentParser, what: str) -> None:
     """``--config FILE`` on ``parser``: the configuration the stage's input files must have been
     made from (``what`` says which); by default the run's own, ``config/config.yaml`` of the
     working directory, else the project's (``gimbal_reduction.workflow.provenance.run_config``)."""
-    from gimbal_reduction.workflow.provenance import run_config   # h5py: only for a stage's parser
     parser.add_argument("--config", default=str(run_config()),
                         help=f"the configuration in use (default: config/config.yaml of the working "
                              f"directory, else the project's): {what}")
