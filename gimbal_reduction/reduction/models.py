@@ -488,7 +488,7 @@ def load_load_ranking(path, rankings=None):
                 out[POOLED_KEY]["estimate"] = f["estimate/global"][()]
             if "estimate/rigid" in f:
                 out[POOLED_KEY]["rigid_estimate"] = f["estimate/rigid"][()]
-            changed = content_problem(f, f"load-aware ranking {path}")
+            changed = content_problem(f, path, "load-aware ranking")
             for key, attr in (("angle_excursion", "angle_excursion_rad"),
                               ("rate_over_lowest_frequency", "rate_over_lowest_frequency")):
                 if attr in f.attrs:
@@ -556,7 +556,7 @@ def read_reduction_rankings(path, body=None):
                 raise _ranking_error(path, f"dataset(s) {', '.join(missing)} missing (stale or incomplete)")
             out = {k: f[k][()] for k in RANKING_KEYS.values()}
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
-            changed = content_problem(f, f"ranking file {path}")
+            changed = content_problem(f, path, "ranking file")
     except ModelError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:

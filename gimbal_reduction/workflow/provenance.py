@@ -466,26 +466,28 @@ def content_hashes(h5) -> dict:
     return out
 
 
-def content_problem(h5, path) -> str | None:
+def content_problem(h5, path, kind: str = "") -> str | None:
     """The one-line message (naming the file and the dataset) if a numeric dataset of an open HDF5
     file is not what its writer hashed (``content_hashes``: changed, or removed), else None.  A
     file without the attribute (written by hand, or by a tool outside the project) is not judged
     here; its reader's own checks apply.  Readers ask after their structural checks, so a NaN or a
-    wrong shape is named as such, and a plausible changed number by this."""
+    wrong shape is named as such, and a plausible changed number by this.  kind: what the file is,
+    to begin the message ("load-aware ranking")."""
     stored = h5.attrs.get(CONTENT_ATTR)
     if stored is None:
         return None
+    where = f"{kind} {path}" if kind else str(path)
+    remedy = f"rerun its target: snakemake --cores 2 --forcerun {path}"
     try:
         stored = json.loads(stored)
     except (TypeError, ValueError):
-        return f"{path}: attribute {CONTENT_ATTR} unreadable: the file was edited; delete it and rerun its rule"
+        return f"{where}: attribute {CONTENT_ATTR} unreadable (the file was edited): {remedy}"
     for name, digest in stored.items():
         if name not in h5:
-            return (f"{path}: dataset '{name}' missing (the file was edited after it was written): "
-                    f"delete it and rerun its rule")
+            return f"{where}: dataset '{name}' missing (the file was edited after it was written): {remedy}"
         if dataset_digest(h5[name][()]) != digest:
-            return (f"{path}: dataset '{name}' was changed after the file was written (its content "
-                    f"hash differs): delete it and rerun its rule")
+            return (f"{where}: dataset '{name}' was changed after the file was written (its content "
+                    f"hash differs): {remedy}")
     return None
 
 
