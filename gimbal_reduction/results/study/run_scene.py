@@ -137,8 +137,7 @@ def main(argv=None) -> int:
     ap.add_argument("--coupled-modes", help="JSON: the truth's coupled modes at the initial state")
     ap.add_argument("--frequency-error", help="JSON: every model's H-infinity and H2 error against the "
                                               "truth (the models must hold the truth)")
-    ap.add_argument("--config", help="the current configuration file: body files from another one "
-                                     "are refused (gimbal_reduction.reduction.models / simulate --config)")
+    cli.add_config_option(ap, "body files from another one are refused")
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
                     help="simulate's --integrator (default its own)")
     ap.add_argument("--tol", default=None, type=cli.positive_number("--tol"),
@@ -160,6 +159,8 @@ def main(argv=None) -> int:
     # every name is checked before any work (a typo in the last model must not cost the others)
     try:
         # and every input file against the configuration, before any work (gimbal_reduction.solver.bodyconfig)
+        bodyconfig.check_slots(args.bodies)
+        bodyconfig.check_slots(args.reductions or [])
         bodyconfig.check_files([*args.bodies, *(args.reductions or []),
                                 *([args.load_ranking] if args.load_ranking else [])], args.config)
         if args.reductions:
