@@ -76,7 +76,7 @@ from gimbal_reduction.solver.bodydata import BODIES, BEARING_NAMES, check_config
 from gimbal_reduction.solver.dynamics import chainfile, multibody, scenes
 from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow import config as cfgmod
-from gimbal_reduction.workflow.provenance import versions
+from gimbal_reduction.workflow.provenance import content_problem, versions
 
 # the reduction stage's datasets, one per ranking it writes (results/reduction/body{n}.h5)
 RANKING_KEYS = {f: names.FAMILIES[f].ranking for f in ("freq", "xmx", "xmgmx")}
@@ -86,6 +86,13 @@ TOL_FAMILY = names.TOL                               # tol-EPS: smallest global-
 TOL_COARSE = 8          # beyond the stored estimates: scan N in steps of 8, then refine the bracket
 BEARINGS = BEARING_NAMES
 TOL_APRIORI, TOL_VERIFIED = "a-priori estimate", "verified search"
+# [1] E of eq. 3.53: the smallest EPS a tol- request may ask.  The truth a request is judged
+# against is itself only this close to the converged reference: its integration at the workflow's
+# tolerance holds E <= 1e-8 against DOP853 at rtol 1e-10 on every verified scene (the scene's own
+# exponential_tolerance where it states one; docs/exponential.md Section 5: 4.4e-9 on long, 7.5e-9
+# on thesis).  Below it the search would judge the integrators' round-off, whose outcome depends
+# on the order of floating-point sums (the BLAS thread count), not the model.
+TOL_FLOOR = 1e-8
 
 
 class NeedsSimulation(ModelError):
@@ -192,6 +199,17 @@ def check_name(name, n_modes=TRUTH_MODES):
     parsed = names.parse(name)
     if parsed.family != TOL_FAMILY:
         select_modes(parsed, identity_rankings(n_modes))
+    check_tolerance(parsed)
+
+
+def check_tolerance(parsed):
+    """ModelError (one line) for a tol-EPS request below ``TOL_FLOOR``, the truth's own error: no
+    model can be shown to meet it.  Judged from the name alone, before any file is read."""
+    if parsed.family == TOL_FAMILY and parsed.eps < TOL_FLOOR:
+        raise ModelError(f"model {parsed.name!r}: EPS {parsed.eps:g} is below {TOL_FLOOR:g}, the truth's own "
+                         f"error against the converged reference (its integration on every verified "
+                         f"scene, docs/exponential.md Section 5): no model can be shown to meet it; ask "
+                         f"tol-{TOL_FLOOR:g} or more")
 
 
 def _pooled_kept(name, n, rankings, available):
@@ -470,6 +488,7 @@ def load_load_ranking(path, rankings=None):
                 out[POOLED_KEY]["estimate"] = f["estimate/global"][()]
             if "estimate/rigid" in f:
                 out[POOLED_KEY]["rigid_estimate"] = f["estimate/rigid"][()]
+            changed = content_problem(f, path, "load-aware ranking")
             for key, attr in (("angle_excursion", "angle_excursion_rad"),
                               ("rate_over_lowest_frequency", "rate_over_lowest_frequency")):
                 if attr in f.attrs:
@@ -478,11 +497,21 @@ def load_load_ranking(path, rankings=None):
         raise ModelError(f"load-aware ranking {path} unreadable or incomplete "
                          f"({exc.__class__.__name__}: {' '.join(str(exc).split())}): "
                          + RANKING_REMEDY.format(path=path)) from None
+    pooled = out[POOLED_KEY]
+    for key, dataset in (("estimate", "estimate/global"), ("rigid_estimate", "estimate/rigid")):
+        if key in pooled:
+            value = np.asarray(pooled[key])
+            if value.dtype.kind not in "iuf" or not np.all(np.isfinite(value)) or np.any(value < 0):
+                raise ModelError(f"load-aware ranking {path}: dataset {dataset} holds values that are not "
+                                 f"finite non-negative errors (NaN, inf or negative): "
+                                 + RANKING_REMEDY.format(path=path))
     for b in BODIES:
         order = np.asarray(out[b][LOAD_KEY])
         if order.ndim != 1 or not np.issubdtype(order.dtype, np.integer):
             raise ModelError(f"load-aware ranking {path}: dataset body{b}/{LOAD_KEY} is not a 1-D "
                              f"array of mode indices: " + RANKING_REMEDY.format(path=path))
+    if changed:
+        raise ModelError(changed)
     return out
 
 
@@ -527,6 +556,7 @@ def read_reduction_rankings(path, body=None):
                 raise _ranking_error(path, f"dataset(s) {', '.join(missing)} missing (stale or incomplete)")
             out = {k: f[k][()] for k in RANKING_KEYS.values()}
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+            changed = content_problem(f, path, "ranking file")
     except ModelError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:
@@ -558,6 +588,8 @@ def read_reduction_rankings(path, body=None):
         if mine is not None and str(mine) != str(theirs):
             raise _ranking_error(path, f"made from another body file (attribute config_hash {mine!r}, "
                                        f"body file {body.get('path', '')} has {theirs!r}; stale)")
+    if changed:
+        raise ModelError(changed)
     return out
 
 
@@ -710,6 +742,7 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     load_ranking: the scene's load-aware ranking file (load- and global- models); config: the
     current configuration (validated dict): each body file's config_hash must be the one it
     gives (``expected_body_hashes``), else BodyFileError naming the file and its target."""
+    check_tolerance(names.parse(name))          # before any file is read
     body_data = {b: load_body_file(body_files[b]) for b in BODIES}
     for b in BODIES:            # each file in its own slot: a body file copied over another's is refused
         if int(body_data[b]["number"]) != b:
@@ -771,8 +804,7 @@ def main(argv=None, runs=None):
     ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE",
                     help="the reduction stage's files of bodies 2..5 (xmx-, xmgmx-, load-, global-)")
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global-)")
-    ap.add_argument("--config", help="the current configuration file: every body file's config_hash "
-                                     "must be the one it gives (a body file of another config is refused)")
+    cli.add_config_option(ap, "every body file's config_hash must be the one it gives")
     ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
     ap.add_argument("--no-verified-search", action="store_true",
                     help="tol-EPS where the frozen-chain estimate does not hold: refuse, instead of "
@@ -787,6 +819,8 @@ def main(argv=None, runs=None):
         scene = scenes.load_scene(args.scene)
         config = cfgmod.load_config(args.config) if args.config else None
         # the body files' attributes first (the configuration file named in the remedy), then their data
+        bodyconfig.check_slots(args.bodies)
+        bodyconfig.check_slots(args.reductions or [])
         bodyconfig.check_files(args.bodies, args.config)
         chain, spec, attrs = reduce_model(
             args.model, scene, dict(zip(BODIES, args.bodies)),
