@@ -21,6 +21,7 @@ rule study_scene:
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         load_ranking="results/reduction/load/{scene}.h5",
+        cb=expand("results/reduction/cb/body{n}.h5", n=RINGS),
         kernels=ancient(KERNELS),
     output:
         sims=[f"results/study/{{scene}}/sim/{m}.h5" for m in SCENE_MODELS],
@@ -47,7 +48,7 @@ rule study_scene:
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} run-scene --scene {input.scene} --models {params.models} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
-        "--out-dir {params.out_dir} --coupled-modes {output.coupled} --integrator {params.integrator} "
+        "--cb-bases {input.cb} --out-dir {params.out_dir} --coupled-modes {output.coupled} --integrator {params.integrator} "
         "{params.options} --config {CONFIG} > {log} 2>&1"
 
 

@@ -67,10 +67,11 @@ def model_file_name(model: str) -> str:
 
 
 def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrator_args=(),
-              coupled_modes=None, config=None):
+              coupled_modes=None, config=None, cb_bases=None):
     """Reduce and simulate every model of ``models`` on ``scene`` (a scene file); writes
     {out_dir}/{model}.h5, and the truth's coupled-mode table to ``coupled_modes`` (JSON) if
-    given.  Returns (status, failed model or None)."""
+    given; cb_bases: the rings' Craig-Bampton stage files (cb- models).  Returns (status, failed
+    model or None)."""
     progress = Progress(f"run_scene {os.path.splitext(os.path.basename(str(scene)))[0]}", len(models),
                         "models")
     with tempfile.TemporaryDirectory(prefix="run_scene_") as tmp:
@@ -83,6 +84,8 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
                 args += ["--reductions", *map(str, reductions)]
             if load_ranking:
                 args += ["--load-ranking", str(load_ranking)]
+            if cb_bases:
+                args += ["--cb-bases", *map(str, cb_bases)]
             checked = ["--config", str(config)] if config else []   # body files vs the config
             rc = reduction_models.main(args + checked)
             if rc == 0:
@@ -108,6 +111,8 @@ def main(argv=None) -> int:
     ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE", help="body files 2..5")
     ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE", help="reduction files 2..5")
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global- models)")
+    ap.add_argument("--cb-bases", nargs=3, metavar="CB_FILE",
+                    help="the Craig-Bampton stage files of rings 2, 3, 4 (cb- models)")
     ap.add_argument("--out-dir", required=True, help="folder of the simulation files")
     ap.add_argument("--coupled-modes", help="JSON: the truth's coupled modes at the initial state")
     ap.add_argument("--config", help="the current configuration file: body files from another one "
@@ -148,7 +153,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     rc, failed = run_scene(args.scene, args.models, args.bodies, args.reductions, args.load_ranking,
                            args.out_dir, integrator_args, coupled_modes=args.coupled_modes,
-                           config=args.config)
+                           config=args.config, cb_bases=args.cb_bases)
     if rc:
         print(f"run_scene: model {failed!r} failed (status {rc}); see the message above", file=sys.stderr)
         return rc
