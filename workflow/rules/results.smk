@@ -74,6 +74,7 @@ rule error_tables:
             subcategory="{scene}",
             caption="../report/table.rst",
         ),
+        coordinates="results/tables/{scene}/coordinates.csv",
     log:
         "logs/results/error_tables_{scene}.log",
     benchmark:
@@ -88,7 +89,8 @@ rule error_tables:
         code=code_hash("tables"),
     shell:
         "{GIMBAL} tables --truth {input.truth} --cases {input.cases} "
-        "--ranking-table {output.ranking} --static-table {output.static} > {log} 2>&1"
+        "--ranking-table {output.ranking} --static-table {output.static} "
+        "--coordinates-table {output.coordinates} > {log} 2>&1"
 
 
 rule findings:
