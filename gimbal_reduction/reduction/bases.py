@@ -247,28 +247,29 @@ def load_dependent_ritz(M, apply_G, F, n, deflation=DEFLATION):
     n = int(n)
     ndof = M.shape[0]
     basis = np.zeros((ndof, 0))
-    block = apply_G(np.asarray(F, float))
+    sources = np.asarray(F, float)          # the block whose images G s are the next candidates
     while basis.shape[1] < n:
-        new = []
-        for v in block.T:
-            before = np.sqrt(max(float(v @ (M @ v)), 0.0))
-            if before == 0.0:
-                continue
-            Q = np.hstack([basis] + [q[:, None] for q in new])
-            for _ in range(2):
-                v = v - Q @ (Q.T @ (M @ v))
-            after = np.sqrt(max(float(v @ (M @ v)), 0.0))
-            if after <= deflation * before:
-                continue
-            new.append(v / after)
-            if basis.shape[1] + len(new) == n:
-                break
+        new, j = [], 0
+        # only as many solves as vectors still wanted (more where some are deflated)
+        while j < sources.shape[1] and basis.shape[1] + len(new) < n:
+            need = n - basis.shape[1] - len(new)
+            for v in apply_G(sources[:, j:j + need]).T:
+                before = np.sqrt(max(float(v @ (M @ v)), 0.0))
+                if before == 0.0:
+                    continue
+                Q = np.hstack([basis] + [q[:, None] for q in new])
+                for _ in range(2):
+                    v = v - Q @ (Q.T @ (M @ v))
+                after = np.sqrt(max(float(v @ (M @ v)), 0.0))
+                if after > deflation * before:
+                    new.append(v / after)
+            j += need
         if not new:
             raise ReductionError(f"load-dependent Ritz: the loads' Krylov sequence spans only "
                                  f"{basis.shape[1]} vectors, {n} asked")
         new = np.column_stack(new)
         basis = np.hstack([basis, new])
-        block = apply_G(np.asarray(M @ new))
+        sources = np.asarray(M @ new)
     return basis
 
 

@@ -89,7 +89,10 @@ from gimbal_reduction.workflow import config as cfgmod
 from gimbal_reduction.workflow.provenance import versions
 
 # the reduction stage's datasets, one per ranking it writes (results/reduction/body{n}.h5)
-RANKING_KEYS = {f: names.FAMILIES[f].ranking for f in ("freq", "xmx", "xmgmx", "dom")}
+RANKING_KEYS = {f: names.FAMILIES[f].ranking for f in ("freq", "xmx", "xmgmx")}
+# read where present (a dom- model without it is refused by select_modes): files of the stage
+# before the dominance ranking still serve every other family
+OPTIONAL_RANKING_KEYS = {f: names.FAMILIES[f].ranking for f in ("dom",)}
 LOAD_KEY = names.FAMILIES["load"].ranking            # per-body load-aware ranking
 POOLED_KEY = names.FAMILIES["global"].ranking        # pooled ranking: rankings["pooled"]
 TOL_FAMILY = names.TOL                               # tol-EPS: smallest global-N with estimate <= EPS
@@ -199,7 +202,8 @@ def identity_rankings(n_modes):
     is the identity: what the grammar and the counts are checked against when the order does
     not matter (``check_name``)."""
     order = np.arange(int(n_modes))
-    rankings = {b: {key: order for key in (*RANKING_KEYS.values(), LOAD_KEY)} for b in BODIES}
+    rankings = {b: {key: order for key in (*RANKING_KEYS.values(), *OPTIONAL_RANKING_KEYS.values(), LOAD_KEY)}
+                for b in BODIES}
     rankings[POOLED_KEY] = {"body": np.repeat(BODIES, order.size), "mode": np.tile(order, len(BODIES))}
     return rankings
 
@@ -549,9 +553,9 @@ def _ranking_error(path, what):
 
 
 def read_reduction_rankings(path, body=None):
-    """The rankings {rank_frequency, rank_xmx, rank_xmgmx} of one reduction file, checked:
-    the file exists and is HDF5, the three datasets are present, 1-D, of one length D, each a
-    permutation of 0..D-1; with ``body`` (its body file's dict) D is the body's mode count and
+    """The rankings {rank_frequency, rank_xmx, rank_xmgmx (, rank_dominance if present)} of one
+    reduction file, checked: the file exists and is HDF5, the three datasets are present, 1-D,
+    of one length D, each a permutation of 0..D-1; with ``body`` (its body file's dict) D is the body's mode count and
     the file's config_hash attribute the body file's (a reduction file of another body file is
     refused).  ModelError (one line naming the file, the dataset and the target to rerun)."""
     path = str(path)
@@ -562,7 +566,7 @@ def read_reduction_rankings(path, body=None):
             missing = [k for k in RANKING_KEYS.values() if k not in f]
             if missing:
                 raise _ranking_error(path, f"dataset(s) {', '.join(missing)} missing (stale or incomplete)")
-            out = {k: f[k][()] for k in RANKING_KEYS.values()}
+            out = {k: f[k][()] for k in (*RANKING_KEYS.values(), *OPTIONAL_RANKING_KEYS.values()) if k in f}
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
     except ModelError:
         raise
