@@ -314,6 +314,8 @@ STYLES = {
     "cb": Style("Craig-Bampton (N fixed-interface + 6 constraint modes)", "darkred", "<", "-."),
     "ritz": Style("load-dependent Ritz vectors", "darkblue", ">", "-."),
     "cb-equal": Style("Craig-Bampton at equal coordinates", "salmon", "<", ":"),
+    "truth-interface": Style("Craig-Bampton, 100 fixed-interface modes (interface flexibility)", "0.6",
+                             "P", ""),
     "truth-check": Style("truth + 1 static mode per body (residual flexibility)", "0.4", "*", ""),
     "truth": Style("truth model (100 modes per body)", "black", "*", ""),
     "other": Style("other model", "tab:gray", ".", ""),

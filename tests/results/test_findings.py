@@ -34,6 +34,7 @@ def _good_outer() -> dict:
     E.update({"cb-4,4,4,10": 0.5, "cb-9,9,9,15": 0.5, "cb-14,14,14,20": 0.5, "cb-19,19,19,25": 0.05,
               "cb-1,1,1,7": 0.1, "cb-3,3,3,9": 0.1})
     E["static-100"] = 1e-4          # the truth's own error: every pair above it
+    E["cb-100"] = 5e-5              # ... and at the interfaces
     return E
 
 
@@ -110,6 +111,15 @@ def test_f10_is_masked_by_the_truths_resolution():
     E["static-100"] = 1.0                                 # nothing resolved: no verdict
     f = findings.finding10(findings.Study(_rows(E)))
     assert f["verdict"] == "not evaluated" and "within the truth's resolution" in f["reason"]
+    E["static-100"], E["cb-100"] = 1e-4, 0.2              # the interface referee sets R alike
+    f = findings.finding10(findings.Study(_rows(E)))
+    assert f["verdict"] == "reproduced" and f["numbers"]["outer"]["truth_resolution"] == 0.2
+    # a Craig-Bampton model below R and a thesis one above it by less than TIE: a tie, not a win
+    E["cb-1,1,1,7"], E["static-6"] = 1e-6, 0.21
+    f = findings.finding10(findings.Study(_rows(E)))
+    assert "static-6" not in f["cases"]["outer"]
+    E["static-6"] = 0.3                                    # above R by more than TIE: cb better
+    assert "static-6" in findings.finding10(findings.Study(_rows(E)))["cases"]["outer"]
     E.pop("cb-4,4,4,10"), E.pop("cb-9,9,9,15"), E.pop("cb-14,14,14,20"), E.pop("cb-19,19,19,25")
     E.pop("cb-1,1,1,7"), E.pop("cb-3,3,3,9")
     assert findings.finding10(findings.Study(_rows(E)))["verdict"] == "not evaluated"

@@ -19,8 +19,8 @@ def test_study_cases_cover_the_thesis_figures_and_parse():
     cases = study_cases()
     models = [c["model"] for c in cases]
     # + the rigid baseline, the no-static controls freq-2..8, load-5..25, global-20..100, static-100,
-    # the field's defaults dom-, cb-, ritz-5..25 and cb at the coordinates of freq-10..25, static-6, -8
-    assert len(models) == len(set(models)) == 34 + 1 + 4 + 5 + 5 + 1 + 15 + 6
+    # the field's defaults dom-, cb-, ritz-5..25 and cb at the coordinates of freq-10..25, static-6, -8, cb-100
+    assert len(models) == len(set(models)) == 34 + 1 + 4 + 5 + 5 + 1 + 15 + 6 + 1
     assert describe_model("cb-4,4,4,10")["group"] == "cb-equal"
     assert describe_model("cb-4,4,4,10")["n_elastic"] == describe_model("freq-10")["n_elastic"]
     assert describe_model("cb-3,3,3,9")["n_elastic"] == describe_model("static-8")["n_elastic"]
@@ -112,9 +112,9 @@ def test_tables_of_the_synthetic_study(tmp_path):
     rank, stat = read_table(rt), read_table(st)
     assert [r["group"] for r in rank][:1] == ["truth"]
     assert {r["group"] for r in rank} == {"truth", "freq", "xmx", "xmgmx", "rigid", "load", "global",
-                                          "dom", "cb", "ritz", "cb-equal", "truth-check"}
+                                          "dom", "cb", "ritz", "cb-equal", "truth-check", "truth-interface"}
     assert {r["group"] for r in stat} == {"static-freq", "static-xmx", "static-xmgmx", "load-case"}
-    assert len(rank) == 32 + 21 and len(stat) == 19
+    assert len(rank) == 32 + 22 and len(stat) == 19
     # the coordinates table: every family's case at its size, cb counting its constraint modes
     import csv
     coords = list(csv.DictReader(ct.open()))

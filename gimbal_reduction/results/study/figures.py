@@ -63,7 +63,8 @@ STYLE = {"pdf.fonttype": 42, "ps.fonttype": 42, "font.size": 9, "axes.grid": Tru
 # Groups drawn as lines against modes per body: the rigid model is the dashed baseline and the
 # truth check a single point at 100, so neither is a line; cb at equal coordinates is a count of
 # coordinates, drawn in error_coordinates only
-LINE_GROUPS = tuple(g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check", "cb-equal"))
+LINE_GROUPS = tuple(g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check", "truth-interface",
+                                                                   "cb-equal"))
 PER_BODY_DIVISOR = {"global": 4}
 PNG_DPI = 150           # ``save``'s PNG (figures of other modules; the study's are PDF only)
 RIGID = "rigid"        # the baseline model: no elastic modes

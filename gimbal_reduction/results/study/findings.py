@@ -58,9 +58,10 @@ New findings (not in the thesis; "reproduced" = the statement holds):
 10. the thesis's selections against Craig-Bampton at equal coordinates: per rate, freq-N, XMX-N,
    XMGMX-N (N elastic coordinates per body) and static-N (N + 1) are each not worse than the
    control cb-(K-6),(K-6),(K-6),K with as many coordinates (``cases.cb_equal``): not
-   E(cb) < E(thesis)/(1+TIE).  A pair is judged only where the truth can tell them apart
-   (masked by the truth's resolution): the larger of its two E above the truth's own error
-   E(static-100) on that rate; pairs below it are counted as unresolved.  All resolved pairs
+   E(cb) < E(thesis)/(1+TIE).  Masked by the truth's resolution R, its own error on that rate:
+   the larger of E(static-100) and E(cb-100) (the truth against the truth's band plus the
+   interfaces' static flexibility); each E is read as max(E, R), and a pair with both E <= R is
+   counted as unresolved.  All resolved pairs
    hold -> reproduced, some -> partly, none -> not reproduced, none resolved -> not evaluated.
 
 Verdicts per rate: ``reproduced``, ``partly reproduced``, ``not reproduced``,
@@ -82,7 +83,8 @@ import sys
 import numpy as np
 
 from gimbal_reduction.reduction import names
-from gimbal_reduction.results.study.cases import LOAD_CASE_COUNT, LOAD_CASES, TRUTH_CHECK, cb_equal, classify
+from gimbal_reduction.results.study.cases import (LOAD_CASE_COUNT, LOAD_CASES, REFEREES, TRUTH_CHECK,
+                                                  TRUTH_INTERFACE, cb_equal, classify)
 from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
 from gimbal_reduction.workflow.provenance import provenance, write_json, write_text
 
@@ -168,8 +170,8 @@ RULES = {
     9: f"per rate: E(load-N) < E(freq-N)/(1+{TIE:g}) and E(global-N) < E(freq-N/4)/(1+{TIE:g}) for every "
        "pair present; all -> reproduced, some -> partly, none -> not reproduced",
     10: f"per rate, for every thesis selection S with a Craig-Bampton control C of as many coordinates: "
-        f"not E(C) < E(S)/(1+{TIE:g}); pairs whose larger E is within the truth's own error "
-        f"E({TRUTH_CHECK}) are unresolved; all resolved -> reproduced, some -> partly, none -> not reproduced",
+        f"not max(E(C), R) < max(E(S), R)/(1+{TIE:g}), R the truth's own error max(E({TRUTH_CHECK}), "
+        f"E({TRUTH_INTERFACE})); pairs with both E <= R are unresolved; all resolved -> reproduced, some -> partly, none -> not reproduced",
 }
 CONTROLS = {
     1: "freq-N: the lowest-frequency modes at the same count per body",
@@ -218,7 +220,7 @@ class Study:
     def group(self, group) -> dict:
         return {k: c["E"] for (g, k), c in self.index.items() if g == group}
 
-    def cases(self, exclude=("truth", "truth-check")):
+    def cases(self, exclude=("truth", *REFEREES)):
         return [c for c in self.rows if c["group"] not in exclude]
 
 
@@ -418,8 +420,7 @@ def finding4(st: Study, rankings=("static-xmx", "static-xmgmx")) -> dict:
 
 
 def finding5(st: Study) -> dict:
-    cases = [c for c in st.cases(exclude=("truth", "truth-check"))
-             if np.all(np.isfinite(c["E"])) and c["E"][0] > 0]
+    cases = [c for c in st.cases() if np.all(np.isfinite(c["E"])) and c["E"][0] > 0]
     if not cases:
         return _missing("needs reduced-model cases with finite E on all rates")
     E = np.array([c["E"] for c in cases])
@@ -491,7 +492,7 @@ def finding6(st: Study) -> dict:
 
 def finding7(st: Study) -> dict:
     rigid = st.E("rigid", 0)
-    cases = st.cases(exclude=("truth", "truth-check", "rigid"))
+    cases = st.cases(exclude=("truth", *REFEREES, "rigid"))
     if rigid is None or not cases:
         return _missing("needs the rigid model" if rigid is None else "needs reduced-model cases")
     per_rate = {}
@@ -511,7 +512,7 @@ def finding7(st: Study) -> dict:
 
 
 def finding8(st: Study) -> dict:
-    cases = st.cases(exclude=("truth", "truth-check"))
+    cases = st.cases()
     rec = [n for n in RECOMMENDED if st.E("static-freq", n) is not None]
     if not rec or len(cases) < 2:
         return _missing("needs static-6 or static-8 and other cases")
@@ -577,22 +578,22 @@ def finding10(st: Study) -> dict:
     if not pairs:
         return _missing("needs freq-N / xmx-N / xmgmx-N / static-N cases with a Craig-Bampton control "
                         "cb-(K-6),(K-6),(K-6),K of as many coordinates")
-    truth = st.E("truth-check", 100)
+    referees = [E for E in (st.E("truth-check", 100), st.E("truth-interface", 100)) if E is not None]
     per_rate = {}
     for i, r in enumerate(RATES):
         done = [(a, float(ea[i]), b, float(eb[i])) for a, ea, b, eb in pairs if _finite(ea[i], eb[i])]
         if not done:
             per_rate[r] = ("not evaluated", {}, "missing input: no finite E on this rate", [])
             continue
-        floor = float(truth[i]) if truth is not None and np.isfinite(truth[i]) else 0.0
+        floor = max([float(E[i]) for E in referees if np.isfinite(E[i])], default=0.0)
         resolved = [p for p in done if max(p[1], p[3]) > floor]
-        hold = [a for a, ea, b, eb in resolved if not _better(eb, ea)]
-        cb_wins = [a for a, ea, b, eb in resolved if _better(eb, ea)]
+        hold = [a for a, ea, b, eb in resolved if not _better(max(eb, floor), max(ea, floor))]
+        cb_wins = [a for a, ea, b, eb in resolved if _better(max(eb, floor), max(ea, floor))]
         nums = {"truth_resolution": floor, "pairs": len(done), "resolved": len(resolved)}
         for a, ea, b, eb in done:
             nums[a], nums[b] = ea, eb
-        mask = (f"truth's resolution {_fmt(floor)}" if truth is not None else
-                f"no {TRUTH_CHECK} case: unmasked")
+        mask = (f"truth's resolution {_fmt(floor)}" if referees else
+                f"no {TRUTH_CHECK} or {TRUTH_INTERFACE} case: unmasked")
         if not resolved:
             per_rate[r] = ("not evaluated", nums, f"all {len(done)} pairs within the {mask}", [])
             continue

@@ -326,7 +326,7 @@ def _summary(ctx):
         out.append("- Thesis findings: " + ", ".join(f"{s(v)} {s(k)}" for k, v in verdicts.items())
                    + " (@findings).\n")
     # the truth check (the truth + residual flexibility) referees the truth: not a reduced model
-    reduced = [r for r in rows if r["group"] not in ("rigid", "truth-check")]
+    reduced = [r for r in rows if r["group"] not in ("rigid", "truth-check", "truth-interface")]
     rigid = next((r for r in rows if r["group"] == "rigid"), None)
     if rigid is not None and np.isfinite(rigid["E_outer_gimbal"]):
         beat = [r for r in reduced if r["E_outer_gimbal"] < rigid["E_outer_gimbal"]]

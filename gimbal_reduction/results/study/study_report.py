@@ -30,7 +30,7 @@ import numpy as np
 
 from gimbal_reduction.reduction import names
 from gimbal_reduction.results.bench.equal_error import FAMILIES, cheapest_within, max_error
-from gimbal_reduction.results.study.cases import MODE_COUNTS, TRUTH, TRUTH_CHECK
+from gimbal_reduction.results.study.cases import MODE_COUNTS, TRUTH, TRUTH_CHECK, TRUTH_INTERFACE
 from gimbal_reduction.results.study.figures import STYLE, _plt, save
 from gimbal_reduction.results.study.findings import THESIS, THESIS_TABLE_4_1
 from gimbal_reduction.results.study.report import (ROOT, _json, _versions, _yaml, compile_pdf, figure, note, note_revision, s,
@@ -129,7 +129,7 @@ def analyse_scene(rows) -> dict:
     [arcsec]; cheapest {target: (model, max E, n_elastic) or None} the fewest elastic
     coordinates with E <= target on every rate."""
     by = {r["model"]: r for r in rows}
-    reduced = [r for r in rows if r["model"] not in (TRUTH, "rigid", TRUTH_CHECK)
+    reduced = [r for r in rows if r["model"] not in (TRUTH, "rigid", TRUTH_CHECK, TRUTH_INTERFACE)
                and np.all(np.isfinite(_E(r)))]
     out = {"n_reduced": len(reduced), "rigid": None, "beat_rigid": {}, "best": {},
            "truth_error": None, "truth_attitude": None, "cheapest": {}}
