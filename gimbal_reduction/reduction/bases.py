@@ -35,19 +35,25 @@ th_z) [in, rad] of bearing b):
 
 * **Load-dependent Ritz vectors** (Wilson, Yuan & Dickens 1982; ``load_dependent_ritz``): the
   block Krylov sequence G F, (G M) G F, (G M)^2 G F, ... of the body's load vectors F
-  (``load_vectors``: unit forces and moments at the output bearings -- the platform's: at its
-  input bearings, it has no others -- and the rigid-body inertia loads M X), M-orthonormalised by
-  classical Gram-Schmidt twice, a column dropped when less than ``DEFLATION`` of it is new, then
-  Rayleigh-Ritz.  The first block is the static response to the loads, so its span holds every
-  static correction mode of ``static_modes`` made without kept modes.
+  (``load_vectors``: on a ring first the unit loads C^T e_j the next body puts on it through the
+  six DOFs of its output interface -- the bearing loads the statically determinate support
+  transmits -- then the other six unit forces and moments at the output bearings; on the
+  platform, which has none, the unit forces and moments at its input bearings; then the
+  rigid-body inertia loads M X), M-orthonormalised by classical Gram-Schmidt twice, a column
+  dropped when less than ``DEFLATION`` of it is new, then Rayleigh-Ritz.  The first block is the
+  static response to the loads: on a ring its first six vectors span the constraint modes (the
+  Craig-Bampton basis without fixed-interface modes), and the block holds the static correction
+  mode of every output-bearing load case made without kept modes.
 
 * **Dominance** of a supported mode (``dominance_scores``): its share of the static transfer
   from the loads B to the bearing motions C,
 
       d_i = ||phi_i^T B^||_2 ||C^ phi_i||_2 / Omega_i^2,
 
-  with B^ (ndof, p) the load vectors of ``load_vectors`` each scaled to unit static compliance
-  (b^T G b = 1) and C^ (q, ndof) the same bearings' motion rows each scaled to c G c^T = 1, so
+  with B^ (ndof, p) the transmitted loads and the inertia loads (``load_vectors`` with
+  ``transmitted_only``) each scaled to unit static compliance (b^T G b = 1) and C^ (q, ndof) the
+  motions the loads work on (``load_motions``: a ring's output interface, the platform's input
+  bearing rows) each scaled to c G c^T = 1, so
   the score is dimensionless and independent of the units of forces, moments, translations and
   rotations.  Summed over every supported mode, phi_i phi_i^T / Omega_i^2 = G, so a column of
   B^ and a row of C^ give sum_i (c^ phi_i)(phi_i^T b^)/Omega_i^2 = c^ G b^ <= 1: each mode's
@@ -71,7 +77,6 @@ import scipy.sparse.linalg
 
 from gimbal_reduction.reduction import modal_integrals
 from gimbal_reduction.reduction.errors import MissingBearingError, ReductionError
-from gimbal_reduction.reduction.static_modes import load_case_vector
 from gimbal_reduction.reduction.names import CB_FIXED_MODES
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.solver.bodydata import BEARING_NAMES, read_body_file
@@ -97,6 +102,21 @@ def has_output_bearings(data):
     return bool(np.all(np.isfinite(points[[OUTPUT_MOTOR, OUTPUT_RESOLVER]])))
 
 
+def _interface_axes(data):
+    """(e, p1, p2): the unit bearing axis (output motor minus output resolver point) and two unit
+    vectors across it (the coordinate axis nearest perpendicular, made orthogonal, and e x p1)."""
+    points = np.asarray(data["bearing_points"], float)
+    axis = points[OUTPUT_MOTOR] - points[OUTPUT_RESOLVER]
+    d = float(np.linalg.norm(axis))
+    if d == 0.0:
+        raise ReductionError("the output motor and resolver points coincide")
+    e = axis / d
+    p1 = np.eye(3)[int(np.argmin(np.abs(e)))]
+    p1 = p1 - e * (p1 @ e)
+    p1 /= np.linalg.norm(p1)
+    return e, p1, np.cross(e, p1)
+
+
 def output_interface(data):
     """The output interface C (6, ndof) CSR of a ring (module docstring; rows INTERFACE_NAMES):
     combinations of the rigid-fit rows of the output motor and resolver, across and along the
@@ -104,17 +124,7 @@ def output_interface(data):
     if not has_output_bearings(data):
         raise MissingBearingError(f"{data.get('path', 'body')}: no output bearings (the platform has "
                                   f"no output interface)")
-    points = np.asarray(data["bearing_points"], float)
-    axis = points[OUTPUT_MOTOR] - points[OUTPUT_RESOLVER]
-    d = float(np.linalg.norm(axis))
-    if d == 0.0:
-        raise ReductionError("the output motor and resolver points coincide")
-    e = axis / d
-    # two unit vectors across the axis: the coordinate axes nearest perpendicular, made orthonormal
-    p1 = np.eye(3)[int(np.argmin(np.abs(e)))]
-    p1 = p1 - e * (p1 @ e)
-    p1 /= np.linalg.norm(p1)
-    p2 = np.cross(e, p1)
+    e, p1, p2 = _interface_axes(data)
     B = sp.csr_matrix(data["bearing_operator"])
     u_m, th_m = B[6 * OUTPUT_MOTOR:6 * OUTPUT_MOTOR + 3], B[6 * OUTPUT_MOTOR + 3:6 * OUTPUT_MOTOR + 6]
     u_r = B[6 * OUTPUT_RESOLVER:6 * OUTPUT_RESOLVER + 3]
@@ -123,30 +133,55 @@ def output_interface(data):
     return sp.vstack(rows).tocsr()
 
 
-def loaded_bearings(data):
-    """The bearings whose unit loads start the Ritz sequence and define dominance: the output
-    motor and resolver of a ring; the input motor and resolver of the platform (it has no
-    output bearings; its joint loads act there)."""
-    return (OUTPUT_MOTOR, OUTPUT_RESOLVER) if has_output_bearings(data) else (0, 1)
+INPUT_BEARINGS = (0, 1)
 
 
-def load_vectors(data):
-    """(F (ndof, 12 + 6), names): unit forces and moments at ``loaded_bearings`` (in the order
-    fx, fy, fz, mx, my, mz of the first bearing, then of the second) [lbf, in lbf], then the
-    inertia loads M X of unit rigid accelerations (x, y, z translations [in/s^2], rotations
-    [rad/s^2])."""
-    cases = [f"{BEARING_NAMES[b]}_{c}" for b in loaded_bearings(data) for c in LOAD_COMPONENTS]
-    F = [load_case_vector(data["bearing_operator"], c, data["bearing_points"]) for c in cases]
-    MX = np.asarray(data["M"] @ np.asarray(data["rigid_modes"], float))
-    names = cases + [f"inertia_{a}" for a in ("ux", "uy", "uz", "rx", "ry", "rz")]
-    return np.column_stack(F + [MX]), names
+def load_motions(data):
+    """(C (q, ndof) CSR, names): the motions the body's joint loads work on -- a ring's output
+    interface (``output_interface``, q = 6); the platform's input motor and resolver rows
+    (u_x .. th_z of each, q = 12: it has no output bearings, its joint loads act there)."""
+    if has_output_bearings(data):
+        return output_interface(data), list(INTERFACE_NAMES)
+    B = sp.csr_matrix(data["bearing_operator"])
+    rows = sp.vstack([B[6 * b:6 * b + 6] for b in INPUT_BEARINGS]).tocsr()
+    return rows, [f"{BEARING_NAMES[b]}_{c}" for b in INPUT_BEARINGS for c in LOAD_COMPONENTS]
+
+
+def load_vectors(data, transmitted_only=False):
+    """(F (ndof, p), names): the unit loads C^T e_j on the motions of ``load_motions`` [lbf,
+    in lbf]; on a ring then (unless ``transmitted_only``) the unit loads on the six output-bearing
+    motions the interface leaves free (``free_interface_rows``); then the inertia loads M X of
+    unit rigid accelerations (x, y, z translations [in/s^2], rotations [rad/s^2])."""
+    C, names = load_motions(data)
+    cols = [np.asarray(C.T.todense())]
+    if has_output_bearings(data) and not transmitted_only:
+        cols.append(np.asarray(free_interface_rows(data).T.todense()))
+        names = names + list(FREE_NAMES)
+    cols.append(np.asarray(data["M"] @ np.asarray(data["rigid_modes"], float)))
+    names = names + [f"inertia_{a}" for a in ("ux", "uy", "uz", "rx", "ry", "rz")]
+    return np.hstack(cols), names
 
 
 def bearing_motion_rows(data):
-    """The motion rows (12, ndof) CSR of ``loaded_bearings`` (u_x .. th_z of each): the outputs
-    C of the dominance score."""
+    """The outputs C of the dominance score: the motions of ``load_motions``."""
+    return load_motions(data)[0]
+
+
+FREE_NAMES = ("output_motor_along", "output_motor_rot_across_1", "output_motor_rot_across_2",
+              "output_resolver_rot_across_1", "output_resolver_rot_across_2", "output_resolver_rot_about")
+
+
+def free_interface_rows(data):
+    """The six output-bearing motions (6, ndof) CSR the output interface leaves free (rows
+    FREE_NAMES; axes of ``_interface_axes``): e.u_m, p1.th_m, p2.th_m, p1.th_r, p2.th_r, e.th_r.
+    With the interface's six they span all twelve rigid-fit rows of the two output bearings."""
+    e, p1, p2 = _interface_axes(data)
     B = sp.csr_matrix(data["bearing_operator"])
-    return sp.vstack([B[6 * b:6 * b + 6] for b in loaded_bearings(data)]).tocsr()
+    u_m, th_m = B[6 * OUTPUT_MOTOR:6 * OUTPUT_MOTOR + 3], B[6 * OUTPUT_MOTOR + 3:6 * OUTPUT_MOTOR + 6]
+    th_r = B[6 * OUTPUT_RESOLVER + 3:6 * OUTPUT_RESOLVER + 6]
+    rows = [sp.csr_matrix(e) @ u_m, sp.csr_matrix(p1) @ th_m, sp.csr_matrix(p2) @ th_m,
+            sp.csr_matrix(p1) @ th_r, sp.csr_matrix(p2) @ th_r, sp.csr_matrix(e) @ th_r]
+    return sp.vstack(rows).tocsr()
 
 
 def flexibility(data):
@@ -320,7 +355,7 @@ def dominance_scores(modes, eigenvalues, loads, outputs, apply_G):
 def body_dominance(data, modes=None, eigenvalues=None):
     """``dominance_scores`` of a body file's modes (or of the given ones) with its load vectors
     and bearing motions (``load_vectors``, ``bearing_motion_rows``)."""
-    F, _ = load_vectors(data)
+    F, _ = load_vectors(data, transmitted_only=True)
     return dominance_scores(data["modes"] if modes is None else modes,
                             data["eigenvalues"] if eigenvalues is None else eigenvalues,
                             F, bearing_motion_rows(data), flexibility(data))

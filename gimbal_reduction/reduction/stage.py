@@ -95,7 +95,7 @@ def reduce_body(body, n_modes=None, static_kept=10, static_ranking="frequency",
     rank_xmgmx = rk.rank_by_radius(rho_xmgmx)
     # dominance: each mode's share of the static transfer from the bearing and inertia loads to
     # the bearing motions (gimbal_reduction.reduction.bases), ranked as the radii are
-    loads, _ = bases.load_vectors(body)
+    loads, _ = bases.load_vectors(body, transmitted_only=True)
     score_dominance = bases.dominance_scores(modes, lam, loads, bases.bearing_motion_rows(body), apply_G)
     rank_dominance = rk.rank_by_radius(score_dominance)
     table = rk.ranking_table(rank_xmx, rank_xmgmx, n_rows=table_rows)
