@@ -597,9 +597,9 @@ def finding10(st: Study) -> dict:
         if not resolved:
             per_rate[r] = ("not evaluated", nums, f"all {len(done)} pairs within the {mask}", [])
             continue
-        ratios = [ea / eb for a, ea, b, eb in resolved if eb > 0]
+        ratios = [max(ea, floor) / max(eb, floor) for a, ea, b, eb in resolved if max(eb, floor) > 0]
         why = (f"thesis selection not worse at {len(hold)}/{len(resolved)} resolved pairs"
-               + (f" (E ratio thesis/cb {_fmt(min(ratios))}-{_fmt(max(ratios))})" if ratios else "")
+               + (f" (ratio thesis/cb of max(E, R) {_fmt(min(ratios))}-{_fmt(max(ratios))})" if ratios else "")
                + (f", cb better at {', '.join(cb_wins)}" if cb_wins else "")
                + f"; {len(done) - len(resolved)} unresolved ({mask})")
         per_rate[r] = (_from_count(len(hold), len(resolved)), nums, why, cb_wins)
