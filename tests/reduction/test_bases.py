@@ -225,3 +225,12 @@ def test_a_cb_body_has_orthonormal_coordinates_in_the_chain(ring, stage):
     assert np.allclose(body.omega2, lam, rtol=1e-12)
     ritz = models.build_body(2, ring, [], basis=("ritz", 7))
     assert ritz.n_modes == 7 and list(ritz.labels) == [f"ritz {i}" for i in range(7)]
+
+
+def test_the_reduction_stage_ranks_by_dominance(ring):
+    from gimbal_reduction.reduction import ranking, stage as reduction_stage
+    body = {k: v for k, v in ring.items() if not k.startswith("_")}
+    result = reduction_stage.reduce_body(body, n_modes=20, static_kept=2)
+    scores = bases.body_dominance(ring, np.asarray(ring["modes"])[:, :20], ring["eigenvalues"][:20])
+    assert np.allclose(result["score_dominance"], scores, rtol=1e-9)
+    assert list(result["rank_dominance"]) == list(ranking.rank_by_radius(result["score_dominance"]))
