@@ -27,6 +27,7 @@ STAGES: dict[str, tuple[str, str]] = {
     "modes": ("solver.fe.modes", "the supported modes of one body (DOLFINx shells/solid, SLEPc)"),
     "fe-verify": ("solver.fe.verify", "finite-element checks against independent references"),
     "reduce": ("reduction.stage", "momentum coefficients, rankings and static modes of one body"),
+    "cb-modes": ("reduction.bases", "the Craig-Bampton constraint and fixed-interface modes of one ring"),
     "reduction-report": ("reduction.report", "the reduction's tables and figures"),
     "load-ranking": ("reduction.load_aware", "the load-aware ranking of a scene"),
     "model": ("reduction.models", "one reduced model of a scene"),

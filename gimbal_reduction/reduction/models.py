@@ -23,6 +23,16 @@ module says what the parsed name keeps (``model_spec``: ``select_modes`` for the
   the bodies (``pooled/body``, ``pooled/mode`` of the same file).
   ``load-*`` and ``global-*`` need the scene's ranking file (``names.needs_load_ranking``,
   ``load_load_ranking``; ``simulate --load-ranking``).
+* ``dom-10``: the 10 first modes of every body in the dominance ranking (``rank_dominance``
+  of the reduction stage's files; ``gimbal_reduction.reduction.bases``).
+* ``cb-10`` / ``cb-10,10,10,20``: orthonormalised Craig-Bampton: on each ring the 10 lowest
+  fixed-interface modes and the 6 constraint modes of its output interface, Rayleigh-Ritz
+  orthonormalised (16 coordinates; from the ring's Craig-Bampton stage file
+  results/reduction/cb/body{n}.h5, ``gimbal_reduction.reduction.bases``); on the platform, which
+  has no output interface, its 10 lowest supported modes.
+* ``ritz-10``: 10 load-dependent Ritz vectors per body, Rayleigh-Ritz orthonormalised, computed
+  from the body file (``bases.ritz_basis``).  cb- and ritz- bodies keep no body-file mode
+  (``kept`` is empty in the model file); their coordinates are named ``cb i`` / ``ritz i``.
 * ``tol-EPS`` (e.g. ``tol-1e-4``, ``tol-0.001``): accuracy on request.  The smallest
   pooled set ``global-N`` whose a-priori estimate of eq. 3.53 (the frozen linear chain of
   ``gimbal_reduction.reduction.load_aware``: ``estimate/global`` of the scene's ranking file for N = 1..pool,
@@ -68,7 +78,7 @@ from dataclasses import dataclass, field
 import h5py
 import numpy as np
 
-from gimbal_reduction.reduction import frozen_chain, modal_integrals, names, verified_search
+from gimbal_reduction.reduction import bases, frozen_chain, modal_integrals, names, verified_search
 from gimbal_reduction.reduction.names import DEFAULT_LOAD_CASE, TRUTH_MODES, ModelError, ModelName
 from gimbal_reduction.reduction.static_modes import load_case_vector, static_correction_modes
 from gimbal_reduction.solver import bodyconfig
@@ -80,6 +90,9 @@ from gimbal_reduction.workflow.provenance import content_problem, versions
 
 # the reduction stage's datasets, one per ranking it writes (results/reduction/body{n}.h5)
 RANKING_KEYS = {f: names.FAMILIES[f].ranking for f in ("freq", "xmx", "xmgmx")}
+# read where present (a dom- model without it is refused by select_modes): files of the stage
+# before the dominance ranking still serve every other family
+OPTIONAL_RANKING_KEYS = {f: names.FAMILIES[f].ranking for f in ("dom",)}
 LOAD_KEY = names.FAMILIES["load"].ranking            # per-body load-aware ranking
 POOLED_KEY = names.FAMILIES["global"].ranking        # pooled ranking: rankings["pooled"]
 TOL_FAMILY = names.TOL                               # tol-EPS: smallest global-N with estimate <= EPS
@@ -116,15 +129,19 @@ class AttitudeRequested(NeedsSimulation):
 class ModelSpec:
     """What a model name means: kept vibration mode indices and static load cases per body;
     ``choice``: for a tol- request, how its N was chosen (the reduced-model file's ``tol_*``
-    attributes), else empty."""
+    attributes), else empty; ``basis``: {body: (family, N)} of the bodies whose coordinates are a
+    computed basis (cb, ritz: ``bases``) instead of kept modes (their ``kept`` is empty)."""
     name: str
     kept: dict          # body -> int array (0-based indices into the body file's modes)
     static: dict        # body -> tuple of load case names
     ranking: str
     choice: dict = field(default_factory=dict)
+    basis: dict = field(default_factory=dict)
 
     def n_modes(self, body):
-        return len(self.kept[body]) + len(self.static[body])
+        family, n = self.basis.get(body, ("", 0))
+        extra = n + (names.INTERFACE_DOFS if family == names.CB else 0)
+        return len(self.kept[body]) + len(self.static[body]) + extra
 
 
 def model_spec(name, rankings):
@@ -177,7 +194,14 @@ def select_modes(parsed, rankings):
             raise ModelError(f"model {name!r}: ranking {key} of body {b} is not "
                              f"a permutation of 0..{available[b] - 1}")
         kept[b] = np.sort(order[:count])
-    return ModelSpec(name=name, kept=kept, static=parsed.load_cases, ranking=parsed.ranking)
+    basis = {}
+    if family.basis:     # a computed basis in place of the modes (cb: on the rings only)
+        for b in BODIES:
+            if family.basis == names.RITZ or b in names.INTERFACE_BODIES:
+                basis[b] = (family.basis, int(parsed.counts[b]))
+                kept[b] = np.zeros(0, dtype=int)
+    return ModelSpec(name=name, kept=kept, static=parsed.load_cases, ranking=parsed.ranking,
+                     basis=basis)
 
 
 def identity_rankings(n_modes):
@@ -185,7 +209,8 @@ def identity_rankings(n_modes):
     is the identity: what the grammar and the counts are checked against when the order does
     not matter (``check_name``)."""
     order = np.arange(int(n_modes))
-    rankings = {b: {key: order for key in (*RANKING_KEYS.values(), LOAD_KEY)} for b in BODIES}
+    rankings = {b: {key: order for key in (*RANKING_KEYS.values(), *OPTIONAL_RANKING_KEYS.values(), LOAD_KEY)}
+                for b in BODIES}
     rankings[POOLED_KEY] = {"body": np.repeat(BODIES, order.size), "mode": np.tile(order, len(BODIES))}
     return rankings
 
@@ -456,7 +481,9 @@ def restrict_to_bodies(spec, bodies):
     a scene's ``needs.bodies``."""
     kept = {b: (v if b in bodies else np.zeros(0, dtype=int)) for b, v in spec.kept.items()}
     static = {b: (v if b in bodies else ()) for b, v in spec.static.items()}
-    return ModelSpec(name=spec.name, kept=kept, static=static, ranking=spec.ranking, choice=spec.choice)
+    basis = {b: v for b, v in spec.basis.items() if b in bodies}
+    return ModelSpec(name=spec.name, kept=kept, static=static, ranking=spec.ranking, choice=spec.choice,
+                     basis=basis)
 
 
 def load_load_ranking(path, rankings=None):
@@ -533,6 +560,20 @@ def _read_body_file(path, size, mtime_ns):
     return read_body_file(path)
 
 
+def load_cb_stage(path, body):
+    """A ring's Craig-Bampton stage file (``bases.read_cb_stage``, checked against its body file's
+    dict), kept in process for the next model as the body files are."""
+    if not os.path.isfile(path):
+        return bases.read_cb_stage(path, body)          # raises its one-line message
+    st = os.stat(path)
+    return _read_cb_stage(os.path.abspath(path), st.st_size, st.st_mtime_ns, body["path"])
+
+
+@functools.lru_cache(maxsize=3)
+def _read_cb_stage(path, size, mtime_ns, body_path):
+    return bases.read_cb_stage(path, load_body_file(body_path))
+
+
 RANKING_REMEDY = "rerun its target: snakemake --cores 2 --forcerun {path}"
 
 
@@ -541,9 +582,9 @@ def _ranking_error(path, what):
 
 
 def read_reduction_rankings(path, body=None):
-    """The rankings {rank_frequency, rank_xmx, rank_xmgmx} of one reduction file, checked:
-    the file exists and is HDF5, the three datasets are present, 1-D, of one length D, each a
-    permutation of 0..D-1; with ``body`` (its body file's dict) D is the body's mode count and
+    """The rankings {rank_frequency, rank_xmx, rank_xmgmx (, rank_dominance if present)} of one
+    reduction file, checked: the file exists and is HDF5, the three datasets are present, 1-D,
+    of one length D, each a permutation of 0..D-1; with ``body`` (its body file's dict) D is the body's mode count and
     the file's config_hash attribute the body file's (a reduction file of another body file is
     refused).  ModelError (one line naming the file, the dataset and the target to rerun)."""
     path = str(path)
@@ -554,7 +595,7 @@ def read_reduction_rankings(path, body=None):
             missing = [k for k in RANKING_KEYS.values() if k not in f]
             if missing:
                 raise _ranking_error(path, f"dataset(s) {', '.join(missing)} missing (stale or incomplete)")
-            out = {k: f[k][()] for k in RANKING_KEYS.values()}
+            out = {k: f[k][()] for k in (*RANKING_KEYS.values(), *OPTIONAL_RANKING_KEYS.values()) if k in f}
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
             changed = content_problem(f, path, "ranking file")
     except ModelError:
@@ -652,38 +693,70 @@ def select_mode_integrals(integ, kept):
     return out
 
 
-def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rotation_blocks=True):
-    """multibody.Body of one body: kept vibration modes plus static correction modes.
+def basis_shapes(data, basis, cb_stage=None):
+    """(shapes (ndof, n), eigenvalues (n,), labels) of a computed basis (family, N) of one body
+    (``ModelSpec.basis``): ``cb`` from the ring's Craig-Bampton stage dict (``bases.read_cb_stage``),
+    ``ritz`` from the body file.  Unit modal mass, diagonal stiffness."""
+    family, n = basis
+    if family == names.CB:
+        if cb_stage is None:
+            raise ModelError(f"body {data['number']}: cb-{n} needs its Craig-Bampton stage file "
+                             f"(--cb-bases; make it: snakemake results/reduction/cb/body{data['number']}.h5)")
+        Y, lam = bases.craig_bampton_basis(data["M"], data["K"], cb_stage["constraint_modes"],
+                                           cb_stage["fixed_modes"], n)
+    else:
+        Y, lam = bases.ritz_basis(data, n)
+    return Y, lam, [f"{family} {i}" for i in range(Y.shape[1])]
+
+
+def body_from_shapes(number, data, Phi, lam, labels, damping_ratio=0.0, rotate_rotation_blocks=True,
+                     bearing_modes=None):
+    """multibody.Body of one body whose coordinates are the shapes Phi (ndof, n) (unit modal mass,
+    M- and K-orthogonal, modal stiffness lam (n,)), whatever made them: its modal integrals
+    (``modal_integrals.chain_integrals``); bearing_modes (n, 4, 6) the bearings' motion (None:
+    bearing_operator @ Phi)."""
+    if bearing_modes is None:
+        bearing_modes = np.asarray(data["bearing_operator"] @ Phi).T.reshape(Phi.shape[1], 4, 6)
+    integ = modal_integrals.chain_integrals(data["M"], Phi, data["rigid_modes"], data["dof_coords"],
+                                            data["dof_component"], bearing_modes, data["bearing_points"],
+                                            rotate_rotation_blocks=rotate_rotation_blocks)
+    return multibody.make_body(number, integ, lam, damping_ratio, labels)
+
+
+def build_body(number, data, kept, load_cases=(), damping_ratio=0.0, rotate_rotation_blocks=True,
+               basis=None, cb_stage=None):
+    """multibody.Body of one body: kept vibration modes plus static correction modes, or a
+    computed basis (``basis`` = (family, N), ``basis_shapes``; ``cb_stage`` for cb).
 
     Without static modes the integrals are a selection of the body's all-mode integrals
     (``all_mode_integrals``, computed once per body); with them, computed for the kept and
     static modes together (the static modes depend on the kept set)."""
     kept = np.asarray(kept, dtype=int)
+    if basis is not None:
+        Phi, lam, labels = basis_shapes(data, basis, cb_stage)
+        return body_from_shapes(number, data, Phi, lam, labels, damping_ratio, rotate_rotation_blocks)
     if not load_cases:
         integ = select_mode_integrals(all_mode_integrals(data, rotate_rotation_blocks), kept)
         lam = np.asarray(data["eigenvalues"])[kept]
         return multibody.make_body(number, integ, lam, damping_ratio, [f"mode {i}" for i in kept])
     Phi = np.asarray(data["modes"])[:, kept]
     lam = np.asarray(data["eigenvalues"])[kept]
-    labels = [f"mode {i}" for i in kept]
-    bearing_modes = np.asarray(data["bearing_modes"])[kept]
-    if load_cases:
-        static = static_modes_for(data, load_cases, Phi, lam)
-        S, k_s = static["modes"], static["modal_stiffness"]
-        Phi = np.hstack([Phi, S])
-        lam = np.concatenate([lam, k_s])
-        labels += [f"static {c}" for c in load_cases]
-        bm_s = np.asarray(data["bearing_operator"] @ S).T.reshape(S.shape[1], 4, 6)
-        bearing_modes = np.concatenate([bearing_modes, bm_s])
-    integ = modal_integrals.chain_integrals(data["M"], Phi, data["rigid_modes"], data["dof_coords"],
-                                       data["dof_component"], bearing_modes, data["bearing_points"],
-                                       rotate_rotation_blocks=rotate_rotation_blocks)
-    return multibody.make_body(number, integ, lam, damping_ratio, labels)
+    static = static_modes_for(data, load_cases, Phi, lam)
+    S = static["modes"]
+    bearing_modes = np.concatenate([np.asarray(data["bearing_modes"])[kept],
+                                    np.asarray(data["bearing_operator"] @ S).T.reshape(S.shape[1], 4, 6)])
+    return body_from_shapes(number, data, np.hstack([Phi, S]),
+                            np.concatenate([lam, static["modal_stiffness"]]),
+                            [f"mode {i}" for i in kept] + [f"static {c}" for c in load_cases],
+                            damping_ratio, rotate_rotation_blocks, bearing_modes)
 
 
-def build_chain(spec, body_data, damping_ratio=0.0):
-    """multibody.Chain of a ModelSpec from {body: body-file dict}."""
-    bodies = tuple(build_body(b, body_data[b], spec.kept[b], spec.static[b], damping_ratio)
+def build_chain(spec, body_data, damping_ratio=0.0, cb_stages=None):
+    """multibody.Chain of a ModelSpec from {body: body-file dict} (and {ring: Craig-Bampton stage
+    dict} for a cb model)."""
+    cb_stages = cb_stages or {}
+    bodies = tuple(build_body(b, body_data[b], spec.kept[b], spec.static[b], damping_ratio,
+                              basis=spec.basis.get(b), cb_stage=cb_stages.get(b))
                    for b in BODIES)
     return multibody.Chain(bodies, name=spec.name)
 
@@ -693,7 +766,8 @@ def model_config_hash(spec, body_data, scene, ranking_hashes=()):
     """Hash of what a reduced-model file is made from: the model's kept modes and static
     load cases, the body files' config hashes, the rankings used and the scene's elastic
     bodies (16 hex digits)."""
-    payload = {"model": spec.name,
+    payload = {"model": spec.name, **({"basis": {str(b): list(v) for b, v in spec.basis.items()}}
+                                      if spec.basis else {}),
                "kept": {str(b): np.asarray(v).tolist() for b, v in spec.kept.items()},
                "static": {str(b): list(v) for b, v in spec.static.items()},
                "bodies": [str(body_data[b]["attrs"].get("config_hash", "")) for b in BODIES],
@@ -727,7 +801,7 @@ def expected_body_hashes(config):
 
 
 def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=None, config=None,
-                 verified=True, log=None, runs=None):
+                 verified=True, log=None, runs=None, cb_files=None):
     """(Chain, ModelSpec, attrs) of model ``name`` on ``scene`` (undamped: damping is the
     scene's, applied when the model file is read).
 
@@ -738,7 +812,8 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     a caller that answers several requests on one scene (None: a fresh one).
 
     body_files: {body: path} of the modal stage's files; reduction_files: {body: path} of
-    the reduction stage's files (needed by xmx-, xmgmx-, load- and global- models);
+    the reduction stage's files (needed by xmx-, xmgmx-, dom-, load- and global- models);
+    cb_files: {ring: path} of the rings' Craig-Bampton stage files (cb- models);
     load_ranking: the scene's load-aware ranking file (load- and global- models); config: the
     current configuration (validated dict): each body file's config_hash must be the one it
     gives (``expected_body_hashes``), else BodyFileError naming the file and its target."""
@@ -775,12 +850,19 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
             raise
         spec = resolve_verified(parsed, request, scene, body_data, rankings, log, runs)
     spec = restrict_to_bodies(spec, scene.elastic_bodies)
-    chain = build_chain(spec, body_data)
+    cb_stages = {}
+    if any(family == names.CB for family, _ in spec.basis.values()):
+        if not cb_files:
+            raise ModelError(f"model {name!r} needs the rings' Craig-Bampton stage files (--cb-bases)")
+        cb_stages = {b: load_cb_stage(cb_files[b], body_data[b]) for b in spec.basis}
+    chain = build_chain(spec, body_data, cb_stages=cb_stages)
     attrs = {"model": spec.name, "scene": scene.name,
              "config_hash": model_config_hash(spec, body_data, scene, ranking_hashes),
              "n_modes": np.array(chain.n_modes), "units": "in, lbf, s",
              "body_config_hashes": json.dumps([str(body_data[b]["attrs"].get("config_hash", ""))
                                                for b in BODIES])}
+    if spec.basis:
+        attrs["basis"] = json.dumps({str(b): list(v) for b, v in spec.basis.items()})
     if spec.ranking == TOL_FAMILY:
         attrs.update(spec.choice)
         attrs["tol_coordinates"] = int(sum(chain.n_modes))
@@ -804,6 +886,8 @@ def main(argv=None, runs=None):
     ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE",
                     help="the reduction stage's files of bodies 2..5 (xmx-, xmgmx-, load-, global-)")
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global-)")
+    ap.add_argument("--cb-bases", nargs=3, metavar="CB_FILE",
+                    help="the Craig-Bampton stage files of rings 2, 3, 4 (cb-)")
     cli.add_config_option(ap, "every body file's config_hash must be the one it gives")
     ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
     ap.add_argument("--no-verified-search", action="store_true",
@@ -826,6 +910,7 @@ def main(argv=None, runs=None):
             args.model, scene, dict(zip(BODIES, args.bodies)),
             dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,
             config=config, verified=not args.no_verified_search, runs=runs,
+            cb_files=dict(zip(names.INTERFACE_BODIES, args.cb_bases)) if args.cb_bases else None,
             log=lambda text: print(f"gimbal_reduction.reduction.models: {text}", file=sys.stderr, flush=True))
     except (ValueError, FileNotFoundError) as exc:
         print(f"gimbal_reduction.reduction.models: {' '.join(str(exc).split())}", file=sys.stderr)

@@ -4,8 +4,9 @@ Grammar (bodies are 2, 3, 4, 5 = outer, middle, inner gimbal, platform)::
 
     model   := "truth" | "rigid" | family "-" counts statics | pooled "-" N statics
              | "tol-" EPS [ "-att-" A ]   EPS, A positive numbers, e.g. tol-1e-4, tol-1e-4-att-2
-    family  := "freq" | "xmx" | "xmgmx" | "load"              vibration modes only
-             | "static" | "static-freq" | "static-xmx" | "static-xmgmx" | "static-load"
+    family  := "freq" | "xmx" | "xmgmx" | "dom" | "load"      vibration modes only
+             | "static" | "static-freq" | "static-xmx" | "static-xmgmx" | "static-dom" | "static-load"
+             | "cb" | "ritz"          a computed basis per body, no static modes (``basis``)
     pooled  := "global" | "static-global"     N modes in total, pooled over the bodies
     counts  := N | N,N,N,N        kept vibration modes, all bodies or per body 2..5
     statics := ( "@" body ":" loadcase ( "+" loadcase )* )*
@@ -18,8 +19,9 @@ What the names mean (which modes each family keeps, what a ``tol-`` request reso
   pooled N, the static load cases per body, the tol- request), a pure function of the string;
   a malformed name raises ModelError with a one-line message.
 * ``FAMILIES``: the mode families, one row each: the rankings entry their order comes from,
-  whether N is per body or pooled, and which stage files they read.  A new family is a row
-  here and the code that builds its basis in ``models``.
+  whether N is per body or pooled, which stage files they read, and for ``cb`` / ``ritz`` the
+  basis computed in place of selected modes (``gimbal_reduction.reduction.bases``).  A new family
+  is a row here and the code that builds its basis in ``models``.
 * ``ModelName.family``, ``.group``, ``.count``, ``.plain``, ``.n_coordinates``: the family, the
   display group, the count, the (family, N) of a plain family-N name, the kept elastic
   coordinates implied by the name.
@@ -52,21 +54,34 @@ class Family:
     """One mode family of the grammar: ``ranking``, the key of the rankings dict its order is
     read from (per body, or the pooled ranking); ``pooled``: N counts the modes of all bodies
     together; ``reduction_stage`` / ``load_ranking``: it reads the reduction stage's files / the
-    scene's load-aware ranking file."""
+    scene's load-aware ranking file; ``basis``: the body's coordinates are a basis computed from
+    its file (``cb``: Craig-Bampton, N fixed-interface modes + the INTERFACE_DOFS constraint modes
+    of a ring, from the ring's Craig-Bampton stage file; the platform keeps its N lowest modes;
+    ``ritz``: N load-dependent Ritz vectors), "" for a selection of the body's modes."""
     name: str
     ranking: str
     pooled: bool = False
     reduction_stage: bool = False
     load_ranking: bool = False
+    basis: str = ""
 
 
 FAMILIES = {f.name: f for f in (
     Family("freq", "rank_frequency"),
     Family("xmx", "rank_xmx", reduction_stage=True),
     Family("xmgmx", "rank_xmgmx", reduction_stage=True),
+    Family("dom", "rank_dominance", reduction_stage=True),
     Family("load", "rank_load", reduction_stage=True, load_ranking=True),
     Family("global", "pooled", pooled=True, reduction_stage=True, load_ranking=True),
+    Family("cb", "rank_frequency", basis="cb"),
+    Family("ritz", "rank_frequency", basis="ritz"),
 )}
+CB, RITZ = "cb", "ritz"
+# Craig-Bampton: the output interface's DOFs of a ring (one constraint mode each), the rings that
+# have one, and the fixed-interface modes its stage file holds (as many as the truth's modes)
+INTERFACE_DOFS = 6
+INTERFACE_BODIES = (2, 3, 4)
+CB_FIXED_MODES = TRUTH_MODES
 DEFAULT_FAMILY = "freq"     # "static-N", "truth" and "rigid" keep the lowest-frequency modes
 
 _NUMBER = r"((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
@@ -145,7 +160,8 @@ class ModelName:
         if self.family == TOL:
             return None
         statics = sum(len(c) for c in self.load_cases.values())
-        return (self.total if self.total is not None else sum(self.counts.values())) + statics
+        constraint = INTERFACE_DOFS * len(INTERFACE_BODIES) if self.family == CB else 0
+        return (self.total if self.total is not None else sum(self.counts.values())) + statics + constraint
 
 
 def _counts(text, name):
@@ -211,11 +227,14 @@ def parse(name) -> ModelName:
     m = _MODES.fullmatch(base)
     if not m or (m.group(1) is None and m.group(2) is None):
         raise ModelError(
-            f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, load-N, "
-            f"global-N, static-N, static-xmx-N, static-xmgmx-N, static-load-N "
+            f"unknown model {name!r}: expected truth, rigid, freq-N, xmx-N, xmgmx-N, dom-N, load-N, "
+            f"global-N, cb-N, ritz-N, static-N, static-xmx-N, static-xmgmx-N, static-dom-N, static-load-N "
             f"(N or N,N,N,N; global-N: one total N; optional @body:loadcase) or tol-EPS")
     family = m.group(2) or DEFAULT_FAMILY
     static = m.group(1) is not None
+    if FAMILIES[family].basis and (static or statics):
+        raise ModelError(f"model {name!r}: {family}-N is a computed basis and takes no static modes "
+                         f"(its own load vectors are in it)")
     if FAMILIES[family].pooled:
         if not _COUNT.fullmatch(m.group(3)):
             raise ModelError(f"model {name!r}: {family}-N takes one total count N (modes over all "
@@ -253,6 +272,14 @@ def needs_reduction_rankings(name):
         parsed.family in FAMILIES and FAMILIES[parsed.family].reduction_stage))
 
 
+def needs_basis_stage(name):
+    """True if the model needs the rings' Craig-Bampton stage files (cb-*): the fixed-interface
+    modes, one more modal solve per ring, made only for the models that use them.  False for a
+    malformed name."""
+    parsed = parse_or_none(name)
+    return parsed is not None and parsed.family == CB
+
+
 def needs_load_ranking(name):
     """True if the model name uses the scene's load-aware ranking (load-*, global-*, tol-*);
     False for a malformed name."""
@@ -283,6 +310,12 @@ STYLES = {
     "rigid": Style("rigid bodies (no elastic mode)", "black", "_", "--"),
     "load": Style("modes ranked by the scene's joint loads", "tab:olive", "h", "-"),
     "global": Style("modes pooled over the bodies (total count)", "tab:cyan", "p", "-"),
+    "dom": Style("dominance-ranked modes", "teal", "d", ":"),
+    "cb": Style("Craig-Bampton (N fixed-interface + 6 constraint modes)", "darkred", "<", "-."),
+    "ritz": Style("load-dependent Ritz vectors", "darkblue", ">", "-."),
+    "cb-equal": Style("Craig-Bampton at equal coordinates", "salmon", "<", ":"),
+    "truth-interface": Style("Craig-Bampton, 100 fixed-interface modes (interface flexibility)", "0.6",
+                             "P", ""),
     "truth-check": Style("truth + 1 static mode per body (residual flexibility)", "0.4", "*", ""),
     "truth": Style("truth model (100 modes per body)", "black", "*", ""),
     "other": Style("other model", "tab:gray", ".", ""),

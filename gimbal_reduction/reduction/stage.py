@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from gimbal_reduction.reduction import bases
 from gimbal_reduction.reduction import modal_integrals as mi
 from gimbal_reduction.reduction import ranking as rk
 from gimbal_reduction.reduction import static_modes as st
@@ -92,6 +93,11 @@ def reduce_body(body, n_modes=None, static_kept=10, static_ranking="frequency",
     rank_frequency = rk.rank_by_frequency(lam)
     rank_xmx = rk.rank_by_radius(rho_xmx)
     rank_xmgmx = rk.rank_by_radius(rho_xmgmx)
+    # dominance: each mode's share of the static transfer from the bearing and inertia loads to
+    # the bearing motions (gimbal_reduction.reduction.bases), ranked as the radii are
+    loads, _ = bases.load_vectors(body, transmitted_only=True)
+    score_dominance = bases.dominance_scores(modes, lam, loads, bases.bearing_motion_rows(body), apply_G)
+    rank_dominance = rk.rank_by_radius(score_dominance)
     table = rk.ranking_table(rank_xmx, rank_xmgmx, n_rows=table_rows)
     shares = {}
     for label, order in (("frequency", rank_frequency), ("xmx", rank_xmx), ("xmgmx", rank_xmgmx)):
@@ -161,6 +167,7 @@ def reduce_body(body, n_modes=None, static_kept=10, static_ranking="frequency",
         "eigenvalues": lam, "frequencies_hz": np.sqrt(lam) / (2 * np.pi),
         "rho_xmx": rho_xmx, "rho_xmgmx": rho_xmgmx, "rank_frequency": rank_frequency,
         "rank_xmx": rank_xmx, "rank_xmgmx": rank_xmgmx, "table": table, "shares": shares,
+        "score_dominance": score_dominance, "rank_dominance": rank_dominance,
         "joints": joints, "bearing_modes": bearing_modes, "statics": statics,
         "static_kept": kept, "static_ranking": static_ranking, "load_cases": cases,
         "skipped_load_cases": skipped, "static_set_gram_condition": set_condition,
@@ -195,7 +202,8 @@ def write_reduction_file(path, result, body):
             f.attrs["body_versions"] = attrs["versions"]
         f.attrs["created"] = time.strftime("%Y-%m-%dT%H:%M:%S")
         for key in ("P", "H", "M_inf", "M_rigid", "MGM_inf", "eigenvalues", "frequencies_hz",
-                    "rho_xmx", "rho_xmgmx", "rank_frequency", "rank_xmx", "rank_xmgmx"):
+                    "rho_xmx", "rho_xmgmx", "rank_frequency", "rank_xmx", "rank_xmgmx",
+                    "score_dominance", "rank_dominance"):
             f.create_dataset(key, data=result[key])
         g = f.create_group("ranking_table")
         for key, value in result["table"].items():

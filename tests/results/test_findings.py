@@ -16,7 +16,7 @@ RATE_FACTORS = (1.0, 0.3, 1e-3, 1e-3)     # outer > middle >> inner, platform (f
 
 
 def _good_outer() -> dict:
-    """E_outer per model of a study on which all nine findings hold."""
+    """E_outer per model of a study on which all ten findings hold."""
     E = {"truth": 0.0, "rigid": 1.0}
     E.update({f"freq-{n}": 0.5 for n in (2, 4, 5, 6, 8, 10, 15, 20)})
     E["freq-25"] = 0.05
@@ -30,6 +30,11 @@ def _good_outer() -> dict:
     E["load-25"] = 0.044
     E.update({f"global-{n}": 0.3 for n in (20, 40, 60, 80)})
     E["global-100"] = 0.044
+    # Craig-Bampton at the coordinates of freq-10..25 and static-6, static-8: no better than them
+    E.update({"cb-4,4,4,10": 0.5, "cb-9,9,9,15": 0.5, "cb-14,14,14,20": 0.5, "cb-19,19,19,25": 0.05,
+              "cb-1,1,1,7": 0.1, "cb-3,3,3,9": 0.1})
+    E["static-100"] = 1e-4          # the truth's own error: every pair above it
+    E["cb-100"] = 5e-5              # ... and at the interfaces
     return E
 
 
@@ -69,16 +74,55 @@ NONE = ["not reproduced"] * 4
 
 
 # ---------------------------------------------------------------- every rule passes on the good study
-def test_good_study_reproduces_all_nine():
+def test_good_study_reproduces_all_ten():
     rows = _rows(_good_outer())
     items = findings.evaluate(rows[:30], rows[30:], _reduction(45), scene="thesis")
-    assert [i["finding"] for i in items] == list(range(1, 10))
-    assert [i["id"] for i in items] == [f"F{k}" for k in range(1, 10)]
+    assert [i["finding"] for i in items] == list(range(1, 11))
+    assert [i["id"] for i in items] == [f"F{k}" for k in range(1, 11)]
     for i in items:
         assert i["verdict"] == "reproduced", (i["finding"], i["reason"])
         assert list(i["verdict_per_rate"].values()) == ALL
         assert i["scene"] == "thesis" and i["control"] and i["rule"] and i["statement"]
-    assert [i["source"] for i in items] == ["thesis"] * 6 + ["new"] * 3
+    assert [i["source"] for i in items] == ["thesis"] * 6 + ["new"] * 4
+
+
+# ---------------------------------------------------------------- finding 10
+def test_f10_fails_where_craig_bampton_is_better_and_is_partly_for_some_pairs():
+    f = findings.finding10(_study())
+    assert f["verdict"] == "reproduced" and "14/14 resolved pairs" in f["reason"]
+    better = {"cb-4,4,4,10": 0.1, "cb-9,9,9,15": 0.1, "cb-14,14,14,20": 0.1, "cb-19,19,19,25": 0.01,
+              "cb-1,1,1,7": 0.01, "cb-3,3,3,9": 0.01}
+    E = _good_outer()
+    E.update(better)
+    f = findings.finding10(findings.Study(_rows(E)))
+    assert f["verdict"] == "not reproduced" and "cb better at freq-10" in f["reason"]
+    E = _good_outer()
+    E["cb-1,1,1,7"] = 0.01                        # beats static-6 only
+    f = findings.finding10(findings.Study(_rows(E)))
+    assert f["verdict"] == "partly reproduced" and f["cases"]["outer"] == ["static-6"]
+
+
+def test_f10_is_masked_by_the_truths_resolution():
+    E = _good_outer()
+    E.update({"cb-1,1,1,7": 0.01, "cb-3,3,3,9": 0.01})     # cb better than static-6, static-8 ...
+    E["static-100"] = 0.2                                 # ... but the truth cannot tell below 0.2
+    f = findings.finding10(findings.Study(_rows(E)))
+    assert f["verdict"] == "reproduced" and "5 unresolved" in f["reason"]
+    E["static-100"] = 1.0                                 # nothing resolved: no verdict
+    f = findings.finding10(findings.Study(_rows(E)))
+    assert f["verdict"] == "not evaluated" and "within the truth's resolution" in f["reason"]
+    E["static-100"], E["cb-100"] = 1e-4, 0.2              # the interface referee sets R alike
+    f = findings.finding10(findings.Study(_rows(E)))
+    assert f["verdict"] == "reproduced" and f["numbers"]["outer"]["truth_resolution"] == 0.2
+    # a Craig-Bampton model below R and a thesis one above it by less than TIE: a tie, not a win
+    E["cb-1,1,1,7"], E["static-6"] = 1e-6, 0.21
+    f = findings.finding10(findings.Study(_rows(E)))
+    assert "static-6" not in f["cases"]["outer"]
+    E["static-6"] = 0.3                                    # above R by more than TIE: cb better
+    assert "static-6" in findings.finding10(findings.Study(_rows(E)))["cases"]["outer"]
+    E.pop("cb-4,4,4,10"), E.pop("cb-9,9,9,15"), E.pop("cb-14,14,14,20"), E.pop("cb-19,19,19,25")
+    E.pop("cb-1,1,1,7"), E.pop("cb-3,3,3,9")
+    assert findings.finding10(findings.Study(_rows(E)))["verdict"] == "not evaluated"
 
 
 # ---------------------------------------------------------------- finding 1
@@ -185,12 +229,12 @@ def test_f6_fails_on_a_large_load_case_spread():
 def test_f7_rigid_baseline():
     f = findings.finding7(_study())
     assert f["verdict"] == "reproduced"
-    assert f["numbers"]["outer"]["cases_better_than_rigid"] == f["numbers"]["outer"]["cases"] == 48
+    assert f["numbers"]["outer"]["cases_better_than_rigid"] == f["numbers"]["outer"]["cases"] == 54
     f = findings.finding7(_study(rigid=0.04))
     assert f["verdict"] == "not reproduced"
-    assert f["numbers"]["outer"]["cases_better_than_rigid"] == 0 and "0/48" in f["reason"]
-    f = findings.finding7(_study(rigid=0.15))      # beaten by 18 of 48 only
-    assert f["verdict"] == "not reproduced" and f["numbers"]["outer"]["cases_better_than_rigid"] == 18
+    assert f["numbers"]["outer"]["cases_better_than_rigid"] == 0 and "0/54" in f["reason"]
+    f = findings.finding7(_study(rigid=0.15))      # beaten by 21 of 54 only
+    assert f["verdict"] == "not reproduced" and f["numbers"]["outer"]["cases_better_than_rigid"] == 21
     assert "static-6" in f["cases"]["outer"] and "freq-5" not in f["cases"]["outer"]
 
 
@@ -285,7 +329,7 @@ def test_cli_writes_csv_and_json_of_one_scene(tmp_path):
             "--csv", str(tmp_path / "f.csv"), "--json", str(tmp_path / "f.json")]
     assert findings.main(args + ["--scene", "thesis"]) == 0
     lines = (tmp_path / "f.csv").read_text().splitlines()
-    assert lines[0] == ",".join(findings.FIELDS) and len(lines) == 10
+    assert lines[0] == ",".join(findings.FIELDS) and len(lines) == 11
     data = json.loads((tmp_path / "f.json").read_text())
     assert data["scene"] == "thesis" and data["rates"] == list(findings.RATES)
     items = {i["finding"]: i for i in data["findings"]}

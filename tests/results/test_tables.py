@@ -20,8 +20,13 @@ def test_study_cases_cover_the_thesis_figures_and_parse():
     assert [c["model"] for c in thesis[:5]] == ["freq-5", "freq-10", "freq-15", "freq-20", "freq-25"]
     cases = study_cases()
     models = [c["model"] for c in cases]
-    # + the rigid baseline, the no-static controls freq-2..8, load-5..25, global-20..100, static-100
-    assert len(models) == len(set(models)) == 34 + 1 + 4 + 5 + 5 + 1
+    # + the rigid baseline, the no-static controls freq-2..8, load-5..25, global-20..100, static-100,
+    # the field's defaults dom-, cb-, ritz-5..25 and cb at the coordinates of freq-10..25, static-6, -8, cb-100
+    assert len(models) == len(set(models)) == 34 + 1 + 4 + 5 + 5 + 1 + 15 + 6 + 1
+    assert describe_model("cb-4,4,4,10")["group"] == "cb-equal"
+    assert describe_model("cb-4,4,4,10")["n_elastic"] == describe_model("freq-10")["n_elastic"]
+    assert describe_model("cb-3,3,3,9")["n_elastic"] == describe_model("static-8")["n_elastic"]
+    assert describe_model("cb-10")["n_elastic"] == 58 and describe_model("ritz-10")["n_elastic"] == 40
     assert models[0] == "rigid" and {"freq-2", "freq-8", "load-25", "global-100", "static-100"} <= set(models)
     assert describe_model("global-40")["n_elastic"] == 40 and describe_model("rigid")["n_elastic"] == 0
     assert describe_model("load-10")["n_elastic"] == 40
@@ -103,13 +108,25 @@ def test_cli_missing_and_nonfinite_inputs(tmp_path, capsys):
 def test_tables_of_the_synthetic_study(tmp_path):
     truth, cases = write_study(tmp_path / "sim")
     rt, st = tmp_path / "tables" / "errors_ranking.csv", tmp_path / "tables" / "errors_static.csv"
+    ct = tmp_path / "tables" / "coordinates.csv"
     assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
-                        "--static-table", str(st)]) == 0
+                        "--static-table", str(st), "--coordinates-table", str(ct)]) == 0
     rank, stat = read_table(rt), read_table(st)
     assert [r["group"] for r in rank][:1] == ["truth"]
-    assert {r["group"] for r in rank} == {"truth", "freq", "xmx", "xmgmx", "rigid", "load", "global", "truth-check"}
+    assert {r["group"] for r in rank} == {"truth", "freq", "xmx", "xmgmx", "rigid", "load", "global",
+                                          "dom", "cb", "ritz", "cb-equal", "truth-check", "truth-interface"}
     assert {r["group"] for r in stat} == {"static-freq", "static-xmx", "static-xmgmx", "load-case"}
-    assert len(rank) == 32 and len(stat) == 19
+    assert len(rank) == 32 + 22 and len(stat) == 19
+    # the coordinates table: every family's case at its size, cb counting its constraint modes
+    import csv
+    coords = list(csv.DictReader(ct.open()))
+    assert {r["group"] for r in coords} == set(tables.COORDINATE_GROUPS)
+    by_model = {r["model"]: r for r in coords}
+    assert float(by_model["cb-5"]["coordinates_per_body"]) == (3 * 11 + 5) / 4
+    assert float(by_model["cb-4,4,4,10"]["coordinates_per_body"]) == 10.0
+    assert float(by_model["static-8"]["n_elastic"]) == 36
+    r = by_model["freq-5"]
+    assert float(r["E_max"]) == max(float(r[c]) for c in tables.RATE_COLUMNS)
     by = {r["model"]: r for r in rank + stat}
     assert by["truth"]["E_outer_gimbal"] == 0.0 and by["truth"]["n_elastic"] == 400
     # synthetic rates are (1 + a) r, so E = a^2 exactly (tests/test_results_synthetic.amplitudes)

@@ -36,7 +36,7 @@ BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "loa
                  "exponential_bench", "exponential_accuracy", "integrator_tables", "control_export",
                  "simulate_modal"}
 # ... and those that check one body's files (params.cfg = that body file's config hash)
-PER_BODY_CHECKERS = ("reduction_body", "mode_shapes_body")
+PER_BODY_CHECKERS = ("reduction_body", "cb_stage", "mode_shapes_body")
 # a stage the rule runs besides its shell's python -m modules
 EXTRA_CODE = {"verify_mpi": ("gimbal_reduction.solver.fe.modes",)}   # gimbal_reduction.solver.fe.verify mpi runs gimbal_reduction.solver.fe.modes under mpirun
 

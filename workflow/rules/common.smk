@@ -92,6 +92,7 @@ PY = sys.executable
 # environment running Snakemake: every stage runs as `gimbal STAGE ...`, what a user types
 GIMBAL = str(Path(sys.executable).with_name("gimbal"))
 BODIES = [2, 3, 4, 5]
+RINGS = [2, 3, 4]  # the bodies with an output interface (Craig-Bampton stage files)
 
 
 wildcard_constraints:
@@ -219,6 +220,8 @@ def model_inputs(wildcards):
         needed["reductions"] = [f"results/reduction/body{n}.h5" for n in BODIES]
     if names_mod.needs_load_ranking(wildcards.model):
         needed["load_ranking"] = f"results/reduction/load/{wildcards.scene}.h5"
+    if names_mod.needs_basis_stage(wildcards.model):
+        needed["cb"] = [f"results/reduction/cb/body{n}.h5" for n in RINGS]
     return needed
 
 
@@ -229,6 +232,8 @@ def ranking_options(wildcards, input):
         options.append("--reductions " + " ".join(input.reductions))
     if "load_ranking" in input.keys():
         options.append(f"--load-ranking {input.load_ranking}")
+    if "cb" in input.keys():
+        options.append("--cb-bases " + " ".join(input.cb))
     return " ".join(options)
 
 

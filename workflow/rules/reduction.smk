@@ -29,6 +29,31 @@ rule reduction_body:
         "--out {output} > {log} 2>&1"
 
 
+# The rings' Craig-Bampton stage (gimbal_reduction/reduction/bases.py): one more modal solve per ring,
+# the fixed-interface modes, made only for the models and studies that ask for a cb- model.
+rule cb_stage:
+    input:
+        body="results/modes/body{n}.h5",
+    output:
+        "results/reduction/cb/body{n}.h5",
+    log:
+        "logs/reduction/cb_body{n}.log",
+    benchmark:
+        "results/benchmarks/rules/cb_stage_body{n}.tsv"
+    wildcard_constraints:
+        n="[234]",
+    resources:
+        # no record: 27.5 s, 100 fixed-interface modes of body 2 (9504 DOFs), measured by hand
+        mem_mb=mem_mb(800.0),
+        runtime=runtime_min(27.5),
+    params:
+        code=code_hash("cb-modes"),
+        cfg=body_hash(),  # the body file's config_hash is checked against the config
+    shell:
+        "OMP_NUM_THREADS=1 {GIMBAL} cb-modes --body-file {input.body} --config {CONFIG} "
+        "--out {output} > {log} 2>&1"
+
+
 rule reduction:
     input:
         expand("results/reduction/body{n}.h5", n=BODIES),

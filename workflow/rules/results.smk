@@ -21,6 +21,7 @@ rule study_scene:
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         load_ranking="results/reduction/load/{scene}.h5",
+        cb=expand("results/reduction/cb/body{n}.h5", n=RINGS),
         kernels=ancient(KERNELS),
     output:
         sims=[f"results/study/{{scene}}/sim/{m}.h5" for m in SCENE_MODELS],
@@ -49,7 +50,7 @@ rule study_scene:
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} run-scene --scene {input.scene} --models {params.models} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
-        "--out-dir {params.out_dir} --coupled-modes {output.coupled} "
+        "--cb-bases {input.cb} --out-dir {params.out_dir} --coupled-modes {output.coupled} "
         "--frequency-error {output.frequency} --integrator {params.integrator} "
         "{params.options} --config {CONFIG} > {log} 2>&1"
 
@@ -77,6 +78,7 @@ rule error_tables:
             subcategory="{scene}",
             caption="../report/table.rst",
         ),
+        coordinates="results/tables/{scene}/coordinates.csv",
     log:
         "logs/results/error_tables_{scene}.log",
     benchmark:
@@ -92,7 +94,7 @@ rule error_tables:
     shell:
         "{GIMBAL} tables --truth {input.truth} --cases {input.cases} "
         "--ranking-table {output.ranking} --static-table {output.static} "
-        "--frequency-error {input.frequency} > {log} 2>&1"
+        "--frequency-error {input.frequency} --coordinates-table {output.coordinates} > {log} 2>&1"
 
 
 rule findings:

@@ -22,8 +22,19 @@ freq          2, 4, 6, 8 lowest modes: the no-static          (controls)
 load          5..25 modes per body ranked by the scene's      (not in the thesis;
               joint loads (docs/selection.md)                 its Section 5.1 advice)
 global        20..100 modes in total pooled over the bodies   (as load)
+dom           5..25 dominance-ranked modes per body           (the field's defaults:
+cb            Craig-Bampton: 5..25 fixed-interface modes +    pyMOR, Adams, Simpack,
+              6 constraint modes per ring, lowest modes on    Abaqus, Wilson et al.;
+              the platform                                    docs/selection.md)
+ritz          5..25 load-dependent Ritz vectors per body
+cb-equal      Craig-Bampton with as many elastic coordinates  (the control of the
+              as freq-N (N = 10..25) and static-6, static-8:  thesis's selections
+              cb-(N-6),(N-6),(N-6),N                          against it)
 truth-check   the truth + 1 static mode per body (residual    (the truth's own
               flexibility of the truncated modes)             error)
+truth-        cb-100: Craig-Bampton with all 100 fixed-       (the truth's own
+interface     interface modes, i.e. the truth's band plus     error at the
+              the interface's static flexibility               interfaces)
 ============  ============================================  ====================
 
 The thesis ranks with one criterion for both XMX and XMGMX (its first 40
@@ -48,6 +59,10 @@ RATE_LABELS = {2: r"$\dot\gamma_1$ (outer gimbal)", 3: r"$\dot\gamma_2$ (middle 
                4: r"$\dot\gamma_3$ (inner gimbal)", 5: r"$\dot\gamma_4$ (stable platform)"}
 TRUTH = "truth"
 TRUTH_CHECK = "static-100"      # the truth + residual flexibility: the truth's own error, not a case
+# the truth against a basis that also holds the static flexibility of the six DOFs through which
+# each ring carries the next body (its 6 constraint modes): the truth's error there, not a case
+TRUTH_INTERFACE = f"cb-{names.TRUTH_MODES}"
+REFEREES = ("truth-check", "truth-interface")       # groups that judge the truth, not cases
 # The scenes of the study (config/scenes/NAME.yaml), each with every case: the thesis's scene, the
 # same with 1 % modal damping, the same with a smooth start (no step in the case acceleration at
 # t = 0), and the thesis forcing over 1 s.  They separate what the thesis scene cannot: whether a
@@ -62,6 +77,11 @@ MODE_COUNTS = (5, 10, 15, 20, 25)             # Figs 4-2..4-11, Table 4.2
 STATIC_COUNTS = (2, 4, 6, 8)                  # Figs 4-13..4-20, Table 4.3
 CONTROL_COUNTS = STATIC_COUNTS                # freq-N without the static mode: static-N's control
 GLOBAL_TOTALS = tuple(4 * n for n in MODE_COUNTS)   # global-N: as many modes as freq-N/4 in all
+FIELD_FAMILIES = ("dom", "cb", "ritz")       # the field's defaults, at the thesis's counts
+# cb at equal coordinates: N elastic coordinates per body, the rings' N - 6 fixed-interface modes
+# plus their 6 constraint modes; the counts of freq-N (N >= 6) and of static-6, static-8 (N + 1)
+CB_EQUAL_COORDINATES = tuple(n for n in MODE_COUNTS if n >= names.INTERFACE_DOFS) + \
+    tuple(n + 1 for n in STATIC_COUNTS if n + 1 >= names.INTERFACE_DOFS)
 LOAD_CASE_COUNT = 10                          # Figs 4-21..4-27
 RANKINGS = ("xmx", "xmgmx")
 # (load case, thesis figure) in the thesis's figure order; Fig 4-24 is the default case
@@ -77,9 +97,9 @@ LOAD_CASE_LABELS = {"output_motor_fz": "z-force at the output motor joint",
                     "input_motor_my": "y-moment at the input motor joint",
                     "input_motor_mz": "z-moment at the input motor joint"}
 THESIS_GROUPS = ("freq", "xmx", "xmgmx", "static-freq", "static-xmx", "static-xmgmx", "load-case")
-GROUPS = ("rigid", *THESIS_GROUPS, "load", "global", "truth-check")
-RANKING_TABLE_GROUPS = ("rigid", "freq", "xmx", "xmgmx", "load", "global",
-                        "truth-check")                                  # Table 4.2 analogue + ours
+GROUPS = ("rigid", *THESIS_GROUPS, "load", "global", *FIELD_FAMILIES, "cb-equal", *REFEREES)
+RANKING_TABLE_GROUPS = ("rigid", "freq", "xmx", "xmgmx", "load", "global", *FIELD_FAMILIES,
+                        "cb-equal", *REFEREES)                          # Table 4.2 analogue + ours
 STATIC_TABLE_GROUPS = ("static-freq", "static-xmx", "static-xmgmx", "load-case")  # Table 4.3
 
 
@@ -125,9 +145,29 @@ def study_cases(rankings=RANKINGS, static_rankings=RANKINGS, extended=True) -> l
         for n in GLOBAL_TOTALS:
             cases.append(_case(f"global-{n}", "global", "global", n, 0, None, "",
                                f"{n} modes in total, pooled over the bodies by the scene's loads"))
+        titles = {"dom": "{n} dominance-ranked modes per body",
+                  "cb": "Craig-Bampton: {n} fixed-interface + 6 constraint modes per ring",
+                  "ritz": "{n} load-dependent Ritz vectors per body"}
+        for family in FIELD_FAMILIES:
+            for n in MODE_COUNTS:
+                cases.append(_case(f"{family}-{n}", family, family, n, 0, None, "",
+                                   titles[family].format(n=n)))
+        for n in CB_EQUAL_COORDINATES:
+            cases.append(_case(cb_equal(n), "cb-equal", "cb", n, 0, None, "",
+                               f"Craig-Bampton with {n} elastic coordinates per body"))
         cases.append(_case(TRUTH_CHECK, "truth-check", "freq", 100, 1, DEFAULT_LOAD_CASE, "",
                            "truth + 1 static mode per body (residual flexibility)"))
+        cases.append(_case(TRUTH_INTERFACE, "truth-interface", "cb", names.TRUTH_MODES, 0, None, "",
+                           "Craig-Bampton with all 100 fixed-interface modes (the truth's band plus "
+                           "the interface's static flexibility)"))
     return cases
+
+
+def cb_equal(n: int) -> str:
+    """The Craig-Bampton model with ``n`` elastic coordinates on every body: n - 6 fixed-interface
+    modes and 6 constraint modes on each ring, the n lowest modes on the platform."""
+    k = n - names.INTERFACE_DOFS
+    return f"cb-{k},{k},{k},{n}"
 
 
 def _case(model, group, ranking, count, static, load_case, figure, title):
@@ -173,6 +213,8 @@ def classify(model: str) -> tuple[str, object]:
     0 for rigid, the name for ``other``.  Any name, study case or not, from ``names.parse``."""
     if model == TRUTH_CHECK:              # the truth's own error, not a reduced case
         return "truth-check", 100
+    if model == TRUTH_INTERFACE:
+        return "truth-interface", names.TRUTH_MODES
     parsed = names.parse_or_none(model)
     if parsed is None:
         return "other", model
@@ -184,6 +226,11 @@ def classify(model: str) -> tuple[str, object]:
                 and parsed.count == LOAD_CASE_COUNT and cases[0] in dict(LOAD_CASES):
             return "load-case", cases[0]
         return "other", model
+    if parsed.family == names.CB and parsed.count is None:
+        rings = {parsed.counts[b] for b in names.INTERFACE_BODIES}
+        n = parsed.counts[5]
+        if rings == {n - names.INTERFACE_DOFS}:
+            return "cb-equal", n
     if parsed.group in GROUPS:
         return parsed.group, parsed.count
     return "other", model

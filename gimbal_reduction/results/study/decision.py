@@ -19,10 +19,12 @@ Three accuracy measures, in the units a designer states them:
   fraction of the RMS rate: E = 0.04 is an error of 20 % RMS of the rate).
 
 The truth's resolution.  The truth (100 modes per body) is itself an approximation of the chain;
-two checks bound its own error per scene and rate: the truth with one static correction mode per
-body (``static-100``, the residual flexibility of the truncated modes) and a 200-modes-per-body
-truth (``truth_basis.json``).  The resolution is one number per scene and measure, the larger of
-the two checks (per rate for E and rate; the attitude's largest angle), and it is used everywhere:
+three checks bound its own error per scene and rate: the truth with one static correction mode per
+body (``static-100``, the residual flexibility of the truncated modes), the truth's band with each
+ring's output-interface flexibility (``cb-100``, Craig-Bampton with 100 fixed-interface modes) and
+a 200-modes-per-body truth (``truth_basis.json``).  The resolution is one number per scene and
+measure, the largest of the checks (per rate for E and rate; the attitude's largest angle), and it
+is used everywhere:
 
 * a requirement at or below the resolution is ``not resolvable``: no model can be shown to meet it
   by this truth (not even the truth);
@@ -56,7 +58,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gimbal_reduction.results.study.cases import TRUTH, TRUTH_CHECK
+from gimbal_reduction.results.study.cases import TRUTH, TRUTH_CHECK, TRUTH_INTERFACE
+
+# the rows that judge the truth (its own error), never candidates: the truth + residual
+# flexibility, and the truth's band + each ring's interface flexibility (Craig-Bampton)
+REFEREE_MODELS = (TRUTH_CHECK, TRUTH_INTERFACE)
 from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, error_measure
 from gimbal_reduction.solver.dynamics.simfile import read_sim
@@ -102,9 +108,10 @@ def rate_rms(t, gamma_dot) -> np.ndarray:
 
 
 def resolution(rows, basis_scene, truth_rms) -> dict:
-    """The truth's own error on one scene, the larger of its two checks, per measure.
+    """The truth's own error on one scene, the largest of its checks, per measure.
 
-    rows: the scene's table rows (``tables.read_table``; the ``static-100`` row is one check);
+    rows: the scene's table rows (``tables.read_table``; the ``static-100`` and ``cb-100`` rows are
+    checks);
     basis_scene: ``truth_basis.json``'s entry of the scene ({E (4,), attitude_max_arcsec}) or None;
     truth_rms (4,) [rad/s].  Returns {E_per_rate (4,), rate_per_rate (4,) [rad/s], attitude
     [arcsec], E, rate (worst rate), sources: the checks used}.  A measure no check gives is NaN
@@ -112,11 +119,11 @@ def resolution(rows, basis_scene, truth_rms) -> dict:
     E = np.full(4, np.nan)
     att = float("nan")
     sources = []
-    check = next((r for r in rows if r["model"] == TRUTH_CHECK), None)
-    for name, e, a in ((TRUTH_CHECK, None if check is None else [check[c] for c in RATE_COLUMNS],
-                        None if check is None else check.get("attitude_max_arcsec")),
-                       ("freq-200", None if not basis_scene else basis_scene.get("E"),
-                        None if not basis_scene else basis_scene.get("attitude_max_arcsec"))):
+    checks = [(r["model"], [r[c] for c in RATE_COLUMNS], r.get("attitude_max_arcsec"))
+              for model in REFEREE_MODELS for r in rows if r["model"] == model]
+    if basis_scene:
+        checks.append(("freq-200", basis_scene.get("E"), basis_scene.get("attitude_max_arcsec")))
+    for name, e, a in checks:
         if e is None:
             continue
         sources.append(name)
@@ -170,9 +177,9 @@ def coordinates(row) -> int | None:
 
 
 def candidates(rows) -> list[dict]:
-    """The rows a decision chooses from: every model with finite errors but the truth check
-    (the truth + residual flexibility, larger than the truth), the truth last."""
-    out = [r for r in rows if r["model"] != TRUTH_CHECK and coordinates(r) is not None
+    """The rows a decision chooses from: every model with finite errors but the truth's checks
+    (``REFEREE_MODELS``, larger than the truth), the truth last."""
+    out = [r for r in rows if r["model"] not in REFEREE_MODELS and coordinates(r) is not None
            and all(np.isfinite(r[c]) for c in RATE_COLUMNS)]
     return sorted(out, key=lambda r: (r["model"] == TRUTH, coordinates(r), r["model"]))
 

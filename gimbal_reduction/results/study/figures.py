@@ -19,6 +19,10 @@ group``; paths relative to the manifest), which the reports read:
   (Fig 4-29), thesis Table 4.3 in grey;
 * ``error_load_cases``: E per gimbal rate for the seven static-mode load cases
   (Figs 4-21..4-27 in one chart);
+* ``error_coordinates``: E against elastic coordinates per body (n_elastic / 4) for every mode
+  family (``tables.COORDINATE_GROUPS``: the thesis's, ours, the field's defaults), so families
+  that keep more than their count (cb: 6 constraint modes per ring; static: 1 per body) are
+  compared at equal size;
 * ``runtime_error``: model size (elastic coordinates) against the outer-gimbal E for every
   case, with the Pareto front and the truth's size (run times: the benchmark's medians).
 
@@ -48,7 +52,7 @@ from gimbal_reduction.results.study.cases import (
     describe_model,
     study_cases,
 )
-from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
+from gimbal_reduction.results.study.tables import COORDINATE_GROUPS, RATE_COLUMNS, read_table
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
 from gimbal_reduction.solver.dynamics.simfile import read_sim
@@ -57,8 +61,10 @@ from gimbal_reduction.workflow.provenance import provenance, savefig, write_json
 STYLE = {"pdf.fonttype": 42, "ps.fonttype": 42, "font.size": 9, "axes.grid": True,
          "grid.alpha": 0.3, "legend.fontsize": 8, "figure.dpi": 100}
 # Groups drawn as lines against modes per body: the rigid model is the dashed baseline and the
-# truth check a single point at 100, so neither is a line; global-N (N in total) is drawn at N/4
-LINE_GROUPS = tuple(g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check"))
+# truth check a single point at 100, so neither is a line; cb at equal coordinates is a count of
+# coordinates, drawn in error_coordinates only
+LINE_GROUPS = tuple(g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check", "truth-interface",
+                                                                   "cb-equal"))
 PER_BODY_DIVISOR = {"global": 4}
 PNG_DPI = 150           # ``save``'s PNG (figures of other modules; the study's are PDF only)
 RIGID = "rigid"        # the baseline model: no elastic modes
@@ -449,8 +455,13 @@ def rate_unit(peak):
     return 1e9, "nrad/s"
 
 
-def _series(rows, group, col):
-    """(modes per body (k,), E (k,)) of a group; global-N counts N in total, drawn at N/4."""
+def _series(rows, group, col, coordinates=False):
+    """(modes per body (k,), E (k,)) of a group; global-N counts N in total, drawn at N/4;
+    ``coordinates``: against elastic coordinates per body (n_elastic / 4) instead."""
+    if coordinates:
+        pts = sorted((r["n_elastic"] / len(BODIES), r[col]) for r in rows
+                     if r["group"] == group and r.get("n_elastic") is not None)
+        return np.array([p[0] for p in pts], float), np.array([p[1] for p in pts], float)
     d = PER_BODY_DIVISOR.get(group, 1)
     pts = sorted((r["count"] / d, r[col]) for r in rows if r["group"] == group and r["count"] is not None)
     return np.array([p[0] for p in pts], float), np.array([p[1] for p in pts], float)
@@ -463,21 +474,21 @@ def _has_typo(thesis_keys) -> bool:
 
 
 def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=None,
-                        rigid_E=None, thesis_keys=None) -> dict:
+                        rigid_E=None, thesis_keys=None, coordinates=False) -> dict:
     """E (log) against vibration modes per body, one panel per gimbal rate, one line per group.
 
     rows: table rows (``read_table``); thesis: optional {label: {count: (4,) E}} in grey, with
     thesis_keys {label: key of findings.THESIS}: the entries of findings.THESIS_SUSPECTED_TYPOS are
     drawn apart (red x, not joined: the legend's entry is drawn on the first panel);
-    rigid_E: optional (4,) E of the rigid model, a horizontal dashed line.  The legend sits
-    below the panels."""
+    rigid_E: optional (4,) E of the rigid model, a horizontal dashed line; ``coordinates``:
+    against elastic coordinates per body (``_series``).  The legend sits below the panels."""
     plt = pyplot()
     with plt.rc_context(STYLE):
         fig, axes = plt.subplots(2, 2, figsize=(7.0, 5.6), sharex=True, constrained_layout=True)
         for k, (ax, b) in enumerate(zip(axes.flat, BODIES)):
             col = RATE_COLUMNS[k]
             for g in groups:
-                x, y = _series(rows, g, col)
+                x, y = _series(rows, g, col, coordinates)
                 if x.size:
                     look = names.style(g)
                     c, m, ls = look.colour, look.marker, look.line
@@ -500,7 +511,7 @@ def plot_error_vs_modes(rows: list[dict], groups, stem: str, title: str, thesis=
             ax.set_yscale("log")
             ax.set_ylabel(f"E of {RATE_LABELS[b]} [-]")
             if k >= 2:
-                ax.set_xlabel("vibration modes per body")
+                ax.set_xlabel("elastic coordinates per body" if coordinates else "vibration modes per body")
         handles, labels = axes.flat[0].get_legend_handles_labels()
         if handles:
             fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False,
@@ -750,7 +761,9 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
             scene=scene or "", baseline=RIGID if E_rigid is not None else None,
             caption="Error E (eq 3.53) of each gimbal rate against the number of vibration modes "
                     "per body, lowest-frequency, XMX- and XMGMX-ranked modes (analogue of Fig 4-28), "
-                    "and the scene-aware selections (load-N per body; global-N pooled, drawn at N/4); "
+                    "the scene-aware selections (load-N per body; global-N pooled, drawn at N/4) and "
+                    "the field's defaults (dominance ranking, Craig-Bampton against its fixed-interface "
+                    "modes, Ritz vectors); "
                     "grey: the thesis's Table 4.2 (red x: an entry that is probably a misprint, "
                     "study report); " + rigid_note)
     if any(r["group"].startswith("static-") for r in static_rows):
@@ -789,6 +802,19 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
                     + ("" if ctrl is not None else f" No-static control freq-{LOAD_CASE_COUNT} not "
                                                     "in the ranking table."))
     rows = ranking_rows + static_rows
+    present = [g for g in COORDINATE_GROUPS if any(r["group"] == g for r in rows)]
+    if present:
+        add(plot_error_vs_modes(rows, present, os.path.join(out_dir, "error_coordinates"),
+                                f"Error against elastic coordinates per body{on}: every family", None,
+                                E_rigid, coordinates=True),
+            id="error_coordinates", kind="error", model="", group="", thesis_figure="",
+            scene=scene or "", baseline=RIGID if E_rigid is not None else None,
+            caption="Error E (eq 3.53) of each gimbal rate against the elastic coordinates kept per "
+                    "body (all coordinates over the four bodies / 4) for every mode family: the "
+                    "thesis's (lowest-frequency, XMX, XMGMX, 1 static + modes), ours (load-N, "
+                    "global-N) and the field's defaults (dominance ranking, orthonormalised "
+                    "Craig-Bampton with its 6 constraint modes per ring counted, load-dependent Ritz "
+                    "vectors); the numbers: the scene's table coordinates.csv; " + rigid_note)
     if any(r["group"] != "truth" and np.isfinite(_size(r)) for r in rows):
         add(plot_runtime_error(rows, os.path.join(out_dir, "runtime_error"),
                                rigid_E=None if E_rigid is None else E_rigid[0]),

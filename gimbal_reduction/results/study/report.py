@@ -38,6 +38,7 @@ from gimbal_reduction.results.study.cases import (
     LOAD_CASES,
     MODE_COUNTS,
     RANKING_TABLE_GROUPS,
+    REFEREES,
     STATIC_COUNTS,
     study_cases,
 )
@@ -282,7 +283,7 @@ def _summary(ctx):
             out.append(f"- {what}: " + ", ".join(f"{s(v)} {s(k)}" for k, v in counts[key].items())
                        + " (@findings).\n")
     # the truth check (the truth + residual flexibility) referees the truth: not a reduced model
-    reduced = [r for r in rows if r["group"] not in ("rigid", "truth-check")]
+    reduced = [r for r in rows if r["group"] not in ("rigid", "truth-check", "truth-interface")]
     rigid = next((r for r in rows if r["group"] == "rigid"), None)
     if rigid is not None and np.isfinite(rigid["E_outer_gimbal"]):
         beat = [r for r in reduced if r["E_outer_gimbal"] < rigid["E_outer_gimbal"]]
@@ -608,7 +609,7 @@ def _cell(ctx, row, k):
     rate (``decision.cell``; the number itself without the decision file)."""
     res = (ctx.get("decision") or {}).get("resolution")
     x = row[RATE_COLUMNS[k]]
-    if res is None or row["group"] in ("truth", "truth-check"):
+    if res is None or row["group"] in ("truth", *REFEREES):
         return sci(x)
     v = decision.cell(x, res["E_per_rate"][k])
     return s("n.r.") if v == decision.NOT_RESOLVABLE else sci(v)
@@ -696,15 +697,16 @@ def _results_section(ctx, root):
     out = ["= Results\n\n== Error tables\n\n"]
     rr, sr = ctx["ranking_rows"], ctx["static_rows"]
     if rr:
-        base = [r for r in rr if r["group"] in ("rigid", "truth-check")]
+        base = [r for r in rr if r["group"] in ("rigid", *REFEREES)]
         if base:
             out.append(table(["model", "what"] + [s(BODY_LABELS[b]) for b in BODIES],
                              [[s(r["model"]), s(names.label(r["group"]))] +
                               [sci(r[c]) for c in RATE_COLUMNS] for r in base],
                              "The baseline every reduced model must beat (rigid: no elastic mode) "
                              "and the truth's own error (static-100: the truth with residual "
+                             "flexibility; cb-100: the truth's band with each ring's output-interface "
                              "flexibility).", "tab-baseline", size="7.5pt"))
-        for g in [g for g in RANKING_TABLE_GROUPS if g not in ("rigid", "truth-check")]:
+        for g in [g for g in RANKING_TABLE_GROUPS if g not in ("rigid", *REFEREES)]:
             counts = _group_counts(rr, g)
             rows, ok = _pivot(ctx, rr, g, counts)
             if ok:

@@ -78,11 +78,12 @@ def linearised_model(model_file, scene):
 
 
 def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrator_args=(),
-              coupled_modes=None, config=None, frequency_errors=None):
+              coupled_modes=None, config=None, frequency_errors=None, cb_bases=None):
     """Reduce and simulate every model of ``models`` on ``scene`` (a scene file); writes
     {out_dir}/{model}.h5, the truth's coupled-mode table to ``coupled_modes`` (JSON) and every
     model's frequency-domain error to ``frequency_errors`` (JSON; the models must hold the truth)
-    if given.  Returns (status, failed model or None)."""
+    if given; cb_bases: the rings' Craig-Bampton stage files (cb- models).  Returns (status,
+    failed model or None)."""
     scene_obj = scenes.load_scene(scene) if frequency_errors else None
     linear = {}
     progress = Progress(f"run_scene {os.path.splitext(os.path.basename(str(scene)))[0]}", len(models),
@@ -97,6 +98,8 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
                 args += ["--reductions", *map(str, reductions)]
             if load_ranking:
                 args += ["--load-ranking", str(load_ranking)]
+            if cb_bases:
+                args += ["--cb-bases", *map(str, cb_bases)]
             checked = ["--config", str(config)] if config else []   # body files vs the config
             rc = reduction_models.main(args + checked)
             if rc == 0:
@@ -133,6 +136,8 @@ def main(argv=None) -> int:
     ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE", help="body files 2..5")
     ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE", help="reduction files 2..5")
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global- models)")
+    ap.add_argument("--cb-bases", nargs=3, metavar="CB_FILE",
+                    help="the Craig-Bampton stage files of rings 2, 3, 4 (cb- models)")
     ap.add_argument("--out-dir", required=True, help="folder of the simulation files")
     ap.add_argument("--coupled-modes", help="JSON: the truth's coupled modes at the initial state")
     ap.add_argument("--frequency-error", help="JSON: every model's H-infinity and H2 error against the "
@@ -181,7 +186,8 @@ def main(argv=None) -> int:
     try:
         rc, failed = run_scene(args.scene, args.models, args.bodies, args.reductions, args.load_ranking,
                                args.out_dir, integrator_args, coupled_modes=args.coupled_modes,
-                               config=args.config, frequency_errors=args.frequency_error)
+                               config=args.config, frequency_errors=args.frequency_error,
+                               cb_bases=args.cb_bases)
     except frequency_error.FrequencyError as exc:
         print(f"run_scene: frequency-domain error: {exc}", file=sys.stderr)
         return 2

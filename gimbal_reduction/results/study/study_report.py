@@ -30,7 +30,7 @@ import numpy as np
 
 from gimbal_reduction.reduction import names
 from gimbal_reduction.results.bench.equal_error import FAMILIES, cheapest_within, max_error
-from gimbal_reduction.results.study.cases import MODE_COUNTS, TRUTH, TRUTH_CHECK
+from gimbal_reduction.results.study.cases import MODE_COUNTS, TRUTH, TRUTH_CHECK, TRUTH_INTERFACE
 from gimbal_reduction.results.markup import (MARKS_LEGEND, compile_pdf, figure, ms, note, page_setup, read_json, read_yaml,
                                              report_versions, s, sci, table, verdict_marks)
 from gimbal_reduction.results.study import decision
@@ -137,7 +137,7 @@ def analyse_scene(rows) -> dict:
     [arcsec]; cheapest {target: (model, max E, n_elastic) or None} the fewest elastic
     coordinates with E <= target on every rate."""
     by = {r["model"]: r for r in rows}
-    reduced = [r for r in rows if r["model"] not in (TRUTH, "rigid", TRUTH_CHECK)
+    reduced = [r for r in rows if r["model"] not in (TRUTH, "rigid", TRUTH_CHECK, TRUTH_INTERFACE)
                and np.all(np.isfinite(_E(r)))]
     out = {"n_reduced": len(reduced), "rigid": None, "beat_rigid": {}, "best": {},
            "truth_error": None, "truth_attitude": None, "cheapest": {}}

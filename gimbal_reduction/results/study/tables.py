@@ -31,7 +31,10 @@ Tables (CSV, one row per case, long format; the report pivots them):
 (Table 4.2 analogue); ``--static-table``: groups static-freq, static-xmx,
 static-xmgmx, load-case (Table 4.3 analogue and Figs 4-21..4-27).  Cases
 outside the study go to the ranking table with group ``other``.  Columns:
-``TABLE_COLUMNS``.
+``TABLE_COLUMNS``.  ``--coordinates-table``: kept elastic coordinates against error, one row
+per case of every mode family (``COORDINATE_GROUPS``: the thesis's, ours and the field's
+defaults), columns ``COORDINATE_COLUMNS`` (``coordinates_per_body`` = n_elastic / 4, ``E_max``
+the largest E over the four rates), sorted by family and size.
 """
 from __future__ import annotations
 
@@ -52,6 +55,10 @@ from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow.provenance import csv_text, provenance, write_text
 
 RATE_COLUMNS = tuple(f"E_{BODY_NAMES[b]}" for b in BODIES)
+COORDINATE_GROUPS = ("freq", "xmx", "xmgmx", "dom", "load", "global", "static-freq", "static-xmx",
+                     "static-xmgmx", "cb", "cb-equal", "ritz")
+COORDINATE_COLUMNS = ("group", "model", "count", "n_elastic", "coordinates_per_body", *RATE_COLUMNS,
+                      "E_max", "wall_time_s")
 ATTITUDE_COLUMNS = ("attitude_max_arcsec", "attitude_rms_arcsec")
 FREQUENCY_COLUMNS = ("hinf_error", "h2_error", "hinf_peak_hz")
 TABLE_COLUMNS = ("group", "model", "ranking", "count", "static", "load_case", "thesis_figure",
@@ -140,6 +147,20 @@ def build_tables(truth: dict, cases: list[dict],
     return ranking, static
 
 
+def coordinates_rows(rows: list[dict]) -> list[dict]:
+    """The rows of the coordinates table (module docstring) from error-table rows."""
+    out = []
+    for r in rows:
+        if r["group"] not in COORDINATE_GROUPS or r.get("n_elastic") in (None, ""):
+            continue
+        E = [float(r[c]) for c in RATE_COLUMNS]
+        out.append({"group": r["group"], "model": r["model"], "count": r["count"],
+                    "n_elastic": int(r["n_elastic"]), "coordinates_per_body": int(r["n_elastic"]) / len(BODIES),
+                    **dict(zip(RATE_COLUMNS, E)), "E_max": max(E), "wall_time_s": r.get("wall_time_s")})
+    order = {g: i for i, g in enumerate(COORDINATE_GROUPS)}
+    return sorted(out, key=lambda r: (order[r["group"]], r["n_elastic"], r["model"]))
+
+
 def format_csv(rows: list[dict]) -> str:
     """CSV text of table rows (columns TABLE_COLUMNS; floats with 8 significant digits,
     ``gimbal_reduction.workflow.provenance.csv_text``)."""
@@ -171,6 +192,7 @@ def main(argv=None) -> int:
     parser.add_argument("--static-table", required=True, help="CSV: static and load-case cases")
     parser.add_argument("--frequency-error", help="JSON of run_scene --frequency-error: H-inf and H2 "
                                                   "columns")
+    parser.add_argument("--coordinates-table", help="CSV: kept elastic coordinates against E, every family")
     args = parser.parse_args(argv)
     try:
         truth = read_sim(args.truth)
@@ -185,6 +207,9 @@ def main(argv=None) -> int:
                                  *([args.frequency_error] if args.frequency_error else [])])
     write_text(args.ranking_table, format_csv(ranking), record)
     write_text(args.static_table, format_csv(static), record)
+    if args.coordinates_table:
+        write_text(args.coordinates_table, csv_text(coordinates_rows(ranking + static), COORDINATE_COLUMNS, 8),
+                   record)
     print(f"gimbal_reduction.results.study.tables: {len(ranking)} rows -> {args.ranking_table}, {len(static)} rows -> "
           f"{args.static_table}")
     return 0
