@@ -22,8 +22,7 @@ import h5py
 import numpy as np
 import scipy.sparse as sp
 
-
-BODIES = (2, 3, 4, 5)   # outer, middle, inner gimbal, stable platform (thesis numbering)
+from gimbal_reduction.solver.bodies import BEARING_NAMES, BODIES
 
 
 class BodyFileError(ValueError):
@@ -34,7 +33,6 @@ class BodyFileError(ValueError):
 
 
 RIGID_MOTION_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
-BEARING_NAMES = ("input_motor", "input_resolver", "output_motor", "output_resolver")
 
 
 def skew(r):
