@@ -23,7 +23,8 @@ near y_r it is small and slow.  Undamped, each elastic mode (eigenvalues lambda,
 conj lambda, lambda = i omega) is one complex coordinate xi = (eta' - conj(lambda) eta) /
 Delta, Delta = 2 i omega, with eta = 2 Re xi, eta' = 2 Re(lambda xi) and
 xi' = lambda xi + g / Delta (``DiagonalBank``); with damping, the damped elastic block is
-diagonalised in state space the same way (``CoupledBank``: xi' = mu xi + P g); a joint
+diagonalised in state space the same way, at any damping (``CoupledBank``: xi' = mu xi + P g,
+mu real for an overdamped mode); a joint
 mode is eta'' = g.
 Over a step t_n -> t_n + H with g replaced by a polynomial
 p(s) = sum_j c_j (s / h)^j the variation-of-constants formula is exact:
@@ -46,8 +47,8 @@ error, in the energy norm of every modal coordinate and in the gimbal rates
 dyadic grid of the output interval, so dense outputs reuse cached weights.  The basis is rebuilt
 (re-linearised) when the gimbal angles drift from y_r by more than ``drift`` [rad], or when
 steps keep failing in an aged basis; the stored history of accelerations is carried over.
-A run that cannot hold (steps below the floor, a singular joint mass matrix, an overdamped
-mode, a frozen basis beyond its validity) stops with ``ExponentialError`` naming the
+A run that cannot hold (steps below the floor, a singular joint mass matrix, a damped bank
+that cannot be diagonalised, a frozen basis beyond its validity) stops with ``ExponentialError`` naming the
 time and the cause.
 
 The step loop is compiled (``kernels.pece.pece_run``, docs/exponential.md Sec. 8): this
@@ -468,8 +469,8 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
 
     mass_matrix: y -> M(y) (n, n); stiffness (n,) Omega^2 [(rad/s)^2] and damping (n,)
     2 zeta Omega [1/s] on the diagonal (zero for the joints).  Raises ExponentialError
-    when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal lock) or a
-    coupled mode is overdamped."""
+    when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal lock) or the
+    damped bank cannot be diagonalised (``CoupledBank``)."""
     y = np.asarray(y, float)
     n = y.size
     M0 = mass_matrix(y)
