@@ -423,6 +423,25 @@ def test_heavy_damping_matches_converged_dop853(zeta, overdamped):
     assert E_tight <= max(0.1 * E_loose, 1e-13), (E_tight, E_loose)
 
 
+def test_a_basis_with_more_real_eigenvalues_reallocates_the_loops_bank():
+    """A new basis whose damped bank has another size (a mode past critical damping since the
+    last one) gets bank and weight arrays of its size in the compiled loop's containers, the
+    cache's count of computed weights kept."""
+    light, heavy = (problem(FULL, scene_with("damped", damping_ratio=z)) for z in (0.2, 2.0))
+    integrator = exponential.ExponentialAdams(light)
+    integrator._new_basis(0.0, light.y0)
+    m = light.y0.size - exponential.N_JOINTS
+    assert integrator.kb.mu.size == m
+    integrator.kw.used[2] = 5
+    integrator.problem = heavy
+    integrator._new_basis(1e-3, heavy.y0)
+    bank = integrator.basis.bank
+    assert integrator.kb.mu.size == bank.mu.size > m
+    for name in ("mu", "P_eta", "P_vel", "V_eta", "V_vel", "phase_mode"):
+        np.testing.assert_array_equal(getattr(integrator.kb, name), getattr(bank, name))
+    assert integrator.kw.E_re.shape[1] == bank.mu.size and integrator.kw.used[2] == 5
+
+
 def test_free_scene_with_large_rates_relinearises_and_matches_dop853():
     """Case at rest, gimbals released at 10 rad/s: they turn by 0.15 rad, 15 x the drift
     that triggers a new basis.  Measured: 257 steps, 15 re-linearisations, E 1.1e-10."""
