@@ -9,10 +9,16 @@ job's shell command is what a user types to redo it by hand:
 
 This module owns the stage vocabulary: the name of each stage and the module that runs it.  A
 stage's module is imported only when that stage runs, so ``gimbal simulate`` never loads DOLFINx.
+
+Before it imports the stage, ``gimbal`` runs the BLAS and OpenMP pools on one thread
+(``SINGLE_THREADED``, unless the caller set them), as every rule of the workflow does: a sum's
+order depends on the thread count, so a result at round-off level (a tol-EPS search judging E
+near its floor) would otherwise differ between a laptop and the workflow.
 """
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 
 # stage -> (module below gimbal_reduction, what it does), in pipeline order
@@ -52,6 +58,16 @@ STAGES: dict[str, tuple[str, str]] = {
 }
 
 
+# the thread-count variables the numerical libraries read when they load (OpenBLAS, OpenMP, MKL)
+SINGLE_THREADED = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def single_threaded(environ) -> None:
+    """Set ``SINGLE_THREADED`` in ``environ`` where the caller has not set a value."""
+    for key, value in SINGLE_THREADED.items():
+        environ.setdefault(key, value)
+
+
 def module_of(stage: str) -> str:
     """The full module name that runs ``stage`` (KeyError if there is no such stage)."""
     return f"{__package__ or 'gimbal_reduction'}.{STAGES[stage][0]}"
@@ -72,6 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     if stage not in STAGES:
         print(f"gimbal: no stage {stage!r}; the stages are {', '.join(STAGES)}", file=sys.stderr)
         return 2
+    single_threaded(os.environ)          # before the stage loads NumPy's BLAS
     return importlib.import_module(module_of(stage)).main(rest) or 0
 
 

@@ -64,3 +64,20 @@ def test_the_command_lists_the_stages_and_refuses_an_unknown_one(capsys):
     assert commands.main(["mesj"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("gimbal: no stage 'mesj'")
+
+
+def test_gimbal_runs_its_stages_single_threaded_unless_told_otherwise():
+    """The answer never depends on the thread count: `gimbal` pins the BLAS and OpenMP pools to
+    one thread before the stage loads them, as the workflow's rules do; a value the caller set wins."""
+    import subprocess
+    import sys
+    from gimbal_reduction import commands
+    env = {"OPENBLAS_NUM_THREADS": "4"}
+    commands.single_threaded(env)
+    assert env == {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "4", "MKL_NUM_THREADS": "1"}
+    clean = {k: v for k, v in __import__("os").environ.items() if k not in commands.SINGLE_THREADED}
+    code = ("import sys, os; from gimbal_reduction import commands; commands.STAGES['env'] = ('workflow.cli', '');"
+            "import gimbal_reduction.workflow.cli as c; c.main = lambda argv: print(os.environ['OMP_NUM_THREADS']);"
+            "commands.main(['env'])")
+    out = subprocess.run([sys.executable, "-c", code], env=clean, capture_output=True, text=True, timeout=120)
+    assert out.stdout.strip() == "1", out.stderr

@@ -711,8 +711,7 @@ def main(argv=None):
     ap.add_argument("--reductions", nargs=4, required=True, metavar="REDUCTION_FILE",
                     help="the reduction stage's files of bodies 2..5 (frequency/XMX/XMGMX rankings)")
     ap.add_argument("--out", required=True, help="ranking file, e.g. results/reduction/load/thesis.h5")
-    ap.add_argument("--config", help="the current configuration file: body and reduction files of another "
-                                     "configuration are refused before the work (gimbal_reduction.solver.bodyconfig)")
+    cli.add_config_option(ap, "body and reduction files of another configuration are refused before the work")
     ap.add_argument("--pool", type=int, default=DEFAULT_POOL,
                     help=f"modes ranked by backward elimination (default {DEFAULT_POOL})")
     ap.add_argument("--curve", type=int, default=N_CURVE,
@@ -734,6 +733,8 @@ def main(argv=None):
     log = (lambda *_: None) if args.quiet else (lambda m: print(f"load_aware: {m}", flush=True))
     start = time.perf_counter()
     try:
+        bodyconfig.check_slots(args.bodies)
+        bodyconfig.check_slots(args.reductions)
         bodyconfig.check_files(args.bodies + args.reductions, args.config)
         if args.search_stride is None:
             scene0 = scenes.load_scene(args.scene)

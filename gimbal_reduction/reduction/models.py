@@ -69,16 +69,16 @@ import numpy as np
 
 from gimbal_reduction.reduction import frozen_chain, modal_integrals, names, verified_search
 from gimbal_reduction.reduction.names import DEFAULT_LOAD_CASE, TRUTH_MODES, ModelError, ModelName
-from gimbal_reduction.reduction.selection import (LOAD_KEY, POOLED_KEY, RANKING_KEYS, TOL_FAMILY, ModelSpec,
-                                                  check_name, identity_rankings, pooled_kept,
-                                                  select_modes)
+from gimbal_reduction.reduction.selection import (LOAD_KEY, POOLED_KEY, RANKING_KEYS, TOL_FAMILY, TOL_FLOOR,
+                                                  ModelSpec, check_name, check_tolerance,
+                                                  identity_rankings, pooled_kept, select_modes)
 from gimbal_reduction.reduction.static_modes import load_case_vector, static_correction_modes
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.solver.bodydata import BODIES, BEARING_NAMES, check_config_hash, read_body_file
 from gimbal_reduction.solver.dynamics import chainfile, multibody, scenes
 from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow import config as cfgmod
-from gimbal_reduction.workflow.provenance import versions
+from gimbal_reduction.workflow.provenance import content_problem, versions
 
 TOL_COARSE = 8          # beyond the stored estimates: scan N in steps of 8, then refine the bracket
 BEARINGS = BEARING_NAMES
@@ -370,6 +370,7 @@ def load_load_ranking(path, rankings=None):
                 out[POOLED_KEY]["estimate"] = f["estimate/global"][()]
             if "estimate/rigid" in f:
                 out[POOLED_KEY]["rigid_estimate"] = f["estimate/rigid"][()]
+            changed = content_problem(f, path, "load-aware ranking")
             for key, attr in (("angle_excursion", "angle_excursion_rad"),
                               ("rate_over_lowest_frequency", "rate_over_lowest_frequency")):
                 if attr in f.attrs:
@@ -378,11 +379,21 @@ def load_load_ranking(path, rankings=None):
         raise ModelError(f"load-aware ranking {path} unreadable or incomplete "
                          f"({exc.__class__.__name__}: {' '.join(str(exc).split())}): "
                          + RANKING_REMEDY.format(path=path)) from None
+    pooled = out[POOLED_KEY]
+    for key, dataset in (("estimate", "estimate/global"), ("rigid_estimate", "estimate/rigid")):
+        if key in pooled:
+            value = np.asarray(pooled[key])
+            if value.dtype.kind not in "iuf" or not np.all(np.isfinite(value)) or np.any(value < 0):
+                raise ModelError(f"load-aware ranking {path}: dataset {dataset} holds values that are not "
+                                 f"finite non-negative errors (NaN, inf or negative): "
+                                 + RANKING_REMEDY.format(path=path))
     for b in BODIES:
         order = np.asarray(out[b][LOAD_KEY])
         if order.ndim != 1 or not np.issubdtype(order.dtype, np.integer):
             raise ModelError(f"load-aware ranking {path}: dataset body{b}/{LOAD_KEY} is not a 1-D "
                              f"array of mode indices: " + RANKING_REMEDY.format(path=path))
+    if changed:
+        raise ModelError(changed)
     return out
 
 
@@ -427,6 +438,7 @@ def read_reduction_rankings(path, body=None):
                 raise _ranking_error(path, f"dataset(s) {', '.join(missing)} missing (stale or incomplete)")
             out = {k: f[k][()] for k in RANKING_KEYS.values()}
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+            changed = content_problem(f, path, "ranking file")
     except ModelError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:
@@ -458,6 +470,8 @@ def read_reduction_rankings(path, body=None):
         if mine is not None and str(mine) != str(theirs):
             raise _ranking_error(path, f"made from another body file (attribute config_hash {mine!r}, "
                                        f"body file {body.get('path', '')} has {theirs!r}; stale)")
+    if changed:
+        raise ModelError(changed)
     return out
 
 
@@ -610,6 +624,7 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     load_ranking: the scene's load-aware ranking file (load- and global- models); config: the
     current configuration (validated dict): each body file's config_hash must be the one it
     gives (``expected_body_hashes``), else BodyFileError naming the file and its target."""
+    check_tolerance(names.parse(name))          # before any file is read
     body_data = {b: load_body_file(body_files[b]) for b in BODIES}
     for b in BODIES:            # each file in its own slot: a body file copied over another's is refused
         if int(body_data[b]["number"]) != b:
@@ -671,8 +686,7 @@ def main(argv=None, runs=None):
     ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE",
                     help="the reduction stage's files of bodies 2..5 (xmx-, xmgmx-, load-, global-)")
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global-)")
-    ap.add_argument("--config", help="the current configuration file: every body file's config_hash "
-                                     "must be the one it gives (a body file of another config is refused)")
+    cli.add_config_option(ap, "every body file's config_hash must be the one it gives")
     ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
     ap.add_argument("--no-verified-search", action="store_true",
                     help="tol-EPS where the frozen-chain estimate does not hold: refuse, instead of "
@@ -687,6 +701,8 @@ def main(argv=None, runs=None):
         scene = scenes.load_scene(args.scene)
         config = cfgmod.load_config(args.config) if args.config else None
         # the body files' attributes first (the configuration file named in the remedy), then their data
+        bodyconfig.check_slots(args.bodies)
+        bodyconfig.check_slots(args.reductions or [])
         bodyconfig.check_files(args.bodies, args.config)
         chain, spec, attrs = reduce_model(
             args.model, scene, dict(zip(BODIES, args.bodies)),

@@ -261,8 +261,7 @@ def main(argv=None):
     parser.add_argument("--table-rows", type=int, default=40)
     parser.add_argument("--expect-config-hash", default=None,
                         help="refuse a body file with a different config_hash (stale)")
-    parser.add_argument("--config", help="the current configuration file: a body file of another "
-                                         "configuration is refused (gimbal_reduction.solver.bodyconfig)")
+    cli.add_config_option(parser, "a body file of another configuration is refused")
     parser.add_argument("--quiet", action="store_true")
     try:        # a negative value is read as the option's value (and refused by the stage's checks)
         args = parser.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, parser))

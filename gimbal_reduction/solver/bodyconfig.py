@@ -39,6 +39,22 @@ def _attributes(path) -> dict | None:
         return None
 
 
+def check_slots(paths) -> None:
+    """Refuse (BodyFileError, one line) a body or reduction file given in another body's slot:
+    ``paths`` are the files of bodies 2, 3, 4, 5 in that order, and each one's ``body`` attribute
+    must be its slot's (no configuration needed: body 3's file copied over body 4's is caught
+    here).  A file without the attribute, or unreadable, is left to its checked reader."""
+    for slot, path in zip(BODIES, map(str, paths)):
+        attrs = _attributes(path)
+        try:
+            body = int(attrs["body"])
+        except (TypeError, KeyError, ValueError):
+            continue
+        if body != slot:
+            raise BodyFileError(f"{path}: the file of body {body} given as body {slot}'s (the files go in "
+                                f"the order of bodies 2, 3, 4, 5)")
+
+
 def check_files(paths, config) -> None:
     """Refuse (BodyFileError, one line) the first of ``paths`` made from another configuration than
     ``config`` (a validated dict or a file's path; None checks nothing): a body or reduction file

@@ -23,6 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from gimbal_reduction.solver.bodies import BEARING_NAMES, BODIES
+from gimbal_reduction.workflow.provenance import content_problem
 
 
 class BodyFileError(ValueError):
@@ -114,6 +115,7 @@ def read_body_file(path, expect_config_hash=None, mass_normalisation_tol=1e-6, c
             for k, v in f.attrs.items():
                 attrs[k] = v.decode() if isinstance(v, bytes) else v
             body["attrs"] = attrs
+            changed = content_problem(f, where)
     except BodyFileError:
         raise
     except OSError:
@@ -125,6 +127,8 @@ def read_body_file(path, expect_config_hash=None, mass_normalisation_tol=1e-6, c
     body["number"] = int(body["attrs"].get("body", 0))
     if check:
         check_body(body, expect_config_hash, mass_normalisation_tol)
+    if changed:                 # after the contract's checks, which name a broken value as such
+        raise BodyFileError(changed)
     return body
 
 

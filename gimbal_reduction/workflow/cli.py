@@ -9,6 +9,9 @@ values, the output location checked before the work, and a failed write reported
   refuses it with a message naming the option, instead of "expected one argument".
 * ``positive_number(name)``, ``positive_int(name)``: argparse types of a positive finite
   float / positive integer.
+* ``add_config_option(parser, what)``: ``--config FILE``, the configuration in use, by default
+  the run's (``config/config.yaml`` of the working directory, else the project's): a stage
+  always checks the files it reads against it, with no flag to remember.
 * ``check_writable(path)``: ValueError (one line) before any work if ``path`` could not be
   written; nothing is created.
 * ``write_failure(path, exc)``: the one-line message of an OSError while writing ``path``
@@ -21,6 +24,8 @@ import argparse
 import errno
 import math
 import os
+
+from gimbal_reduction.workflow.provenance import run_config
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -88,6 +93,15 @@ def positive_int(name: str):
             raise argparse.ArgumentTypeError(f"{name} must be a positive whole number, got {text!r}")
         return int(value)
     return parse
+
+
+def add_config_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--config FILE`` on ``parser``: the configuration the stage's input files must have been
+    made from (``what`` says which); by default the run's own, ``config/config.yaml`` of the
+    working directory, else the project's (``gimbal_reduction.workflow.provenance.run_config``)."""
+    parser.add_argument("--config", default=str(run_config()),
+                        help=f"the configuration in use (default: config/config.yaml of the working "
+                             f"directory, else the project's): {what}")
 
 
 def check_writable(path) -> None:

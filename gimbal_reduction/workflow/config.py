@@ -158,7 +158,22 @@ def validate(config: dict) -> dict:
             message = message.replace("Additional properties are not allowed", "unknown key")
         raise ConfigError(f"config error at '{_key_path(error)}': {message}")
     _check_geometry(config)
+    _check_mode_count(config)
     return config
+
+
+# [1] The fewest modes per body the workflow can run on: the reduction stage builds each body's
+# static correction modes against its 10 lowest modes (``gimbal reduce --static-kept``, default 10,
+# thesis Section 4.4).
+MIN_MODES = 10
+
+
+def _check_mode_count(config: dict) -> None:
+    count = config["modes"]["count"]["value"]
+    if count < MIN_MODES:
+        raise ConfigError(f"config error at 'modes.count': {count} modes per body, fewer than the "
+                          f"{MIN_MODES} the reduction stage keeps for its static correction modes "
+                          f"(thesis Section 4.4): set modes.count to at least {MIN_MODES}")
 
 
 def _check_geometry(config: dict) -> None:

@@ -10,11 +10,15 @@ import scipy.io
 from gimbal_reduction.solver.dynamics import chainfile, export
 from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
 from gimbal_reduction.workflow.provenance import read_provenance
+from tests.reduction.test_models import project_model_attrs
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-def model_file(path, body_hashes):
+def model_file(path, body_hashes=None):
+    """A synthetic reduced-model file made from body files with ``body_hashes`` (default: the
+    project configuration's, which the export checks against when no --config is given)."""
+    body_hashes = body_hashes or json.loads(project_model_attrs()["body_config_hashes"])
     chain = synthetic_modal_chain(2, seed=5)
     chainfile.write_chain(path, chain, {b.number: np.arange(b.n_modes) for b in chain.bodies},
                           {b.number: () for b in chain.bodies},
@@ -24,7 +28,7 @@ def model_file(path, body_hashes):
 
 
 def test_mat_and_npz_are_written_beside_each_other(tmp_path):
-    model = model_file(tmp_path / "model.h5", ["a", "b", "c", "d"])
+    model = model_file(tmp_path / "model.h5")
     out = tmp_path / "export" / "thesis" / "freq-2.mat"
     assert export.main(["--model-file", model, "--scene", "thesis", "--out", str(out)]) == 0
     assert sorted(os.listdir(out.parent)) == ["freq-2.mat", "freq-2.npz"]       # nothing else left
@@ -47,7 +51,7 @@ def test_config_check_refuses_a_model_of_other_body_files(tmp_path, capsys):
 
 
 def test_an_extension_the_export_does_not_write_is_refused_before_the_work(tmp_path, capsys):
-    model = model_file(tmp_path / "model.h5", ["a", "b", "c", "d"])
+    model = model_file(tmp_path / "model.h5")
     for out in (tmp_path / "model_ss.h5", tmp_path / "model_ss"):
         code = export.main(["--model-file", model, "--scene", "no_such_scene", "--out", str(out)])
         err = capsys.readouterr().err.strip()
@@ -59,7 +63,7 @@ def test_an_extension_the_export_does_not_write_is_refused_before_the_work(tmp_p
 def test_a_pair_that_cannot_be_written_whole_leaves_neither_file(tmp_path, capsys, monkeypatch):
     """The .npz's write fails (a full disk, simulated): no .mat is left behind, and the message
     names the .npz."""
-    model = model_file(tmp_path / "model.h5", ["a", "b", "c", "d"])
+    model = model_file(tmp_path / "model.h5")
     out = tmp_path / "export" / "freq-2.mat"
 
     def full_disk(*args, **kwargs):

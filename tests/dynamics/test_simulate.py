@@ -10,6 +10,7 @@ import yaml
 
 from gimbal_reduction.results.bench.oracle import synthetic_chain
 from gimbal_reduction.solver.dynamics import chainfile, scenes, simulate
+from tests.reduction.test_models import project_model_attrs
 
 
 @pytest.fixture
@@ -17,7 +18,7 @@ def model_file(tmp_path):
     chain, _ = synthetic_chain(seed=1)
     path = tmp_path / "models" / "m.h5"
     chainfile.write_chain(path, chain, {b.number: np.arange(b.n_modes) for b in chain.bodies},
-                          {b.number: () for b in chain.bodies}, {"model": "freq-2", "config_hash": "x"})
+                          {b.number: () for b in chain.bodies}, {"model": "freq-2", "config_hash": "x", **project_model_attrs()})
     return path
 
 

@@ -20,7 +20,7 @@ from gimbal_reduction.reduction import names
 from gimbal_reduction.solver.dynamics import scenes, simulate
 from gimbal_reduction.results.bench.oracle import synthetic_body
 from tests.dynamics_fixtures import run_model
-from tests.reduction.test_models import write_body
+from tests.reduction.test_models import project_body_hash, write_body
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -385,6 +385,7 @@ def write_synthetic_bodies(root, seed=11):
             f["rank_frequency"] = np.arange(6)
             f["rank_xmx"] = np.array([3, 1, 0, 2, 5, 4])
             f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
+            f.attrs["body"], f.attrs["config_hash"] = b, project_body_hash(b)   # as the reduction stage copies
             f["rho_xmx"] = np.array([0.3, 0.5, 0.2, 0.9, 0.01, 0.05])
 
 

@@ -78,7 +78,7 @@ def _raw(**change):
 
 
 @pytest.mark.parametrize("change, message", [
-    ({"duration": {"value": -1.0, "unit": "s"}}, "duration must be >= 0"),
+    ({"duration": {"value": -1.0, "unit": "s"}}, "duration must be > 0"),
     ({"initial_rates": {"value": [0.0, float("nan"), 0, 0], "unit": "rad/s"}}, "non-finite"),
     ({"initial_angles": {"value": [0.0, 0.0], "unit": "rad"}}, "expected 4 values"),
     ({"wind": {"value": 1.0}}, "unknown key"),
@@ -105,9 +105,25 @@ def write_csr(group, A):
     group.attrs["shape"] = A.shape
 
 
-def write_body(path, d, number=None, config_hash="synthetic"):
+def project_body_hash(number):
+    """The config_hash the project's configuration gives body ``number``'s file: a synthetic file
+    written with it passes the stages' check against the configuration in use (their default)."""
+    from gimbal_reduction.solver import bodyconfig
+    from gimbal_reduction.workflow.config import DEFAULT_CONFIG
+    return bodyconfig.expected_hashes(str(DEFAULT_CONFIG))[int(number)]
+
+
+def project_model_attrs():
+    """The reduced-model file attribute of body files made from the project's configuration (a
+    synthetic model file with it passes simulate's and export's check against the configuration)."""
+    import json
+    return {"body_config_hashes": json.dumps([project_body_hash(b) for b in (2, 3, 4, 5)])}
+
+
+def write_body(path, d, number=None, config_hash=None):
     """A body file in the contract's layout (docs/body-data.md) from a synthetic body dict
-    (``gimbal_reduction.results.bench.oracle.synthetic_body``); the body number from ``d`` unless given."""
+    (``gimbal_reduction.results.bench.oracle.synthetic_body``); the body number from ``d`` unless given;
+    config_hash: by default the one the project's configuration gives the body (``project_body_hash``)."""
     with h5py.File(path, "w") as f:
         lam = d["eigenvalues"]
         f["frequencies_hz"] = np.sqrt(lam) / (2 * np.pi)
@@ -118,7 +134,7 @@ def write_body(path, d, number=None, config_hash="synthetic"):
         for k in ("M", "K", "T", "bearing_operator"):
             write_csr(f.create_group(k), d[k])
         f.attrs["body"] = d["number"] if number is None else number
-        f.attrs["config_hash"] = config_hash
+        f.attrs["config_hash"] = project_body_hash(d["number"]) if config_hash is None else config_hash
 
 
 @pytest.fixture(scope="module")
@@ -137,6 +153,7 @@ def files(tmp_path_factory):
             f["rank_frequency"] = np.arange(6)
             f["rank_xmx"] = np.array([3, 1, 0, 2, 5, 4])
             f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
+            f.attrs["body"], f.attrs["config_hash"] = b, project_body_hash(b)   # as the reduction stage copies
     return root, datas
 
 

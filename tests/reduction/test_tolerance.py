@@ -248,10 +248,13 @@ def test_invalid_frozen_chain_refused_without_search_and_when_only_the_truth_pas
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "refused on scene 'thesis'" in err and "cannot promise" in err
     assert not (tmp_path / "a.h5").exists()
-    assert m.main(_tol_args(root, invalid, "tol-1e-40", tmp_path / "b.h5")) == 2
+    assert m.main(_tol_args(root, invalid, "tol-1e-8", tmp_path / "b.h5")) == 2
     last = capsys.readouterr().err.strip().splitlines()[-1]
-    assert "no pooled set smaller than the truth (24 modes) meets E <= 1e-40 by simulation" in last
+    assert "no pooled set smaller than the truth (24 modes) meets E <= 1e-08 by simulation" in last
     assert not (tmp_path / "b.h5").exists()
+    assert m.main(_tol_args(root, invalid, "tol-1e-40", tmp_path / "c.h5")) == 2     # below the floor
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "below 1e-08, the truth's own error" in err and "tol-1e-08" in err
 
 
 def test_valid_frozen_chain_keeps_the_a_priori_choice(invalid_scene, tmp_path):

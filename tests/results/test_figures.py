@@ -12,6 +12,7 @@ import pytest
 
 from gimbal_reduction.results.study import figures, mode_shapes, tables
 from gimbal_reduction.solver.dynamics.simfile import read_sim
+from tests.synthetic_bodies import project_body_hash
 from tests.results.synthetic_study import DT, T_END, truth_rates, write_sim, write_study
 
 CASES = ("freq-5", "static-4")                      # rate figures drawn
@@ -281,8 +282,10 @@ def _ring_body(tmp_path):
         f["frequencies_hz"] = 1000.0 * k
         f["bearing_points"] = [[1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1]]
         f.attrs["name"], f.attrs["body"] = "outer_gimbal", 2
+        f.attrs["config_hash"] = project_body_hash(2)       # made from the configuration in use
     red = tmp_path / "red2.h5"
     with h5py.File(red, "w") as f:
+        f.attrs["body"], f.attrs["config_hash"] = 2, project_body_hash(2)
         f["rank_xmx"] = [1, 2, 0, 6, 5, 3, 4, 7]
         s = f.create_group("static_modes")
         s.attrs["load_cases"] = json.dumps(["output_motor_fz", "input_motor_my"])

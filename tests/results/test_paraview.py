@@ -143,6 +143,7 @@ def test_mode_shape_vtu_carries_the_body_files_frequencies(tmp_path):
         f["dof_component"], f["frequencies_hz"] = np.tile(np.arange(6), len(pts)), freqs
         f["bearing_points"] = [[1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1]]
         f.attrs["name"], f.attrs["body"] = "outer_gimbal", 2
+        f.attrs["config_hash"] = sb.project_body_hash(2)     # made from the configuration in use
     vtu = tmp_path / "shapes" / "body2.vtu"
     assert mode_shapes.main(["--body-file", str(body), "--mesh", str(tmp_path / "ring.msh"), "--png",
                              str(tmp_path / "m.png"), "--vtu", str(vtu), "--lowest", "1"]) == 0

@@ -1,6 +1,8 @@
 """gimbal_reduction.results.study.cases and gimbal_reduction.results.study.tables: case list, eq 3.53 against closed forms, tables, one-line errors."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -119,6 +121,23 @@ def test_tables_of_the_synthetic_study(tmp_path):
     assert by["xmx-10"]["integrator"] == "rk4" and by["xmx-10"]["samples"] == 1501
     header = rt.read_text().splitlines()[0].split(",")
     assert tuple(header) == TABLE_COLUMNS
+
+
+def test_frequency_columns_come_from_the_run_scene_json(tmp_path):
+    truth, cases = write_study(tmp_path / "sim")
+    freq = tmp_path / "frequency_error.json"
+    freq.write_text(json.dumps({"models": {"truth": {"hinf": 0.0, "h2": 0.0, "hinf_hz": None},
+                                           "freq-5": {"hinf": 1.5, "h2": 0.75, "hinf_hz": 5000.0}}}))
+    rt, st = tmp_path / "r.csv", tmp_path / "s.csv"
+    assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
+                        "--static-table", str(st), "--frequency-error", str(freq)]) == 0
+    by = {r["model"]: r for r in read_table(rt) + read_table(st)}
+    assert (by["freq-5"]["hinf_error"], by["freq-5"]["h2_error"], by["freq-5"]["hinf_peak_hz"]) == (1.5, 0.75, 5000.0)
+    assert by["truth"]["hinf_error"] == 0.0 and np.isnan(by["truth"]["hinf_peak_hz"])
+    assert np.isnan(by["xmx-10"]["hinf_error"])            # a model the file does not hold
+    freq.write_text("[1, 2]")                               # not a frequency-error file: one line
+    assert tables.main(["--truth", truth, "--cases", *cases, "--ranking-table", str(rt),
+                        "--static-table", str(st), "--frequency-error", str(freq)]) == 2
 
 
 def test_duplicate_case_is_refused(tmp_path):

@@ -20,13 +20,14 @@ from gimbal_reduction.reduction import models
 from gimbal_reduction.results.bench.oracle import synthetic_body
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics import scenes
-from tests.reduction.test_models import write_body
+from tests.reduction.test_models import project_body_hash, write_body
 
 D = 6            # modes per synthetic body
 
 
-def write_reduction(path, config_hash="synthetic"):
+def write_reduction(path, body, config_hash):
     with h5py.File(path, "w") as f:
+        f.attrs["body"] = body
         f["rank_frequency"] = np.arange(D)
         f["rank_xmx"] = np.array([3, 1, 0, 2, 5, 4])
         f["rank_xmgmx"] = np.array([3, 1, 0, 2, 4, 5])
@@ -44,7 +45,7 @@ def pristine(tmp_path_factory):
     for b in BODIES:
         d = synthetic_body(rng, b, n_nodes=8, rotations=(b % 2 == 0), n_modes=D, omega_max=3e3)
         write_body(root / "modes" / f"body{b}.h5", d, b)
-        write_reduction(root / "reduction" / f"body{b}.h5")
+        write_reduction(root / "reduction" / f"body{b}.h5", b, project_body_hash(b))
     write_scene(root / "scene.yaml")
     out = root / "models" / "scene" / "xmx-2.h5"
     rc = models.main(["--model", "xmx-2", "--scene", str(root / "scene.yaml"),

@@ -126,10 +126,13 @@ def test_garbage_in_the_middle_of_a_body_file(work, refused):
 
 
 def test_body_file_of_another_config_refused_with_config(work, refused):
-    """The synthetic body files carry config_hash 'synthetic': against the project config
-    they come from another configuration; the message names the file and the target."""
+    """A body file relabelled as made from another configuration: against the project config it
+    is refused; the message names the file and the target."""
+    import h5py
     from gimbal_reduction.workflow.config import DEFAULT_CONFIG
     path = work / "modes" / "body2.h5"
+    with h5py.File(path, "r+") as f:
+        f.attrs["config_hash"] = "0123456789ab"
     refused(models.main, run_args(work) + ["--config", DEFAULT_CONFIG],
             (str(path), "another configuration", "snakemake"), work / "out", work / "modes")
 

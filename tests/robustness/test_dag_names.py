@@ -49,6 +49,12 @@ CASES = {
         "results/sim/badneeds/needs.done",
         ("config/scenes/badneeds.yaml: needs.models", "unknown model 'nonsense-3'")),
     "unknown scene": ("results/sim/nosuch/freq-4.h5", ("unknown scene", "nosuch")),
+    "scene name with a space": ("results/sim/my scene/freq-4.h5",
+                                ("scene name 'my scene' refused", "ASCII letters, digits")),
+    "scene name with a non-ASCII letter": ("results/sim/szene_\u00fc/freq-4.h5",
+                                           ("scene name 'szene_\u00fc' refused", "ASCII letters, digits")),
+    "tolerance below the truth's own error": ("results/sim/short/tol-1e-300.h5",
+                                              ("tol-1e-300", "below 1e-08", "the truth's own error")),
     "scene grid not dividing the duration": (
         "results/sim/badgrid/freq-4.h5", ("badgrid.yaml", "output_interval", "divide")),
 }

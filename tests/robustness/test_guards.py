@@ -95,3 +95,26 @@ def test_modes_missing_mesh(work, refused):
     msh = work / "out" / "none.msh"
     refused(modes.main, ["--body", "3", "--mesh", msh, "--out", work / "out" / "b.h5"],
             (str(msh), "not found"), work / "out")
+
+
+def test_a_kernel_compiled_on_first_use_is_announced_once(capsys):
+    """Numba compiling a kernel its cache does not hold (numba:compile fires on a cache miss only)
+    gets one console line before the work, naming the path; a second compile in the run is silent."""
+    import numba
+    from numba.core import event
+
+    @numba.njit(cache=False)
+    def first(x):
+        return x + 1
+
+    @numba.njit(cache=False)
+    def second(x):
+        return x * 2
+    notice = simulate.CompileNotice("the damped rk4 kernels")
+    with event.install_listener("numba:compile", notice):
+        assert first(1) == 2 and second(2) == 4
+    out = capsys.readouterr().out.strip().splitlines()
+    assert out == [out[0]] and out[0].startswith("simulate: compiling the damped rk4 kernels (first use")
+    with event.install_listener("numba:compile", simulate.CompileNotice("x")):
+        assert first(3) == 4                                   # compiled already: nothing said
+    assert capsys.readouterr().out == ""

@@ -67,10 +67,13 @@ def test_body_file_given_as_model_file(work, refused):
 
 
 def test_model_file_of_other_body_files_refused_with_config(work, refused):
-    """The reduced model was made from body files with config_hash 'synthetic'; against the
-    project config it is stale: the message names the file and the targets to rerun."""
+    """A reduced model made from body files of another configuration: against the project config
+    it is stale: the message names the file and the targets to rerun."""
+    import json
     from gimbal_reduction.workflow.config import DEFAULT_CONFIG
     path = work.joinpath(*MODEL)
+    with h5py.File(path, "r+") as f:
+        f.attrs["body_config_hashes"] = json.dumps(["0123456789ab"] * 4)
     refused(simulate.main, sim_args(work, ["--config", DEFAULT_CONFIG]),
             (str(path), "another configuration", "results/modes/body2.h5"), work / "out")
 

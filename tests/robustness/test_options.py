@@ -91,6 +91,7 @@ RUN_SCENE = {
     "tol negative": (["--tol", "-1"], ("--tol", "positive")),
     "tol with rk4": (["--integrator", "rk4", "--tol", "1e-6"], ("--tol", "rk4")),
     "unknown integrator": (["--integrator", "euler"], ("--integrator", "euler")),
+    "frequency error without the truth": (["--frequency-error", "f.json"], ("--frequency-error", "truth")),
 }
 
 

@@ -12,6 +12,9 @@ CASES = {
     "interval longer than duration": (dict(output_interval=2e-3), ("output_interval", "longer")),
     "interval not dividing the duration": (dict(output_interval=3e-4), ("output_interval", "divide")),
     "negative duration": (dict(duration=-1e-3), ("duration",)),
+    "zero duration": (dict(duration=0.0), ("duration must be > 0 s",)),
+    "gimbal rates of 1e5 rad/s": (dict(initial_rates=[1e5, 0.0, 0.0, 0.0]), ("initial_rates", "100000 rad/s",
+                                                                             "10000 rad/s")),
     "nan duration": (dict(duration=float("nan")), ("duration",)),
     "zero interval": (dict(output_interval=0.0), ("output_interval",)),
     "negative damping": (dict(damping_ratio=-0.1), ("damping_ratio",)),
@@ -31,6 +34,28 @@ def test_bad_scene(case, work, refused):
     scene = write_scene(work / "bad.yaml", **changes)
     refused(simulate.main, ["--scene", scene, "--model-file", work.joinpath(*MODEL),
                             "--out", work / "out" / "s.h5"], ("bad.yaml", *words), work / "out")
+
+
+def test_case_spin_of_a_million_rad_per_s(work, refused):
+    """The case spun at 1e6 rad/s: refused by the scene check naming the key, not by the default
+    integrator's step falling to nothing."""
+    import yaml
+    raw = yaml.safe_load(write_scene(work / "spun.yaml").read_text())
+    raw["case_motion"]["initial_angular_velocity"]["value"] = [1e6, 0.0, 0.0]
+    scene = write_scene(work / "spun.yaml", case_motion=raw["case_motion"])
+    refused(simulate.main, ["--scene", scene, "--model-file", work.joinpath(*MODEL),
+                            "--out", work / "out" / "s.h5"],
+            ("spun.yaml", "case_motion.initial_angular_velocity", "1e+06 rad/s", "10000 rad/s"), work / "out")
+
+
+@pytest.mark.parametrize("stem", ["my scene", "szene_\u00fc", "a;b"])
+def test_scene_name_outside_the_rule(stem, work, refused):
+    """The rule for names, stated once (scenes.NAME_RULE): the CLI refuses what Snakemake refuses,
+    with the same message (tests/robustness/test_dag_names.py)."""
+    scene = write_scene(work / f"{stem}.yaml")
+    refused(simulate.main, ["--scene", scene, "--model-file", work.joinpath(*MODEL),
+                            "--out", work / "out" / "s.h5"],
+            (f"scene name {stem!r} refused", "ASCII letters, digits"), work / "out")
 
 
 def test_duplicate_key(work, refused):

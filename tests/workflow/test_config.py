@@ -49,6 +49,16 @@ def test_zero_mode_count(config_copy):
     expect_error(config_copy, "modes.count.value")
 
 
+@pytest.mark.parametrize("count", [1, 9])
+def test_fewer_modes_than_the_static_modes_keep(config_copy, count):
+    """modes.count 1 would plan the study and stop in the reduction (its static modes keep the 10
+    lowest), naming --static-kept: refused at validation, naming modes.count; 10 passes."""
+    config_copy["modes"]["count"]["value"] = count
+    expect_error(config_copy, "modes.count")
+    config_copy["modes"]["count"]["value"] = cfgmod.MIN_MODES
+    cfgmod.validate(config_copy)
+
+
 def test_platform_bearings_inside_the_hole(config_copy):
     config_copy["bodies"]["stable_platform"]["outer_bearing_distance"]["value"] = 1.0
     config_copy["bodies"]["inner_gimbal"]["inner_bearing_distance"]["value"] = 1.0

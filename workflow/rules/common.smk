@@ -31,6 +31,32 @@ if _environment_problem:
 # not "import workflow...": Snakemake owns that name
 cfgmod = importlib.import_module("gimbal_reduction.workflow.config")
 
+# Then: does another run hold this directory's files, and can its output folders be written? One
+# line each, before the DAG (gimbal_reduction/workflow/runlock.py), for a dry run too (Snakemake
+# sets it only after reading this file); a job's own Snakemake process (is_main_process False)
+# belongs to the run.
+_runlock = importlib.import_module("gimbal_reduction.workflow.runlock")
+if workflow.is_main_process:
+    _holder = _runlock.holder()
+    _problem = _runlock.holder_message(_holder) if _holder else _runlock.unwritable()
+    if _problem:
+        sys.stderr.write(f"{_problem}\n")
+        sys.stderr.flush()
+        os._exit(1)
+
+
+onstart:
+    _runlock.claim()
+
+
+onsuccess:
+    _runlock.release()
+
+
+onerror:
+    _runlock.release()
+
+
 # the file the stages read; pass another with --configfile (not --config key=value); used in the
 # rules' shell commands as {CONFIG} (a justified lint, see GIMBAL below)
 CONFIG = (workflow.overwrite_configfiles or ["config/config.yaml"])[-1]

@@ -6,7 +6,9 @@
 
 
 wildcard_constraints:
-    scene="[A-Za-z0-9_-]+",
+    # any one path component without a dot reaches the scene check, which states the rule for
+    # names (scenes.NAME_RULE) in one line, instead of a MissingRuleException
+    scene="[^/.]+",
 
 
 rule reduced_model:

@@ -25,6 +25,8 @@ rule study_scene:
     output:
         sims=[f"results/study/{{scene}}/sim/{m}.h5" for m in SCENE_MODELS],
         coupled="results/study/{scene}/coupled_modes.json",
+        # every model's H-infinity and H2 error against the truth (gimbal_reduction.reduction.frequency_error)
+        frequency="results/study/{scene}/frequency_error.json",
     log:
         "logs/study/{scene}.log",
     benchmark:
@@ -47,7 +49,8 @@ rule study_scene:
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} run-scene --scene {input.scene} --models {params.models} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
-        "--out-dir {params.out_dir} --coupled-modes {output.coupled} --integrator {params.integrator} "
+        "--out-dir {params.out_dir} --coupled-modes {output.coupled} "
+        "--frequency-error {output.frequency} --integrator {params.integrator} "
         "{params.options} --config {CONFIG} > {log} 2>&1"
 
 
@@ -60,6 +63,7 @@ rule error_tables:
     input:
         truth="results/study/{scene}/sim/truth.h5",
         cases=lambda wildcards: study_sims(wildcards.scene)[1:],
+        frequency="results/study/{scene}/frequency_error.json",
     output:
         ranking=report(
             "results/tables/{scene}/errors_ranking.csv",
@@ -87,7 +91,8 @@ rule error_tables:
         code=code_hash("tables"),
     shell:
         "{GIMBAL} tables --truth {input.truth} --cases {input.cases} "
-        "--ranking-table {output.ranking} --static-table {output.static} > {log} 2>&1"
+        "--ranking-table {output.ranking} --static-table {output.static} "
+        "--frequency-error {input.frequency} > {log} 2>&1"
 
 
 rule findings:

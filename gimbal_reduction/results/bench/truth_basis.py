@@ -30,6 +30,7 @@ from gimbal_reduction.solver.dynamics import simulate
 from gimbal_reduction.solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error, error_measure
 from gimbal_reduction.solver.dynamics.scenes import load_scene
 from gimbal_reduction.solver.dynamics.simfile import read_sim
+from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow.progress import Progress
 from gimbal_reduction.workflow.provenance import provenance, versions, write_json
 
@@ -90,10 +91,10 @@ def main(argv=None) -> int:
     ap.add_argument("--bodies", nargs=4, required=True, help="body files 2..5 with >= 200 modes")
     ap.add_argument("--scenes", nargs="+", required=True, help="scene files")
     ap.add_argument("--out", required=True, help="JSON")
-    ap.add_argument("--config", help="the current configuration file: body files of another "
-                                     "configuration are refused before the work (gimbal_reduction.solver.bodyconfig)")
+    cli.add_config_option(ap, "body files of another configuration are refused before the work")
     args = ap.parse_args(argv)
     try:
+        bodyconfig.check_slots(args.bodies)
         bodyconfig.check_files(args.bodies, args.config)
         results = run(args.bodies, args.scenes, config=args.config)
     except (RuntimeError, ValueError, FileNotFoundError) as exc:

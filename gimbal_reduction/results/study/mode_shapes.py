@@ -41,6 +41,7 @@ from gimbal_reduction.reduction.static_modes import DEFAULT_LOAD_CASE  # noqa: E
 from gimbal_reduction.results import vtk  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
 from gimbal_reduction.solver.bodydata import BEARING_NAMES  # noqa: E402
+from gimbal_reduction.workflow import cli  # noqa: E402
 from gimbal_reduction.workflow.provenance import (provenance, read_h5_checked, savefig, write_json,  # noqa: E402
                                  write_sidecar)
 
@@ -299,8 +300,7 @@ def main(argv=None) -> int:
     parser.add_argument("--ranked", type=int, default=2,
                         help="best XMX-ranked modes shown besides the lowest (default 2; needs --reduction)")
     parser.add_argument("--manifest", help="JSON list of the figures with captions")
-    parser.add_argument("--config", help="the current configuration file: a body or reduction file of "
-                                         "another configuration is refused (gimbal_reduction.solver.bodyconfig)")
+    cli.add_config_option(parser, "a body or reduction file of another configuration is refused")
     args = parser.parse_args(argv)
     if args.static_png and not args.reduction:
         parser.error("--static-png needs --reduction")

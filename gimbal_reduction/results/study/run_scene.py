@@ -11,8 +11,10 @@ start and compiled-kernel loading.  Each model goes through exactly the two stag
 per-model rules run (``gimbal_reduction.reduction.models`` writes the reduced-model file, here into a
 temporary folder; ``gimbal_reduction.solver.dynamics.simulate`` integrates it and writes
 ``{out-dir}/{model}.h5``, the simulation-file contract of ``gimbal_reduction.solver.dynamics.simfile``; with
-``--coupled-modes`` also the truth's coupled natural modes, ``coupled_mode_table``),
-called in process with the same arguments, so a study file equals the file
+``--coupled-modes`` also the truth's coupled natural modes, ``coupled_mode_table``; with
+``--frequency-error`` every model's H-infinity and H2 error against the truth,
+``gimbal_reduction.reduction.frequency_error``: each model file is linearised as it is made, the
+norms computed once all are), called in process with the same arguments, so a study file equals the file
 ``snakemake results/sim/{scene}/{model}.h5`` makes, but for one thing the study does not need: a
 reduced model's file has no energy history (``simulate --no-energy``; no stage of the study reads it,
 and on the 1 s scene ``long`` it cost as much as the run: 0.41 s of rhs and case power at 10,001
@@ -33,6 +35,7 @@ import time
 
 import numpy as np
 
+from gimbal_reduction.reduction import frequency_error
 from gimbal_reduction.reduction import models as reduction_models
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.solver.dynamics import chainfile, integrators, linearized, scenes, simulate
@@ -66,11 +69,22 @@ def model_file_name(model: str) -> str:
     return f"{model}.h5"
 
 
+def linearised_model(model_file, scene):
+    """The reduced model's chain linearised at the scene's initial configuration
+    (``frequency_error.linear_chain``)."""
+    chain, _ = chainfile.read_chain(model_file, scene.damping_ratio)
+    y0, _ = scenes.initial_state(scene, chain.n_coordinates)
+    return frequency_error.linear_chain(chain, y0)
+
+
 def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrator_args=(),
-              coupled_modes=None, config=None):
+              coupled_modes=None, config=None, frequency_errors=None):
     """Reduce and simulate every model of ``models`` on ``scene`` (a scene file); writes
-    {out_dir}/{model}.h5, and the truth's coupled-mode table to ``coupled_modes`` (JSON) if
-    given.  Returns (status, failed model or None)."""
+    {out_dir}/{model}.h5, the truth's coupled-mode table to ``coupled_modes`` (JSON) and every
+    model's frequency-domain error to ``frequency_errors`` (JSON; the models must hold the truth)
+    if given.  Returns (status, failed model or None)."""
+    scene_obj = scenes.load_scene(scene) if frequency_errors else None
+    linear = {}
     progress = Progress(f"run_scene {os.path.splitext(os.path.basename(str(scene)))[0]}", len(models),
                         "models")
     with tempfile.TemporaryDirectory(prefix="run_scene_") as tmp:
@@ -96,8 +110,19 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
                 truth_sim = os.path.join(out_dir, model_file_name(model))
                 write_json(coupled_modes, coupled_mode_table(model_file, scene),
                            record=provenance(sources=[truth_sim]))
+            if frequency_errors:
+                linear[model] = linearised_model(model_file, scene_obj)
             os.remove(model_file)
             progress.update(k, note=f"{model} took {time.perf_counter() - t0:.2f} s")
+    if frequency_errors:
+        t0, c0 = time.perf_counter(), time.process_time()
+        table = frequency_error.frequency_errors(scene_obj, linear)
+        table["cost_s"] = time.perf_counter() - t0              # wall, and CPU (less load-dependent)
+        table["cost_cpu_s"] = time.process_time() - c0
+        write_json(frequency_errors, table, record=provenance(
+            sources=[os.path.join(out_dir, model_file_name(m)) for m in models]))
+        print(f"run_scene: frequency-domain errors of {len(models)} models in {table['cost_s']:.1f} s "
+              f"(band to {table['band']['edge_hz']:.4g} Hz) -> {frequency_errors}")
     return 0, None
 
 
@@ -110,8 +135,9 @@ def main(argv=None) -> int:
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking (load-, global- models)")
     ap.add_argument("--out-dir", required=True, help="folder of the simulation files")
     ap.add_argument("--coupled-modes", help="JSON: the truth's coupled modes at the initial state")
-    ap.add_argument("--config", help="the current configuration file: body files from another one "
-                                     "are refused (gimbal_reduction.reduction.models / simulate --config)")
+    ap.add_argument("--frequency-error", help="JSON: every model's H-infinity and H2 error against the "
+                                              "truth (the models must hold the truth)")
+    cli.add_config_option(ap, "body files from another one are refused")
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
                     help="simulate's --integrator (default its own)")
     ap.add_argument("--tol", default=None, type=cli.positive_number("--tol"),
@@ -122,6 +148,10 @@ def main(argv=None) -> int:
             ap.error(f"--tol is the exponential integrator's tolerance, not {args.integrator}'s")
     except SystemExit as exc:       # the one-line message is printed; in process, return the status
         return exc.code
+    if args.frequency_error and "truth" not in args.models:
+        print("run_scene: --frequency-error compares every model with the truth: add truth to --models",
+              file=sys.stderr)
+        return 2
     if len(set(args.models)) != len(args.models):
         dup = sorted({m for m in args.models if args.models.count(m) > 1})
         print(f"run_scene: model(s) given twice: {', '.join(dup)}", file=sys.stderr)
@@ -129,6 +159,8 @@ def main(argv=None) -> int:
     # every name is checked before any work (a typo in the last model must not cost the others)
     try:
         # and every input file against the configuration, before any work (gimbal_reduction.solver.bodyconfig)
+        bodyconfig.check_slots(args.bodies)
+        bodyconfig.check_slots(args.reductions or [])
         bodyconfig.check_files([*args.bodies, *(args.reductions or []),
                                 *([args.load_ranking] if args.load_ranking else [])], args.config)
         if args.reductions:
@@ -146,9 +178,13 @@ def main(argv=None) -> int:
     if args.tol:
         integrator_args += ["--tol", repr(args.tol)]
     t0 = time.perf_counter()
-    rc, failed = run_scene(args.scene, args.models, args.bodies, args.reductions, args.load_ranking,
-                           args.out_dir, integrator_args, coupled_modes=args.coupled_modes,
-                           config=args.config)
+    try:
+        rc, failed = run_scene(args.scene, args.models, args.bodies, args.reductions, args.load_ranking,
+                               args.out_dir, integrator_args, coupled_modes=args.coupled_modes,
+                               config=args.config, frequency_errors=args.frequency_error)
+    except frequency_error.FrequencyError as exc:
+        print(f"run_scene: frequency-domain error: {exc}", file=sys.stderr)
+        return 2
     if rc:
         print(f"run_scene: model {failed!r} failed (status {rc}); see the message above", file=sys.stderr)
         return rc

@@ -20,7 +20,11 @@ Simulation files (written by ``gimbal_reduction.solver.dynamics.simulate``): dat
 ``scene``, ``integrator``, ``step`` [s], ``steps``, ``wall_time_s`` [s],
 ``integration_time_s`` [s], ``config_hash``, ``n_modes`` (4,); ``platform_attitude`` (T, 3, 3)
 when written (then the table has the platform's attitude error against the truth, arcsec:
-what an IMU designer reads next to E).
+what an IMU designer reads next to E).  With ``--frequency-error`` (the JSON of
+``run_scene --frequency-error``, ``gimbal_reduction.reduction.frequency_error``) every row also has
+the model's H-infinity and H2 error against the truth over the band the scene excites (relative
+to the truth's norms) and the frequency of the H-infinity error's peak [Hz]; empty for a model
+the file does not hold.
 
 Tables (CSV, one row per case, long format; the report pivots them):
 ``--ranking-table``: the truth row (E = 0) and groups freq, xmx, xmgmx
@@ -33,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import os
 import sys
@@ -48,13 +53,16 @@ from gimbal_reduction.workflow.provenance import csv_text, provenance, write_tex
 
 RATE_COLUMNS = tuple(f"E_{BODY_NAMES[b]}" for b in BODIES)
 ATTITUDE_COLUMNS = ("attitude_max_arcsec", "attitude_rms_arcsec")
+FREQUENCY_COLUMNS = ("hinf_error", "h2_error", "hinf_peak_hz")
 TABLE_COLUMNS = ("group", "model", "ranking", "count", "static", "load_case", "thesis_figure",
-                 "n_elastic", *RATE_COLUMNS, *ATTITUDE_COLUMNS, "wall_time_s", "integration_time_s", "integrator",
+                 "n_elastic", *RATE_COLUMNS, *ATTITUDE_COLUMNS, *FREQUENCY_COLUMNS, "wall_time_s",
+                 "integration_time_s", "integrator",
                  "step_s", "steps", "samples", "scene", "config_hash", "file")
 
 
-def case_row(truth: dict, case: dict) -> dict:
-    """One table row: the case's description, E per gimbal rate and its cost attributes."""
+def case_row(truth: dict, case: dict, frequency: dict | None = None) -> dict:
+    """One table row: the case's description, E per gimbal rate, its frequency-domain error (from
+    ``frequency``, the run_scene JSON, if given) and its cost attributes."""
     label = case.get("path", case.get("model", "case"))
     check_same_grid(truth["t"], case["t"], label)
     ts, cs = truth["attrs"].get("scene"), case["attrs"].get("scene")
@@ -69,6 +77,7 @@ def case_row(truth: dict, case: dict) -> dict:
                                 "thesis_figure")}
     row.update({"n_elastic": n_elastic, **{c: float(e) for c, e in zip(RATE_COLUMNS, E)},
                 **dict(zip(ATTITUDE_COLUMNS, attitude_errors(truth, case))),
+                **frequency_columns(frequency, case["model"]),
                 "wall_time_s": _num(a.get("wall_time_s")),
                 "integration_time_s": _num(a.get("integration_time_s")),
                 "integrator": a.get("integrator", ""), "step_s": _num(a.get("step")),
@@ -91,13 +100,34 @@ def attitude_errors(truth: dict, case: dict) -> tuple:
     return float(a.max()), float(rms)
 
 
+def frequency_columns(frequency: dict | None, model: str) -> dict:
+    """FREQUENCY_COLUMNS of a model from the run_scene JSON (NaN where it has none)."""
+    entry = ((frequency or {}).get("models") or {}).get(model) or {}
+    return {col: _num(entry.get(key)) for col, key in zip(FREQUENCY_COLUMNS, ("hinf", "h2", "hinf_hz"))}
+
+
+def read_frequency_errors(path) -> dict:
+    """The run_scene frequency-error JSON; ErrorsInputError (one line) if missing or not one."""
+    try:
+        with open(path) as f:
+            data = json.load(f)
+    except (OSError, ValueError) as exc:
+        raise ErrorsInputError(f"{path}: unreadable frequency-error file "
+                               f"({exc.__class__.__name__})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("models"), dict):
+        raise ErrorsInputError(f"{path}: not a frequency-error file (no 'models' mapping)")
+    return data
+
+
 def _num(v):
     return float(v) if v is not None and v != "" else float("nan")
 
 
-def build_tables(truth: dict, cases: list[dict]) -> tuple[list[dict], list[dict]]:
-    """(ranking rows, static rows) of the cases, each sorted in study order (group, count)."""
-    rows = [case_row(truth, truth)] + [case_row(truth, c) for c in cases]
+def build_tables(truth: dict, cases: list[dict],
+                 frequency: dict | None = None) -> tuple[list[dict], list[dict]]:
+    """(ranking rows, static rows) of the cases, each sorted in study order (group, count);
+    frequency: the run_scene frequency-error JSON (optional)."""
+    rows = [case_row(truth, truth, frequency)] + [case_row(truth, c, frequency) for c in cases]
     seen = set()
     for r in rows:
         if r["model"] in seen:
@@ -122,7 +152,8 @@ def read_table(path) -> list[dict]:
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     for r in rows:
-        for k in (*RATE_COLUMNS, *ATTITUDE_COLUMNS, "wall_time_s", "integration_time_s", "step_s"):
+        for k in (*RATE_COLUMNS, *ATTITUDE_COLUMNS, *FREQUENCY_COLUMNS, "wall_time_s",
+                  "integration_time_s", "step_s"):
             r[k] = float(r[k]) if r.get(k) not in (None, "") else float("nan")
         for k in ("count", "static", "n_elastic", "steps", "samples"):
             r[k] = int(float(r[k])) if r.get(k) not in (None, "") else None
@@ -138,15 +169,20 @@ def main(argv=None) -> int:
     parser.add_argument("--cases", nargs="+", required=True, help="reduced-model simulation files")
     parser.add_argument("--ranking-table", required=True, help="CSV: truth, freq, xmx, xmgmx cases")
     parser.add_argument("--static-table", required=True, help="CSV: static and load-case cases")
+    parser.add_argument("--frequency-error", help="JSON of run_scene --frequency-error: H-inf and H2 "
+                                                  "columns")
     args = parser.parse_args(argv)
     try:
         truth = read_sim(args.truth)
         cases = [read_sim(p) for p in args.cases if os.path.abspath(p) != os.path.abspath(args.truth)]
-        ranking, static = build_tables(truth, cases)
+        frequency = read_frequency_errors(args.frequency_error) if args.frequency_error else None
+        ranking, static = build_tables(truth, cases, frequency)
     except ErrorsInputError as exc:
         print(f"gimbal_reduction.results.study.tables: error: {exc}", file=sys.stderr)
         return 2
-    record = provenance(sources=[args.truth, *args.cases])       # the simulations' config hashes
+    # the simulations' config hashes (and the frequency-error file's, itself theirs)
+    record = provenance(sources=[args.truth, *args.cases,
+                                 *([args.frequency_error] if args.frequency_error else [])])
     write_text(args.ranking_table, format_csv(ranking), record)
     write_text(args.static_table, format_csv(static), record)
     print(f"gimbal_reduction.results.study.tables: {len(ranking)} rows -> {args.ranking_table}, {len(static)} rows -> "

@@ -38,7 +38,7 @@ import numpy as np
 
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics import multibody
-from gimbal_reduction.workflow.provenance import atomic_h5
+from gimbal_reduction.workflow.provenance import atomic_h5, content_problem
 
 FORMAT = "gimbal-reduced-model/1"
 BODY_DATASETS = ("rigid_mass", "momentum", "inertia_gradient", "coriolis", "omega2", "labels")
@@ -114,6 +114,9 @@ def read_chain(path, damping_ratio=0.0):
                                        for s in _dataset(h5, f"{group}/static_cases", where))
                 bodies.append(_body(number, data, damping_ratio, f"{where}: {group}"))
             fixed = {key: _dataset(h5, f"chain/{key}", where) for key in CHAIN_DATASETS}
+            changed = content_problem(h5, where)
+            if changed:
+                raise ChainFileError(changed)
     except OSError:
         raise ChainFileError(f"{where}: not a readable HDF5 file (corrupt or truncated): delete it and "
                              f"rerun its rule") from None

@@ -178,14 +178,13 @@ def check_config(model_file, config_path):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="gimbal export",
+    ap = cli.OneLineParser(prog="gimbal export",
                                  description="Linearised state space (A, B, C, D) of a reduced model "
                                              "about a scene's initial state, to .mat and .npz.")
     ap.add_argument("--model-file", required=True, help="reduced-model file (gimbal_reduction.reduction.models)")
     ap.add_argument("--scene", required=True, help="scene name or file")
     ap.add_argument("--out", required=True, help="output .mat or .npz (both are written)")
-    ap.add_argument("--config", help="the current configuration file: the reduced model's body files "
-                                     "must have been made from it (their config hashes)")
+    cli.add_config_option(ap, "the reduced model's body files must have been made from it (their config hashes)")
     args = ap.parse_args(argv)
     try:
         out_pair(args.out)                       # before any work

@@ -24,12 +24,18 @@ unit ``1``): the exponential integrator's tolerance for every simulation of the
 scene (``simulate.run_scene``) unless one is given (``--tol``, a fixed ``--step``).
 A long scene needs it: the platform attitude integrates the rates' errors over the
 whole run (``long``: docs/exponential.md Section 5).
+
+A scene is named by its file, and the name names its outputs and Snakemake targets
+(results/sim/{scene}/...): ``NAME_RULE``, checked by ``check_scene_name`` for the command lines
+and the workflow alike.  Its duration is positive, and its rates (``initial_rates``,
+``case_motion.initial_angular_velocity``) at most ``MAX_RATE``.
 """
 
 import hashlib
 import json
 import math
 import os
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,6 +58,17 @@ _CASE = {
     "angular_acceleration_phase": (3, "rad"), "initial_angular_velocity": (3, "rad/s"),
 }
 
+
+# The rule for scene names: ASCII letters, digits, '_' and '-' (a name is a folder of results/sim/
+# and a Snakemake wildcard: no space, no '/', nothing a shell or a file system reads otherwise).
+NAME_PATTERN = re.compile(r"[A-Za-z0-9_-]+")
+NAME_RULE = "a scene name is ASCII letters, digits, '_' and '-' (it names the scene's outputs)"
+
+# [rad/s] The largest rate a scene may give the gimbals or the case: 1e4 rad/s (95,000 rpm) is
+# near the chain's lowest elastic mode, ~1.1e4 rad/s (config/scenes/spin.yaml: 62.8 rad/s is
+# 5.6e-3 of it), where a rigid gimbal motion with small elastic deformations, the model of this
+# project, no longer holds; at 1e5 rad/s the default integrator's step fell to 6e-13 s.
+MAX_RATE = 1e4
 
 ALL_BODIES = (2, 3, 4, 5)
 _NEEDS = {"bodies": ("body number",), "models": ("model name",)}   # labels, given exactly
@@ -183,8 +200,8 @@ def parse_scene(raw, origin="scene"):
     if missing:
         raise SceneError(f"{origin}: missing case_motion key(s) {', '.join(sorted(missing))}")
     case = {k: _number(origin, f"case_motion.{k}", cm[k], *spec) for k, spec in _CASE.items()}
-    if vals["duration"] < 0:
-        raise SceneError(f"{origin}: duration must be >= 0 s, got {vals['duration']}")
+    if vals["duration"] <= 0:
+        raise SceneError(f"{origin}: duration must be > 0 s, got {vals['duration']:g} s")
     if vals["output_interval"] <= 0:
         raise SceneError(f"{origin}: output_interval must be > 0 s, got {vals['output_interval']}")
     duration, interval = vals["duration"], vals["output_interval"]
@@ -197,6 +214,12 @@ def parse_scene(raw, origin="scene"):
             raise SceneError(f"{origin}: output_interval {interval:g} s does not divide the duration "
                              f"{duration:g} s ({samples:.6g} intervals): choose one that does "
                              f"(e.g. {duration / max(round(samples), 1):.6g} s)")
+    for key, rates in (("initial_rates", vals["initial_rates"]),
+                       ("case_motion.initial_angular_velocity", case["initial_angular_velocity"])):
+        if max(abs(r) for r in rates) > MAX_RATE:
+            raise SceneError(f"{origin}: {key}: {max(abs(r) for r in rates):g} rad/s is above the "
+                             f"{MAX_RATE:g} rad/s a scene may hold (near the chain's lowest elastic "
+                             f"mode, where the model of small elastic motions stops holding)")
     if vals["damping_ratio"] < 0:
         raise SceneError(f"{origin}: damping_ratio must be >= 0, got {vals['damping_ratio']}")
     if any(f < 0 for f in case["angular_acceleration_frequency"]):
@@ -220,10 +243,17 @@ def parse_scene(raw, origin="scene"):
         damping_ratio=vals["damping_ratio"], raw=raw)
 
 
+def check_scene_name(name):
+    """SceneError (one line) unless ``name`` follows ``NAME_RULE``."""
+    if not NAME_PATTERN.fullmatch(str(name)):
+        raise SceneError(f"scene name {str(name)!r} refused: {NAME_RULE}; rename the scene file")
+
+
 def load_scene(name_or_path, scenes_dir=SCENES_DIR):
     """Scene by name (config/scenes/{name}.yaml) or path."""
     path = name_or_path if os.path.sep in str(name_or_path) or str(name_or_path).endswith(".yaml") \
         else os.path.join(scenes_dir, f"{name_or_path}.yaml")
+    check_scene_name(os.path.splitext(os.path.basename(str(path)))[0])
     if not os.path.exists(path):
         known = sorted(f[:-5] for f in os.listdir(scenes_dir) if f.endswith(".yaml")) \
             if os.path.isdir(scenes_dir) else []

@@ -18,7 +18,7 @@ import h5py
 import numpy as np
 
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError
-from gimbal_reduction.workflow.provenance import atomic_h5
+from gimbal_reduction.workflow.provenance import atomic_h5, content_problem
 
 
 def write_sim(path, run, energies, attrs, store_modal=False, attitude=None):
@@ -62,6 +62,7 @@ def read_sim(path) -> dict:
             if "energy" in f:
                 out["energy"] = {k: f["energy"][k][()] for k in f["energy"]}
             out["platform_attitude"] = f["platform_attitude"][()] if "platform_attitude" in f else None
+            changed = content_problem(f, path)
     except OSError as exc:
         raise ErrorsInputError(f"{path}: unreadable HDF5 file ({exc.__class__.__name__})") from None
     t, gd = np.asarray(out["t"], float), np.asarray(out["gamma_dot"], float)
@@ -69,6 +70,8 @@ def read_sim(path) -> dict:
         raise ErrorsInputError(f"{path}: gamma_dot has shape {gd.shape}, expected ({t.size}, 4)")
     if not (np.all(np.isfinite(gd)) and np.all(np.isfinite(t))):
         raise ErrorsInputError(f"{path}: non-finite gamma_dot or t (diverged run)")
+    if changed:
+        raise ErrorsInputError(changed)
     out["t"], out["gamma_dot"], out["path"] = t, gd, str(path)
     out["model"] = str(out["attrs"].get("model") or os.path.splitext(os.path.basename(path))[0])
     return out

@@ -33,6 +33,7 @@ import time
 
 import numba
 import numpy as np
+from numba.core import event
 
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, multibody, scenes, simfile
@@ -114,6 +115,31 @@ def platform_attitude(chain, run):
 
 
 positive_number = cli.positive_number        # (argparse type; kept for callers of this module)
+
+
+class CompileNotice(event.Listener):
+    """Says once, on stdout, that a kernel is being compiled, when Numba starts compiling one that
+    its on-disk cache does not hold (the event ``numba:compile`` fires on a cache miss only): the
+    first use of an integrator path (the damped RK4 loop, DOP853's right-hand side) compiles for
+    minutes without another word otherwise.  Measured cold compiles, 2 cores: the workflow's
+    kernel set 85 CPU-s (rule kernels), the damped RK4 kernel 6 min 55 s."""
+
+    def __init__(self, what):
+        self.what, self.said = what, False
+
+    def on_start(self, ev):
+        if not self.said:
+            self.said = True
+            print(f"simulate: compiling {self.what} (first use: not in Numba's cache; 1-7 min, "
+                  f"once per machine and code version)", flush=True)
+
+    def on_end(self, ev):
+        pass
+
+
+def kernel_path(integrator, scene):
+    """The words for the kernels a run uses: its integrator, damped or not."""
+    return f"the {'damped ' if scene.damping_ratio > 0 else ''}{integrator} kernels"
 
 # Guards before the work (an explicit option lifts each): integration steps, output samples and
 # the memory the outputs take.  The 15 ms thesis scene takes ~60 exponential steps or ~1e5 RK4
@@ -200,8 +226,11 @@ def build_parser():
     ap.add_argument("--model-file", help="reduced-model file (default results/models/SCENE/MODEL.h5)")
     ap.add_argument("--model", help="model name, to find the default model file and output")
     ap.add_argument("--out", help="simulation file to write (default results/sim/SCENE/MODEL.h5)")
-    ap.add_argument("--config", help="the current configuration file: the reduced model's body "
-                                     "files must have been made from it (their config hashes)")
+    cli.add_config_option(ap, "the reduced model's body files must have been made from it "
+                              "(their config hashes)")
+    ap.add_argument("--no-config-check", action="store_true",
+                    help="a model file made from no body files (a synthetic chain: the kernels' "
+                         "warm-up): skip the check against --config")
     ap.add_argument("--integrator", default=None, choices=integrators.METHODS,
                     help=f"default {DEFAULT_INTEGRATOR} (docs/exponential.md); dop853 at rtol "
                          f"1e-10 is the converged reference, rk4 the thesis's method")
@@ -274,11 +303,10 @@ def main(argv=None):
             cli.check_writable(args.out)
         chain, info = chainfile.read_chain(model_file, scene.damping_ratio)
         model = str(info.get("model", ""))
-        if args.model is not None and args.model != model:
-            raise ValueError(f"{model_file} holds model {model!r}, not {args.model!r}")
+        check_identity(model_file, info, args.model, args.out, scene)
         out = args.out or os.path.join(ROOT, "results", "sim", stem, f"{model}.h5")
         cli.check_writable(out)
-        if args.config is not None:
+        if not args.no_config_check:
             chainfile.check_body_hashes(model_file, info, expected_body_hashes(args.config))
         if args.integrator is None:
             args.integrator = DEFAULT_INTEGRATOR
@@ -296,7 +324,8 @@ def main(argv=None):
         options = {"integrator": args.integrator, "step": args.step, **options}
         chash = config_hash(scene, str(info.get("config_hash", "")), options)
         t0 = time.perf_counter()
-        run, prob = run_scene(chain, scene, model_name=model, problem=prob, **options)
+        with event.install_listener("numba:compile", CompileNotice(kernel_path(args.integrator, scene))):
+            run, prob = run_scene(chain, scene, model_name=model, problem=prob, **options)
         wall = time.perf_counter() - t0
     except (ValueError, FileNotFoundError, integrators.DivergenceError) as exc:
         print(f"simulate: {' '.join(str(exc).split())}", file=sys.stderr)
@@ -336,6 +365,26 @@ def main(argv=None):
           f"(coupled omega_max {omega_max:.4g} rad/s, RK4 limit "
           f"{integrators.rk4_stability_limit(omega_max):.3e} s)")
     return 0
+
+
+def check_identity(model_file, info, model=None, out=None, scene=None):
+    """ValueError (one line) unless the reduced-model file is the one its target expects: the
+    model ``model`` (--model), or, in the workflow's layout where the model file and the output
+    share their name (results/models/{scene}/{model}.h5 -> results/sim/{scene}/{model}.h5), the
+    model that name says, made for ``scene`` when its folder is the scene's.  A freq-10 file copied
+    over freq-2.h5 is refused, not simulated as freq-2."""
+    held = str(info.get("model", ""))
+    stem = _scene_stem(model_file)
+    named = model if model is not None else (stem if out is not None and _scene_stem(out) == stem else None)
+    if named is not None and named != held:
+        raise ValueError(f"{model_file} holds model {held!r}, not {named!r}"
+                         + (" (its target's name: a file copied over another model's?)" if model is None else "")
+                         + f": remake it: snakemake --cores 2 --forcerun {model_file}")
+    folder = os.path.basename(os.path.dirname(os.path.abspath(str(model_file))))
+    made_for = str(info.get("scene", ""))
+    if scene is not None and named is not None and folder == scene.name and made_for and made_for != scene.name:
+        raise ValueError(f"{model_file} was made for scene {made_for!r}, not {scene.name!r} (its "
+                         f"folder's): remake it: snakemake --cores 2 --forcerun {model_file}")
 
 
 def expected_body_hashes(config_path):

@@ -93,7 +93,7 @@ def main(argv=None) -> int:
         for k, (scene, model, opts) in enumerate(runs(args.scenes, args.integrator, options)):
             t0 = time.perf_counter()
             rc = simulate.main(["--scene", scene, "--model-file", models[model],
-                                "--out", os.path.join(tmp, f"sim{k}.h5"), *opts])
+                                "--out", os.path.join(tmp, f"sim{k}.h5"), "--no-config-check", *opts])
             if rc:
                 print(f"warmup: the synthetic {model} chain failed on {scene} (simulate exit {rc})",
                       file=sys.stderr)
