@@ -34,7 +34,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from gimbal_reduction.solver.bodydata import BEARING_NAMES, BODIES
+from gimbal_reduction.solver.bodies import BEARING_NAMES, BODIES
 
 TRUTH, RIGID, TOL = "truth", "rigid", "tol"
 TRUTH_MODES = 100           # the truth: the 100 lowest-frequency modes of every body

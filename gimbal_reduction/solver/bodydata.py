@@ -22,10 +22,8 @@ import h5py
 import numpy as np
 import scipy.sparse as sp
 
+from gimbal_reduction.solver.bodies import BEARING_NAMES, BODIES
 from gimbal_reduction.workflow.provenance import content_problem
-
-
-BODIES = (2, 3, 4, 5)   # outer, middle, inner gimbal, stable platform (thesis numbering)
 
 
 class BodyFileError(ValueError):
@@ -36,7 +34,6 @@ class BodyFileError(ValueError):
 
 
 RIGID_MOTION_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
-BEARING_NAMES = ("input_motor", "input_resolver", "output_motor", "output_resolver")
 
 
 def skew(r):

@@ -151,7 +151,7 @@ def code_hash(*stages):
 
 # ---- The rule files' helpers, here so that no rule file mixes rules and functions (Snakemake's
 # lint); each is used by the rule file named above it.
-models_mod = importlib.import_module("gimbal_reduction.reduction.models")
+selection_mod = importlib.import_module("gimbal_reduction.reduction.selection")
 names_mod = importlib.import_module("gimbal_reduction.reduction.names")
 scenes_mod = importlib.import_module("gimbal_reduction.solver.dynamics.scenes")
 
@@ -176,13 +176,13 @@ def dag_scene(name):
 
 
 def checked_model(model, where):
-    """``model`` if it names a model the configuration can build (gimbal_reduction.reduction.models.check_name, with
+    """``model`` if it names a model the configuration can build (gimbal_reduction.reduction.selection.check_name, with
     modes.count modes per body), else a one-line refusal naming ``where`` (the target or the scene).
     """
     count = cfgmod.value(config, "modes.count")
     try:
-        models_mod.check_name(model, count)
-    except models_mod.ModelError as exc:
+        selection_mod.check_name(model, count)
+    except names_mod.ModelError as exc:
         dag_refuse(
             f"{where}: {exc} (model names: gimbal_reduction/reduction/models.py; modes.count = {count} in "
             f"{CONFIG}); nothing was run"

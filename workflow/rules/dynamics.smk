@@ -27,6 +27,9 @@ rule kernels:
         code=code_hash("warmup"),
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
+    message:
+        "Compiling the dynamics kernels into Numba's on-disk cache, once per clone (~1.5 CPU-minutes "
+        "alone, several minutes beside the FE jobs; no output until it is done; log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} warmup --scenes {input.scenes} "
         "--integrator {params.integrator} {params.options} --out {output} > {log} 2>&1"

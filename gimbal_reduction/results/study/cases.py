@@ -41,16 +41,15 @@ The thesis ranks with one criterion for both XMX and XMGMX (its first 40
 ranked modes coincide); ours differ (docs/reduction.md, "Finding 2 on our
 model"), so both rankings are run wherever the thesis used "ranked" modes.
 
-Pure functions: no file is read unless ``check_models`` is given a
-reduction folder.
+Pure functions, no file read; the workflow reads them while it builds the DAG, so this module
+imports only the name grammar (``names``, ``selection``), not the readers or the solvers.
 """
 from __future__ import annotations
 
 import argparse
 
-from gimbal_reduction.reduction import models, names
-from gimbal_reduction.reduction.static_modes import DEFAULT_LOAD_CASE
-from gimbal_reduction.solver.bodydata import BODIES
+from gimbal_reduction.reduction import names, selection
+from gimbal_reduction.solver.bodies import BODIES
 from gimbal_reduction.workflow import config
 
 BODY_NAMES = dict(zip(BODIES, config.BODY_NAMES))   # {2: "outer_gimbal", ..., 5: "stable_platform"}
@@ -84,6 +83,9 @@ CB_EQUAL_COORDINATES = tuple(n for n in MODE_COUNTS if n >= names.INTERFACE_DOFS
     tuple(n + 1 for n in STATIC_COUNTS if n + 1 >= names.INTERFACE_DOFS)
 LOAD_CASE_COUNT = 10                          # Figs 4-21..4-27
 RANKINGS = ("xmx", "xmgmx")
+# the load case of a "static-" case on the outer gimbal, where the thesis's load-case study puts it
+# (Figure 4-12 / 4-24; ``names.DEFAULT_LOAD_CASE``, the static mode of every "static-" name)
+DEFAULT_LOAD_CASE = names.DEFAULT_LOAD_CASE[2]
 # (load case, thesis figure) in the thesis's figure order; Fig 4-24 is the default case
 LOAD_CASES = (("output_motor_my", "4-21"), ("output_motor_mz", "4-22"),
               ("output_motor_fx", "4-23"), ("output_motor_fz", "4-24"),
@@ -236,15 +238,11 @@ def classify(model: str) -> tuple[str, object]:
     return "other", model
 
 
-def check_models(model_names, reduction_dir=None, n_modes=100) -> list[str]:
-    """Resolve every name with ``gimbal_reduction.reduction.models.model_spec``; returns the names.
-
-    Without ``reduction_dir`` the rankings (load-aware and pooled too) are identity
-    permutations of ``n_modes`` modes (the grammar check only); raises ``gimbal_reduction.reduction.models.ModelError``.
-    """
-    rankings = models.identity_rankings(n_modes) if reduction_dir is None else models.load_rankings(reduction_dir)
+def check_models(model_names, n_modes=100) -> list[str]:
+    """Check every name against body files of ``n_modes`` modes (``selection.check_name``: the
+    grammar, the counts, the load cases; raises ``names.ModelError``); returns the names."""
     for name in model_names:
-        models.model_spec(name, rankings)
+        selection.check_name(name, n_modes)
     return list(model_names)
 
 

@@ -197,7 +197,7 @@ def _mass_factors(y, Jall, Pall, BtJ, Ball, D, off, M6, V, gram, M1, G, om2, cd,
     ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
     S = V.shape[1]
     n = 4 + S
-    fr = recursion.new_frames(0)
+    fr = recursion.new_frames(int(0))
     R_all, p_all, Lw_all = fr.R, fr.p, fr.Lw
     zero_n, zero6 = np.zeros(n), np.zeros(6)
     recursion.kinematics(y, zero_n, zero_n, zero6, zero6, ch, fr)

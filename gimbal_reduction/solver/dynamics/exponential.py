@@ -23,7 +23,8 @@ near y_r it is small and slow.  Undamped, each elastic mode (eigenvalues lambda,
 conj lambda, lambda = i omega) is one complex coordinate xi = (eta' - conj(lambda) eta) /
 Delta, Delta = 2 i omega, with eta = 2 Re xi, eta' = 2 Re(lambda xi) and
 xi' = lambda xi + g / Delta (``DiagonalBank``); with damping, the damped elastic block is
-diagonalised in state space the same way (``CoupledBank``: xi' = mu xi + P g); a joint
+diagonalised in state space the same way, at any damping (``CoupledBank``: xi' = mu xi + P g,
+mu real for an overdamped mode); a joint
 mode is eta'' = g.
 Over a step t_n -> t_n + H with g replaced by a polynomial
 p(s) = sum_j c_j (s / h)^j the variation-of-constants formula is exact:
@@ -46,8 +47,8 @@ error, in the energy norm of every modal coordinate and in the gimbal rates
 dyadic grid of the output interval, so dense outputs reuse cached weights.  The basis is rebuilt
 (re-linearised) when the gimbal angles drift from y_r by more than ``drift`` [rad], or when
 steps keep failing in an aged basis; the stored history of accelerations is carried over.
-A run that cannot hold (steps below the floor, a singular joint mass matrix, an overdamped
-mode, a frozen basis beyond its validity) stops with ``ExponentialError`` naming the
+A run that cannot hold (steps below the floor, a singular joint mass matrix, a damped bank
+that cannot be diagonalised, a frozen basis beyond its validity) stops with ``ExponentialError`` naming the
 time and the cause.
 
 The step loop is compiled (``kernels.pece.pece_run``, docs/exponential.md Sec. 8): this
@@ -236,29 +237,103 @@ class DiagonalBank:
 class CoupledBank:
     """The elastic modes with a non-diagonal damping Ct = phi^T C phi (m, m): the first-order
     system z' = A z + [0; g], z = [eta; eta'], A = [[0, I], [-Omega^2, -Ct]], diagonalised,
-    A = V diag(mu) V^-1.  For an underdamped chain the 2m eigenvalues are m conjugate pairs;
-    with V+ the eigenvectors of Im mu > 0 and P+ the matching rows of V^-1, the real state is
-    z = 2 Re(V+ xi), xi = P+ z, xi' = mu xi + P+[:, m:] g.  (Modal damping diagonal in every
-    body's own modes is not diagonal in the coupled modes; leaving the off-diagonal part in g
-    would put fast oscillations into g and collapse the step, docs/exponential.md Sec. 4.)"""
+    A = V diag(lambda) V^-1, at any damping.  Each underdamped mode is a conjugate pair
+    lambda, conj(lambda): one coordinate xi of the pair's upper member stands for both (its
+    column of V counted twice, z gets 2 Re(v xi)).  An overdamped mode (beyond critical
+    damping) is a pair of real eigenvalues with real eigenvectors: two coordinates, each its
+    own real exponential (column counted once).  With the kept eigenvalues mu (p,), p = m +
+    (number of real eigenvalues) / 2, their rows P of V^-1 and columns V' of V (times 2 for a
+    pair, 1 for a real one), the real state is z = Re(V' xi), xi = P z, xi' = mu xi +
+    P[:, m:] g, and every exponential weight is the same phi-function of H mu whether mu is
+    complex or real.  (Modal damping diagonal in every body's own modes is not diagonal in
+    the coupled modes; leaving the off-diagonal part in g would put fast oscillations into g
+    and collapse the step, docs/exponential.md Sec. 4.)
+
+    Critical damping.  Where a pair's two eigenvalues meet, A loses an eigenvector: near it the
+    pair's eigenvectors are nearly parallel, and V^-1 amplifies rounding by the eigenvalue
+    condition number kappa_k = |v_k| |p_k| (~ 1 / the pair's relative gap, ~1e8 for a mode at
+    critical damping to the last bit, as an uncoupled mode at damping ratio 1 is).  Beyond
+    ``NUDGE_CONDITION`` the bank is built for the damping Ct (1 +- CRITICAL_NUDGE) instead,
+    which splits such a pair by ~sqrt(2 CRITICAL_NUDGE) of its magnitude (kappa ~1e5), and
+    ``damping`` records it: the modal forcing g = phi^-1 a + Lambda eta + damping eta' is
+    formed with the same matrix, so the equations stay exact and the nudge, +-CRITICAL_NUDGE
+    Ct eta' in g, is a forcing ~5e-11 of the damping force that the Adams polynomial carries.
+    Measured on one mode over e^-30 of decay against the closed form with cosh(s H) and
+    sinh(s H) / s (s^2 = zeta^2 - 1, entire in s^2): <= 6e-13 just below critical, 1.6e-10 at
+    1 + 1e-10 (a real pair's exponentials lose their argument's rounding times kappa), 3e-13
+    at 1 + 1e-6.  A basis still beyond ``CONDITION_LIMIT`` is refused, one line.
+
+    mu (p,) complex; P_eta, P_vel (p, m) complex the rows P[:, :m], P[:, m:]; V_eta, V_vel
+    (m, p) complex the scaled columns' eta and eta' parts; phase_mode (p,) int the coupled mode
+    (0..m-1) whose frozen-frequency phase error an entry takes, -1 for a real eigenvalue (it
+    does not oscillate); damping (m, m) [1/s] the Ct the bank solves (Ct, or nudged)."""
+
+    NUDGE_CONDITION = 1e6
+    CRITICAL_NUDGE = 5e-11
+    CONDITION_LIMIT = 1e8
 
     def __init__(self, omega, Ct, t=0.0):
+        m = omega.size
+        mu, P, V, condition = self._decompose(omega, Ct, t)
+        self.damping = Ct
+        if condition.max(initial=0.0) > self.NUDGE_CONDITION:
+            # down first: an underdamped pair near critical keeps ~1e-13 (its phase e^{i nu H}
+            # is exact), a real pair loses its exponentials' argument rounding times kappa
+            for sign in (-1.0, 1.0):
+                damping = Ct * (1.0 + sign * self.CRITICAL_NUDGE)
+                mu, P, V, condition = self._decompose(omega, damping, t)
+                self.damping = damping
+                if condition.max(initial=0.0) <= self.NUDGE_CONDITION:
+                    break
+        if not np.all(np.isfinite(condition)) or condition.max(initial=0.0) > self.CONDITION_LIMIT:
+            k = int(np.argmax(np.where(np.isfinite(condition), condition, np.inf)))
+            raise ExponentialError(
+                f"t = {t:.6g} s: the damped modes cannot be diagonalised (eigenvalue "
+                f"{mu[k]:.6g}, condition {condition[k]:.3g} > {self.CONDITION_LIMIT:.0e}): "
+                f"change damping_ratio slightly")
+        self.mu = mu
+
+        def contiguous(a):                                      # (p, m) and (m, p) complex
+            return np.ascontiguousarray(a, dtype=complex)
+        self.P_eta, self.P_vel = contiguous(P[:, :m]), contiguous(P[:, m:])
+        self.V_eta, self.V_vel = contiguous(V[:m]), contiguous(V[m:])
+        # a pair takes the phase of its coupled mode: the same index while every mode is a pair
+        # (sorted alike), else the coupled frequency nearest its undamped one |mu|
+        nearest = (np.arange(m) if mu.size == m else
+                   np.abs(np.abs(mu)[:, None] - omega[None, :]).argmin(axis=1))
+        self.phase_mode = np.where(mu.imag > 0, nearest, -1).astype(np.int64)
+
+    @staticmethod
+    def _decompose(omega, Ct, t):
+        """(mu (p,): the upper members of the pairs by frequency, then the real eigenvalues
+        from the slowest; P (p, 2m), V' (2m, p) complex; the condition numbers (p,)).
+
+        P is the inverse of the real basis B = [2 Re V+, -2 Im V+, V_real] (2m, 2m) of
+        z = Re(V' xi) = B [Re xi; Im xi; xi_real], not rows of V^-1: near critical damping the
+        rows of a numerical V^-1 for lambda and conj(lambda) are conjugate only to rounding
+        times the condition number, and 2 Re(v p z) of the upper one alone would square it."""
         m = omega.size
         A = np.zeros((2 * m, 2 * m))
         A[:m, m:] = np.eye(m)
         A[m:, :m] = -np.diag(omega ** 2)
         A[m:, m:] = -Ct
-        mu, V = scipy.linalg.eig(A)
-        upper = mu.imag > 0
-        if int(upper.sum()) != m:
-            raise ExponentialError(f"t = {t:.6g} s: {2 * m - 2 * int(upper.sum())} coupled "
-                                   f"eigenvalues are real: an overdamped mode, not an oscillator")
-        P = np.linalg.inv(V)[upper]
-        order = np.argsort(mu[upper].imag)
-        self.mu = mu[upper][order]
-        contiguous = np.ascontiguousarray                           # (m, m) complex each
-        self.P_eta, self.P_vel = contiguous(P[order, :m]), contiguous(P[order, m:])
-        self.V_eta, self.V_vel = contiguous(V[:m, upper][:, order]), contiguous(V[m:, upper][:, order])
+        lam, V = scipy.linalg.eig(A)
+        # LAPACK's real eigensolver returns a real matrix's real eigenvalues with imaginary part
+        # exactly 0 and its complex ones in exact conjugate pairs
+        pair = lam.imag > 0
+        real = lam.imag == 0
+        if 2 * int(pair.sum()) + int(real.sum()) != 2 * m:
+            raise ExponentialError(f"t = {t:.6g} s: the damped modes' eigenvalues are not in "
+                                   f"conjugate pairs (a non-finite damping or frequency?)")
+        up = np.flatnonzero(pair)[np.argsort(lam[pair].imag, kind="stable")]
+        re = np.flatnonzero(real)[np.argsort(-lam[real].real, kind="stable")]
+        q = up.size
+        Vp = 2.0 * V[:, up]
+        Binv = np.linalg.inv(np.hstack([Vp.real, -Vp.imag, V[:, re].real]))
+        P = np.vstack([Binv[:q] + 1j * Binv[q:2 * q], Binv[2 * q:]])
+        Vk = np.hstack([Vp, V[:, re].real])
+        condition = np.linalg.norm(Vk, axis=0) * np.linalg.norm(P, axis=1)
+        return np.concatenate([lam[up], lam[re]]), P, Vk, condition
 
 
 @dataclass
@@ -394,8 +469,8 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
 
     mass_matrix: y -> M(y) (n, n); stiffness (n,) Omega^2 [(rad/s)^2] and damping (n,)
     2 zeta Omega [1/s] on the diagonal (zero for the joints).  Raises ExponentialError
-    when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal lock) or a
-    coupled mode is overdamped."""
+    when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal lock) or the
+    damped bank cannot be diagonalised (``CoupledBank``)."""
     y = np.asarray(y, float)
     n = y.size
     M0 = mass_matrix(y)
@@ -436,6 +511,7 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
         Ct = X.T @ (c[j:, None] * X)            # phi_e = [J X; X], c zero on the joints
         Ct = 0.5 * (Ct + Ct.T)
         bank = CoupledBank(om, Ct, t)
+        Ct = bank.damping                       # nudged off critical damping if it had to be
     else:
         bank = DiagonalBank(om, np.zeros_like(om))
     return ModalBasis(y_ref=y_ref, phi=phi, M0=M0, omega=omega, bank=bank, t=float(t),
@@ -630,32 +706,24 @@ class ExponentialAdams:
         self.stats = ExponentialStats()
 
     # -- the arrays shared with the compiled loop
-    def _allocate(self, n, damped, stiff):
+    def _allocate(self, n, damped, stiff, p):
         """The loop's containers (``kernels.pece``: Basis, WeightCache, State, History,
         Evaluation) for n coordinates, m = n - 4 elastic modes; ``damped``: the damped bank's
-        (m, m) matrices are needed, ``stiff``: every stiffness > 0 (no X^-1 is stored)."""
+        matrices are needed, ``stiff``: every stiffness > 0 (no X^-1 is stored); p the bank's
+        eigenvalues (``_allocate_bank``)."""
         j = N_JOINTS
         m = n - j
         square = (m, m)
-        damped_square = square if damped else (0, 0)
         K = max(self.order, 2)                       # the first step's midpoint fit: degree 2
         self.kb = pece.Basis(
             y_ref=np.zeros(n), X=np.zeros(square), YT=np.zeros((0, 0) if stiff else square),
             Ky=np.zeros(m), omega_ref=np.zeros(n), omega=np.zeros(n), omega2=np.zeros(n),
             Lt=np.zeros((j, j)), J=np.zeros((j, m)), Lg=np.zeros((j, n)), rates=np.zeros((j, n)),
-            mu=np.zeros(m, complex), delta=np.zeros(0 if damped else m, complex),
-            P_eta=np.zeros(damped_square, complex), P_vel=np.zeros(damped_square, complex),
-            V_eta=np.zeros(damped_square, complex), V_vel=np.zeros(damped_square, complex),
-            Ct=np.zeros(damped_square), version=np.zeros(1, dtype=np.int64))
-        C = self.options.weight_cache_entries
-        # the cache's entries are read only once filled (keys >= 0): np.empty, no 4 MB of fresh
-        # zero pages to fault in while the loop fills them
-        self.kw = pece.WeightCache(
-            keys=np.full((C, 2), -1, dtype=np.int64), E_re=np.empty((C, m)), E_im=np.empty((C, m)),
-            F_re=np.empty((C, K + 1, m)), F_im=np.empty((C, K + 1, m)), wpos=np.empty((C, K + 1)),
-            wvel=np.empty((C, K + 1)),
-            H=np.empty(C), used=np.array([0, -1, 0], dtype=np.int64), inv_fact=_INV_FACTORIALS,
-            fact=_FACTORIALS, z=np.zeros(m, complex), phis=np.zeros((K + 2, m), complex))
+            mu=None, delta=np.zeros(0 if damped else m, complex), P_eta=None, P_vel=None,
+            V_eta=None, V_vel=None, phase_mode=None, Ct=np.zeros(square if damped else (0, 0)),
+            version=np.zeros(1, dtype=np.int64))
+        self.kw = None
+        self._allocate_bank(p)
         loop = np.zeros(1, dtype=pece.LOOP)
         loop["smallest_step"] = np.inf
         self.kst = pece.State(loop=loop, rate_scales=np.zeros(j), phase=np.zeros(m), kappa=np.zeros(m),
@@ -667,6 +735,30 @@ class ExponentialAdams:
                                  a=np.zeros((H, n)), g=np.zeros((H, n)),
                                  length=np.zeros(1, dtype=np.int64))
         self.ev = pece.Evaluation(t=np.zeros(1), y=np.zeros(n), yd=np.zeros(n), a=np.zeros(n))
+
+    def _allocate_bank(self, p):
+        """The bank's arrays of the loop's Basis and the weight cache for p eigenvalues (p = m
+        undamped and underdamped; a damped basis with overdamped modes has more, and the next
+        basis may have another count: then they are allocated again, the cache emptied)."""
+        kb = self.kb
+        m = kb.X.shape[0]
+        damped = kb.Ct.shape[0] > 0
+        rows, cols = ((p, m), (m, p)) if damped else ((0, 0), (0, 0))
+        self.kb = kb._replace(mu=np.zeros(p, complex), P_eta=np.zeros(rows, complex),
+                              P_vel=np.zeros(rows, complex), V_eta=np.zeros(cols, complex),
+                              V_vel=np.zeros(cols, complex),
+                              phase_mode=np.zeros(p if damped else 0, dtype=np.int64))
+        K = max(self.order, 2)                       # the first step's midpoint fit: degree 2
+        C = self.options.weight_cache_entries
+        computed = 0 if self.kw is None else int(self.kw.used[2])
+        # the cache's entries are read only once filled (keys >= 0): np.empty, no 4 MB of fresh
+        # zero pages to fault in while the loop fills them
+        self.kw = pece.WeightCache(
+            keys=np.full((C, 2), -1, dtype=np.int64), E_re=np.empty((C, p)), E_im=np.empty((C, p)),
+            F_re=np.empty((C, K + 1, p)), F_im=np.empty((C, K + 1, p)), wpos=np.empty((C, K + 1)),
+            wvel=np.empty((C, K + 1)),
+            H=np.empty(C), used=np.array([0, -1, computed], dtype=np.int64), inv_fact=_INV_FACTORIALS,
+            fact=_FACTORIALS, z=np.zeros(p, complex), phis=np.zeros((K + 2, p), complex))
 
     def _load_basis(self):
         """Copy the current ``ModalBasis`` into the loop's Basis arrays (in place) and count
@@ -686,7 +778,7 @@ class ExponentialAdams:
         kb.rates[:] = b.phi[:j]
         if kb.Ct.size:
             kb.Ct[:] = b.damping_matrix
-            for name in ("P_eta", "P_vel", "V_eta", "V_vel"):
+            for name in ("P_eta", "P_vel", "V_eta", "V_vel", "phase_mode"):
                 getattr(kb, name)[:] = getattr(b.bank, name)
         self._load_frequencies()
 
@@ -712,9 +804,12 @@ class ExponentialAdams:
         p = self.problem
         old = getattr(self, "basis", None)
         self.basis = linearise(p.mass_matrix, p.stiffness_diagonal, p.damping_diagonal, y, t)
+        p = self.basis.bank.mu.size
         if old is None:
             b = self.basis
-            self._allocate(np.asarray(y).size, b.damping_matrix is not None, b.YT is None)
+            self._allocate(np.asarray(y).size, b.damping_matrix is not None, b.YT is None, p)
+        elif p != self.kb.mu.size:
+            self._allocate_bank(p)
         self._load_basis()
         self._phase_start(old)
         self.stats.basis_time += time.perf_counter() - t0
@@ -805,16 +900,17 @@ class ExponentialAdams:
                 ("evaluate_accepted", fixed or o.evaluate_accepted)):
             settings[name] = value
         outputs = pece.Outputs(self.out_eta, self.out_etad, self.out_segment)
-        self._drive((self.kb, self.kw, settings, st, self.hist, self.ev, outputs, self.work))
+        self._drive(settings, outputs)
         return self._result()
 
-    def _drive(self, arguments):
-        """Call the compiled loop (``kernels.pece.pece_run(*arguments)``) and answer its
-        requests until it is done."""
+    def _drive(self, settings, outputs):
+        """Call the compiled loop (``kernels.pece.pece_run``) and answer its requests until it
+        is done (the basis and weight containers are read on every call: a new basis may have
+        reallocated them)."""
         ev, st, rhs = self.ev, self.kst, self.problem.rhs
         loop = st.loop[0]
         while True:
-            request = pece.pece_run(*arguments)
+            request = pece.pece_run(self.kb, self.kw, settings, st, self.hist, ev, outputs, self.work)
             if request == pece.DONE:
                 break
             if request == pece.NEED_RHS:

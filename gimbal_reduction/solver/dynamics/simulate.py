@@ -331,8 +331,8 @@ def main(argv=None):
         print(f"simulate: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     except exponential.ExponentialError as exc:
-        # the default integrator stops where it cannot go on (an overdamped coupled mode, a step
-        # falling to nothing): one line, with the scene and the integrators that run any scene
+        # the default integrator stops where it cannot go on (a damped bank it cannot diagonalise,
+        # a step falling to nothing): one line, with the scene and the integrators that run any scene
         print(f"simulate: {' '.join(str(exc).split())} (scene {scene.name}, damping_ratio "
               f"{scene.damping_ratio:g}; --integrator dop853 or rk4 runs it)", file=sys.stderr)
         return 2

@@ -44,12 +44,18 @@ def _allow_runtime_alias_checks(limit=16):
 
 _allow_runtime_alias_checks()
 
-# LLVM optimisation level of the kernels: -O2, not Numba's default -O3.  Measured
-# (cold cache, the workflow's warm-up: gimbal_reduction.solver.dynamics.warmup): 118 CPU-s to compile at 2
-# against 176 at 3; the same run times (alternating processes, CPU time: thesis truth run
-# 57-63 ms at both, right-hand side of the truth 42-46 us at both, freq-10 run 9-11 ms).
-# A NUMBA_OPT given by the user wins.  Set on import, before the first compilation.
-OPT_LEVEL = 2
+# LLVM optimisation level of the kernels: -O1, not Numba's default -O3.  Measured (cold cache,
+# the workflow's warm-up: gimbal_reduction.solver.dynamics.warmup, CPU time): 118 CPU-s at 2
+# against 176 at 3 (quiet machine); 89.5 at 1 against 105.8 at 2 (one run each, load 13-16);
+# the same run times at 1 and 2 (alternating processes, CPU time: right-hand side of a
+# 100-modes-per-body synthetic chain 40-42 against 42-48 us, its thesis run 38-52 against
+# 40-42 ms).  A NUMBA_OPT given by the user wins.  Set on import, before the first compilation.
+#
+# Flags passed as constants are wrapped, bool(True), int(0): Numba compiles a callee once per
+# literal value of a constant argument, and the recursion's passes (forward, backward, joint)
+# were compiled twice, once per value of has_acc or lin_given; a wrapped constant is a plain
+# bool or int, one compilation with the branch at run time (the same run times, measured).
+OPT_LEVEL = 1
 if "NUMBA_OPT" not in os.environ:
     numba.config.OPT = numba.core.config._process_opt_level(str(OPT_LEVEL))
 

@@ -347,7 +347,7 @@ def project_all(y, yd, ydd, has_acc, ch, pq_given, Pq, Pqd, Pqdd):
 @numba.njit(**FAST, inline="always")
 def projections(y, yd, ydd, has_acc, ch):
     """Pq, Pqd (4, 27), Pqdd (4, 12): every body's ``project``, in new arrays."""
-    return project_all(y, yd, ydd, has_acc, ch, False, np.zeros((4, 27)),
+    return project_all(y, yd, ydd, has_acc, ch, bool(False), np.zeros((4, 27)),
                        np.zeros((4, 27)), np.zeros((4, 12)))
 
 
@@ -404,6 +404,6 @@ def linear_data(y, yd, ch):
             s = 4 + off[k]
             b0 = 3 * off[k]
             rows_combine(G[k], 0, 3 * Dk, y[s:s + Dk], Dk, LIN[b0:b0 + 3 * Dk])
-    project_all(y, yd, y, False, ch, False, LIN[3 * S:].reshape((4, 27)), Pqd, np.zeros((4, 12)))
+    project_all(y, yd, y, bool(False), ch, bool(False), LIN[3 * S:].reshape((4, 27)), Pqd, np.zeros((4, 12)))
     return LIN, Pqd
 

@@ -148,8 +148,11 @@ class Basis(NamedTuple):
     (n,) = omega^2 (Lambda); Lt (4, 4) L^-T; J (4, m) the joints' motion per modal motion;
     Lg (4, n) L^-1 M0[:4]; rates (4, n) = phi[:4], the gimbal rows of phi.
     The elastic oscillators: undamped bank mu, delta (m,) complex (xi = (eta' - conj(mu) eta)
-    / delta); damped (``CoupledBank``) mu (m,) and P_eta, P_vel, V_eta, V_vel (m, m) complex,
-    Ct (m, m) [1/s] the modal damping (all (0, 0) undamped; delta of size 0 damped).
+    / delta); damped (``CoupledBank``, any damping) mu (p,) (p >= m: a pair per underdamped
+    mode, two real eigenvalues per overdamped one), P_eta, P_vel (p, m) and V_eta, V_vel (m, p)
+    complex (V scaled: z = Re(V xi)), phase_mode (p,) int (the coupled mode whose phase error
+    an entry takes, -1 none), Ct (m, m) [1/s] the modal damping (all size 0 undamped; delta of
+    size 0 damped).
     version (1,) int: counted up by Python on every change (the loop then clears its weight
     cache)."""
     y_ref: np.ndarray
@@ -169,6 +172,7 @@ class Basis(NamedTuple):
     P_vel: np.ndarray
     V_eta: np.ndarray
     V_vel: np.ndarray
+    phase_mode: np.ndarray
     Ct: np.ndarray
     version: np.ndarray
 
@@ -317,20 +321,20 @@ def add_linear_terms(omega2, Ct, eta, etad, g):
 def coupled_advance(P_eta, P_vel, V_eta, V_vel, eta, etad, coef, theta_pow, E_re, E_im, W_re, W_im,
                     wpos, wvel, H, out_eta, out_etad):
     """The damped bank's advance (``exponential.CoupledBank``; the undamped one is
-    ``kernels.exponential.advance_diagonal``): xi = P+ [eta; eta'] (m,) complex,
-    xi <- E xi + sum_r W_r (P_vel theta^r c_r), (eta, eta') = 2 Re(V+ xi); the joints as in
-    ``advance_diagonal``.  P_eta, P_vel, V_eta, V_vel (m, m) complex; E, W (real and imaginary
-    parts, (m,) and (>= kk, m)) the weights of ``fill_weights``."""
+    ``kernels.exponential.advance_diagonal``): xi = P [eta; eta'] (p,) complex,
+    xi <- E xi + sum_r W_r (P_vel theta^r c_r), (eta, eta') = Re(V xi); the joints as in
+    ``advance_diagonal``.  P_eta, P_vel (p, m), V_eta, V_vel (m, p) complex; E, W (real and
+    imaginary parts, (p,) and (>= kk, p)) the weights of ``fill_weights``."""
     j = N_JOINTS
     kk = coef.shape[0]
-    nm = eta.shape[0] - j
-    xi = (E_re + 1j * E_im) * (np.dot(P_eta, eta[j:].astype(np.complex128))
-                               + np.dot(P_vel, etad[j:].astype(np.complex128)))
+    p = P_eta.shape[0]
+    xi = (E_re[:p] + 1j * E_im[:p]) * (np.dot(P_eta, eta[j:].astype(np.complex128))
+                                       + np.dot(P_vel, etad[j:].astype(np.complex128)))
     for r in range(kk):
         xi += np.dot(P_vel, (coef[r, j:] * theta_pow[r]).astype(np.complex128)) \
-            * (W_re[r, :nm] + 1j * W_im[r, :nm])
-    out_eta[j:] = 2.0 * np.dot(V_eta, xi).real
-    out_etad[j:] = 2.0 * np.dot(V_vel, xi).real
+            * (W_re[r, :p] + 1j * W_im[r, :p])
+    out_eta[j:] = np.dot(V_eta, xi).real
+    out_etad[j:] = np.dot(V_vel, xi).real
     for a in range(j):
         p = eta[a] + H * etad[a]
         v = etad[a]
@@ -342,16 +346,21 @@ def coupled_advance(P_eta, P_vel, V_eta, V_vel, eta, etad, coef, theta_pow, E_re
 
 
 @numba.njit(**JIT)
-def phase_shift(mu, delta, P_eta, P_vel, V_eta, V_vel, phase, eta_e, etad_e, d_eta, d_etad):
+def phase_shift(mu, delta, P_eta, P_vel, V_eta, V_vel, phase_mode, phase, eta_e, etad_e, d_eta,
+                d_etad):
     """(d_eta, d_etad) (m,): the change of the elastic state (eta_e, etad_e) (m,) when mode i's
     complex coordinate turns by the phase phase_i [rad], xi_i -> xi_i + i phase_i xi_i: the
     undamped bank's (P_eta of size 0) xi = (eta' - conj(mu) eta) / delta, eta = 2 Re xi,
-    eta' = 2 Re(mu xi); the damped bank's through its eigenvectors."""
+    eta' = 2 Re(mu xi); the damped bank's through its eigenvectors, entry k turning by the
+    phase of mode phase_mode[k] (none for -1: a real eigenvalue)."""
     if P_eta.shape[0]:
-        dxi = 1j * phase * (np.dot(P_eta, eta_e.astype(np.complex128))
-                            + np.dot(P_vel, etad_e.astype(np.complex128)))
-        d_eta[:] = 2.0 * np.dot(V_eta, dxi).real
-        d_etad[:] = 2.0 * np.dot(V_vel, dxi).real
+        xi = np.dot(P_eta, eta_e.astype(np.complex128)) + np.dot(P_vel, etad_e.astype(np.complex128))
+        dxi = np.zeros(xi.shape[0], dtype=np.complex128)
+        for k in range(xi.shape[0]):
+            if phase_mode[k] >= 0:
+                dxi[k] = 1j * phase[phase_mode[k]] * xi[k]
+        d_eta[:] = np.dot(V_eta, dxi).real
+        d_etad[:] = np.dot(V_vel, dxi).real
         return
     for i in range(mu.shape[0]):
         xi = (etad_e[i] - np.conj(mu[i]) * eta_e[i]) / delta[i]
@@ -481,8 +490,8 @@ def phase_error(b, st, rate_floor, eta, etad, h, drift0, drift1):
     st.phase[:] += st.kappa * w * 0.5 * (drift0 + drift1) * h
     d_eta = np.empty(nm)
     d_etad = np.empty(nm)
-    phase_shift(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, st.phase, eta[j:], etad[j:],
-                d_eta, d_etad)
+    phase_shift(b.mu, b.delta, b.P_eta, b.P_vel, b.V_eta, b.V_vel, b.phase_mode, st.phase, eta[j:],
+                etad[j:], d_eta, d_etad)
     e_scale = max(st.loop[0].energy_scale, 1e-300)
     energy = math.sqrt(np.dot(d_etad, d_etad) + np.dot((w * d_eta) ** 2, np.ones(nm)))
     floor = rate_floor * max(st.loop[0].rate_scale, 1e-300)

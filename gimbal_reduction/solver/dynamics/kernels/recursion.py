@@ -164,8 +164,8 @@ def kinematics(y, yd, ydd, w1, dw1, ch, fr):
     """Forward pass, in place: joint poses fr.R (4,3,3), fr.p (4,3), the rotation part
     fr.Lw (4,3,3) of each joint map L = [R^T Psi; Lw Theta] of the parent's modes,
     body twists fr.W (4,6) and their rates fr.DW (4,6) at accelerations ydd."""
-    Pq, Pqd, Pqdd = projections(y, yd, ydd, True, ch)
-    forward(y, yd, ydd, True, w1, dw1, ch, Pq, Pqd, Pqdd, fr)
+    Pq, Pqd, Pqdd = projections(y, yd, ydd, bool(True), ch)
+    forward(y, yd, ydd, bool(True), w1, dw1, ch, Pq, Pqd, Pqdd, fr)
 
 
 # ------------------------------------------------------------------ inverse dynamics
@@ -322,8 +322,8 @@ def inverse_dynamics(y, yd, ydd, w1, dw1, ch):
     S = ch.V.shape[1]
     out = np.zeros(4 + S)
     fr = new_frames(S)
-    F0 = inverse_dynamics_into(y, yd, ydd, True, w1, dw1, ch, out, fr,
-                               np.zeros(3 * S + 108), False, np.zeros(3 * S + 108))
+    F0 = inverse_dynamics_into(y, yd, ydd, bool(True), w1, dw1, ch, out, fr,
+                               np.zeros(3 * S + 108), bool(False), np.zeros(3 * S + 108))
     return out, fr, F0
 
 
@@ -526,7 +526,7 @@ def accelerations_lin(y, yd, w1, dw1, tau, LIN, lin_given, LIND, ch):
     S = n - 4
     c = np.zeros(n)
     fr = new_frames(S)
-    inverse_dynamics_into(y, yd, y, False, w1, dw1, ch, c, fr, LIN, lin_given, LIND)
+    inverse_dynamics_into(y, yd, y, bool(False), w1, dw1, ch, c, fr, LIN, lin_given, LIND)
     for i in range(n):
         c[i] = -c[i]
     for j in range(4):
@@ -538,7 +538,7 @@ def accelerations_lin(y, yd, w1, dw1, tau, LIN, lin_given, LIND, ch):
 def accelerations(y, yd, w1, dw1, tau, ch):
     """y'' = M(y)^-1 (tau - c(y, y', t))."""
     S = y.shape[0] - 4
-    return accelerations_lin(y, yd, w1, dw1, tau, np.zeros(3 * S + 108), False,
+    return accelerations_lin(y, yd, w1, dw1, tau, np.zeros(3 * S + 108), bool(False),
                              np.zeros(3 * S + 108), ch)
 
 
@@ -549,8 +549,8 @@ def kinetic_energy_lin(y, yd, w1, LIN, Pqd, ch):
     D, off, M6 = ch.D, ch.off, ch.M6
     S3 = LIN.shape[0] - 108
     Pq = LIN[S3:].reshape((4, 27))
-    fr = new_frames(0)                        # (twists only; no HB needed)
-    forward(y, yd, y, False, w1, np.zeros(6), ch, Pq, Pqd, np.zeros((4, 12)), fr)
+    fr = new_frames(int(0))                   # (twists only; no HB needed)
+    forward(y, yd, y, bool(False), w1, np.zeros(6), ch, Pq, Pqd, np.zeros((4, 12)), fr)
     W = fr.W
     T = 0.0
     Mx = np.empty((6, 6))
@@ -592,7 +592,7 @@ def case_power_lin(y, yd, ydd, w1, dw1, LIN, ch):
     S = n - 4
     out = np.zeros(n)
     fr = new_frames(S)
-    F0 = inverse_dynamics_into(y, yd, ydd, True, w1, dw1, ch, out, fr, LIN, True,
+    F0 = inverse_dynamics_into(y, yd, ydd, bool(True), w1, dw1, ch, out, fr, LIN, bool(True),
                                np.zeros(3 * S + 108))
     return np.dot(adinv(fr.R[0], fr.p[0], w1), F0)
 
