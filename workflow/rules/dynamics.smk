@@ -99,13 +99,12 @@ rule dynamics_verification:
         "logs/sim/verification.log",
     benchmark:
         "results/benchmarks/rules/dynamics_verification.tsv"
-    # both cores: its wall times are the issue-4 benchmark, so no other job runs beside it
-    # (BLAS still pinned to one thread, as everywhere)
-    threads: 2
+    threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
         # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
         mem_mb=2000,
         runtime=60,
+        **TIMING_RESOURCES,
     params:
         code=code_hash("verify-dynamics"),
         cfg=body_files_hash,  # the input files are checked against the config
@@ -128,3 +127,14 @@ rule dynamics:
         # when the DAG is built (its model names are checked against the config's mode count)
         lambda wildcards: scene_simulations("thesis"),
         "results/verification/dynamics.json",
+
+
+# `all`'s version (results/all/): the same checks and timings (bench.smk, "`all`'s versions")
+use rule dynamics_verification as dynamics_verification_all with:
+    output:
+        verification="results/all/verification/dynamics.json",
+        benchmark="results/all/benchmarks/dynamics.json",
+    log:
+        "logs/all/dynamics_verification.log",
+    benchmark:
+        "results/benchmarks/rules/all/dynamics_verification.tsv"

@@ -2,8 +2,8 @@
 # long), its error tables, findings, figures and PDF reports (one per scene, and the study's).
 #   snakemake --cores 2 study     every scene's simulations
 #   snakemake --cores 2 report    the study PDF and one PDF per scene
-# The study's heavy checks and timing repeats are not inputs of the reports: the reports read their
-# last results (bench, verify) if present and print their date, or say how to make them.
+# Every check is an input of the reports in `all`'s version; the extended versions of `verify` and
+# `bench` are shown instead where made (REPORT_OPTIONAL below).
 # Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 _cases = importlib.import_module("gimbal_reduction.results.study.cases")
@@ -177,8 +177,9 @@ rule study_figures:
         "> {log} 2>&1"
 
 
-# What the reports show from the `bench` and `verify` targets: read if present (with their date),
-# never built for the report (they are minutes of timing repeats and fine meshes).
+# What the reports show of the checks (verification, benchmarks): `all` builds each in its cheap version
+# (results/all/..., all_version) as an input of the reports; a report shows the extended version that
+# `verify` or `bench` made (the paths here) instead where it exists, with its date (shown_version).
 REPORT_OPTIONAL = {
     "stability": "results/stability/stability.json",
     "pareto": "results/benchmarks/pareto.csv",
@@ -212,6 +213,8 @@ rule report_scene:
         modes="results/benchmarks/modes.json",
         reduction="results/verification/reduction.json",
         coupled="results/study/{scene}/coupled_modes.json",
+        checks=[all_version(p) for p in [*REPORT_OPTIONAL.values(), *REPORT_BENCH_FIGURES]],
+        extended=extended_report_inputs,
     output:
         report(
             "results/report/{scene}.pdf",
@@ -233,7 +236,7 @@ rule report_scene:
         code=code_hash("scene-report"),
         cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
         optional=optional_report_inputs,
-        bench_figures=" ".join(REPORT_BENCH_FIGURES),
+        bench_figures=report_bench_figures,
     shell:
         "{GIMBAL} scene-report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures {input.figures} --fe {input.fe} "
@@ -263,6 +266,15 @@ rule study_report:
         reduction="results/verification/reduction.json",
         mode_ranking="results/tables/ranking.csv",
         truth_basis="results/verification/truth_basis.json",
+        checks=[
+            all_version(p)
+            for p in [*REPORT_OPTIONAL.values(), "results/benchmarks/tolerance.json"]
+        ],
+        extended=lambda wildcards: [
+            p
+            for p in [*REPORT_OPTIONAL.values(), "results/benchmarks/tolerance.json"]
+            if os.path.exists(p)
+        ],
     output:
         report(
             "results/report/report.pdf",
@@ -279,7 +291,8 @@ rule study_report:
         runtime=runtime_min(1.5),
     params:
         code=code_hash("study-report"),
-        optional=lambda wildcards: f"{optional_report_inputs(wildcards)} --tolerance {rules.tolerance.output.json}",
+        optional=lambda wildcards: f"{optional_report_inputs(wildcards)} --tolerance "
+        f"{shown_version(rules.tolerance.output.json)}",
     shell:
         "{GIMBAL} study-report --scenes {input.scenes} --ranking-tables {input.rankings} "
         "--static-tables {input.statics} --findings {input.findings} --figures {input.figures} "
