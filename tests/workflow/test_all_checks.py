@@ -74,7 +74,7 @@ def test_timing_rules_take_every_core_and_a_node_of_their_own(workflow):
 
 
 def test_a_dry_run_gives_a_timing_job_every_core():
-    run = subprocess.run([sys.executable, "-m", "snakemake", "--cores", str(CORES), "--dry-run", "--forceall",
+    run = subprocess.run([sys.executable, "-m", "snakemake", "--cores", str(CORES), "--dry-run", "--nolock", "--forceall",
                           "results/all/benchmarks/scaling.json"], cwd=ROOT, capture_output=True, text=True,
                          timeout=600, env={**os.environ, "PYTHONWARNINGS": "ignore"})
     assert run.returncode == 0, run.stderr[-2000:]
