@@ -34,13 +34,13 @@ def test_a_converged_reference_is_read(tmp_path):
 
 
 def test_the_exponential_integrator_far_tighter_than_the_scene_is_a_reference(tmp_path):
-    """The faster route: exponential at the scene's tolerance / EXPONENTIAL_REFERENCE_FACTOR (1e-8
-    for a scene run at 1e-5) is a reference; at 1e-7 (only 100 times tighter) it is refused, and
+    """The faster route: exponential at the scene's tolerance / EXPONENTIAL_REFERENCE_FACTOR (1e-7
+    for a scene run at 1e-5) is a reference; at 1e-6 (only 10 times tighter) it is refused, and
     without the scene's tolerance (an --anchor must be DOP853) always."""
-    assert ea.EXPONENTIAL_REFERENCE_FACTOR == 1000.0
-    tight = write_reference(tmp_path / "e.h5", integrator="exponential", stat_exponential_tol=1e-8)
-    assert ea.read_reference("thesis", tight, "abc", scene_tol=1e-5)[2] == "exponential tol 1e-08"
-    loose = write_reference(tmp_path / "l.h5", integrator="exponential", stat_exponential_tol=1e-7)
+    assert ea.EXPONENTIAL_REFERENCE_FACTOR == 100.0
+    tight = write_reference(tmp_path / "e.h5", integrator="exponential", stat_exponential_tol=1e-7)
+    assert ea.read_reference("thesis", tight, "abc", scene_tol=1e-5)[2] == "exponential tol 1e-07"
+    loose = write_reference(tmp_path / "l.h5", integrator="exponential", stat_exponential_tol=1e-6)
     for path, scene_tol in ((loose, 1e-5), (tight, None)):
         with pytest.raises(ea.AccuracyInputError) as exc:
             ea.read_reference("thesis", path, "abc", scene_tol=scene_tol)
@@ -74,7 +74,7 @@ def test_markdown_has_a_row_per_scene():
     assert text.count("\n| thesis |") + text.count("| thesis |") >= 1
     assert len(text.strip().splitlines()) == 4
     anchored = ea.markdown([{"scene": "thesis", "default": case, "tight": case}],
-                           [{"scene": "thesis", "reference": "exponential tol 1e-08",
+                           [{"scene": "thesis", "reference": "exponential tol 1e-07",
                              "anchor": "dop853 rtol 1e-10", "E_max": 2e-10}])
     assert "against DOP853 (dop853 rtol 1e-10): E max 2.00e-10" in anchored
 

@@ -360,7 +360,7 @@ rule bench:
 # DOP853 reference of the short scene ALL_ANCHOR_SCENES (rule reference_simulation, ~1 min of one
 # core) by exponential_accuracy_all (--anchor: E <= 1e-9). The DOP853 reference of thesis also
 # referees the Pareto benchmark, as in `bench`.
-ALL_REFERENCE_FACTOR = 1000  # as gimbal_reduction.results.bench.exponential_accuracy.EXPONENTIAL_REFERENCE_FACTOR
+ALL_REFERENCE_FACTOR = 100  # as gimbal_reduction.results.bench.exponential_accuracy.EXPONENTIAL_REFERENCE_FACTOR
 ALL_ANCHOR_SCENES = ["thesis"]
 ALL_ACCURACY_SCENES = ACCURACY_SCENES + ["long"]
 ALL_EXPONENTIAL_SCENES = ["thesis", "stress_rates_10", "long"]

@@ -275,7 +275,7 @@ def methods_section(ctx) -> str:
            "Floating frames with exact large rotations, integrated by the modal exponential "
            "integrator (exact harmonic solution of the linearised chain's modes; E below 1e-8 against a "
            "converged reference on every verified scene: DOP853 at rtol 1e-10, or the exponential "
-           "integrator 1000 times tighter, itself checked against DOP853; Verification). *Errors.* E of eq. 3.53 "
+           "integrator 100 times tighter, itself checked against DOP853; Verification). *Errors.* E of eq. 3.53 "
            "per gimbal rate against the truth on the same scene, and the stable platform's attitude "
            "error: the angle between the model's and the truth's platform frame (case motion "
            "prescribed, so it is the inertial attitude error), largest over the window, in arcsec.\n\n"]
