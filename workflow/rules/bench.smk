@@ -76,10 +76,10 @@ rule scaling:
         "results/benchmarks/rules/bench/scaling.tsv"
     threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record: estimate, 2 GB (up to 8000 coordinates, dense baseline) and 1 h
         mem_mb=2000,
         runtime=60,
-        **TIMING_RESOURCES,
     params:
         code=code_hash("scaling"),
     shell:
@@ -105,10 +105,10 @@ rule pareto:
         "results/benchmarks/rules/bench/pareto.tsv"
     threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record: ~2 min per model and ~5 min for the truth (comment above): 13 min, so 30 min
         mem_mb=mem_mb(780.5),
         runtime=30,
-        **TIMING_RESOURCES,
     params:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
         code=code_hash("pareto"),
@@ -193,10 +193,10 @@ rule exponential_bench:
         "results/benchmarks/rules/bench/exponential.tsv"
     threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record: ~3 + 2.5 + 1 min (comment above EXPONENTIAL_MODELS), so 15 min; memory as simulate
         mem_mb=mem_mb(780.5),
         runtime=15,
-        **TIMING_RESOURCES,
     params:
         references=reference_arguments,
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
@@ -323,12 +323,12 @@ rule tolerance:
         "results/benchmarks/rules/bench/tolerance.tsv"
     threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record (run outside Snakemake): the same command run directly in this session on a
         # loaded 2-core machine, /usr/bin/time -v: 1147 s wall, 1035.4 MB peak (long's and spin's
         # verified searches 2/3 of it)
         mem_mb=mem_mb(1035.4),
         runtime=runtime_min(1147.0),
-        **TIMING_RESOURCES,
     params:
         eps=" ".join(f"{e:g}" for e in TOLERANCE_EPS),
         code=code_hash("tolerance"),
@@ -402,7 +402,9 @@ rule reference_exponential:
 rule exponential_accuracy_all:
     input:
         truth_model="results/models/thesis/truth.h5",
-        references=expand("results/all/reference/{scene}/truth.h5", scene=ALL_ACCURACY_SCENES),
+        references=expand(
+            "results/all/reference/{scene}/truth.h5", scene=ALL_ACCURACY_SCENES
+        ),
         anchors=expand("results/reference/{scene}/truth.h5", scene=ALL_ANCHOR_SCENES),
     output:
         json="results/all/verification/exponential.json",
@@ -429,7 +431,9 @@ rule exponential_accuracy_all:
 rule exponential_bench_all:
     input:
         truth_model="results/models/thesis/truth.h5",
-        references=expand("results/all/reference/{scene}/truth.h5", scene=ALL_EXPONENTIAL_SCENES),
+        references=expand(
+            "results/all/reference/{scene}/truth.h5", scene=ALL_EXPONENTIAL_SCENES
+        ),
         models=expand("results/models/thesis/{model}.h5", model=EXPONENTIAL_MODELS),
     output:
         json="results/all/benchmarks/exponential.json",
@@ -441,9 +445,9 @@ rule exponential_bench_all:
         "results/benchmarks/rules/all/exponential.tsv"
     threads: TIMING_CORES
     resources:
+        **TIMING_RESOURCES,
         mem_mb=mem_mb(780.5),
         runtime=15,
-        **TIMING_RESOURCES,
     params:
         references=lambda wildcards, input: scene_file_arguments(input.references),
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
@@ -475,9 +479,9 @@ rule pareto_all:
         "results/benchmarks/rules/all/pareto.tsv"
     threads: TIMING_CORES
     resources:
+        **TIMING_RESOURCES,
         mem_mb=mem_mb(780.5),
         runtime=30,
-        **TIMING_RESOURCES,
     params:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
         budget=ALL_CASE_BUDGET_S,
@@ -501,9 +505,9 @@ rule scaling_all:
         "results/benchmarks/rules/all/scaling.tsv"
     threads: TIMING_CORES
     resources:
+        **TIMING_RESOURCES,
         mem_mb=2000,
         runtime=10,
-        **TIMING_RESOURCES,
     params:
         code=code_hash("scaling"),
     shell:
@@ -541,7 +545,8 @@ rule stability_all:
 ALL_SELECTION_MODELS = [
     m
     for m in SELECTION_MODELS
-    if m in importlib.import_module("gimbal_reduction.results.study.cases").study_models()
+    if m
+    in importlib.import_module("gimbal_reduction.results.study.cases").study_models()
 ]
 
 
@@ -581,7 +586,9 @@ ALL_INTEGRATOR_TABLE_MODELS = [
 use rule integrator_tables as integrator_tables_all with:
     input:
         truth_model="results/models/thesis/truth.h5",
-        models=expand("results/models/thesis/{model}.h5", model=ALL_INTEGRATOR_TABLE_MODELS),
+        models=expand(
+            "results/models/thesis/{model}.h5", model=ALL_INTEGRATOR_TABLE_MODELS
+        ),
     output:
         json="results/all/benchmarks/integrator_tables.json",
         csv="results/all/benchmarks/integrator_tables.csv",
@@ -601,8 +608,12 @@ rule tolerance_all:
         scenes=[scene_path(s) for s in TOLERANCE_SCENES],
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
-        load_rankings=expand("results/reduction/load/{scene}.h5", scene=TOLERANCE_SCENES),
-        tables=expand("results/tables/{scene}/errors_ranking.csv", scene=TOLERANCE_TABLE_SCENES),
+        load_rankings=expand(
+            "results/reduction/load/{scene}.h5", scene=TOLERANCE_SCENES
+        ),
+        tables=expand(
+            "results/tables/{scene}/errors_ranking.csv", scene=TOLERANCE_TABLE_SCENES
+        ),
         kernels=ancient(KERNELS),
     output:
         csv="results/all/benchmarks/tolerance.csv",
@@ -615,9 +626,9 @@ rule tolerance_all:
         "results/benchmarks/rules/all/tolerance.tsv"
     threads: TIMING_CORES
     resources:
+        **TIMING_RESOURCES,
         mem_mb=mem_mb(1035.4),
         runtime=runtime_min(1147.0),
-        **TIMING_RESOURCES,
     params:
         eps=" ".join(f"{e:g}" for e in ALL_TOLERANCE_EPS),
         budget=ALL_CASE_BUDGET_S,

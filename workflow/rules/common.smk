@@ -283,12 +283,17 @@ def shown_version(path):
 
 def extended_report_inputs(wildcards):
     """The extended versions made so far: inputs of the reports, so that a new one reruns them."""
-    return [p for p in [*REPORT_OPTIONAL.values(), *REPORT_BENCH_FIGURES] if os.path.exists(p)]
+    return [
+        p
+        for p in [*REPORT_OPTIONAL.values(), *REPORT_BENCH_FIGURES]
+        if os.path.exists(p)
+    ]
 
 
 def optional_report_inputs(wildcards):
     return " ".join(
-        f"--{k.replace('_', '-')} {shown_version(v)}" for k, v in REPORT_OPTIONAL.items()
+        f"--{k.replace('_', '-')} {shown_version(v)}"
+        for k, v in REPORT_OPTIONAL.items()
     )
 
 

@@ -101,10 +101,10 @@ rule dynamics_verification:
         "results/benchmarks/rules/dynamics_verification.tsv"
     threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
         mem_mb=2000,
         runtime=60,
-        **TIMING_RESOURCES,
     params:
         code=code_hash("verify-dynamics"),
         cfg=body_files_hash,  # the input files are checked against the config
@@ -144,9 +144,9 @@ rule dynamics_verification_all:
         "results/benchmarks/rules/all/dynamics_verification.tsv"
     threads: TIMING_CORES
     resources:
+        **TIMING_RESOURCES,
         mem_mb=2000,
         runtime=60,
-        **TIMING_RESOURCES,
     params:
         budget=ALL_CASE_BUDGET_S,
         code=code_hash("verify-dynamics"),

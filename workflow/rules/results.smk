@@ -213,7 +213,9 @@ rule report_scene:
         modes="results/benchmarks/modes.json",
         reduction="results/verification/reduction.json",
         coupled="results/study/{scene}/coupled_modes.json",
-        checks=[all_version(p) for p in [*REPORT_OPTIONAL.values(), *REPORT_BENCH_FIGURES]],
+        checks=[
+            all_version(p) for p in [*REPORT_OPTIONAL.values(), *REPORT_BENCH_FIGURES]
+        ],
         extended=extended_report_inputs,
     output:
         report(
