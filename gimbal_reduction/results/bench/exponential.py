@@ -383,7 +383,8 @@ def _comparison_row(comparison, key="dop853_speedup"):
               + ("" if better else ": DOP853 less accurate, not at equal E"))
     measured = (f"{comparison['speedup']:.3g}× integration (without the initial basis), "
                 f"{comparison['speedup_end_to_end']:.3g}× end to end (from the file read, the initial basis "
-                f"in) (medians of {comparison['runs']} alternating runs each: "
+                f"in) (medians of {comparison['runs']} alternating runs"
+                f"{'' if comparison.get('dop853_runs', comparison['runs']) == comparison['runs'] else f', DOP853 in the first ' + str(comparison['dop853_runs'])}: "
                 f"{format_seconds(comparison['dop853_integration_median_s'])} vs "
                 f"{format_seconds(comparison['exponential_integration_median_s'])} integration, "
                 f"{format_seconds(comparison['dop853_end_to_end_median_s'])} vs "
