@@ -10,11 +10,13 @@
 #   snakemake --cores 2 results/sim/thesis/freq-10.h5   any scene and reduced model, on request
 #   snakemake --cores 2 study      every study scene (thesis, damped, smooth, long): truth + every case
 #   snakemake --cores 2 report     error tables, findings, figures; results/report/{scene}.pdf, report.pdf
-#   snakemake --cores 2 verify     the heavy checks: FE on fine meshes and under MPI, the dynamics against
-#                                  its oracle, the exponential integrator against converged DOP853
-#   snakemake --cores 2 bench      run time vs error (Pareto), RHS cost vs size, stability stress tests
-# `all` is the study and its reports with the fast verification subset; the reports show the last
-# results of `verify` and `bench` with their date (or say how to make them).
+#   snakemake --cores 2 verify     the extended checks: FE on the finest meshes, the DOP853 references of
+#                                  every verified scene, the study's whole integrator table
+#   snakemake --cores 2 bench      the extended benchmarks: every Pareto setting, the full size sweep, 10 s
+#                                  stability runs, every tolerance request
+# `all` is the study and its reports with every check in a version cheap enough for it (results/all/,
+# bench.smk and verification.smk say how each is made cheaper); a report shows the extended version
+# of `verify` or `bench` instead where it exists, with its date.
 configfile: "config/config.yaml"
 
 

@@ -29,8 +29,22 @@ def test_parse_references():
 
 
 def test_a_converged_reference_is_read(tmp_path):
-    t, rates = ea.read_reference("thesis", write_reference(tmp_path / "r.h5"), "abc")
-    assert t.shape == (11,) and rates.shape == (11, 4)
+    t, rates, kind = ea.read_reference("thesis", write_reference(tmp_path / "r.h5"), "abc")
+    assert t.shape == (11,) and rates.shape == (11, 4) and kind == "dop853 rtol 1e-10"
+
+
+def test_the_exponential_integrator_far_tighter_than_the_scene_is_a_reference(tmp_path):
+    """The faster route: exponential at the scene's tolerance / EXPONENTIAL_REFERENCE_FACTOR (1e-7
+    for a scene run at 1e-5) is a reference; at 1e-6 (only 10 times tighter) it is refused, and
+    without the scene's tolerance (an --anchor must be DOP853) always."""
+    assert ea.EXPONENTIAL_REFERENCE_FACTOR == 100.0
+    tight = write_reference(tmp_path / "e.h5", integrator="exponential", stat_exponential_tol=1e-7)
+    assert ea.read_reference("thesis", tight, "abc", scene_tol=1e-5)[2] == "exponential tol 1e-07"
+    loose = write_reference(tmp_path / "l.h5", integrator="exponential", stat_exponential_tol=1e-6)
+    for path, scene_tol in ((loose, 1e-5), (tight, None)):
+        with pytest.raises(ea.AccuracyInputError) as exc:
+            ea.read_reference("thesis", path, "abc", scene_tol=scene_tol)
+        assert "exponential" in str(exc.value) and "\n" not in str(exc.value)
 
 
 @pytest.mark.parametrize("attrs, word", [({"scene": "free"}, "scene"), ({"model": "freq-10"}, "model"),
@@ -59,6 +73,10 @@ def test_markdown_has_a_row_per_scene():
                         {"scene": "free", "default": case, "tight": case}])
     assert text.count("\n| thesis |") + text.count("| thesis |") >= 1
     assert len(text.strip().splitlines()) == 4
+    anchored = ea.markdown([{"scene": "thesis", "default": case, "tight": case}],
+                           [{"scene": "thesis", "reference": "exponential tol 1e-07",
+                             "anchor": "dop853 rtol 1e-10", "E_max": 2e-10}])
+    assert "against DOP853 (dop853 rtol 1e-10): E max 2.00e-10" in anchored
 
 
 def test_a_scene_is_checked_at_the_tolerance_the_workflow_runs_it_at():
@@ -68,3 +86,15 @@ def test_a_scene_is_checked_at_the_tolerance_the_workflow_runs_it_at():
     assert scenes.load_scene("long").tighter_tolerance(1e-5) == 5e-7
     assert scenes.load_scene("long").tighter_tolerance(1e-7) == 1e-7
     assert scenes.load_scene("thesis").tighter_tolerance(1e-5) == 1e-5
+
+
+def test_a_faster_reference_is_checked_against_dop853():
+    """anchor_check: E (eq. 3.53) of the reference against DOP853 within ANCHOR_BOUND (1e-9) passes;
+    a reference off by a relative 1e-4 of the rates (E ~ 1e-8: eq. 3.53 squares it) fails."""
+    t = np.linspace(0.0, 0.015, 151)
+    rates = np.stack([np.sin(2 * np.pi * 100 * t + k) for k in range(4)], axis=1)
+    anchor = (t, rates, "dop853 rtol 1e-10")
+    for offset, passed in ((1e-6, True), (1e-4, False)):
+        row, check = ea.anchor_check("thesis", (t, rates * (1 + offset), "exponential tol 1e-08"), anchor)
+        assert check["passed"] is passed and len(row["E"]) == 4
+        assert check["tolerance"] == pytest.approx(1e-9)

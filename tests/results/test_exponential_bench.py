@@ -267,13 +267,16 @@ def synthetic_files(tmp_path_factory):
 @pytest.mark.parametrize("method, options, attrs, message", [
     ("dop853", {"rtol": 1e-10, "atol": 1e-14}, {"model_config_hash": "elsewhere"},
      "made from another truth model"),
-    ("exponential", {}, {"integrator": "exponential"}, "is a exponential run, not the converged dop853"),
+    ("exponential", {}, {"integrator": "exponential"},
+     "ran the exponential integrator at tol 1e-05, looser than the scene's 1e-05 / 100"),
+    ("rk4", {}, {"integrator": "rk4"}, "is a rk4 run, not the converged dop853"),
     ("dop853", {"rtol": 1e-8, "atol": 1e-14}, {"integrator": "dop853"}, "ran at rtol 1e-08, looser"),
     ("dop853", {"rtol": 1e-10, "atol": 1e-14}, {"scene": "free"}, "is a run of scene 'free'"),
 ])
 def test_a_reference_that_cannot_referee_is_refused(tmp_path, capsys, synthetic_files, method, options,
                                                      attrs, message):
-    """Another model, another integrator, a loose rtol, another scene: one line, nothing written."""
+    """Another model, another integrator, a loose rtol or tolerance (the exponential integrator is a
+    reference 100 times tighter than the scene only), another scene: one line, nothing written."""
     model, _ = synthetic_files
     scene = scenes.load_scene("thesis")
     chain, _ = chainfile.read_chain(model, scene.damping_ratio)

@@ -27,14 +27,16 @@ ROOT = Path(__file__).resolve().parents[2]
 BODIES = (2, 3, 4, 5)
 NAMES = dict(zip(BODIES, cfgmod.BODY_NAMES))
 # rules whose params.cfg hashes the whole config (they record or print all of it)
-WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "report_scene", "model_report"}
+WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "verify_fe_all", "report_scene", "model_report"}
 # rules whose stage checks the body files it reads (directly, or through the reduction, ranking and
 # reduced-model files made from them) against the configuration (--config {CONFIG},
 # gimbal_reduction/solver/bodyconfig.py): params.cfg is what it compares them with, every body file's config hash
 BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "load_ranking_first", "study_scene_first", "reduced_model", "simulate", "study_scene", "truth_basis", "runtime",
                  "reference_simulation", "dynamics_verification", "stability", "pareto", "selection",
                  "exponential_bench", "exponential_accuracy", "integrator_tables", "control_export",
-                 "simulate_modal"}
+                 "simulate_modal", "reference_exponential", "exponential_accuracy_all", "exponential_bench_all",
+                 "pareto_all", "stability_all", "selection_all", "integrator_tables_all",
+                 "dynamics_verification_all"}
 # ... and those that check one body's files (params.cfg = that body file's config hash)
 PER_BODY_CHECKERS = ("reduction_body", "cb_stage", "mode_shapes_body")
 # a stage the rule runs besides its shell's python -m modules
@@ -133,12 +135,17 @@ def changed_value(path, value):
 
 def full(n):
     """Readers of a body's resolved inputs beyond its mesh (gimbal_reduction.workflow.config.body_inputs(n))."""
-    out = {f"modes_body[{n}]", f"verify_convergence[{n}]", f"modes_body_large[{n}]"}
+    out = {f"modes_body[{n}]", f"modes_body_large[{n}]"} | convergence(n)
     if n == 4:   # the coarse body of the Hughes identities: body 4 at COARSE_SIZE (0.75 in); the
         out |= {"coarse_body_all_modes"}      # check itself reads only that file (its input)
     if n == 2:   # the connection study and the MPI check use body 2
         out |= {"verify_check[connection]", "verify_mpi"}
     return out
+
+
+def convergence(n):
+    """The convergence checks of a body: `verify`'s and `all`'s (coarser levels)."""
+    return {f"verify_convergence[{n}]", f"verify_convergence_all[{n}]"}
 
 
 def mesh_part(n):
@@ -157,7 +164,9 @@ def mesh_size(n):
 
 
 RINGS = (2, 3, 4)
-RING_CHECKS = {"verify_check[ring]", "verify_check[solid-ring]"}   # bare ring of body 2 (shell and solid)
+# the solid ring: `verify`'s and `all`'s (a coarser solid)
+SOLID_RING = {"verify_check[solid-ring]", "verify_solid_ring_all"}
+RING_CHECKS = {"verify_check[ring]"} | SOLID_RING   # bare ring of body 2 (shell and solid)
 ALL = BODIES
 
 
@@ -214,24 +223,24 @@ def expected_readers(path):
     if section == "shell":
         return union(full, RINGS) | RING_CHECKS | {"verify_check[plate]", "verify_check[platform]"}
     if section == "solid":
-        return full(5) | {"verify_check[solid-ring]", "verify_check[platform]"}
+        return full(5) | SOLID_RING | {"verify_check[platform]"}
     if section == "mesh":
         if key == "ring_size":
             return union(mesh_size, RINGS) | RING_CHECKS
         if key == "platform_size":
             return mesh_size(5)
         if key == "refinement_ratio":
-            return {f"verify_convergence[{n}]" for n in ALL} | {"verify_check[connection]"}
+            return union(convergence, ALL) | {"verify_check[connection]"}
     if section == "modes":
         # modes_body_large (200 modes, the truth's larger basis) hashes the body's inputs too
         count = {f"modes_body[{n}]" for n in ALL} | {"coarse_body_all_modes"} | \
             {f"modes_body_large[{n}]" for n in ALL}
         if key == "count":      # the convergence check reports every study mode's deviation
-            return count | {f"verify_convergence[{n}]" for n in ALL}
-        return count | {f"verify_convergence[{n}]" for n in ALL} | {"verify_mpi"}
+            return count | union(convergence, ALL)
+        return count | union(convergence, ALL) | {"verify_mpi"}
     if section == "verification":
         if key == "convergence_modes":
-            return {f"verify_convergence[{n}]" for n in ALL}
+            return union(convergence, ALL)
         return {f"verify_body[{n}]" for n in ALL}
     if section == "simulation":
         # read by the simulate rule only (its params integrator and options, one instance per
@@ -250,11 +259,13 @@ def checkers(readers):
 def test_each_config_leaf_reruns_exactly_its_readers(workflow):
     config = workflow.globals["config"]
     instances = rule_instances(workflow)
-    per_body = {f"{rule}[{n}]" for rule in ("mesh_body", "modes_body", "verify_convergence", "verify_body",
+    per_body = {f"{rule}[{n}]" for rule in ("mesh_body", "modes_body", "verify_convergence",
+                                            "verify_convergence_all", "verify_body",
                                             "modes_body_large", *PER_BODY_CHECKERS) for n in BODIES}
     per_check = {f"verify_check[{c}]" for c in workflow.globals["GLOBAL_CHECKS"]}
     assert {label for label, _, _ in instances} == (per_body | per_check | WHOLE_CONFIG | BODY_CHECKERS
-                                                     | {"verify_mpi", "coarse_mesh", "coarse_body_all_modes"})
+                                                     | {"verify_mpi", "coarse_mesh", "coarse_body_all_modes",
+                                                        "verify_solid_ring_all"})
     before = hashes(instances)
     pristine = copy.deepcopy(config)
     seen = 0

@@ -74,10 +74,9 @@ rule scaling:
         "logs/bench/scaling.log",
     benchmark:
         "results/benchmarks/rules/bench/scaling.tsv"
-    # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
-    # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
-    threads: 2
+    threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record: estimate, 2 GB (up to 8000 coordinates, dense baseline) and 1 h
         mem_mb=2000,
         runtime=60,
@@ -104,10 +103,9 @@ rule pareto:
         "logs/bench/pareto.log",
     benchmark:
         "results/benchmarks/rules/bench/pareto.tsv"
-    # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
-    # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
-    threads: 2
+    threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record: ~2 min per model and ~5 min for the truth (comment above): 13 min, so 30 min
         mem_mb=mem_mb(780.5),
         runtime=30,
@@ -193,10 +191,9 @@ rule exponential_bench:
         "logs/bench/exponential.log",
     benchmark:
         "results/benchmarks/rules/bench/exponential.tsv"
-    # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
-    # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
-    threads: 2
+    threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record: ~3 + 2.5 + 1 min (comment above EXPONENTIAL_MODELS), so 15 min; memory as simulate
         mem_mb=mem_mb(780.5),
         runtime=15,
@@ -324,10 +321,9 @@ rule tolerance:
         "logs/bench/tolerance.log",
     benchmark:
         "results/benchmarks/rules/bench/tolerance.tsv"
-    # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
-    # all the same (Snakemake sets OPENBLAS_NUM_THREADS to the job's threads): one core each side
-    threads: 2
+    threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record (run outside Snakemake): the same command run directly in this session on a
         # loaded 2-core machine, /usr/bin/time -v: 1147 s wall, 1035.4 MB peak (long's and spin's
         # verified searches 2/3 of it)
@@ -354,3 +350,292 @@ rule bench:
         rules.exponential_bench.output,
         rules.exponential_accuracy.output,
         rules.tolerance.output,
+
+
+# ---- `all`'s versions of the checks above (results/all/, the same path below it): every one, each
+# cheap enough for the main job; `verify` and `bench` make the extended versions at the paths above,
+# which the reports show instead where they exist (with their date; results.smk, REPORT_OPTIONAL).
+# Converged references by the faster route: the exponential integrator on the truth at the scene's
+# tolerance / ALL_REFERENCE_FACTOR (seconds a scene; `long` too), each checked against the converged
+# DOP853 reference of the short scene ALL_ANCHOR_SCENES (rule reference_simulation, ~1 min of one
+# core) by exponential_accuracy_all (--anchor: E <= 1e-9). The DOP853 reference of thesis also
+# referees the Pareto benchmark, as in `bench`.
+ALL_REFERENCE_FACTOR = 100  # as gimbal_reduction.results.bench.exponential_accuracy.EXPONENTIAL_REFERENCE_FACTOR
+ALL_ANCHOR_SCENES = ["thesis"]
+ALL_ACCURACY_SCENES = ACCURACY_SCENES + ["long"]
+ALL_EXPONENTIAL_SCENES = ["thesis", "stress_rates_10", "long"]
+# ALL_CASE_BUDGET_S (common.smk): the timing repeats of `all`'s benchmarks
+
+
+rule reference_exponential:
+    """The converged reference of a scene by the faster route: the exponential integrator on the
+    scene's truth model at its tolerance / ALL_REFERENCE_FACTOR."""
+    input:
+        model="results/models/{scene}/truth.h5",
+        kernels=ancient(KERNELS),
+    output:
+        "results/all/reference/{scene}/truth.h5",
+    log:
+        "logs/all/reference/{scene}.log",
+    benchmark:
+        "results/benchmarks/rules/all/reference/{scene}.tsv"
+    resources:
+        # as simulate (records: sim/thesis/truth.tsv 301.6 s, 780.5 MB)
+        mem_mb=mem_mb(780.5),
+        runtime=runtime_min(301.6),
+    params:
+        physics=scene_physics_hash,
+        scene=scene_file,
+        code=code_hash("simulate"),
+        cfg=body_files_hash,
+        tol=lambda wildcards: repr(
+            dag_scene(wildcards.scene).tighter_tolerance(
+                cfgmod.value(config, "simulation.tolerance")
+            )
+            / ALL_REFERENCE_FACTOR
+        ),
+    shell:
+        "OMP_NUM_THREADS=1 {GIMBAL} simulate --scene {params.scene} --model-file {input.model} "
+        "--integrator exponential --tol {params.tol} --config {CONFIG} --out {output} > {log} 2>&1"
+
+
+rule exponential_accuracy_all:
+    input:
+        truth_model="results/models/thesis/truth.h5",
+        references=expand(
+            "results/all/reference/{scene}/truth.h5", scene=ALL_ACCURACY_SCENES
+        ),
+        anchors=expand("results/reference/{scene}/truth.h5", scene=ALL_ANCHOR_SCENES),
+    output:
+        json="results/all/verification/exponential.json",
+        md="results/all/verification/exponential.md",
+    log:
+        "logs/all/exponential_accuracy.log",
+    benchmark:
+        "results/benchmarks/rules/all/exponential_accuracy.tsv"
+    resources:
+        mem_mb=mem_mb(780.5),
+        runtime=runtime_min(301.6),
+    params:
+        references=lambda wildcards, input: scene_file_arguments(input.references),
+        anchors=lambda wildcards, input: scene_file_arguments(input.anchors),
+        tol=cfgmod.value(config, "simulation.tolerance"),
+        code=code_hash("exponential-accuracy"),
+        cfg=body_files_hash,
+    shell:
+        "OMP_NUM_THREADS=1 {GIMBAL} exponential-accuracy --truth-model {input.truth_model} "
+        "--reference {params.references} --anchor {params.anchors} --tol {params.tol} "
+        "--out-json {output.json} --out-md {output.md} --config {CONFIG} > {log} 2>&1"
+
+
+rule exponential_bench_all:
+    input:
+        truth_model="results/models/thesis/truth.h5",
+        references=expand(
+            "results/all/reference/{scene}/truth.h5", scene=ALL_EXPONENTIAL_SCENES
+        ),
+        models=expand("results/models/thesis/{model}.h5", model=EXPONENTIAL_MODELS),
+    output:
+        json="results/all/benchmarks/exponential.json",
+        md="results/all/benchmarks/exponential.md",
+        csv="results/all/benchmarks/exponential.csv",
+    log:
+        "logs/all/bench_exponential.log",
+    benchmark:
+        "results/benchmarks/rules/all/exponential.tsv"
+    threads: TIMING_CORES
+    resources:
+        **TIMING_RESOURCES,
+        mem_mb=mem_mb(780.5),
+        runtime=15,
+    params:
+        references=lambda wildcards, input: scene_file_arguments(input.references),
+        models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
+        budget=ALL_CASE_BUDGET_S,
+        code=code_hash("bench-exponential"),
+        cfg=body_files_hash,
+    shell:
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} bench-exponential "
+        "--truth-model {input.truth_model} --reference {params.references} --models {params.models} "
+        "--repeats 5 --budget {params.budget} --out-json {output.json} --out-md {output.md} "
+        "--out-csv {output.csv} --config {CONFIG} > {log} 2>&1"
+
+
+# Pareto in `all`: the same models and integrators, DOP853 at rtol 1e-6 and 1e-8 (its 1e-10 is the
+# reference itself), each setting's repeats within ALL_CASE_BUDGET_S
+rule pareto_all:
+    input:
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        load_ranking="results/reduction/load/thesis.h5",
+        truth="results/reference/thesis/truth.h5",
+    output:
+        csv="results/all/benchmarks/pareto.csv",
+        json="results/all/benchmarks/pareto.json",
+        figure="results/all/figures/bench/pareto.png",
+    log:
+        "logs/all/pareto.log",
+    benchmark:
+        "results/benchmarks/rules/all/pareto.tsv"
+    threads: TIMING_CORES
+    resources:
+        **TIMING_RESOURCES,
+        mem_mb=mem_mb(780.5),
+        runtime=30,
+    params:
+        models=" ".join(f"'{m}'" for m in PARETO_MODELS),
+        budget=ALL_CASE_BUDGET_S,
+        code=code_hash("pareto"),
+        cfg=body_files_hash,
+    shell:
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} pareto --scene thesis --truth {input.truth} "
+        "--models {params.models} --repeats 5 --budget {params.budget} --rtols 1e-6 1e-8 "
+        "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
+        "--out-csv {output.csv} --figure {output.figure} --config {CONFIG} > {log} 2>&1"
+
+
+rule scaling_all:
+    output:
+        csv="results/all/benchmarks/scaling.csv",
+        json="results/all/benchmarks/scaling.json",
+        figure="results/all/figures/bench/scaling.png",
+    log:
+        "logs/all/scaling.log",
+    benchmark:
+        "results/benchmarks/rules/all/scaling.tsv"
+    threads: TIMING_CORES
+    resources:
+        **TIMING_RESOURCES,
+        mem_mb=2000,
+        runtime=10,
+    params:
+        code=code_hash("scaling"),
+    shell:
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} scaling --quick --out-csv {output.csv} "
+        "--out-json {output.json} --figure {output.figure} > {log} 2>&1"
+
+
+rule stability_all:
+    input:
+        scene_path("free_10s"),
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+    output:
+        json="results/all/stability/stability.json",
+        rk4_limit="results/all/figures/stability/rk4_limit.png",
+        drift="results/all/figures/stability/energy_drift.png",
+    log:
+        "logs/all/stability.log",
+    benchmark:
+        "results/benchmarks/rules/all/stability.tsv"
+    resources:
+        mem_mb=2000,
+        runtime=30,
+    params:
+        code=code_hash("stability"),
+        cfg=body_files_hash,
+    shell:
+        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} stability --quick --bodies {input.bodies} "
+        "--reductions {input.reductions} --out-dir $(dirname {output.json}) "
+        "--figures-dir $(dirname {output.rk4_limit}) --config {CONFIG} > {log} 2>&1"
+
+
+# Selection in `all`: the study's own simulations of thesis (its truth and every study model of the
+# families compared), no simulation of its own
+ALL_SELECTION_MODELS = [
+    m
+    for m in SELECTION_MODELS
+    if m
+    in importlib.import_module("gimbal_reduction.results.study.cases").study_models()
+]
+
+
+rule selection_all:
+    input:
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        truth="results/study/thesis/sim/truth.h5",
+        ranking="results/reduction/load/thesis.h5",
+        cases=expand("results/study/thesis/sim/{model}.h5", model=ALL_SELECTION_MODELS),
+    output:
+        table="results/all/tables/selection.csv",
+        figure="results/all/figures/bench/global_ranking.png",
+    log:
+        "logs/all/selection.log",
+    benchmark:
+        "results/benchmarks/rules/all/selection.tsv"
+    resources:
+        mem_mb=mem_mb(159.3),
+        runtime=runtime_min(2.7),
+    params:
+        code=code_hash("selection"),
+        cfg=body_files_hash,
+    shell:
+        "MPLBACKEND=Agg {GIMBAL} selection --truth {input.truth} --cases {input.cases} "
+        "--ranking {input.ranking} --reductions {input.reductions} --table {output.table} "
+        "--figure {output.figure} --config {CONFIG} > {log} 2>&1"
+
+
+# The integrator table in `all`: the study's key models (one per family) and the truth, both ways
+ALL_INTEGRATOR_TABLE_MODELS = [
+    m
+    for m in importlib.import_module("gimbal_reduction.results.study.cases").KEY_MODELS
+    if m in INTEGRATOR_TABLE_MODELS
+]
+
+
+use rule integrator_tables as integrator_tables_all with:
+    input:
+        truth_model="results/models/thesis/truth.h5",
+        models=expand(
+            "results/models/thesis/{model}.h5", model=ALL_INTEGRATOR_TABLE_MODELS
+        ),
+    output:
+        json="results/all/benchmarks/integrator_tables.json",
+        csv="results/all/benchmarks/integrator_tables.csv",
+    log:
+        "logs/all/integrator_tables.log",
+    benchmark:
+        "results/benchmarks/rules/all/integrator_tables.tsv"
+
+
+# Accuracy on request in `all`: every scene of `tolerance`, three of its EPS (a decade apart twice),
+# each model's repeats within ALL_CASE_BUDGET_S
+ALL_TOLERANCE_EPS = [1e-2, 1e-4, 1e-6]
+
+
+rule tolerance_all:
+    input:
+        scenes=[scene_path(s) for s in TOLERANCE_SCENES],
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        load_rankings=expand(
+            "results/reduction/load/{scene}.h5", scene=TOLERANCE_SCENES
+        ),
+        tables=expand(
+            "results/tables/{scene}/errors_ranking.csv", scene=TOLERANCE_TABLE_SCENES
+        ),
+        kernels=ancient(KERNELS),
+    output:
+        csv="results/all/benchmarks/tolerance.csv",
+        json="results/all/benchmarks/tolerance.json",
+        figure="results/all/figures/bench/tolerance.png",
+        figure_pdf="results/all/figures/bench/tolerance.pdf",
+    log:
+        "logs/all/tolerance.log",
+    benchmark:
+        "results/benchmarks/rules/all/tolerance.tsv"
+    threads: TIMING_CORES
+    resources:
+        **TIMING_RESOURCES,
+        mem_mb=mem_mb(1035.4),
+        runtime=runtime_min(1147.0),
+    params:
+        eps=" ".join(f"{e:g}" for e in ALL_TOLERANCE_EPS),
+        budget=ALL_CASE_BUDGET_S,
+        code=code_hash("tolerance"),
+    shell:
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} tolerance "
+        "--scenes {input.scenes} --eps {params.eps} --modes-dir results/modes "
+        "--reduction-dir results/reduction --tables-dir results/tables --repeats 5 "
+        "--budget {params.budget} --out-csv {output.csv} --out-json {output.json} --figure {output.figure} "
+        "> {log} 2>&1"

@@ -290,6 +290,11 @@ def reference_arguments(wildcards, input):
     return " ".join(f"'{os.path.basename(os.path.dirname(f))}={f}'" for f in files)
 
 
+def scene_file_arguments(files):
+    """SCENE=FILE of each file of a folder named after its scene (results/.../{scene}/truth.h5)."""
+    return " ".join(f"'{os.path.basename(os.path.dirname(f))}={f}'" for f in files)
+
+
 # results.smk
 def study_sims(scene):
     return expand(
@@ -297,8 +302,34 @@ def study_sims(scene):
     )
 
 
+def all_version(path):
+    """`all`'s version of a check's file (results/all/ and its path below results/)."""
+    return os.path.join("results", "all", os.path.relpath(path, "results"))
+
+
+def shown_version(path):
+    """What a report shows of a check: its extended version (`verify`, `bench`) where made, else `all`'s."""
+    return path if os.path.exists(path) else all_version(path)
+
+
+def extended_report_inputs(wildcards):
+    """The extended versions made so far: inputs of the reports, so that a new one reruns them."""
+    return [
+        p
+        for p in [*REPORT_OPTIONAL.values(), *REPORT_BENCH_FIGURES]
+        if os.path.exists(p)
+    ]
+
+
 def optional_report_inputs(wildcards):
-    return " ".join(f"--{k.replace('_', '-')} {v}" for k, v in REPORT_OPTIONAL.items())
+    return " ".join(
+        f"--{k.replace('_', '-')} {shown_version(v)}"
+        for k, v in REPORT_OPTIONAL.items()
+    )
+
+
+def report_bench_figures(wildcards):
+    return " ".join(shown_version(p) for p in REPORT_BENCH_FIGURES)
 
 
 # outputs.smk
@@ -330,6 +361,23 @@ def mem_mb(peak_mb):
 def runtime_min(seconds):
     """Wall time to request [min] for a measured run time [s]."""
     return max(5, int(-(-2 * seconds // 60)))
+
+
+# ---- Timing jobs run alone. A rule whose stage reports medians of repeated runs in one process
+# takes every core of the run, threads: TIMING_CORES (= --cores): every other job takes at least one,
+# so Snakemake's scheduler starts none beside it, and the timed runs are not measured against the
+# workflow's own load. BLAS stays pinned to one thread in their shell commands (Snakemake sets
+# OPENBLAS_NUM_THREADS to a job's threads). On a cluster (--executor slurm: no --cores, every job on
+# its own allocation) the cores are not the limit; there the job asks for a node of its own
+# (TIMING_RESOURCES, slurm's --exclusive), so nothing else runs on its node.
+try:
+    TIMING_CORES = workflow.cores  # a WorkflowError without --cores (a cluster run)
+except Exception:  # snakemake.exceptions.WorkflowError
+    TIMING_CORES = 1
+TIMING_RESOURCES = {"slurm_extra": "'--exclusive'"}
+# `all`'s timing repeats, where they decide something: up to 5 runs a case, fewer (at least one)
+# where they would take more than this [s] (a case that slow is far from every bound it is judged by)
+ALL_CASE_BUDGET_S = 5.0
 
 
 localrules:

@@ -102,10 +102,9 @@ rule dynamics_verification:
         "logs/sim/verification.log",
     benchmark:
         "results/benchmarks/rules/dynamics_verification.tsv"
-    # both cores: its wall times are the issue-4 benchmark, so no other job runs beside it
-    # (BLAS still pinned to one thread, as everywhere)
-    threads: 2
+    threads: TIMING_CORES  # alone (common.smk, TIMING_CORES)
     resources:
+        **TIMING_RESOURCES,
         # no record: estimate, 2 GB and 1 h (JAX oracle and timed runs)
         mem_mb=2000,
         runtime=60,
@@ -131,3 +130,31 @@ rule dynamics:
         # when the DAG is built (its model names are checked against the config's mode count)
         lambda wildcards: scene_simulations("thesis"),
         "results/verification/dynamics.json",
+
+
+# `all`'s version (results/all/): the same checks, each integrator's timing repeats within
+# ALL_CASE_BUDGET_S (bench.smk, "`all`'s versions")
+rule dynamics_verification_all:
+    input:
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+    output:
+        verification="results/all/verification/dynamics.json",
+        benchmark="results/all/benchmarks/dynamics.json",
+    log:
+        "logs/all/dynamics_verification.log",
+    benchmark:
+        "results/benchmarks/rules/all/dynamics_verification.tsv"
+    threads: TIMING_CORES
+    resources:
+        **TIMING_RESOURCES,
+        mem_mb=2000,
+        runtime=60,
+    params:
+        budget=ALL_CASE_BUDGET_S,
+        code=code_hash("verify-dynamics"),
+        cfg=body_files_hash,
+    shell:
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} verify-dynamics --bodies {input.bodies} "
+        "--reductions {input.reductions} --budget {params.budget} --verification {output.verification} "
+        "--benchmark {output.benchmark} --config {CONFIG} > {log} 2>&1"

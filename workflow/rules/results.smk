@@ -2,8 +2,8 @@
 # long), its error tables, findings, figures and PDF reports (one per scene, and the study's).
 #   snakemake --cores 2 study     every scene's simulations
 #   snakemake --cores 2 report    the study PDF and one PDF per scene
-# The study's heavy checks and timing repeats are not inputs of the reports: the reports read their
-# last results (bench, verify) if present and print their date, or say how to make them.
+# Every check is an input of the reports in `all`'s version; the extended versions of `verify` and
+# `bench` are shown instead where made (REPORT_OPTIONAL below).
 # Lints left, justified in common.smk (above GIMBAL): the rules' shell commands use GIMBAL, CONFIG from outside
 # the rule; no rule names a conda environment or container (the project's .venv).
 _cases = importlib.import_module("gimbal_reduction.results.study.cases")
@@ -184,80 +184,9 @@ rule study_figures:
         "> {log} 2>&1"
 
 
-rule runtime:
-    """A timing job: run and set-up times (medians of 5 runs in one process) of the models the
-    scene's decision names, the rigid model and the truth (gimbal_reduction.results.bench.runtime).
-    """
-    input:
-        scene=scene_file,
-        bodies=expand("results/modes/body{n}.h5", n=BODIES),
-        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
-        load_ranking="results/reduction/load/{scene}.h5",
-        ranking="results/tables/{scene}/errors_ranking.csv",
-        static="results/tables/{scene}/errors_static.csv",
-        truth="results/study/{scene}/sim/truth.h5",
-        truth_basis="results/verification/truth_basis.json",
-        kernels=ancient(KERNELS),
-    output:
-        "results/benchmarks/runtime/{scene}.json",
-    log:
-        "logs/results/runtime_{scene}.log",
-    benchmark:
-        "results/benchmarks/rules/runtime_{scene}.tsv"
-    wildcard_constraints:
-        scene="|".join(STUDY_SCENES),
-    # both cores, so that no other job runs beside the timed runs; BLAS pinned to one thread
-    threads: 2
-    resources:
-        # no record: estimate, 5 repeats of ~5 models; long's truth ~1 s a run
-        mem_mb=1000,
-        runtime=10,
-    params:
-        code=code_hash("runtime"),
-        integrator=cfgmod.value(config, "simulation.integrator"),
-        options=integrator_options,
-        cfg=body_files_hash,
-    shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} runtime --scene {input.scene} "
-        "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
-        "--ranking-table {input.ranking} --static-table {input.static} --truth {input.truth} "
-        "--truth-basis {input.truth_basis} --repeats 5 --integrator {params.integrator} {params.options} "
-        "--config {CONFIG} --out {output} > {log} 2>&1"
-
-
-rule decision:
-    """The decision table: per scene and accuracy requirement, the cheapest model meeting it,
-    its coordinates and measured times (gimbal_reduction.results.study.decision).
-    """
-    input:
-        rankings=expand("results/tables/{scene}/errors_ranking.csv", scene=STUDY_SCENES),
-        statics=expand("results/tables/{scene}/errors_static.csv", scene=STUDY_SCENES),
-        truths=expand("results/study/{scene}/sim/truth.h5", scene=STUDY_SCENES),
-        runtimes=expand("results/benchmarks/runtime/{scene}.json", scene=STUDY_SCENES),
-        truth_basis="results/verification/truth_basis.json",
-        sims=[f for s in STUDY_SCENES for f in study_sims(s)],
-    output:
-        json="results/tables/decision.json",
-        csv="results/tables/decision.csv",
-    log:
-        "logs/results/decision.log",
-    benchmark:
-        "results/benchmarks/rules/decision.tsv"
-    resources:
-        mem_mb=300,
-        runtime=2,
-    params:
-        code=code_hash("decision"),
-        scenes=" ".join(STUDY_SCENES),
-    shell:
-        "{GIMBAL} decision --scenes {params.scenes} --ranking-tables {input.rankings} "
-        "--static-tables {input.statics} --truths {input.truths} --runtimes {input.runtimes} "
-        "--truth-basis {input.truth_basis} --sims {input.sims} --out-json {output.json} "
-        "--out-csv {output.csv} > {log} 2>&1"
-
-
-# What the reports show from the `bench` and `verify` targets: read if present (with their date),
-# never built for the report (they are minutes of timing repeats and fine meshes).
+# What the reports show of the checks (verification, benchmarks): `all` builds each in its cheap version
+# (results/all/..., all_version) as an input of the reports; a report shows the extended version that
+# `verify` or `bench` made (the paths here) instead where it exists, with its date (shown_version).
 REPORT_OPTIONAL = {
     "stability": "results/stability/stability.json",
     "pareto": "results/benchmarks/pareto.csv",
@@ -332,6 +261,10 @@ rule model_report:
         modes="results/benchmarks/modes.json",
         reduction="results/verification/reduction.json",
         coupled="results/study/thesis/coupled_modes.json",
+        checks=[
+            all_version(p) for p in [*REPORT_OPTIONAL.values(), *REPORT_BENCH_FIGURES]
+        ],
+        extended=extended_report_inputs,
     output:
         report(
             "results/report/model.pdf",
@@ -349,7 +282,7 @@ rule model_report:
         code=code_hash("scene-report"),
         cfg=config_hash(),
         optional=optional_report_inputs,
-        bench_figures=" ".join(REPORT_BENCH_FIGURES),
+        bench_figures=report_bench_figures,
     shell:
         "{GIMBAL} scene-report --part model --fe {input.fe} --modes-benchmark {input.modes} "
         "--reduction {input.reduction} --config {CONFIG} --scene {input.scene} "
@@ -379,6 +312,15 @@ rule study_report:
         mode_ranking="results/tables/ranking.csv",
         truth_basis="results/verification/truth_basis.json",
         decision="results/tables/decision.json",
+        checks=[
+            all_version(p)
+            for p in [*REPORT_OPTIONAL.values(), "results/benchmarks/tolerance.json"]
+        ],
+        extended=lambda wildcards: [
+            p
+            for p in [*REPORT_OPTIONAL.values(), "results/benchmarks/tolerance.json"]
+            if os.path.exists(p)
+        ],
     output:
         report(
             "results/report/report.pdf",
@@ -395,7 +337,8 @@ rule study_report:
         runtime=runtime_min(1.5),
     params:
         code=code_hash("study-report"),
-        optional=lambda wildcards: f"{optional_report_inputs(wildcards)} --tolerance {rules.tolerance.output.json}",
+        optional=lambda wildcards: f"{optional_report_inputs(wildcards)} --tolerance "
+        f"{shown_version(rules.tolerance.output.json)}",
     shell:
         "{GIMBAL} study-report --scenes {input.scenes} --ranking-tables {input.rankings} "
         "--static-tables {input.statics} --findings {input.findings} --figures {input.figures} "

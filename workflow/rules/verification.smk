@@ -232,3 +232,85 @@ rule truth_basis:
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} truth-basis --bodies {input.bodies} --scenes {input.scenes} "
         "--config {CONFIG} --out {output} > {log} 2>&1"
+
+
+# ---- `all`'s version of fe.json (results/all/verification/fe.json): every check of `verify_fe`, two on
+# coarser meshes. The solid ring at one P3 tetrahedron through the 0.25 in wall (ALL_SOLID_SIZE; 1.8 CPU s,
+# 470 MB, worst of 10 modes 0.73 % from the shell, measured) instead of three (288 s, 4.9 GB); the
+# platform's convergence on its levels h, h/2 (its h/4 needs 7 GB), the rings' on all three (h/2 is the
+# largest and is cheap). The other parts are shared with `verify_fe`.
+ALL_SOLID_SIZE = 0.25  # in: one element through body 2's 0.25 in wall (config bodies.outer_gimbal.thickness)
+ALL_CONVERGENCE_LEVELS = {"ring": "-1 0 1", "plate": "0 1"}
+
+
+rule verify_solid_ring_all:
+    output:
+        "results/all/verification/parts/solid-ring.json",
+    log:
+        "logs/verification/all/solid-ring.log",
+    benchmark:
+        "results/benchmarks/rules/all/verify_solid-ring.tsv"
+    resources:
+        # no record: 6.7 s wall, 1.8 CPU s, 470.6 MB measured (one run, load ~9)
+        mem_mb=mem_mb(470.6),
+        runtime=runtime_min(6.7),
+    params:
+        code=VERIFY_CODE,
+        cfg=check_hash("solid-ring"),
+        size=ALL_SOLID_SIZE,
+    shell:
+        "OMP_NUM_THREADS=1 {GIMBAL} fe-verify solid-ring --solid-size {params.size} --config {CONFIG} "
+        "--out {output} > {log} 2>&1"
+
+
+rule verify_convergence_all:
+    output:
+        "results/all/verification/parts/convergence_body{n}.json",
+    log:
+        "logs/verification/all/convergence_body{n}.log",
+    benchmark:
+        "results/benchmarks/rules/all/verify_convergence_body{n}.tsv"
+    resources:
+        # as verify_convergence's rings (24.1 s, 402.9 MB); the platform on h, h/2: no record, 46.5 CPU s,
+        # 1159.4 MB measured (/usr/bin/time, one run at load ~10: 284 s wall)
+        mem_mb=lambda wildcards: mem_mb(1159.4 if wildcards.n == "5" else 402.9),
+        runtime=lambda wildcards: runtime_min(284.0 if wildcards.n == "5" else 24.1),
+    params:
+        code=VERIFY_CODE,
+        cfg=check_hash("convergence"),
+        levels=lambda wildcards: ALL_CONVERGENCE_LEVELS[
+            cfgmod.body_parameters(config, int(wildcards.n))["shape"]
+        ],
+    shell:
+        "OMP_NUM_THREADS=1 {GIMBAL} fe-verify convergence --body {wildcards.n} --levels {params.levels} "
+        "--config {CONFIG} --out {output} > {log} 2>&1"
+
+
+rule verify_fe_all:
+    input:
+        expand(
+            "results/verification/parts/{check}.json",
+            check=[c for c in GLOBAL_CHECKS if c != "solid-ring"],
+        ),
+        "results/all/verification/parts/solid-ring.json",
+        expand("results/all/verification/parts/convergence_body{n}.json", n=BODIES),
+        expand("results/verification/parts/body_file_body{n}.json", n=BODIES),
+        expand("results/verification/parts/spectra_body{n}.json", n=BODIES),
+        "results/verification/parts/mpi.json",
+    output:
+        json="results/all/verification/fe.json",
+        summary="results/all/verification/fe.md",
+    log:
+        "logs/verification/all/fe.log",
+    benchmark:
+        "results/benchmarks/rules/all/verify_fe.tsv"
+    resources:
+        # as verify_fe_fast (verify_fe_fast.tsv 4.1 s, 193.8 MB)
+        mem_mb=mem_mb(193.8),
+        runtime=runtime_min(4.1),
+    params:
+        code=VERIFY_CODE,
+        cfg=config_hash(),
+    shell:
+        "{GIMBAL} fe-verify combine {input} --config {CONFIG} --out {output.json} "
+        "--summary {output.summary} > {log} 2>&1"

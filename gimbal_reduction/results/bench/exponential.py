@@ -101,6 +101,9 @@ from gimbal_reduction.solver import bodyconfig  # noqa: E402
 from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, scenes, simulate  # noqa: E402
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
 from gimbal_reduction.solver.dynamics.simfile import read_sim  # noqa: E402
+# a reference may be the exponential integrator at the scene's tolerance / this factor
+from gimbal_reduction.results.bench.exponential_accuracy import EXPONENTIAL_REFERENCE_FACTOR  # noqa: E402
+from gimbal_reduction.results.bench.pareto import run_budget  # noqa: E402
 from gimbal_reduction.workflow.config import inputs_hash  # noqa: E402
 from gimbal_reduction.workflow.provenance import csv_text, provenance, versions, write_json, write_text  # noqa: E402
 from gimbal_reduction.workflow import config as cfgmod
@@ -380,7 +383,8 @@ def _comparison_row(comparison, key="dop853_speedup"):
               + ("" if better else ": DOP853 less accurate, not at equal E"))
     measured = (f"{comparison['speedup']:.3g}× integration (without the initial basis), "
                 f"{comparison['speedup_end_to_end']:.3g}× end to end (from the file read, the initial basis "
-                f"in) (medians of {comparison['runs']} alternating runs each: "
+                f"in) (medians of {comparison['runs']} alternating runs"
+                f"{'' if comparison.get('dop853_runs', comparison['runs']) == comparison['runs'] else f', DOP853 in the first ' + str(comparison['dop853_runs'])}: "
                 f"{format_seconds(comparison['dop853_integration_median_s'])} vs "
                 f"{format_seconds(comparison['exponential_integration_median_s'])} integration, "
                 f"{format_seconds(comparison['dop853_end_to_end_median_s'])} vs "
@@ -568,16 +572,32 @@ def check_truth_scene(scene, truth_attrs, path):
                               f"its truth model is not {path}")
 
 
-def check_reference(scene_name, ref, truth_attrs, path):
+def reference_kind(attrs) -> str:
+    """How a reference simulation was made, from its attributes: "DOP853 rtol R" or "exponential tol T"."""
+    if attrs.get("integrator") == "exponential":
+        return f"exponential tol {float(attrs.get('stat_exponential_tol', np.nan)):g}"
+    return f"DOP853 rtol {float(attrs.get('stat_rtol', np.nan)):g}"
+
+
+def check_reference(scene_name, ref, truth_attrs, path, scene_tol=None):
     """BenchInputError unless the reference simulation is of ``scene_name``, of the truth model in
     the truth model file (same model config hash) and the converged DOP853 run (integrator and
-    rtol <= simulate.REFERENCE's), as far as the file records them."""
+    rtol <= simulate.REFERENCE's), as far as the file records them; with ``scene_tol`` (the
+    tolerance the scene runs at) an exponential run at tol <= scene_tol /
+    EXPONENTIAL_REFERENCE_FACTOR is a reference too."""
     a = ref["attrs"]
     if a.get("scene") and a["scene"] != scene_name:
         raise BenchInputError(f"--reference {scene_name}={path} is a run of scene {a['scene']!r}")
     if a.get("model") and a["model"] != "truth":
         raise BenchInputError(f"--reference {scene_name}={path} is a run of model {a['model']!r}, not truth")
-    if a.get("integrator") and a["integrator"] != REFERENCE["integrator"]:
+    if a.get("integrator") == "exponential" and scene_tol is not None:
+        # the faster route: the exponential integrator far tighter than the scene runs it (checked
+        # against DOP853 by gimbal_reduction.results.bench.exponential_accuracy --anchor)
+        tol = float(a.get("stat_exponential_tol", 1.0))
+        if tol > scene_tol / EXPONENTIAL_REFERENCE_FACTOR * (1 + 1e-9):
+            raise BenchInputError(f"--reference {scene_name}={path} ran the exponential integrator at tol {tol:g}, "
+                                  f"looser than the scene's {scene_tol:g} / {EXPONENTIAL_REFERENCE_FACTOR:g}")
+    elif a.get("integrator") and a["integrator"] != REFERENCE["integrator"]:
         raise BenchInputError(f"--reference {scene_name}={path} is a {a['integrator']} run, not the converged "
                               f"{REFERENCE['integrator']} reference")
     rtol = a.get("stat_rtol")
@@ -640,8 +660,10 @@ def run_stats(run):
 
 
 def time_case(case, model_file, scene, duration, method, options, repeats, reference, model,
-              log=print):
-    """One case: one warm-up run, then ``repeats`` timed runs end to end; the row (CSV_COLUMNS
+              log=print, budget_s=None):
+    """One case: one warm-up run, then ``repeats`` timed runs end to end (fewer, at least one,
+    where they would not fit in ``budget_s`` seconds at the warm-up's pace: a run that long is
+    far from every bound it is judged against, so more runs decide nothing); the row (CSV_COLUMNS
     and more) with the medians, the run's statistics (of the last run; the integrator is
     deterministic) and E against ``reference`` (None: no reference).  A run that fails
     (``FAILURES``) gives status "failed: <message>"; the row then has no timings."""
@@ -650,9 +672,9 @@ def time_case(case, model_file, scene, duration, method, options, repeats, refer
            "reference": None if reference is None else reference["path"]}
     t0 = time.perf_counter()
     try:
-        timed_run(model_file, scene, duration, method, options, model)          # warm-up
+        _, _, warm = timed_run(model_file, scene, duration, method, options, model)          # warm-up
         samples, run, prob = [], None, None
-        for _ in range(repeats):
+        for _ in range(repeats if budget_s is None else run_budget(warm["end_to_end_s"], repeats, budget_s)):
             run, prob, timing = timed_run(model_file, scene, duration, method, options, model)
             samples.append(timing)
     except FAILURES as exc:
@@ -666,16 +688,18 @@ def time_case(case, model_file, scene, duration, method, options, repeats, refer
     e = "no reference" if row["E_max"] is None else f"E {row['E_max']:.2e}"
     log(f"{PROG}: {case}: integration {format_seconds(row['integration_median_s'])}, set-up "
         f"{format_seconds(row['setup_median_s'])}, end to end "
-        f"{format_seconds(row['end_to_end_median_s'])} (median of {repeats}), {run.steps} steps, {e} "
+        f"{format_seconds(row['end_to_end_median_s'])} (median of {len(samples)}), {run.steps} steps, {e} "
         f"[{time.perf_counter() - t0:.1f} s]", flush=True)
     return row, run, prob
 
 
 def alternating_comparison(model_file, scene, duration, repeats, exp_options, rtol, reference,
-                           log=print):
+                           log=print, budget_s=None):
     """DOP853 at rtol (atol DOP853_ATOL) and the exponential integrator, alternating in this
     process, ``repeats`` runs each after a warm-up of each (DOP853's over WARMUP_INTERVALS
-    output intervals).  Returns (summary dict for ``issue_table``, [dop853 row, exponential row])."""
+    output intervals); with ``budget_s``, DOP853 runs only in the rounds that fit in it at its
+    first run's pace (at least one: a ratio of hundreds is decided by one run of the slow side).
+    Returns (summary dict for ``issue_table``, [dop853 row, exponential row])."""
     dop_options = {"rtol": rtol, "atol": DOP853_ATOL}
     t0 = time.perf_counter()
     warm = min(duration, WARMUP_INTERVALS * scene.output_interval)
@@ -686,6 +710,9 @@ def alternating_comparison(model_file, scene, duration, repeats, exp_options, rt
         runs = {}
         for k in range(repeats):
             for method, opts in (("dop853", dop_options), ("exponential", exp_options)):
+                if method == "dop853" and samples["dop853"] and budget_s is not None and k >= run_budget(
+                        samples["dop853"][0]["end_to_end_s"], repeats, budget_s):
+                    continue
                 runs[method], prob, timing = timed_run(model_file, scene, duration, method, opts, "truth")
                 samples[method].append(timing)
             log(f"{PROG}: DOP853 vs exponential, round {k + 1}/{repeats}: "
@@ -709,7 +736,8 @@ def alternating_comparison(model_file, scene, duration, repeats, exp_options, rt
     dop, exp = rows
     e_dop, e_exp = dop["E_max"], exp["E_max"]
     summary = {
-        "status": "ok", "rtol": rtol, "atol": DOP853_ATOL, "runs": repeats, "tol": exp_options.get("tol"),
+        "status": "ok", "rtol": rtol, "atol": DOP853_ATOL, "runs": repeats, "dop853_runs": len(samples["dop853"]),
+        "tol": exp_options.get("tol"),
         "speedup": speed_ratio(dop["integration_times_s"], exp["integration_times_s"]),
         "speedup_end_to_end": speed_ratio(dop["end_to_end_times_s"], exp["end_to_end_times_s"]),
         "dop853_integration_median_s": dop["integration_median_s"],
@@ -824,6 +852,9 @@ def parser():
     ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES,
                     help="truth cases to run (thesis always runs)")
     ap.add_argument("--repeats", type=int, default=5, help="timed runs per case after one warm-up (median)")
+    ap.add_argument("--budget", type=simulate.positive_number("--budget"), default=None,
+                    help="seconds per case: a case (DOP853's side of a comparison) whose warm-up (first) run "
+                         "shows that --repeats runs would not fit gets fewer, at least one (default: no limit)")
     ap.add_argument("--tol", type=simulate.positive_number("--tol"), default=None,
                     help=f"exponential tolerance (default exponential.DEFAULTS.tol = {exponential.DEFAULTS.tol:g})")
     ap.add_argument("--dop853-rtol", type=simulate.positive_number("--dop853-rtol"), default=DOP853_RTOL,
@@ -859,7 +890,8 @@ def prepare(args):
     refs = {}
     for name, path in ref_paths.items():
         refs[name] = read_sim(path)
-        check_reference(name, refs[name], truth_attrs, path)
+        check_reference(name, refs[name], truth_attrs, path,
+                        scene_objs[name].tighter_tolerance(args.tol or exponential.DEFAULTS.tol))
     models = []
     for path in args.models:
         a = model_attrs(path)
@@ -882,7 +914,7 @@ def inputs_provenance(args, inputs):
                            "integrator": r["attrs"].get("integrator"), "rtol": r["attrs"].get("stat_rtol")}
                        for s, r in inputs["references"].items()},
         "scenes": {n: s.config_hash() for n, s in inputs["scenes"].items()},
-        "options": {"repeats": args.repeats, "tol": args.tol, "default_tol": exponential.DEFAULTS.tol,
+        "options": {"repeats": args.repeats, "budget_s": args.budget, "tol": args.tol, "default_tol": exponential.DEFAULTS.tol,
                     "sweep_tols": list(args.sweep_tols),
                     "dop853_rtol": args.dop853_rtol, "dop853_atol": DOP853_ATOL, "duration": args.duration}}
     return {"config_hash": inputs_hash(payload), "inputs": payload}
@@ -912,7 +944,7 @@ def main(argv=None) -> int:
         # (long: its attitude over 1 s) and --tol is not given
         scene_options = simulate.scene_options(scene, "exponential", None, exp_options)
         case, run, prob = time_case(f"{name}: truth", args.truth_model, scene, duration, "exponential",
-                                    scene_options, args.repeats, refs.get(name), "truth")
+                                    scene_options, args.repeats, refs.get(name), "truth", budget_s=args.budget)
         case["scene_tol"] = "tol" in scene_options and "tol" not in exp_options
         truth_cases[name] = case
         rows.append(case)
@@ -927,11 +959,13 @@ def main(argv=None) -> int:
                 ("problem_setup_s", "first_basis_s", "later_bases_s", "rhs_evaluations_s", "rest_s")),
                 flush=True)
         comparison, comp_rows = alternating_comparison(args.truth_model, scene, duration, args.repeats,
-                                                       exp_options, args.dop853_rtol, refs.get(name))
+                                                       exp_options, args.dop853_rtol, refs.get(name),
+                                                       budget_s=args.budget)
         rows += comp_rows
         for tol in args.sweep_tols:
             swept, _, _ = time_case(f"thesis: truth, tol {tol:g} (sweep)", args.truth_model, scene, duration,
-                                    "exponential", {"tol": tol}, args.repeats, refs.get(name), "truth")
+                                    "exponential", {"tol": tol}, args.repeats, refs.get(name), "truth",
+                                    budget_s=args.budget)
             swept["tol"] = tol
             sweep.append(swept)
             rows.append(swept)
@@ -939,14 +973,14 @@ def main(argv=None) -> int:
         if fastest is not None:
             fastest_comparison, comp_rows = alternating_comparison(
                 args.truth_model, scene, duration, args.repeats, {"tol": fastest["tol"]}, args.dop853_rtol,
-                refs.get(name))
+                refs.get(name), budget_s=args.budget)
             rows += comp_rows
     thesis = inputs["scenes"]["thesis"]
     duration = bench_duration(thesis, args.duration)
     reduced = []
     for model, path, _ in inputs["models"]:
         case, _, _ = time_case(f"thesis: {model}", path, thesis, duration, "exponential", exp_options,
-                               args.repeats, refs["thesis"], model)
+                               args.repeats, refs["thesis"], model, budget_s=args.budget)
         case["model_file"] = path
         reduced.append(case)
         rows.append(case)
@@ -955,8 +989,10 @@ def main(argv=None) -> int:
     vers = versions()
     total = time.perf_counter() - start
     note = (f"Exponential integrator at tol {args.tol if args.tol is not None else exponential.DEFAULTS.tol:g}"
-            f"{'' if args.tol is not None else ' (default)'}; medians of {args.repeats} runs after one warm-up; "
-            f"E = eq 3.53 against the converged DOP853 (rtol 1e-10) per gimbal rate, max over the four. "
+            f"{'' if args.tol is not None else ' (default)'}; medians of {args.repeats} runs after one warm-up"
+            f"{'' if args.budget is None else f' (fewer, at least one, where they exceed {args.budget:g} s a case)'}; "
+            f"E = eq 3.53 against the converged reference per gimbal rate, max over the four "
+            f"({'; '.join(sorted({reference_kind(r['attrs']) for r in refs.values()}))}). "
             f"Machine: {os.cpu_count()} cores, load {load0[0]:.2f} at the start (shared: timings are upper "
             f"bounds of an idle machine's).")
     if args.duration is not None:

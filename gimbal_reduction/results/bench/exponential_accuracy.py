@@ -4,16 +4,23 @@
         --reference thesis=results/reference/thesis/truth.h5 free=results/reference/free/truth.h5 ... \\
         --out-json results/verification/exponential.json --out-md results/verification/exponential.md
 
-For every scene given a converged reference (DOP853 at rtol 1e-10 on the truth model,
-rule ``reference_simulation``), the truth model is integrated by the exponential
+For every scene given a converged reference of the truth model, the truth model is integrated by the exponential
 integrator at its default tolerance (or the scene's exponential_tolerance where that is
-tighter, as the workflow runs it: ``long``) and at a tight one (``TIGHT_FACTOR`` times smaller),
+tighter, as the workflow runs it: ``long``) and at a tight one (``TIGHT_FACTOR`` times smaller; ``EXPONENTIAL_TIGHT_FACTOR`` against an
+exponential reference),
 and the error measure of the thesis (eq. 3.53) is computed per gimbal rate against the
 reference.  The check: E_max <= ``E_BOUND`` at the default tolerance (the bound
 on the truth model), and the tight run no worse than the default one (convergence).
 Also recorded: steps, right-hand-side evaluations, bases (re-linearisations, of them
-for the phase error), wall time.  The reference must be DOP853 at rtol <= 1e-10 of the
-same truth model and scene (one-line error otherwise, before any integration).
+for the phase error), wall time.
+
+A reference is either DOP853 at rtol <= 1e-10 (rule ``reference_simulation``; minutes to an hour
+of one core) or, the faster route, the exponential integrator itself at a tolerance
+``EXPONENTIAL_REFERENCE_FACTOR`` times tighter than the scene's (rule ``reference_exponential``;
+seconds).  The second is only as good as its agreement with the first: ``--anchor SCENE=FILE``
+gives DOP853 references of some scenes, and each exponential reference of such a scene is checked
+against it, E_max <= ``ANCHOR_BOUND`` (a referee ten times finer than the bound it referees).  A
+reference of the same truth model and scene, or a one-line error before any integration.
 """
 from __future__ import annotations
 
@@ -33,7 +40,12 @@ from gimbal_reduction.workflow.provenance import check_record, provenance, versi
 
 E_BOUND = 1e-8          # E <= 1e-8 on every rate, truth model
 TIGHT_FACTOR = 100.0    # the tight tolerance: default / TIGHT_FACTOR
-REFERENCE_RTOL = 1e-10  # a reference must be at least this converged
+REFERENCE_RTOL = 1e-10  # a DOP853 reference must be at least this converged
+# an exponential reference: at most the scene's tolerance / this; against it the tight run is at the
+# tolerance / EXPONENTIAL_TIGHT_FACTOR, judged against something ten times finer than itself
+EXPONENTIAL_REFERENCE_FACTOR = 100.0
+EXPONENTIAL_TIGHT_FACTOR = 10.0
+ANCHOR_BOUND = E_BOUND / 10   # an exponential reference against DOP853 (--anchor), E_max
 
 
 class AccuracyInputError(ValueError):
@@ -53,9 +65,11 @@ def parse_references(items):
     return out
 
 
-def read_reference(scene, path, truth_hash):
-    """(t (T,), gamma_dot (T, 4)) of a reference file, checked: same scene, the truth model
-    of the same config hash, DOP853 at rtol <= REFERENCE_RTOL."""
+def read_reference(scene, path, truth_hash, scene_tol=None):
+    """(t (T,), gamma_dot (T, 4), kind) of a reference file, checked: same scene, the truth model
+    of the same config hash, DOP853 at rtol <= REFERENCE_RTOL or (with ``scene_tol``, the
+    tolerance the scene is run at) the exponential integrator at tol <= scene_tol /
+    EXPONENTIAL_REFERENCE_FACTOR; kind is "dop853 rtol R" or "exponential tol T"."""
     if not os.path.exists(path):
         raise AccuracyInputError(f"reference of scene {scene!r}: {path} does not exist")
     with h5py.File(path, "r") as f:
@@ -66,12 +80,21 @@ def read_reference(scene, path, truth_hash):
         problems.append(f"scene {a.get('scene')!r}")
     if str(a.get("model")) != "truth" or str(a.get("model_config_hash")) != truth_hash:
         problems.append(f"model {a.get('model')!r} of another config")
-    if str(a.get("integrator")) != "dop853" or not float(a.get("stat_rtol", 1.0)) <= REFERENCE_RTOL:
-        problems.append(f"integrator {a.get('integrator')} rtol {a.get('stat_rtol')}")
+    integrator = str(a.get("integrator"))
+    if integrator == "dop853" and float(a.get("stat_rtol", 1.0)) <= REFERENCE_RTOL:
+        kind = f"dop853 rtol {float(a['stat_rtol']):g}"
+    elif (integrator == "exponential" and scene_tol is not None
+          and float(a.get("stat_exponential_tol", 1.0)) <= scene_tol / EXPONENTIAL_REFERENCE_FACTOR * (1 + 1e-9)):
+        kind = f"exponential tol {float(a['stat_exponential_tol']):g}"
+    else:
+        tol = a.get("stat_rtol") if integrator == "dop853" else a.get("stat_exponential_tol")
+        problems.append(f"integrator {integrator} at {tol} (a reference: dop853 at rtol <= {REFERENCE_RTOL:g}"
+                        + (f" or exponential at tol <= {scene_tol / EXPONENTIAL_REFERENCE_FACTOR:g}"
+                           if scene_tol is not None else "") + ")")
     if problems:
         raise AccuracyInputError(f"reference {path} is not the converged truth of scene {scene!r}: "
                                  + ", ".join(problems))
-    return t, rates
+    return t, rates, kind
 
 
 def scene_case(chain, scene, t_ref, rates_ref, tol):
@@ -89,13 +112,29 @@ def scene_case(chain, scene, t_ref, rates_ref, tol):
             "wall_s": wall, "basis_s": float(st["basis_time_s"])}
 
 
-def markdown(rows):
-    lines = ["| scene | tol | E max | steps | bases | wall [s] | E max, tol / 100 | steps |",
-             "|---|---|---|---|---|---|---|---|"]
+def anchor_check(scene, reference, anchor):
+    """(row, check) of a reference against a DOP853 one of the same scene: E of eq. 3.53 per gimbal
+    rate, the reference taken as the case; the check: E_max <= ANCHOR_BOUND.  ``reference`` and
+    ``anchor`` are (t (T,) [s], gamma_dot (T, 4) [rad/s], kind) of read_reference, on the same grid."""
+    t_anchor, rates_anchor, anchor_kind = anchor
+    _, rates_ref, kind = reference
+    E = np.asarray(error_measure(t_anchor, rates_anchor, rates_ref))
+    row = {"scene": scene, "reference": kind, "anchor": anchor_kind, "E": E.tolist(),
+           "E_max": float(np.nanmax(E))}
+    return row, check_record(f"{scene}: the reference ({kind}) against DOP853 ({anchor_kind}), E max",
+                             row["E_max"], ANCHOR_BOUND)
+
+
+def markdown(rows, anchors=()):
+    lines = ["| scene | reference | tol | E max | steps | bases | wall [s] | E max, tight tol | steps |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         d, t = r["default"], r["tight"]
-        lines.append(f"| {r['scene']} | {d['tol']:g} | {d['E_max']:.2e} | {d['steps']} | {d['bases']} | "
-                     f"{d['wall_s']:.2f} | {t['E_max']:.2e} | {t['steps']} |")
+        lines.append(f"| {r['scene']} | {r.get('reference_kind', '')} | {d['tol']:g} | {d['E_max']:.2e} | "
+                     f"{d['steps']} | {d['bases']} | {d['wall_s']:.2f} | {t['E_max']:.2e} | {t['steps']} |")
+    for a in anchors:
+        lines.append(f"\nReference of {a['scene']} ({a['reference']}) against DOP853 ({a['anchor']}): "
+                     f"E max {a['E_max']:.2e} (bound {ANCHOR_BOUND:g}).")
     return "\n".join(lines) + "\n"
 
 
@@ -105,6 +144,9 @@ def main(argv=None) -> int:
                                              "DOP853 references, per scene.")
     ap.add_argument("--truth-model", required=True)
     ap.add_argument("--reference", nargs="+", required=True, metavar="SCENE=FILE")
+    ap.add_argument("--anchor", nargs="*", default=[], metavar="SCENE=FILE",
+                    help="DOP853 references (rtol <= 1e-10) that the exponential references of the same "
+                         "scenes are checked against")
     ap.add_argument("--tol", type=float, default=exponential.DEFAULTS.tol)
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-md", required=True)
@@ -116,32 +158,50 @@ def main(argv=None) -> int:
         bodyconfig.check_files([args.truth_model], args.config)
         exponential.ExponentialOptions(tol=args.tol)
         refs = parse_references(args.reference)
-        loaded = {}
+        anchors = parse_references(args.anchor)
+        if set(anchors) - set(refs):
+            raise AccuracyInputError(f"--anchor of scene(s) {', '.join(sorted(set(anchors) - set(refs)))} "
+                                     "without a --reference to check")
+        loaded, anchored = {}, {}
         for name, path in refs.items():
             scene = scenes.load_scene(name)
             chain, info = chainfile.read_chain(args.truth_model, scene.damping_ratio)
             if str(info.get("model")) != "truth":
                 raise AccuracyInputError(f"{args.truth_model} holds {info.get('model')!r}, not the truth")
-            loaded[name] = (scene, chain, *read_reference(name, path, str(info.get("config_hash"))))
+            truth_hash = str(info.get("config_hash"))
+            loaded[name] = (scene, chain, *read_reference(name, path, truth_hash,
+                                                          scene.tighter_tolerance(args.tol)))
+            if name in anchors:
+                anchored[name] = read_reference(name, anchors[name], truth_hash)
+                if not anchored[name][2].startswith("dop853"):
+                    raise AccuracyInputError(f"--anchor {anchors[name]}: not a DOP853 reference")
     except (OSError, ValueError) as exc:
         print(f"exponential_accuracy: {exc}", file=sys.stderr)
         return 2
-    rows, checks = [], []
-    for name, (scene, chain, t_ref, rates_ref) in loaded.items():
+    rows, checks, anchor_rows = [], [], []
+    for name, anchor in anchored.items():
+        row, check = anchor_check(name, loaded[name][2:], anchor)
+        anchor_rows.append({**row, "anchor_file": anchors[name]})
+        checks.append(check)
+        print(f"exponential_accuracy: {check['name']}: {row['E_max']:.2e}", flush=True)
+    for name, (scene, chain, t_ref, rates_ref, kind) in loaded.items():
         tol = scene.tighter_tolerance(args.tol)         # as the workflow runs the scene
         default = scene_case(chain, scene, t_ref, rates_ref, tol)
-        tight = scene_case(chain, scene, t_ref, rates_ref, tol / TIGHT_FACTOR)
-        rows.append({"scene": name, "reference": refs[name], "default": default, "tight": tight})
+        tight_factor = TIGHT_FACTOR if kind.startswith("dop853") else EXPONENTIAL_TIGHT_FACTOR
+        tight = scene_case(chain, scene, t_ref, rates_ref, tol / tight_factor)
+        rows.append({"scene": name, "reference": refs[name], "reference_kind": kind, "default": default,
+                     "tight": tight})
         checks.append(check_record(f"{name}: E max at tol {tol:g} (truth model)",
                                    default["E_max"], E_BOUND))
-        checks.append(check_record(f"{name}: E max at tol {tol / TIGHT_FACTOR:g} no worse than "
+        checks.append(check_record(f"{name}: E max at tol {tol / tight_factor:g} no worse than "
                                    f"at {tol:g} (x1.5)", tight["E_max"], 1.5 * default["E_max"]))
         print(f"exponential_accuracy: {name}: E {default['E_max']:.2e} ({default['steps']} steps, "
               f"{default['bases']} bases, {default['wall_s']:.2f} s); tight {tight['E_max']:.2e}",
               flush=True)
-    record = provenance(sources=[args.truth_model, *refs.values()])
-    write_text(args.out_md, markdown(rows), record)
-    write_json(args.out_json, {"stage": "exponential_accuracy", "rows": rows, "checks": checks,
+    record = provenance(sources=[args.truth_model, *refs.values(), *anchors.values()])
+    write_text(args.out_md, markdown(rows, anchor_rows), record)
+    write_json(args.out_json, {"stage": "exponential_accuracy", "rows": rows, "anchors": anchor_rows,
+                               "checks": checks,
                                "passed": all(c["passed"] for c in checks), "E_bound": E_BOUND,
                                "inputs": [args.truth_model, *refs.values()],
                                "wall_time_s": time.perf_counter() - start, "versions": versions()}, record)

@@ -46,6 +46,7 @@ from gimbal_reduction.solver.dynamics.problem import Problem, make_rhs
 from gimbal_reduction.reduction import models
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.results.bench.oracle import Oracle, jax_available, synthetic_chain
+from gimbal_reduction.results.bench.pareto import run_budget
 from gimbal_reduction.workflow.progress import Progress
 from gimbal_reduction.workflow.provenance import check_record, provenance, versions, write_json
 
@@ -260,8 +261,10 @@ def bad_input_checks(body_files, reduction_files, out_dir):
 
 
 # ------------------------------------------------ truth: convergence, benchmark
-def truth_runs(body_data, rankings, repeats):
-    """Truth on thesis: default-step convergence, and every integrator's cost and accuracy."""
+def truth_runs(body_data, rankings, repeats, budget_s=None):
+    """Truth on thesis: default-step convergence, and every integrator's cost and accuracy: the
+    median of ``repeats`` runs each, fewer (at least one) where they would not fit in ``budget_s``
+    seconds at the first run's pace (a run that slow decides no comparison by its median)."""
     spec = models.model_spec("truth", rankings)
     chain = models.build_chain(spec, body_data)
     scene = scenes.load_scene("thesis")
@@ -298,7 +301,8 @@ def truth_runs(body_data, rankings, repeats):
 
     def bench(label, repeats, **kw):
         walls, run = [], None
-        for _ in range(repeats):
+        while len(walls) < (repeats if budget_s is None or not walls
+                            else run_budget(walls[0], repeats, budget_s)):
             t0 = time.perf_counter()
             run = go(**kw)
             walls.append(time.perf_counter() - t0)
@@ -393,6 +397,9 @@ def main(argv=None):
     ap.add_argument("--verification", required=True, help="output JSON of the checks")
     ap.add_argument("--benchmark", required=True, help="output JSON of the truth-model timings")
     ap.add_argument("--repeats", type=int, default=5, help="runs per integrator (median)")
+    ap.add_argument("--budget", type=float, default=None,
+                    help="seconds per integrator: fewer runs (at least one) where --repeats would not fit "
+                         "at the first run's pace (default: no limit)")
     ap.add_argument("--config", help="the current configuration file: input files of another "
                                      "configuration are refused before the work (gimbal_reduction.solver.bodyconfig)")
     args = ap.parse_args(argv)
@@ -425,7 +432,8 @@ def main(argv=None):
     checks += section("rigid limits", rigid_checks, body_data, rankings)
     import tempfile
     checks += section("bad input", bad_input_checks, body_files, reduction_files, tempfile.mkdtemp())
-    truth_checks, bench, info, truth = section("truth", truth_runs, body_data, rankings, args.repeats)
+    truth_checks, bench, info, truth = section("truth", truth_runs, body_data, rankings, args.repeats,
+                                               args.budget)
     checks += truth_checks
     checks += section("exponential", exponential_checks, body_data, rankings, truth)
     total = time.perf_counter() - start
@@ -441,6 +449,7 @@ def main(argv=None):
                                    "wall_time_s": total, "section_times_s": timing, "versions": vers},
                record)
     write_json(args.benchmark, {"stage": "dynamics", **info, "runs": bench, "repeats": args.repeats,
+                                "budget_s": args.budget,
                                 "versions": vers}, record)
     failed = [c["name"] for c in checks if not c["passed"]]
     print(f"verify_dynamics: {len(checks) - len(failed)}/{len(checks)} checks passed in {total:.0f} s"

@@ -823,7 +823,7 @@ def make_figures(out_dir, ranking_rows=None, static_rows=None, truth=None, cases
             caption=f"Size of each case (elastic coordinates){on} against the error E of the outer "
                     "gimbal rate; dashed: the Pareto front (no case is both smaller and more "
                     "accurate), each of its points labelled with its model; the truth's size is named "
-                    "in the legend. Run times: the benchmark's medians (snakemake bench), not single runs"
+                    "in the legend. Run times: the benchmark's medians, not single runs"
                     + ("; dotted: the rigid model's E." if E_rigid is not None else
                        "; rigid-model baseline not available."))
     return entries

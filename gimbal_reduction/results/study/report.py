@@ -112,8 +112,8 @@ BENCH_FIGURES = (
      "the a-priori estimate (gimbal_reduction.reduction.load_aware, gimbal_reduction.results.bench.selection)."),
     ("rk4_limit", "stability/rk4_limit.png", "Measured RK4 stability limit against 2.785/omega_max "
      "for several reduced models (gimbal_reduction.results.bench.stability)."),
-    ("drift", "stability/energy_drift.png", "Energy drift over 10 s of scene free_10s, per "
-     "integrator (gimbal_reduction.results.bench.stability)."),
+    ("drift", "stability/energy_drift.png", "Energy drift on scene free_10s (10 s; its first second in "
+     "the main job's version), per integrator (gimbal_reduction.results.bench.stability)."),
 )
 N_FREQ_ROWS = 10
 
@@ -148,6 +148,14 @@ def note_revision(stale: dict, key: str, path: str, shown: str, makes: str) -> s
     return f", revision {made}"
 
 
+def version_of(path: str) -> str:
+    """Which version of a check ``path`` holds: the main job's (`snakemake all` writes its cheap
+    versions below results/all/) or the extended one (`snakemake verify`, `bench`)."""
+    parts = os.path.abspath(path).split(os.sep)
+    return "main job's version" if any(a == "results" and b == "all" for a, b in zip(parts, parts[1:])) \
+        else "extended version"
+
+
 def stale_list(stale: dict, keyed=False) -> str:
     """The report's paragraph on the inputs made at another revision (``note_revision``), each named
     by its key too if ``keyed``."""
@@ -178,7 +186,8 @@ def gather(paths: dict) -> dict:
             return None
         ctx["status"][key] = time.strftime("%Y-%m-%d %H:%M", time.localtime(os.path.getmtime(path)))
         if key in OPTIONAL_KEYS:
-            ctx["status"][key] += note_revision(ctx["stale"], key, path, os.path.relpath(path, ROOT), MAKES[key])
+            ctx["status"][key] += f", {version_of(path)}" + note_revision(
+                ctx["stale"], key, path, os.path.relpath(path, ROOT), MAKES[key])
         return out
 
     ctx["ranking_rows"] = load("ranking_table", read_table) or []
@@ -792,7 +801,7 @@ def _findings_section(ctx):
 
 def _runtime_section(ctx, root):
     """Cost and accuracy of every case.  Run times are quoted only from the benchmark's medians
-    (``snakemake bench``, results/benchmarks/exponential.json), never from the study's single
+    (results/benchmarks/exponential.json or the main job's version), never from the study's single
     runs (compilation and a shared machine make those noise)."""
     out = ["= Cost against error <runtime>\n\n"]
     rows = sorted((r for r in ctx["ranking_rows"] + ctx["static_rows"] if r["group"] != "truth"),
@@ -811,7 +820,7 @@ def _runtime_section(ctx, root):
     if eb:
         out.append(f"Run times (medians of repeated runs) are those of the exponential integrator's "
                    f"benchmark of {s(ctx['status'].get('exponential_bench', ''))}: "
-                   f"results/benchmarks/exponential.md.\n\n")
+                   f"{s(os.path.relpath(ctx['paths']['exponential_bench'], ROOT)[:-len('json')] + 'md')}.\n\n")
     else:
         out.append(note(s(ctx["missing"].get("exponential_bench", "no benchmark") + ";") +
                         " no run time is quoted from single runs."))
@@ -919,7 +928,8 @@ def _performance_section(ctx, root):
                 for m, v in drift.items()]
         if body:
             out.append(table(["integrator", "steps", "max drift", "final drift", "wall time [s]"], body,
-                             f"Relative energy drift over 10 s of scene free_10s "
+                             f"Relative energy drift over {st['energy_drift'].get('duration_s', 10.0):g} s of "
+                             f"scene free_10s "
                              f"(model {s(st['energy_drift'].get('model', ''))}).", "tab-drift"))
         out.append(_bench_figure(ctx, "drift", root, width="70%"))
         cases = st.get("hard_cases", {}).get("cases", {})

@@ -31,12 +31,12 @@ def run_check(name: str, config: dict, args) -> dict:
     if name == "plate":
         return v.check_plate_fv12(config, size=0.25)
     if name == "solid-ring":
-        return v.check_solid_ring(config)
+        return v.check_solid_ring(config, solid_size=args.solid_size)
     if name == "platform":
         return v.check_platform_model(config)
     if name == "convergence":
         # the verdict on the first verification.convergence_modes, all modes.count reported
-        return v.check_convergence(config, int(args.body),
+        return v.check_convergence(config, int(args.body), levels=args.levels,
                                    report_count=int(cfgmod.value(config, "modes.count")))
     if name == "body-file":
         return v.check_body_file(args.body_file)
@@ -105,7 +105,19 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True)
     parser.add_argument("--summary")
     parser.add_argument("--spectra-out", help="with body: the spectra part")
+    parser.add_argument("--levels", type=int, nargs="+", default=None,
+                        help="with convergence: the mesh levels, sizes h * mesh.refinement_ratio^level "
+                             "(default: rings -1 0 1, the platform 0 1 2), ascending; level 0 (the "
+                             "study's mesh) must be one of them")
+    parser.add_argument("--solid-size", type=float, default=None,
+                        help="with solid-ring: the solid's element size [in] (default: a third of the wall)")
     args = parser.parse_args(argv)
+    if args.levels is not None and (0 not in args.levels or len(args.levels) < 2
+                                    or sorted(set(args.levels)) != args.levels):
+        parser.error(f"--levels {' '.join(map(str, args.levels))}: give two or more levels, coarse to "
+                     "fine (ascending), 0 among them")
+    if args.solid_size is not None and not args.solid_size > 0:
+        parser.error(f"--solid-size {args.solid_size:g}: an element size [in] must be positive")
     started = time.perf_counter()
     try:
         config = cfgmod.load_config(args.config)
