@@ -14,7 +14,7 @@ from snakemake.settings.types import ConfigSettings, OutputSettings, ResourceSet
 ROOT = Path(__file__).resolve().parents[2]
 CORES = 4
 # the rules whose stages report medians of repeated runs in one process
-TIMING_RULES = {"dynamics_verification", "exponential_bench", "pareto", "scaling", "tolerance"}
+TIMING_RULES = {"dynamics_verification", "exponential_bench", "pareto", "scaling", "tolerance", "runtime"}
 
 
 @pytest.fixture(scope="module")

@@ -184,6 +184,78 @@ rule study_figures:
         "> {log} 2>&1"
 
 
+rule runtime:
+    """A timing job: run and set-up times (medians of 5 runs in one process) of the models the
+    scene's decision names, the rigid model and the truth (gimbal_reduction.results.bench.runtime).
+    """
+    input:
+        scene=scene_file,
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        load_ranking="results/reduction/load/{scene}.h5",
+        ranking="results/tables/{scene}/errors_ranking.csv",
+        static="results/tables/{scene}/errors_static.csv",
+        truth="results/study/{scene}/sim/truth.h5",
+        truth_basis="results/verification/truth_basis.json",
+        kernels=ancient(KERNELS),
+    output:
+        "results/benchmarks/runtime/{scene}.json",
+    log:
+        "logs/results/runtime_{scene}.log",
+    benchmark:
+        "results/benchmarks/rules/runtime_{scene}.tsv"
+    wildcard_constraints:
+        scene="|".join(STUDY_SCENES),
+    threads: TIMING_CORES  # alone (common.smk, TIMING_CORES); BLAS pinned to one thread
+    resources:
+        **TIMING_RESOURCES,
+        # no record: estimate, 5 repeats of ~5 models; long's truth ~1 s a run
+        mem_mb=1000,
+        runtime=10,
+    params:
+        code=code_hash("runtime"),
+        integrator=cfgmod.value(config, "simulation.integrator"),
+        options=integrator_options,
+        cfg=body_files_hash,
+    shell:
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} runtime --scene {input.scene} "
+        "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
+        "--ranking-table {input.ranking} --static-table {input.static} --truth {input.truth} "
+        "--truth-basis {input.truth_basis} --repeats 5 --integrator {params.integrator} {params.options} "
+        "--config {CONFIG} --out {output} > {log} 2>&1"
+
+
+rule decision:
+    """The decision table: per scene and accuracy requirement, the cheapest model meeting it,
+    its coordinates and measured times (gimbal_reduction.results.study.decision).
+    """
+    input:
+        rankings=expand("results/tables/{scene}/errors_ranking.csv", scene=STUDY_SCENES),
+        statics=expand("results/tables/{scene}/errors_static.csv", scene=STUDY_SCENES),
+        truths=expand("results/study/{scene}/sim/truth.h5", scene=STUDY_SCENES),
+        runtimes=expand("results/benchmarks/runtime/{scene}.json", scene=STUDY_SCENES),
+        truth_basis="results/verification/truth_basis.json",
+        sims=[f for s in STUDY_SCENES for f in study_sims(s)],
+    output:
+        json="results/tables/decision.json",
+        csv="results/tables/decision.csv",
+    log:
+        "logs/results/decision.log",
+    benchmark:
+        "results/benchmarks/rules/decision.tsv"
+    resources:
+        mem_mb=300,
+        runtime=2,
+    params:
+        code=code_hash("decision"),
+        scenes=" ".join(STUDY_SCENES),
+    shell:
+        "{GIMBAL} decision --scenes {params.scenes} --ranking-tables {input.rankings} "
+        "--static-tables {input.statics} --truths {input.truths} --runtimes {input.runtimes} "
+        "--truth-basis {input.truth_basis} --sims {input.sims} --out-json {output.json} "
+        "--out-csv {output.csv} > {log} 2>&1"
+
+
 # What the reports show of the checks (verification, benchmarks): `all` builds each in its cheap version
 # (results/all/..., all_version) as an input of the reports; a report shows the extended version that
 # `verify` or `bench` made (the paths here) instead where it exists, with its date (shown_version).
