@@ -31,7 +31,7 @@ def _shown(workflow):
 
 def test_every_check_a_report_shows_is_an_input_of_the_reports_in_alls_version(workflow):
     g = workflow.globals
-    inputs = {str(f) for name in ("report_scene", "study_report")
+    inputs = {str(f) for name in ("model_report", "study_report")
               for f in workflow.get_rule(name).input.checks}
     for path in _shown(workflow):
         cheap = g["all_version"](path)
