@@ -177,3 +177,51 @@ def test_the_decision_file_quotes_the_benchmark_and_the_error_tables(tmp_path):
     for r in d["rows"]:
         assert (r["status"] == decision.NOT_RESOLVABLE) == (r["requirement"] <= r["resolution"])
     assert "max_relative_change" in d["sampling"]
+
+
+def camp_rows():
+    """Rows with their groups: the thesis's freq/xmx, the project's global, the field's cb."""
+    def g(model, group, n, E):
+        return {**row(model, n, E, 1.0), "group": group}
+    return [g("truth", "truth", 400, 0.0), g("static-100", "truth-check", 404, 1e-7),
+            g("cb-100", "truth-interface", 418, 2e-7), g("rigid", "rigid", 0, 1e-1),
+            g("freq-10", "freq", 40, 1e-2), g("xmx-25", "xmx", 100, 1e-3),
+            g("global-60", "global", 60, 1e-3), g("cb-10", "cb", 58, 1e-3)]
+
+
+def test_cb_100_is_one_of_the_truths_checks_and_never_an_answer():
+    rows = camp_rows()
+    res = decision.resolution(rows, None, RMS)
+    assert res["E"] == pytest.approx(2e-7) and res["sources"] == ["static-100", "cb-100"]
+    assert "cb-100" not in [r["model"] for r in decision.candidates(rows)]
+
+
+def test_each_camp_gives_its_cheapest_answer_and_the_fewest_coordinates_win():
+    rows = camp_rows()
+    res = decision.resolution(rows, None, RMS)
+    camps = decision.choose_by_camp("E", 2e-3, rows, RMS, res)
+    assert {c: v["model"] for c, v in camps.items()} == {"thesis": "xmx-25", "project": "global-60",
+                                                         "field": "cb-10"}
+    assert decision.cheapest_camps(camps) == ["field"]          # 58 < 60 < 100 coordinates
+    # must fail: at 5e-4 no camp's model is within the requirement (bounds above 1e-3)
+    none = decision.choose_by_camp("E", 5e-4, rows, RMS, res)
+    assert all(v["status"] == "no model" for v in none.values())
+    assert decision.cheapest_camps(none) == []
+    # below the truth's own error, every camp says not resolvable
+    low = decision.choose_by_camp("E", 1e-7, rows, RMS, res)
+    assert all(v["status"] == decision.NOT_RESOLVABLE for v in low.values())
+
+
+def test_the_camp_count_counts_ties_for_each_and_skips_unresolvable_requirements():
+    from gimbal_reduction.results.study.study_report import camp_wins, camps_section
+    dec = {"scenes": [{"scene": "a", "rows": [
+        {"measure": "E", "requirement": 1e-2, "status": "met", "cheapest_camps": ["field"],
+         "by_camp": {"thesis": {"status": "met", "model": "freq-10", "coordinates": 44},
+                     "project": {"status": "no model", "model": None, "coordinates": None},
+                     "field": {"status": "met", "model": "cb-4,4,4,10", "coordinates": 40}}},
+        {"measure": "attitude", "requirement": 1.0, "status": "met", "cheapest_camps": ["thesis", "field"]},
+        {"measure": "E", "requirement": 1e-4, "status": decision.NOT_RESOLVABLE, "cheapest_camps": []},
+        {"measure": "rate", "requirement": 1e-3, "status": "met", "cheapest_camps": ["project"]}]}]}
+    assert camp_wins(dec) == {"thesis": 1, "project": 0, "field": 2, "judged": 2}
+    text = camps_section(dec)
+    assert '*#"cb-4,4,4,10 (40)"*' in text and "none of the study" in text and "1e-04" not in text

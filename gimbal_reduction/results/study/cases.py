@@ -100,6 +100,11 @@ LOAD_CASE_LABELS = {"output_motor_fz": "z-force at the output motor joint",
                     "input_motor_mz": "z-moment at the input motor joint"}
 THESIS_GROUPS = ("freq", "xmx", "xmgmx", "static-freq", "static-xmx", "static-xmgmx", "load-case")
 GROUPS = ("rigid", *THESIS_GROUPS, "load", "global", *FIELD_FAMILIES, "cb-equal", *REFEREES)
+# Whose methods a model's group is: the thesis's selections (modes by frequency, XMX, XMGMX, with
+# or without static correction modes), this project's scene-aware selections, and what the field's
+# tools do by default (Craig-Bampton as Adams, Simpack, Abaqus hold a flexible body; Ritz vectors;
+# dominance).  The decision names the cheapest of each for every requirement.
+CAMPS = {"thesis": THESIS_GROUPS, "project": ("load", "global"), "field": (*FIELD_FAMILIES, "cb-equal")}
 RANKING_TABLE_GROUPS = ("rigid", "freq", "xmx", "xmgmx", "load", "global", *FIELD_FAMILIES,
                         "cb-equal", *REFEREES)                          # Table 4.2 analogue + ours
 STATIC_TABLE_GROUPS = ("static-freq", "static-xmx", "static-xmgmx", "load-case")  # Table 4.3

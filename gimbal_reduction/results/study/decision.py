@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gimbal_reduction.results.study.cases import TRUTH, TRUTH_CHECK, TRUTH_INTERFACE
+from gimbal_reduction.results.study.cases import CAMPS, TRUTH, TRUTH_CHECK, TRUTH_INTERFACE
 
 # the rows that judge the truth (its own error), never candidates: the truth + residual
 # flexibility, and the truth's band + each ring's interface flexibility (Craig-Bampton)
@@ -210,6 +210,25 @@ def choose(measure, requirement, rows, truth_rms, res) -> dict:
             "error": err[measure] if r["model"] != TRUTH else 0.0, "error_bound": bound}
 
 
+def choose_by_camp(measure, requirement, rows, truth_rms, res) -> dict:
+    """{camp: the cheapest model of that camp's groups meeting the requirement} (``cases.CAMPS``:
+    the thesis's selections, the project's, the field's defaults), each as ``choose`` gives it
+    over that camp's rows alone: ``met`` with its model and coordinates, ``no model`` when none of
+    the camp's study counts meets it, ``NOT_RESOLVABLE`` at or below the truth's own error."""
+    return {camp: choose(measure, requirement, [r for r in rows if r.get("group") in groups],
+                         truth_rms, res)
+            for camp, groups in CAMPS.items()}
+
+
+def cheapest_camps(by_camp) -> list[str]:
+    """The camps whose answer has the fewest coordinates among those met (all that tie), or []."""
+    met = {c: v["coordinates"] for c, v in by_camp.items() if v["status"] == "met"}
+    if not met:
+        return []
+    n = min(met.values())
+    return [c for c, k in met.items() if k == n]
+
+
 def best(rows, rate_index, E_res) -> dict:
     """The most accurate model on one rate (not the truth nor its check), and whether that is
     resolvable: it is when no other model's error is within the truth's resolution of it
@@ -281,6 +300,7 @@ def decide_scene(name, rows, truth_rms, basis_scene, runtime, requirements=Requi
     for measure in MEASURES:
         for level in requirements.levels(measure):
             c = choose(measure, level, rows, truth_rms, res)
+            camps = choose_by_camp(measure, level, rows, truth_rms, res)
             t = timed.get(c["model"], {}) if c["model"] else {}
             run, truth_run = t.get("run_ms"), truth_t.get("run_ms")
             out_rows.append({"scene": name, **c, "unit": MEASURE_UNITS[measure],
@@ -288,7 +308,10 @@ def decide_scene(name, rows, truth_rms, basis_scene, runtime, requirements=Requi
                              "run_ms": run, "run_ms_spread": t.get("run_ms_spread"),
                              "setup_ms": t.get("setup_ms"), "n_modes": t.get("n_modes"),
                              "truth_run_ms": truth_run, "truth_setup_ms": truth_t.get("setup_ms"),
-                             "speedup": (truth_run / run) if run and truth_run else None})
+                             "speedup": (truth_run / run) if run and truth_run else None,
+                             "by_camp": {k: {"status": v["status"], "model": v["model"],
+                                             "coordinates": v["coordinates"]} for k, v in camps.items()},
+                             "cheapest_camps": cheapest_camps(camps)})
     truth_row = next((r for r in rows if r["model"] == TRUTH), None)
     return {"scene": name, "resolution": res, "truth_rate_rms": [float(x) for x in truth_rms],
             "truth_coordinates": coordinates(truth_row) if truth_row else None,

@@ -306,6 +306,57 @@ def decision_tables(dec) -> str:
     return "".join(out)
 
 
+CAMP_HEADS = {"thesis": "the thesis's selections (freq, XMX, XMGMX, static)",
+              "project": "the project's (load-N, global-N)",
+              "field": "the field's defaults (Craig-Bampton, Ritz, dominance)"}
+
+
+def camp_wins(dec, measures=("E", "attitude")) -> dict:
+    """{camp: number of resolvable requirements (of ``measures``, every scene) at which its
+    cheapest model has the fewest coordinates of the three camps (ties count for each)}, and
+    {"judged": how many requirements had at least one camp meeting them}."""
+    wins = dict.fromkeys(CAMP_HEADS, 0)
+    judged = 0
+    for sc in dec["scenes"]:
+        for r in sc["rows"]:
+            if r["measure"] in measures and r.get("cheapest_camps"):
+                judged += 1
+                for c in r["cheapest_camps"]:
+                    wins[c] += 1
+    return {**wins, "judged": judged}
+
+
+def camps_section(dec, measure="E") -> str:
+    """Whose methods to use: per scene and resolvable requirement, the cheapest model of each camp
+    (decision.json's ``by_camp``), the cheapest in bold, then the count of wins."""
+    rows = []
+    for sc in dec["scenes"]:
+        for r in sc["rows"]:
+            camps = r.get("by_camp")
+            if r["measure"] != measure or r["status"] != "met" or not camps:
+                continue
+            cells = [s(sc["scene"]), s(format(r["requirement"], "g"))]
+            for c in CAMP_HEADS:
+                v = camps.get(c, {})
+                text = (s(f"{v['model']} ({v['coordinates']})") if v.get("status") == "met"
+                        else s("none of the study's counts"))
+                cells.append(f"*{text}*" if c in r.get("cheapest_camps", ()) else text)
+            rows.append(cells)
+    if not rows:
+        return ""
+    wins = camp_wins(dec)
+    out = [table(["scene", MEASURE_HEADS.get(measure, measure), *(s(h) for h in CAMP_HEADS.values())], rows,
+                 "Whose methods: the cheapest model of each family camp meeting the requirement "
+                 "(kept coordinates; bold: the fewest). Every requirement within the truth's own error is "
+                 "left out (not resolvable).", f"tab-camps-{measure}", size="6.5pt")]
+    order = sorted(CAMP_HEADS, key=lambda c: -wins[c])
+    out.append(f"*Whose methods to use.* Over the {wins['judged']} resolvable requirements on E and the "
+               f"platform attitude on every scene, the fewest coordinates came from "
+               + s(", ".join(f"{CAMP_HEADS[c].split(' (')[0]} {wins[c]} times" for c in order))
+               + " (ties count for each). Rules: decision.choose_by_camp.\n\n")
+    return "".join(out)
+
+
 PAYS_RUN_MS = 1000.0     # a truth run of a second or more is one a designer waits for: reduction pays
 
 
@@ -361,13 +412,14 @@ def decision_section(ctx) -> str:
         return out[0] + note(s(ctx["missing"].get("decision", "results/tables/decision.json missing")))
     out.append(
         "For an accuracy in the designer's units, the cheapest model of the study meeting it on each "
-        "scene, its error bounded by the error against the truth plus the truth's own error (the larger "
-        "of its two checks). At or below the truth's own error a requirement is *not resolvable*: no "
+        "scene, its error bounded by the error against the truth plus the truth's own error (the largest "
+        "of its checks: static-100, cb-100, the 200-mode truth). At or below the truth's own error a requirement is *not resolvable*: no "
         "model can be shown to meet it. $sqrt(E)$ is the RMS rate error as a fraction of the RMS rate "
         "($E = 0.04$: 20 %). Rules: gimbal_reduction/results/study/decision.py; numbers: "
         "results/tables/decision.csv.\n\n")
     out.append(decision_tables(dec))
     out.append(pays_section(dec))
+    out.append(camps_section(dec))
     return "".join(out)
 
 
