@@ -225,3 +225,14 @@ def test_the_camp_count_counts_ties_for_each_and_skips_unresolvable_requirements
     assert camp_wins(dec) == {"thesis": 1, "project": 0, "field": 2, "judged": 2}
     text = camps_section(dec)
     assert '*#"cb-4,4,4,10 (40)"*' in text and "none of the study" in text and "1e-04" not in text
+
+
+def test_the_frequency_error_table_has_a_cell_per_model_of_a_family_and_skips_missing_columns():
+    from gimbal_reduction.results.study.report import frequency_rows
+    rows = [{"group": "rigid", "model": "rigid", "count": None, "hinf_error": 1.0, "h2_error": 1.0},
+            {"group": "freq", "model": "freq-10", "count": 10, "hinf_error": 1.41, "h2_error": 1.16},
+            {"group": "freq", "model": "freq-5", "count": 5, "hinf_error": 2.0, "h2_error": 1.5},
+            {"group": "xmx", "model": "xmx-5", "count": 5, "hinf_error": float("nan"), "h2_error": float("nan")}]
+    out = frequency_rows(rows)
+    assert len(out) == 2                                   # xmx has no frequency-domain error
+    assert out[1][1:] == ['#"5: 2 / 1.5"', '#"10: 1.41 / 1.16"']

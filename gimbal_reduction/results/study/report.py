@@ -680,6 +680,36 @@ def _group_counts(rows, group):
     return sorted({r["count"] for r in rows if r["group"] == group and r["count"] is not None})
 
 
+def frequency_rows(rows) -> list[list[str]]:
+    """The frequency-domain error table's rows: one per family (the ranking table's groups, the
+    rigid model first), each cell "N: H-inf / H2" of one of its counts (relative to the truth's
+    norms, ``reduction.frequency_error``); a family without the columns is left out."""
+    out = []
+    for g in [g for g in RANKING_TABLE_GROUPS if g not in REFEREES]:
+        have = sorted((r for r in rows if r["group"] == g and np.isfinite(r.get("hinf_error", np.nan))),
+                      key=lambda r: (r["count"] is None, r["count"] or 0, r["model"]))
+        if have:
+            out.append([s(names.label(g))] + [
+                s(f"{r['count'] if r['count'] is not None else r['model']}: "
+                  f"{r['hinf_error']:.3g} / {r['h2_error']:.3g}") for r in have])
+    return out
+
+
+def _frequency_section(rr) -> str:
+    rows = frequency_rows(rr)
+    if not rows:
+        return ""
+    width = max(len(r) for r in rows)
+    rows = [r + [""] * (width - len(r)) for r in rows]
+    return table(["family"] + [f"{k}" for k in range(1, width)], rows,
+                 "Frequency-domain error beside E: each model's relative H∞ / H2 error of the linearised "
+                 "chain's transfer from case acceleration and motor torques to the gimbal rates and the "
+                 "platform's angular velocity, over the band the scene excites (cell: count per body, or "
+                 "in total for global-N: H∞ / H2; the rigid model's error is 1; "
+                 "results/study/SCENE/frequency_error.json, gimbal_reduction/reduction/frequency_error.py).",
+                 "tab-frequency-error", size="6.5pt")
+
+
 N_COUPLED_ROWS = 16
 
 
@@ -724,6 +754,7 @@ def _results_section(ctx, root):
                                  f"Error E (eq 3.53) using {s(names.label(g))}, by the number of modes "
                                  f"{unit}" + (" (analogue of thesis Table 4.2)." if g in ("freq", "xmx", "xmgmx")
                                               else ".") + _nr_caption(ctx), f"tab-err-{g}", size="7.5pt"))
+        out.append(_frequency_section(rr))
     else:
         out.append(note(ctx["missing"].get("ranking_table", "ranking table")))
     if sr:
