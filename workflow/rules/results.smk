@@ -193,6 +193,7 @@ rule runtime:
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         load_ranking="results/reduction/load/{scene}.h5",
+        cb=expand("results/reduction/cb/body{n}.h5", n=RINGS),
         ranking="results/tables/{scene}/errors_ranking.csv",
         static="results/tables/{scene}/errors_static.csv",
         truth="results/study/{scene}/sim/truth.h5",
@@ -220,7 +221,7 @@ rule runtime:
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} runtime --scene {input.scene} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
-        "--ranking-table {input.ranking} --static-table {input.static} --truth {input.truth} "
+        "--cb-bases {input.cb} --ranking-table {input.ranking} --static-table {input.static} --truth {input.truth} "
         "--truth-basis {input.truth_basis} --repeats 5 --integrator {params.integrator} {params.options} "
         "--config {CONFIG} --out {output} > {log} 2>&1"
 

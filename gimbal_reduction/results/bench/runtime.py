@@ -40,7 +40,8 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from gimbal_reduction.reduction import models  # noqa: E402
-from gimbal_reduction.reduction.names import needs_load_ranking  # noqa: E402
+from gimbal_reduction.reduction import names as names_mod  # noqa: E402
+from gimbal_reduction.reduction.names import CB, needs_load_ranking  # noqa: E402
 from gimbal_reduction.results.study import decision  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
 from gimbal_reduction.solver.dynamics import integrators, scenes, simulate  # noqa: E402
@@ -51,18 +52,26 @@ MIN_REPEATS = 5
 
 
 def time_models(names, scene, body_files, reduction_files, load_ranking=None, repeats=MIN_REPEATS,
-                integrator=simulate.DEFAULT_INTEGRATOR, options=None, log=print) -> dict:
+                integrator=simulate.DEFAULT_INTEGRATOR, options=None, log=print, cb_files=None) -> dict:
     """{name: {run_ms, run_ms_spread, run_ms_all, setup_ms, setup_ms_all, n_modes, coordinates}}
-    of every model of ``names`` on ``scene`` (a loaded scene); see the module doc."""
+    of every model of ``names`` on ``scene`` (a loaded scene); see the module doc.  cb_files:
+    {ring: path} of the Craig-Bampton stage files (read once, like the body files, when a cb-
+    model is timed)."""
     options = dict(options or {})
     rankings = models.read_rankings(reduction_files)
     if any(needs_load_ranking(n) for n in names):
         models.load_load_ranking(load_ranking, rankings)
     specs = {n: models.model_spec(n, rankings) for n in names}        # every name before any work
     body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
+    cb_rings = sorted({b for spec in specs.values() for b, (family, _) in spec.basis.items()
+                       if family == CB})
+    if cb_rings and not cb_files:
+        raise ValueError(f"{', '.join(n for n in names if names_mod.parse(n).family == CB)} need the "
+                         "rings' Craig-Bampton stage files (--cb-bases)")
+    cb_stages = {b: models.load_cb_stage(cb_files[b], body_data[b]) for b in cb_rings}
     built, out = {}, {}
     for name, spec in specs.items():
-        chain = models.build_chain(spec, body_data, scene.damping_ratio)
+        chain = models.build_chain(spec, body_data, scene.damping_ratio, cb_stages)
         prob = simulate.scene_problem(chain, scene)
         simulate.run_scene(chain, scene, integrator, problem=prob, model_name=name, **options)  # warm-up
         built[name] = (spec, chain, prob)
@@ -71,7 +80,7 @@ def time_models(names, scene, body_files, reduction_files, load_ranking=None, re
     for k in range(repeats):
         for name, (spec, chain, prob) in built.items():
             t0 = time.perf_counter()
-            c = models.build_chain(spec, body_data, scene.damping_ratio)
+            c = models.build_chain(spec, body_data, scene.damping_ratio, cb_stages)
             simulate.scene_problem(c, scene)
             out[name]["setup_ms_all"].append(1e3 * (time.perf_counter() - t0))
             run, _ = simulate.run_scene(chain, scene, integrator, problem=prob, model_name=name, **options)
@@ -91,6 +100,8 @@ def main(argv=None) -> int:
     ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE")
     ap.add_argument("--reductions", nargs=4, required=True, metavar="REDUCTION_FILE")
     ap.add_argument("--load-ranking", help="the scene's load-aware ranking")
+    ap.add_argument("--cb-bases", nargs=3, metavar="CB_FILE",
+                    help="the Craig-Bampton stage files of rings 2, 3, 4 (cb- models)")
     ap.add_argument("--ranking-table", required=True)
     ap.add_argument("--static-table", required=True)
     ap.add_argument("--truth", required=True, help="the truth's simulation file of the scene")
@@ -114,7 +125,9 @@ def main(argv=None) -> int:
         load_before = os.getloadavg()[0]
         timed = time_models(names, scene, dict(zip(models.BODIES, args.bodies)),
                             dict(zip(models.BODIES, args.reductions)), args.load_ranking,
-                            args.repeats, args.integrator, options)
+                            args.repeats, args.integrator, options,
+                            cb_files=dict(zip(names_mod.INTERFACE_BODIES, args.cb_bases)) if args.cb_bases
+                            else None)
     except (ValueError, FileNotFoundError) as exc:
         print(f"runtime: {exc}", file=sys.stderr)
         return 2
