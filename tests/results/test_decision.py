@@ -212,19 +212,25 @@ def test_each_camp_gives_its_cheapest_answer_and_the_fewest_coordinates_win():
     assert all(v["status"] == decision.NOT_RESOLVABLE for v in low.values())
 
 
-def test_the_camp_count_counts_ties_for_each_and_skips_unresolvable_requirements():
+def test_the_camp_count_counts_ties_and_only_requirements_that_need_a_reduced_model():
     from gimbal_reduction.results.study.study_report import camp_wins, camps_section
     dec = {"scenes": [{"scene": "a", "rows": [
-        {"measure": "E", "requirement": 1e-2, "status": "met", "cheapest_camps": ["field"],
+        {"measure": "E", "requirement": 1e-2, "status": "met", "model": "cb-4,4,4,10",
+         "cheapest_camps": ["field"],
          "by_camp": {"thesis": {"status": "met", "model": "freq-10", "coordinates": 44},
                      "project": {"status": "no model", "model": None, "coordinates": None},
                      "field": {"status": "met", "model": "cb-4,4,4,10", "coordinates": 40}}},
-        {"measure": "attitude", "requirement": 1.0, "status": "met", "cheapest_camps": ["thesis", "field"]},
-        {"measure": "E", "requirement": 1e-4, "status": decision.NOT_RESOLVABLE, "cheapest_camps": []},
-        {"measure": "rate", "requirement": 1e-3, "status": "met", "cheapest_camps": ["project"]}]}]}
+        {"measure": "attitude", "requirement": 1e-3, "status": "met", "model": "freq-5",
+         "cheapest_camps": ["thesis", "field"]},
+        # must not count: the rigid model meets it (no selection needed), the truth only, unresolvable
+        {"measure": "E", "requirement": 1e-1, "status": "met", "model": "rigid", "cheapest_camps": ["thesis"]},
+        {"measure": "E", "requirement": 1e-3, "status": "met", "model": "truth", "cheapest_camps": []},
+        {"measure": "E", "requirement": 1e-4, "status": decision.NOT_RESOLVABLE, "model": None,
+         "cheapest_camps": []},
+        {"measure": "rate", "requirement": 1e-3, "status": "met", "model": "load-5", "cheapest_camps": ["project"]}]}]}
     assert camp_wins(dec) == {"thesis": 1, "project": 0, "field": 2, "judged": 2}
     text = camps_section(dec)
-    assert '*#"cb-4,4,4,10 (40)"*' in text and "none of the study" in text and "1e-04" not in text
+    assert '*#"cb-4,4,4,10 (40)"*' in text and "none of the study" in text and "0.1" not in text
 
 
 def test_the_frequency_error_table_has_a_cell_per_model_of_a_family_and_skips_missing_columns():

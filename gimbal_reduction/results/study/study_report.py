@@ -311,31 +311,40 @@ CAMP_HEADS = {"thesis": "the thesis's selections (freq, XMX, XMGMX, static)",
               "field": "the field's defaults (Craig-Bampton, Ritz, dominance)"}
 
 
+def needs_elastic(r) -> bool:
+    """Whether a decision row asks for a reduced model: met, and by neither the rigid model (then
+    no mode selection is needed at all) nor the truth (then none of the study's reduced models
+    meets it)."""
+    return r["status"] == "met" and r.get("model") not in (None, "rigid", "truth")
+
+
 def camp_wins(dec, measures=("E", "attitude")) -> dict:
-    """{camp: number of resolvable requirements (of ``measures``, every scene) at which its
-    cheapest model has the fewest coordinates of the three camps (ties count for each)}, and
-    {"judged": how many requirements had at least one camp meeting them}."""
+    """{camp: number of requirements (of ``measures``, every scene) that need a reduced model
+    (``needs_elastic``) at which its cheapest model has the fewest coordinates of the three camps
+    (ties count for each)}, and {"judged": how many such requirements some camp meets}."""
     wins = dict.fromkeys(CAMP_HEADS, 0)
     judged = 0
     for sc in dec["scenes"]:
         for r in sc["rows"]:
-            if r["measure"] in measures and r.get("cheapest_camps"):
+            if r["measure"] in measures and needs_elastic(r) and r.get("cheapest_camps"):
                 judged += 1
                 for c in r["cheapest_camps"]:
                     wins[c] += 1
     return {**wins, "judged": judged}
 
 
-def camps_section(dec, measure="E") -> str:
-    """Whose methods to use: per scene and resolvable requirement, the cheapest model of each camp
-    (decision.json's ``by_camp``), the cheapest in bold, then the count of wins."""
+def camps_section(dec, measures=("E", "attitude")) -> str:
+    """Whose methods to use: per scene and requirement that needs a reduced model
+    (``needs_elastic``), the cheapest model of each camp (decision.json's ``by_camp``), the
+    cheapest in bold, then the count of wins."""
     rows = []
+    units = {"E": "E ≤", "attitude": "attitude ≤ [arcsec]"}
     for sc in dec["scenes"]:
         for r in sc["rows"]:
             camps = r.get("by_camp")
-            if r["measure"] != measure or r["status"] != "met" or not camps:
+            if r["measure"] not in measures or not needs_elastic(r) or not camps:
                 continue
-            cells = [s(sc["scene"]), s(format(r["requirement"], "g"))]
+            cells = [s(sc["scene"]), s(f"{units.get(r['measure'], r['measure'])} {r['requirement']:g}")]
             for c in CAMP_HEADS:
                 v = camps.get(c, {})
                 text = (s(f"{v['model']} ({v['coordinates']})") if v.get("status") == "met"
@@ -345,15 +354,17 @@ def camps_section(dec, measure="E") -> str:
     if not rows:
         return ""
     wins = camp_wins(dec)
-    out = [table(["scene", MEASURE_HEADS.get(measure, measure), *(s(h) for h in CAMP_HEADS.values())], rows,
-                 "Whose methods: the cheapest model of each family camp meeting the requirement "
-                 "(kept coordinates; bold: the fewest). Every requirement within the truth's own error is "
-                 "left out (not resolvable).", f"tab-camps-{measure}", size="6.5pt")]
+    out = [table(["scene", "requirement", *(s(h) for h in CAMP_HEADS.values())], rows,
+                 "Whose methods: for every requirement of Tables 1 and 3 that needs a reduced model (the "
+                 "rigid model does not meet it, a study model does), the cheapest model of each camp "
+                 "meeting it (kept coordinates; bold: the fewest).", "tab-camps", size="6.5pt")]
     order = sorted(CAMP_HEADS, key=lambda c: -wins[c])
-    out.append(f"*Whose methods to use.* Over the {wins['judged']} resolvable requirements on E and the "
-               f"platform attitude on every scene, the fewest coordinates came from "
-               + s(", ".join(f"{CAMP_HEADS[c].split(' (')[0]} {wins[c]} times" for c in order))
-               + " (ties count for each). Rules: decision.choose_by_camp.\n\n")
+    out.append(f"*Whose methods to use.* Over the {wins['judged']} requirements on E and the platform "
+               "attitude that need a reduced model, the fewest coordinates came from "
+               + s(", ".join(f"{CAMP_HEADS[c].split(' (')[0]} {wins[c]}" for c in order))
+               + " (ties count for each; rules: study_report.camp_wins, decision.choose_by_camp). Where "
+               "the rigid model meets a requirement no mode selection is needed; below the truth's own "
+               "error nothing can be judged.\n\n")
     return "".join(out)
 
 
