@@ -280,14 +280,15 @@ def _summary(ctx):
                f"{s(len(thesis))} cases (its 25 figures and table columns, with its one \"ranked\" "
                f"selection run as both XMX and XMGMX), and {s(sum(c['model'] in have for c in added))} of "
                f"the project's {s(len(added))} additions (the rigid baseline, the no-static controls "
-               f"freq-2..8, load-N, global-N and the truth check static-100)"
+               f"freq-2..8, load-N, global-N, the field's defaults dom-N, cb-N, ritz-N and Craig-Bampton at "
+               f"equal coordinates, and the truth checks static-100 and cb-100)"
                f"{'' if ctx['truth'] else ' (truth model missing)'}.\n")
     counts = {}
     for f in ctx["findings"]:
         key = "thesis" if f["finding"] <= 6 else "ours"
         counts.setdefault(key, {}).setdefault(f["verdict"], 0)
         counts[key][f["verdict"]] += 1
-    for key, what in (("thesis", "The thesis's findings 1-6"), ("ours", "The project's findings 7-9")):
+    for key, what in (("thesis", "The thesis's findings 1-6"), ("ours", "The project's findings 7-10")):
         if key in counts:
             out.append(f"- {what}: " + ", ".join(f"{s(v)} {s(k)}" for k, v in counts[key].items())
                        + " (@findings).\n")
@@ -804,7 +805,7 @@ def _results_section(ctx, root):
 def _findings_section(ctx):
     res = (ctx.get("decision") or {}).get("resolution")
     out = ["= Findings <findings>\n\n",
-           "Each finding (1-6: the thesis's, Sections 4.3-4.5; 7-9: the project's) is decided by the "
+           "Each finding (1-6: the thesis's, Sections 4.3-4.5; 7-10: the project's) is decided by the "
            "rule printed beside its verdict, on this scene's error tables, on every gimbal rate, "
            "against the control named. \"Better\" means smaller by more than 10 % (a tie band). The "
            "thesis column applies the same rule to the thesis's own Tables 4.2 and 4.3 where they "

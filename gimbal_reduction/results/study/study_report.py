@@ -210,15 +210,16 @@ def summary_section(ctx, an) -> str:
            "Reduction of a Set of Elastic, Nested Gimbals by Component Mode Selection Criteria and "
            "Static Correction Modes_ (S.M. thesis, MIT, 2001): our own finite-element bodies, the "
            "flexible multibody chain, the truth model (100 modes per body) and every reduced model "
-           "of the thesis, plus the rigid baseline, no-static controls and scene-aware selections, "
+           "of the thesis, plus the rigid baseline, no-static controls, scene-aware selections and the field's defaults, "
            f"each simulated on {len(ctx['scenes'])} scenes. The error is eq. 3.53 of the thesis per "
            "gimbal rate ($E = integral e^2 dif t \\/ integral r^2 dif t$).\n\n"]
     thesis_cases = study_cases(extended=False)
     added = [c for c in study_cases() if c["model"] not in {x["model"] for x in thesis_cases}]
     out.append(f"Cases: the thesis's {s(len(thesis_cases))} (its 25 figure cases, with its one \"ranked\" "
                f"selection run as both XMX and XMGMX) and the project's {s(len(added))} additions (the rigid "
-               "baseline, the no-static controls freq-2..8, load-N, global-N and the truth check "
-               "static-100), on every scene.\n\n")
+               "baseline, the no-static controls freq-2..8, load-N, global-N, the field's defaults dom-N, "
+               "cb-N, ritz-N and Craig-Bampton at equal coordinates, and the truth checks static-100 and "
+               "cb-100), on every scene.\n\n")
     for sc in ctx["scenes"]:
         a = an.get(sc["name"])
         if not a or a["rigid"] is None:
@@ -243,7 +244,7 @@ def summary_section(ctx, an) -> str:
     # the findings, each named with its verdict and number per scene
     verdict_rows = _verdict_matrix(ctx)
     if verdict_rows:
-        out.append("*The findings* (thesis 1-6, the project's 7-9), verdict per scene, judged only where "
+        out.append("*The findings* (thesis 1-6, the project's 7-10), verdict per scene, judged only where "
                    "the truth resolves the rate (" + s(MARKS_LEGEND) + "); each finding's rule stands "
                    "under it (\"better\" = smaller by more than the 10 % tie band):\n\n")
         out.append(table(["finding and rule"] + [s(sc["name"]) for sc in ctx["scenes"]], verdict_rows,
