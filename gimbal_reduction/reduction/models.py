@@ -442,6 +442,18 @@ def _read_cb_stage(path, size, mtime_ns, body_path):
     return bases.read_cb_stage(path, load_body_file(body_path))
 
 
+def cb_stages_for(specs, body_data, cb_files):
+    """{ring: Craig-Bampton stage dict} the ModelSpecs ``specs`` build on (their cb- bodies), read
+    from cb_files {ring: path}; ModelError (one line) naming the models when they need the files
+    and none are given; {} when no model is a cb- model."""
+    rings = sorted({b for spec in specs for b, (family, _) in spec.basis.items() if family == names.CB})
+    if rings and not cb_files:
+        needing = ", ".join(repr(spec.name) for spec in specs if any(
+            family == names.CB for family, _ in spec.basis.values()))
+        raise ModelError(f"model(s) {needing} need the rings' Craig-Bampton stage files (--cb-bases)")
+    return {b: load_cb_stage(cb_files[b], body_data[b]) for b in rings}
+
+
 RANKING_REMEDY = "rerun its target: snakemake --cores 2 --forcerun {path}"
 
 
@@ -718,12 +730,7 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
             raise
         spec = resolve_verified(parsed, request, scene, body_data, rankings, log, runs)
     spec = restrict_to_bodies(spec, scene.elastic_bodies)
-    cb_stages = {}
-    if any(family == names.CB for family, _ in spec.basis.values()):
-        if not cb_files:
-            raise ModelError(f"model {name!r} needs the rings' Craig-Bampton stage files (--cb-bases)")
-        cb_stages = {b: load_cb_stage(cb_files[b], body_data[b]) for b in spec.basis}
-    chain = build_chain(spec, body_data, cb_stages=cb_stages)
+    chain = build_chain(spec, body_data, cb_stages=cb_stages_for([spec], body_data, cb_files))
     attrs = {"model": spec.name, "scene": scene.name,
              "config_hash": model_config_hash(spec, body_data, scene, ranking_hashes),
              "n_modes": np.array(chain.n_modes), "units": "in, lbf, s",

@@ -41,7 +41,7 @@ import numpy as np  # noqa: E402
 
 from gimbal_reduction.reduction import models  # noqa: E402
 from gimbal_reduction.reduction import names as names_mod  # noqa: E402
-from gimbal_reduction.reduction.names import CB, needs_load_ranking  # noqa: E402
+from gimbal_reduction.reduction.names import needs_load_ranking  # noqa: E402
 from gimbal_reduction.results.study import decision  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
 from gimbal_reduction.solver.dynamics import integrators, scenes, simulate  # noqa: E402
@@ -63,12 +63,7 @@ def time_models(names, scene, body_files, reduction_files, load_ranking=None, re
         models.load_load_ranking(load_ranking, rankings)
     specs = {n: models.model_spec(n, rankings) for n in names}        # every name before any work
     body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
-    cb_rings = sorted({b for spec in specs.values() for b, (family, _) in spec.basis.items()
-                       if family == CB})
-    if cb_rings and not cb_files:
-        raise ValueError(f"{', '.join(n for n in names if names_mod.parse(n).family == CB)} need the "
-                         "rings' Craig-Bampton stage files (--cb-bases)")
-    cb_stages = {b: models.load_cb_stage(cb_files[b], body_data[b]) for b in cb_rings}
+    cb_stages = models.cb_stages_for(specs.values(), body_data, cb_files)
     built, out = {}, {}
     for name, spec in specs.items():
         chain = models.build_chain(spec, body_data, scene.damping_ratio, cb_stages)
