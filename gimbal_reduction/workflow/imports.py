@@ -177,10 +177,17 @@ def all_imports(root: Path = ROOT) -> tuple[Import, ...]:
 
 def graph(root: Path = ROOT) -> dict[str, set[str]]:
     """module -> the project modules it imports (module level and function level)."""
+    return {name: set(targets) for name, targets in _graph(root, all_imports(root)).items()}
+
+
+@functools.lru_cache(maxsize=4)
+def _graph(root: Path, found: tuple[Import, ...]) -> dict[str, frozenset[str]]:
+    """``graph`` once per version of the import list (a Snakefile asks it for every rule's code
+    hash; ``all_imports`` is itself cached, so a cleared cache gives a new graph)."""
     out = {name: set() for name in module_files(root)}
-    for imp in all_imports(root):
+    for imp in found:
         out[imp.source].add(imp.target)
-    return out
+    return {name: frozenset(targets) for name, targets in out.items()}
 
 
 def _parents(module: str) -> list[str]:
@@ -191,7 +198,7 @@ def _parents(module: str) -> list[str]:
 def closure(*entries: str, root: Path = ROOT) -> list[str]:
     """The project modules that running ``entries`` executes, sorted: the entries, everything they
     import, transitively, and the package ``__init__`` of each on the way."""
-    modules, edges = module_files(root), graph(root)
+    modules, edges = module_files(root), _graph(root, all_imports(root))
     unknown = [e for e in entries if e not in modules]
     if unknown:
         raise ValueError(f"unknown project module(s): {', '.join(unknown)}")
@@ -208,9 +215,9 @@ def closure(*entries: str, root: Path = ROOT) -> list[str]:
 
 def files(*entries: str, root: Path = ROOT) -> list[str]:
     """The files (relative to the root) that running ``entries`` reads as code: modules and data files."""
-    modules = module_files(root)
-    out = [str(modules[m].relative_to(root)) for m in closure(*entries, root=root)]
-    out += [f for m in closure(*entries, root=root) for f in DATA_FILES.get(m, ())]
+    modules, executed = module_files(root), closure(*entries, root=root)
+    out = [str(modules[m].relative_to(root)) for m in executed]
+    out += [f for m in executed for f in DATA_FILES.get(m, ())]
     return sorted(set(out))
 
 
@@ -273,12 +280,13 @@ class _FactsCache:
     def get(self, path: Path, root: Path) -> dict:
         if root not in self.loaded:
             self._load(root)
+        key = str(path)
         stat = path.stat()
-        entry = self.entries.get(str(path))
+        entry = self.entries.get(key)
         if entry is None or entry.get("stamp") != [stat.st_mtime_ns, stat.st_size]:
             entry = {"stamp": [stat.st_mtime_ns, stat.st_size], **_file_facts(path)}
             entry["imports"] = [list(i) for i in entry["imports"]]
-            self.entries[str(path)] = entry
+            self.entries[key] = entry
             self.dirty.add(root)
         return entry
 
@@ -303,10 +311,11 @@ _CACHE = _FactsCache()
 
 
 def _facts(path: Path, root: Path | None = None) -> dict:
-    path = Path(path).resolve()
+    """The facts of ``path``; given ``root`` (resolved), ``path`` lies under it as given."""
     if root is None:
+        path = Path(path).resolve()
         root = next((p for p in path.parents if (p / PACKAGE).is_dir()), path.parent)
-    return _CACHE.get(path, root)
+    return _CACHE.get(Path(path), root)
 
 
 def _file_digest(path: Path, root: Path) -> str:
@@ -316,10 +325,10 @@ def _file_digest(path: Path, root: Path) -> str:
 
 def code_hash(*entries: str, root: Path = ROOT) -> str:
     """Stable 12-hex-digit hash of the code that running ``entries`` executes (:func:`files`)."""
-    digest = hashlib.sha256()
+    digest, resolved = hashlib.sha256(), root.resolve()
     for rel in files(*entries, root=root):
-        digest.update(json.dumps([rel, _file_digest(root / rel, root.resolve())]).encode())
-    _CACHE.save(root.resolve())
+        digest.update(json.dumps([rel, _file_digest(resolved / rel, resolved)]).encode())
+    _CACHE.save(resolved)
     return digest.hexdigest()[:12]
 
 

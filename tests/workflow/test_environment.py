@@ -5,6 +5,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+import pytest
 
 from gimbal_reduction.workflow import environment
 
@@ -62,3 +63,22 @@ def test_the_launcher_runs_the_projects_snakemake(tmp_path):
     run = subprocess.run(["snakemake", "--version"], cwd=outside, env=env, capture_output=True, text=True,
                          timeout=60)
     assert run.returncode == 127 and len(run.stderr.strip().splitlines()) == 1, run.stderr
+
+
+def test_the_slurm_executor_is_on_the_path_of_cluster_runs_only(tmp_path):
+    """Snakemake imports every installed executor plugin when it starts, and the Slurm one imports
+    pandas: it lives in .venv/cluster (workflow/envs/cluster-requirements.txt), which the launcher
+    puts on the path when an argument names slurm, and only then."""
+    python = ROOT / ".venv" / "bin" / "python"
+    if not (ROOT / ".venv" / "cluster").is_dir():
+        pytest.skip("no .venv/cluster (make install)")
+    plain = subprocess.run([str(python), "-c", "import snakemake_executor_plugin_slurm"], capture_output=True,
+                           text=True, env={k: v for k, v in os.environ.items() if k != "PYTHONPATH"}, timeout=60)
+    assert plain.returncode != 0 and "No module named 'snakemake_executor_plugin_slurm'" in plain.stderr
+    bindir = tmp_path / "bin"
+    bindir.mkdir()
+    shutil.copy(LAUNCHER, bindir / "snakemake")
+    env = {**{k: v for k, v in os.environ.items() if k != "PYTHONPATH"}, "PATH": f"{bindir}:/usr/bin:/bin"}
+    run = subprocess.run(["snakemake", "--executor", "slurm", "--help"], cwd=ROOT, env=env, capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 0 and "--slurm-" in run.stdout, run.stderr[-2000:]

@@ -31,6 +31,9 @@ if ((${#missing[@]})); then
   apt-get update -qq
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
+# the Slurm executor is installed apart (workflow/envs/cluster-requirements.txt): on the path of
+# this run and, through sbatch's exported environment, of its jobs
+export PYTHONPATH="$root/.venv/cluster${PYTHONPATH:+:$PYTHONPATH}"
 "$py" -c "import snakemake_executor_plugin_slurm" 2>/dev/null || {
   echo "slurm_localhost: the Slurm executor plugin is missing: make install" >&2; exit 1; }
 

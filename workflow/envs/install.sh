@@ -55,11 +55,19 @@ if ! venv_ok; then
 fi
 
 stamp="$venv/.requirements.sha256"
-want="$(cat "$here/requirements.txt" "$here/constraints.txt" "$root/pyproject.toml" | sha256sum | cut -d' ' -f1)"
+want="$(cat "$here/requirements.txt" "$here/cluster-requirements.txt" "$here/constraints.txt" \
+        "$root/pyproject.toml" | sha256sum | cut -d' ' -f1)"
 if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   echo "install: pip installing workflow/envs/requirements.txt into $venv (a few minutes the first time)"
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
     -c "$here/constraints.txt" -r "$here/requirements.txt"
+  # The Slurm executor apart, in $venv/cluster (cluster-requirements.txt says why); a venv made
+  # before it moved there loses its copy in site-packages
+  "$venv/bin/python" -m pip uninstall --quiet --disable-pip-version-check -y \
+    snakemake-executor-plugin-slurm snakemake-executor-plugin-slurm-jobstep >/dev/null 2>&1 || true
+  rm -rf "$venv/cluster"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps --target "$venv/cluster" \
+    -c "$here/constraints.txt" -r "$here/cluster-requirements.txt"
   # the project itself, editable: its packages and entry points; its dependencies are the pins above
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation \
     -e "$root"
@@ -67,6 +75,8 @@ if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
 fi
 "$venv/bin/python" -c "import dolfinx_solver, dolfinx, slepc4py, gmsh, snakemake, numba, typst" || {
   echo "install: the environment is incomplete (dolfinx/slepc4py/gmsh/snakemake/numba/typst not importable)" >&2; exit 1; }
+PYTHONPATH="$venv/cluster" "$venv/bin/python" -c "import snakemake_executor_plugin_slurm, snakemake_executor_plugin_slurm_jobstep" || {
+  echo "install: the Slurm executor in $venv/cluster is not importable" >&2; exit 1; }
 # The literal `snakemake` command (README): a small launcher in $SNAKEMAKE_BINDIR (default
 # /usr/local/bin, on PATH) that runs the .venv's Snakemake of the project in the working directory
 # or above (workflow/envs/snakemake-launcher.sh). It replaces no other `snakemake` (only a file

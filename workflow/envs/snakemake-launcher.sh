@@ -8,6 +8,11 @@
 dir=$(pwd -P)
 while :; do
   if [ -f "$dir/Snakefile" ] && [ -x "$dir/.venv/bin/python" ]; then
+    # a cluster run (an argument names slurm: --executor slurm, --profile workflow/profiles/slurm)
+    # sees the Slurm executor, installed apart in .venv/cluster (cluster-requirements.txt)
+    case " $* " in
+      *slurm*) PYTHONPATH="$dir/.venv/cluster${PYTHONPATH:+:$PYTHONPATH}"; export PYTHONPATH ;;
+    esac
     exec "$dir/.venv/bin/python" -m snakemake "$@"
   fi
   [ "$dir" = / ] && break
