@@ -10,7 +10,7 @@ B(q) = [P; H + hq],  L = [R^T Psi; Lw Theta]  (joint map of the child joint).
 import numba
 import numpy as np
 
-from gimbal_reduction.solver.dynamics.kernels import FAST, JIT
+from gimbal_reduction.solver.dynamics.kernels import FAST, JIT, extension
 
 # dM_X/dq_i = [[0, Yv^T], [Yv, Ys]] (Yv 3x3, Ys = Y_w + Y_w^T symmetric): 9 + 6 numbers.
 YS_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
@@ -407,3 +407,6 @@ def linear_data(y, yd, ch):
     project_all(y, yd, y, bool(False), ch, bool(False), LIN[3 * S:].reshape((4, 27)), Pqd, np.zeros((4, 12)))
     return LIN, Pqd
 
+
+# this module's entries compiled ahead of time, when built and current (kernels.extension)
+extension.attach(__name__)

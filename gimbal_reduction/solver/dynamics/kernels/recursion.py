@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from gimbal_reduction.solver.dynamics.kernels import FAST, JIT
+from gimbal_reduction.solver.dynamics.kernels import FAST, JIT, extension
 
 # Thin wrappers (a few allocations around one or three calls) are inlined by Numba into their
 # callers (inline="always", on Numba's IR): a compiled function of their own would put one level
@@ -610,3 +610,7 @@ def case_twist(t, case, w1, dw1):
         else:
             integ = math.cos(phase[k]) * t
         w1[3 + k] = om0[k] + amp[k] * integ
+
+
+# this module's entries compiled ahead of time, when built and current (kernels.extension)
+extension.attach(__name__)
