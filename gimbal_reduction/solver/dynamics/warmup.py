@@ -108,6 +108,8 @@ def build_extension(scenes, integrator, options) -> int:
         rc = warm(scenes, integrator, options, {"runs": []})
     if rc:
         return rc
+    print(f"warmup: the warm-up compiled with the JIT ({time.process_time() - start:.0f} CPU-s); "
+          f"now the extension", flush=True)
     numba.config.OPT = numba.core.config._process_opt_level(str(kernels.OPT_LEVEL))
     entries = extension.exportable(seen)
     path = extension.build(entries, log=lambda line: print(f"warmup: {line}", flush=True))
