@@ -11,7 +11,8 @@ How: ``build`` runs a workload (the workflow's warm-up, ``gimbal_reduction.solve
 warmup --extension``, called by ``make install``) with Numba's JIT while recording every
 entry point called from Python and the argument types of each call; it then compiles
 exactly those (dispatcher, argument types) pairs with Numba's ahead-of-time compiler
-(``numba.pycc``, for this machine's CPU) into ``_ahead`` beside this file, with a manifest:
+(``numba.pycc``, for this machine's CPU; each exported entry forwards to the JIT's code, which
+is linked, not compiled again) into ``_ahead`` beside this file, with a manifest:
 the entries, their types and a fingerprint of the kernels' sources, Numba's version and the
 CPU.  ``attach(module)``, called at the end of every module that defines entry points,
 inserts the extension's entries into their dispatchers as ready overloads for exactly
@@ -149,18 +150,12 @@ def recording():
 
 def exportable(seen, modules=(PACKAGE, INTERFACE)):
     """[(module, qualname, dispatcher, signature)] of the recorded entries (``recording``) the
-    extension can take: module-level kernels of ``modules`` (and their submodules), compiled
-    with these argument types (their return type from the JIT's overload), with the kernels'
-    options (``JIT``: the exported entry's own body is compiled with them; its callees keep
-    their own)."""
-    from gimbal_reduction.solver.dynamics.kernels import JIT
+    extension can take: module-level kernels of ``modules`` (and their submodules) with the
+    JIT's overload of exactly these argument types (its return type, its code)."""
     out = []
     for (module, qualname), (disp, type_sets) in sorted(seen.items()):
         if not any(module == m or module.startswith(m + ".") for m in modules) or \
                 getattr(sys.modules.get(module), qualname, None) is not disp:
-            continue
-        if disp.targetoptions.get("fastmath", False) != JIT["fastmath"] or \
-                disp.targetoptions.get("error_model") != JIT["error_model"]:
             continue
         for types in sorted(type_sets, key=str):
             cres = disp.overloads.get(types)
@@ -172,24 +167,24 @@ def exportable(seen, modules=(PACKAGE, INTERFACE)):
     return out
 
 
+def forwarder(dispatcher, nargs):
+    """``def forward(a0, ..., a{nargs-1}): return dispatcher(a0, ...)``: the exported entry.  It
+    calls the JIT's compiled overload, whose code the ahead-of-time compiler then links (with its
+    own flags) instead of typing and lowering the kernel a second time."""
+    names = ", ".join(f"a{i}" for i in range(nargs))
+    namespace = {"kernel": dispatcher}
+    exec(f"def forward({names}):\n    return kernel({names})\n", namespace)
+    return namespace["forward"]
+
+
 def build(entries, directory=HERE, log=print):
-    """Compile ``entries`` (``exportable``) into the extension module ``NAME`` in ``directory``
-    and write its manifest (``MANIFEST``'s name) there, both atomically; returns the path of
-    the module.  Compiled for this machine's CPU."""
+    """Compile ``entries`` (``exportable``, their JIT overloads compiled in this process) into
+    the extension module ``NAME`` in ``directory`` and write its manifest (``MANIFEST``'s name)
+    there, both atomically; returns the path of the module.  Compiled for this machine's CPU."""
     import llvmlite.binding
-    from numba.core.compiler import Flags
     with warnings.catch_warnings():          # pycc is pending deprecation, with no replacement yet
         warnings.simplefilter("ignore", NumbaPendingDeprecationWarning)
         from numba.pycc import CC
-        from numba.pycc import compiler as pycc_compiler
-
-    from gimbal_reduction.solver.dynamics.kernels import JIT
-
-    class KernelFlags(Flags):
-        """pycc's compiler flags with the kernels' error model (``JIT``)."""
-        def __init__(self, *args, **kws):
-            super().__init__(*args, **kws)
-            self.error_model = JIT["error_model"]
 
     directory = Path(directory)
     cc = CC(NAME, source_module=__name__)
@@ -197,16 +192,12 @@ def build(entries, directory=HERE, log=print):
     manifest = {"fingerprint": fingerprint(), "entries": {}}
     for k, (module, qualname, disp, sig) in enumerate(entries):
         symbol = f"k{k}_{qualname.lstrip('_')}"
-        cc.export(symbol, sig)(disp.py_func)
+        cc.export(symbol, sig)(forwarder(disp, len(sig.args)))
         manifest["entries"].setdefault(module, []).append((qualname, symbol, pickle.dumps(sig.args)))
         log(f"extension: [{k + 1}/{len(entries)}] {module.rsplit('.', 1)[-1]}.{qualname}")
     with tempfile.TemporaryDirectory(prefix="ahead_", dir=directory) as tmp:
         cc.output_dir = tmp
-        saved, pycc_compiler.Flags = pycc_compiler.Flags, KernelFlags
-        try:
-            cc.compile()
-        finally:
-            pycc_compiler.Flags = saved
+        cc.compile()
         with open(Path(tmp) / MANIFEST.name, "wb") as f:
             pickle.dump(manifest, f)
         os.replace(Path(tmp) / cc.output_file, directory / cc.output_file)
