@@ -67,40 +67,35 @@ def fingerprint() -> str:
 
 @functools.cache
 def _manifest():
-    """The manifest of a current extension ({module: [(qualname, symbol, pickled types)]}),
-    or None (no extension, a stale one, or GIMBAL_KERNELS=jit)."""
+    """(manifest, module) of a current extension that imports (the manifest: {"fingerprint":
+    ..., "entries": {module: [(qualname, symbol, pickled argument types)]}}), or None (no
+    extension, a stale or broken one, or GIMBAL_KERNELS=jit)."""
     if os.environ.get("GIMBAL_KERNELS", "") == "jit" or not MANIFEST.exists():
         return None
     try:
         with open(MANIFEST, "rb") as f:
             manifest = pickle.load(f)
-    except (OSError, pickle.UnpicklingError, EOFError):
+        if manifest.get("fingerprint") != fingerprint():
+            return None
+        return manifest, importlib.import_module(f"{PACKAGE}.{NAME}")
+    except (OSError, ImportError, pickle.UnpicklingError, EOFError):
         return None
-    return manifest if manifest.get("fingerprint") == fingerprint() else None
 
 
-# the attached entries, {(module, qualname): [symbol, ...]}, and their argument types, kept alive
-# here: Numba interns its types weakly, and a type made again later gets a new code, which the
-# dispatcher's table would not match
-ATTACHED = {}
+# the argument types of the inserted entries, kept alive: Numba interns its types weakly, and a
+# type made again later gets a new code, which the dispatcher's table would not match
 HELD = []
-
-
-@functools.cache
-def _module():
-    return importlib.import_module(f"{PACKAGE}.{NAME}")
 
 
 def attach(module_name: str) -> int:
     """Insert the extension's entries of ``module_name`` into its dispatchers (by name), as
     overloads of exactly their compiled argument types; returns how many (0: JIT only)."""
-    manifest = _manifest()
-    if manifest is None or not manifest["entries"].get(module_name):
+    current = _manifest()
+    if current is None or not current[0]["entries"].get(module_name):
         return 0
-    namespace = vars(sys.modules[module_name])
+    (manifest, ext), namespace = current, vars(sys.modules[module_name])
     for qualname, symbol, pickled in manifest["entries"][module_name]:
-        insert(namespace[qualname], pickle.loads(pickled), getattr(_module(), symbol))
-        ATTACHED.setdefault((module_name, qualname), []).append(symbol)
+        insert(namespace[qualname], pickle.loads(pickled), getattr(ext, symbol))
     return len(manifest["entries"][module_name])
 
 
