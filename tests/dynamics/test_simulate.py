@@ -124,7 +124,7 @@ def test_the_scene_tolerance_applies_unless_one_is_given(tmp_path, model_file):
 def test_the_file_records_the_exponential_options_and_what_the_timings_include(tmp_path, model_file):
     """Every ``ExponentialOptions`` field is an attribute (stat_exponential_<field>, None as NaN,
     the scene's tolerance in it); the timings: integration_time_s without kernel_load_s, both
-    inside wall_time_s."""
+    inside wall_time_s; which kernels ran."""
     from gimbal_reduction.solver.dynamics import exponential
     scene = copied_scene(tmp_path, "thesis_copy", "thesis_copy")
     out = tmp_path / "run.h5"
@@ -140,3 +140,6 @@ def test_the_file_records_the_exponential_options_and_what_the_timings_include(t
     assert attrs["stat_exponential_evaluate_accepted"] == defaults.evaluate_accepted
     assert attrs["kernel_load_s"] >= 0 and attrs["integration_time_s"] > 0
     assert attrs["integration_time_s"] + attrs["kernel_load_s"] <= attrs["wall_time_s"]
+    # which kernels ran: the extension compiled ahead of time when it is current, else the JIT
+    from gimbal_reduction.solver.dynamics.kernels import extension
+    assert attrs["kernels"] == ("extension" if extension.attached() else "jit")

@@ -77,6 +77,16 @@ fi
   echo "install: the environment is incomplete (dolfinx/slepc4py/gmsh/snakemake/numba/typst not importable)" >&2; exit 1; }
 PYTHONPATH="$venv/cluster" "$venv/bin/python" -c "import snakemake_executor_plugin_slurm, snakemake_executor_plugin_slurm_jobstep" || {
   echo "install: the Slurm executor in $venv/cluster is not importable" >&2; exit 1; }
+# The dynamics kernels compiled ahead of time for this machine (gimbal_reduction.solver.dynamics.
+# kernels.extension): a fresh process's first simulation then loads no JIT code.  Built once (the
+# workflow's warm-up with the JIT, then the extension: ~100 CPU-s), again only when a kernel, Numba
+# or the CPU changed; if it cannot be built (no C compiler) the kernels stay Numba's JIT.
+if ! command -v cc >/dev/null 2>&1; then
+  echo "install: no C compiler (cc): the dynamics kernels stay Numba's JIT" >&2
+elif ! OMP_NUM_THREADS=1 "$venv/bin/python" -m gimbal_reduction.solver.dynamics.warmup --extension \
+       --scenes "$root/config/scenes/thesis.yaml" "$root/config/scenes/damped.yaml"; then
+  echo "install: the kernels' extension was not built: the dynamics kernels stay Numba's JIT" >&2
+fi
 # The literal `snakemake` command (README): a small launcher in $SNAKEMAKE_BINDIR (default
 # /usr/local/bin, on PATH) that runs the .venv's Snakemake of the project in the working directory
 # or above (workflow/envs/snakemake-launcher.sh). It replaces no other `snakemake` (only a file

@@ -4,8 +4,9 @@
 
 
 rule kernels:
-    """Compile the dynamics kernels once, before the jobs that use them (gimbal_reduction.solver.dynamics.warmup):
-    no body file needed, so it runs beside the FE jobs at the start of a fresh clone's run.
+    """Make the dynamics kernels ready before the jobs that use them (gimbal_reduction.solver.dynamics.warmup):
+    seconds with the kernels' extension (make install builds it: kernels.extension); without it the
+    one JIT compilation into Numba's on-disk cache, beside the FE jobs at the start of a fresh clone's run.
     """
     input:
         scenes=[scene_path(s) for s in WARMUP_SCENES],
@@ -16,11 +17,12 @@ rule kernels:
     benchmark:
         "results/benchmarks/rules/kernels.tsv"
     resources:
-        # no record; a cold cache, two single runs per version: Numba 0.60 118 s of CPU (119 s
+        # no record; a cold JIT cache, two single runs per version: Numba 0.60 118 s of CPU (119 s
         # wall, quiet machine) and 143 s (loaded: 225-288 s wall), Numba 0.68 81 s (82 s wall,
         # quiet) and 97 s (274 s wall at load 4.5 on 2 cores); with the thin wrappers and the
         # step loop's stages inlined (docs/dynamics.md Section 8) 85 s, median of 3 (190-284 s
-        # wall, load ~4), against 101 s for the code before in the same conditions; ~300 MB
+        # wall, load ~4), against 101 s for the code before in the same conditions; ~300 MB.
+        # With the extension: a few seconds
         mem_mb=mem_mb(300.0),
         runtime=runtime_min(288.0),
     params:
@@ -28,11 +30,12 @@ rule kernels:
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
     message:
-        "Compiling the dynamics kernels into Numba's on-disk cache, once per clone (~1.5 CPU-minutes "
-        "alone, several minutes beside the FE jobs; no output until it is done; log: {log})"
+        "Dynamics kernels: from their extension (make install) in seconds, or else compiled into "
+        "Numba's on-disk cache once per clone (~1.5 CPU-minutes alone, several beside the FE jobs); "
+        "progress below and in {log}"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} warmup --scenes {input.scenes} "
-        "--integrator {params.integrator} {params.options} --out {output} > {log} 2>&1"
+        "--integrator {params.integrator} {params.options} --out {output} 2>&1 | tee {log}"
 
 
 rule load_ranking:

@@ -32,7 +32,7 @@ import numba
 import numpy as np
 
 from gimbal_reduction.solver.dynamics import multibody
-from gimbal_reduction.solver.dynamics.kernels import JIT
+from gimbal_reduction.solver.dynamics.kernels import JIT, extension
 from gimbal_reduction.solver.dynamics.kernels import linalg, modal, recursion, rk4
 from gimbal_reduction.solver.dynamics.kernels.modal import YS_PAIRS
 
@@ -449,3 +449,7 @@ class CompiledRhs:
 def make_rhs(chain, case=None, torque=None):
     """The compiled right-hand side (``CompiledRhs``) of a chain in a case motion."""
     return CompiledRhs(chain, case, torque)
+
+
+# this module's entries compiled ahead of time, when built and current (kernels.extension)
+extension.attach(__name__)

@@ -5,9 +5,14 @@ This module owns the contract.  Datasets: ``t`` (T,) [s], ``gamma`` (T, 4)
 modal coordinates (``--store-modal``), ``energy/{kinetic, potential, total,
 input_work}`` (T,) [in lbf] (unless the run was told ``--no-energy``), ``platform_attitude`` (T, 3, 3) the stable platform's frame
 in case axes (``multibody.platform_attitude``; rotation matrices, dimensionless).  Attributes: scene, model, integrator, step [s],
-steps, wall_time_s, integration_time_s [s], config_hash, omega_max [rad/s],
-modal_omega_max, stability_limit [s], n_modes (4,), units, created, the
-provenance (versions, git revision) and the integrator's ``stat_*`` counters.
+steps, config_hash, omega_max [rad/s], modal_omega_max, stability_limit [s], n_modes (4,),
+units, created, the provenance (versions, git revision) and the integrator's ``stat_*``
+counters.  Timings [s] in the process that wrote the file: ``integration_time_s`` the
+integration (bases, steps, outputs) without ``kernel_load_s``, the loading or compiling of
+Numba JIT kernels during it (a fresh process's first run; 0 when every kernel came from the
+extension); ``wall_time_s`` both and the output arrays' set-up; ``kernels`` "extension" (the
+kernels compiled ahead of time, ``kernels.extension``) or "jit".  None includes the start of
+the interpreter, the imports, the model's reading and assembly, or the energy history.
 Written atomically (``gimbal_reduction.workflow.provenance.atomic_h5``).
 """
 from __future__ import annotations

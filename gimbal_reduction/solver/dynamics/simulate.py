@@ -17,11 +17,8 @@ integration.  The output is the simulation file of ``gimbal_reduction.solver.dyn
 step, steps, config_hash, omega_max (the coupled chain's highest
 frequency at the initial state, which sets the RK4 limit), modal_omega_max,
 stability_limit, n_modes, provenance; the exponential integrator's options as
-stat_exponential_<option> among its statistics stat_*), written atomically.  Timings [s]:
-wall_time_s the whole run (problem set-up, kernel loading and integration),
-integration_time_s the integration without kernel_load_s, the one-off loading (or
-compiling) of the Numba kernels a fresh process pays on its first run
-(``kernels.kernel_load_timer``).
+stat_exponential_<option> among its statistics stat_*), written atomically.  Timings: see
+``simfile``.
 """
 
 import argparse
@@ -37,6 +34,7 @@ from numba.core import event
 
 from gimbal_reduction.solver.bodydata import BODIES
 from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, multibody, scenes, simfile
+from gimbal_reduction.solver.dynamics.kernels import extension
 from gimbal_reduction.solver.dynamics.problem import Problem
 from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow import config as cfgmod
@@ -342,6 +340,7 @@ def main(argv=None):
     attrs = {"scene": scene.name, "model": model, "integrator": run.method, "step": run.step,
              "steps": run.steps, "wall_time_s": wall, "integration_time_s": run.wall_time,
              "kernel_load_s": run.kernel_load_time,
+             "kernels": "extension" if extension.attached() else "jit",
              "config_hash": chash, "model_config_hash": str(info.get("config_hash", "")),
              "omega_max": omega_max, "modal_omega_max": chain.omega_max,
              "stability_limit": integrators.rk4_stability_limit(omega_max),

@@ -36,7 +36,8 @@ import time
 import numba
 import numpy as np
 
-from gimbal_reduction.solver.dynamics import chainfile, multibody, simulate
+from gimbal_reduction.solver.dynamics import chainfile, kernels, multibody, simulate
+from gimbal_reduction.solver.dynamics.kernels import extension
 from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
 from gimbal_reduction.workflow.provenance import git_revision, versions, write_json
 
@@ -71,26 +72,15 @@ def runs(scenes, integrator, options):
     return out
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m gimbal_reduction.solver.dynamics.warmup",
-                                 description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scenes", nargs="+", required=True, help="scene files the study simulates")
-    ap.add_argument("--integrator", default=simulate.DEFAULT_INTEGRATOR,
-                    help="the workflow's integrator (config simulation.integrator)")
-    ap.add_argument("--tol", default=None, help="its tolerance (config simulation.tolerance)")
-    ap.add_argument("--out", required=True, help="JSON record of the warm-up")
-    args = ap.parse_args(argv)
-    options = [] if args.tol is None else ["--tol", str(args.tol)]
+def warm(scenes, integrator, options, record):
+    """Simulate the synthetic chains of ``runs``; append each run to record["runs"]; returns the
+    exit code (2: a run failed, named on stderr)."""
     elastic = synthetic_modal_chain(MODES_PER_BODY, seed=0)
-    record = {"integrator": args.integrator, "options": options, "runs": [],
-              "numba": numba.__version__, "numba_cache_dir": os.environ.get("NUMBA_CACHE_DIR", ""),
-              "versions": versions(), "git_revision": git_revision()}
-    start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="warmup_") as tmp:
         models = {"elastic": os.path.join(tmp, "elastic.h5"), "rigid": os.path.join(tmp, "rigid.h5")}
         write_model(models["elastic"], elastic, f"synthetic-{MODES_PER_BODY}")
         write_model(models["rigid"], rigid_chain(elastic), "synthetic-rigid")
-        for k, (scene, model, opts) in enumerate(runs(args.scenes, args.integrator, options)):
+        for k, (scene, model, opts) in enumerate(runs(scenes, integrator, options)):
             t0 = time.perf_counter()
             rc = simulate.main(["--scene", scene, "--model-file", models[model],
                                 "--out", os.path.join(tmp, f"sim{k}.h5"), "--no-config-check", *opts])
@@ -102,9 +92,60 @@ def main(argv=None) -> int:
             record["runs"].append({"scene": scene, "model": model, "options": opts, "wall_time_s": wall})
             print(f"warmup: [{k + 1}] {model} chain on {scene} ({' '.join(opts)}): {wall:.1f} s",
                   flush=True)
+    return 0
+
+
+def build_extension(scenes, integrator, options) -> int:
+    """The kernels' extension module (``kernels.extension``): the warm-up's entry points, recorded
+    while it runs with the JIT, compiled ahead of time.  Nothing to do when it is current."""
+    if extension.up_to_date():
+        print("warmup: the kernels' extension is up to date", flush=True)
+        return 0
+    print("warmup: compiling the dynamics kernels ahead of time (kernels.extension; a few "
+          "CPU-minutes): the warm-up with the JIT first, then the extension", flush=True)
+    start = time.process_time()
+    with extension.recording() as seen:
+        rc = warm(scenes, integrator, options, {"runs": []})
+    if rc:
+        return rc
+    print(f"warmup: the warm-up compiled with the JIT ({time.process_time() - start:.0f} CPU-s); "
+          f"now the extension", flush=True)
+    numba.config.OPT = numba.core.config._process_opt_level(str(kernels.OPT_LEVEL))
+    entries = extension.exportable(seen)
+    path = extension.build(entries, log=lambda line: print(f"warmup: {line}", flush=True))
+    print(f"warmup: {path} holds {len(entries)} entries ({time.process_time() - start:.0f} CPU-s "
+          f"in this process)", flush=True)
+    return 0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m gimbal_reduction.solver.dynamics.warmup",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scenes", nargs="+", required=True, help="scene files the study simulates")
+    ap.add_argument("--integrator", default=simulate.DEFAULT_INTEGRATOR,
+                    help="the workflow's integrator (config simulation.integrator)")
+    ap.add_argument("--tol", default=None, help="its tolerance (config simulation.tolerance)")
+    ap.add_argument("--out", help="JSON record of the warm-up (required without --extension)")
+    ap.add_argument("--extension", action="store_true",
+                    help="build the kernels' extension module instead (kernels.extension; make install)")
+    args = ap.parse_args(argv)
+    options = [] if args.tol is None else ["--tol", str(args.tol)]
+    if args.extension:
+        return build_extension(args.scenes, args.integrator, options)
+    if args.out is None:
+        ap.error("--out is required without --extension")
+    record = {"integrator": args.integrator, "options": options, "runs": [],
+              "numba": numba.__version__, "numba_cache_dir": os.environ.get("NUMBA_CACHE_DIR", ""),
+              "extension": extension.attached(),
+              "versions": versions(), "git_revision": git_revision()}
+    start = time.perf_counter()
+    rc = warm(args.scenes, args.integrator, options, record)
+    if rc:
+        return rc
     record["wall_time_s"] = time.perf_counter() - start
     write_json(args.out, record)
-    print(f"warmup: kernels compiled and cached in {record['wall_time_s']:.1f} s -> {args.out}")
+    what = "loaded from the extension" if record["extension"] else "compiled and cached"
+    print(f"warmup: kernels {what} in {record['wall_time_s']:.1f} s -> {args.out}")
     return 0
 
 

@@ -10,7 +10,7 @@ the phi-functions its weights are made of.  Used by the compiled step loop
 import numba
 import numpy as np
 
-from gimbal_reduction.solver.dynamics.kernels import JIT
+from gimbal_reduction.solver.dynamics.kernels import JIT, extension
 
 N_JOINTS = 4
 
@@ -194,3 +194,7 @@ def dense_diagonal(eta, etad, xi_re, xi_im, coef, mu, delta, h, dt, count, Ed_re
                 tp *= u
             out_eta[k, a] = p
             out_etad[k, a] = v
+
+
+# this module's entries compiled ahead of time, when built and current (kernels.extension)
+extension.attach(__name__)

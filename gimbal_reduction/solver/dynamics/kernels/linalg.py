@@ -9,7 +9,7 @@ registers, and 6x6 temporaries live in scratch arrays allocated once per evaluat
 import numba
 import numpy as np
 
-from gimbal_reduction.solver.dynamics.kernels import FAST, JIT
+from gimbal_reduction.solver.dynamics.kernels import FAST, JIT, extension
 
 
 @numba.njit(**JIT)
@@ -134,3 +134,6 @@ def adinv_matrix(R, p, A):
         A[i, 4] = -(-c0 * p[2] + c2 * p[0])
         A[i, 5] = -(c0 * p[1] - c1 * p[0])
 
+
+# this module's entries compiled ahead of time, when built and current (kernels.extension)
+extension.attach(__name__)

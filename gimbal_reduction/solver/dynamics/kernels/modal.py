@@ -10,7 +10,7 @@ B(q) = [P; H + hq],  L = [R^T Psi; Lw Theta]  (joint map of the child joint).
 import numba
 import numpy as np
 
-from gimbal_reduction.solver.dynamics.kernels import FAST, JIT
+from gimbal_reduction.solver.dynamics.kernels import FAST, JIT, extension
 
 # dM_X/dq_i = [[0, Yv^T], [Yv, Ys]] (Yv 3x3, Ys = Y_w + Y_w^T symmetric): 9 + 6 numbers.
 YS_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
@@ -135,7 +135,7 @@ def project(V, M1, o, Dk, q, qd, qdd, has_acc, pq_given, pq, pqd, pqdd):
         rows_dot2(V, o, Dk, q, qd, pq[0:12], pqd[0:12])
         rows_dot2(M1, o, Dk, q, qd, pq[12:27], pqd[12:27])
     if has_acc:
-        rows_dot(V, o, Dk, qdd, pqdd, 0, 12)
+        rows_dot(V, o, Dk, qdd, pqdd, int(0), int(12))
     else:
         pqdd[:] = 0.0
 
@@ -315,7 +315,7 @@ def add_inertia_rows(Mx, m):
 def add_inertia(Mx, M1, o, Dk, x):
     """Mx (6, 6) += sum_i x_i dM_X/dq_i, from the 15 rows of M1 (inertia_gradient_rows)."""
     m = np.empty(15)
-    rows_dot(M1, o, Dk, x, m, 0, 15)
+    rows_dot(M1, o, Dk, x, m, int(0), int(15))
     add_inertia_rows(Mx, m)
 
 
@@ -403,7 +403,10 @@ def linear_data(y, yd, ch):
         if Dk > 0:
             s = 4 + off[k]
             b0 = 3 * off[k]
-            rows_combine(G[k], 0, 3 * Dk, y[s:s + Dk], Dk, LIN[b0:b0 + 3 * Dk])
+            rows_combine(G[k], int(0), 3 * Dk, y[s:s + Dk], Dk, LIN[b0:b0 + 3 * Dk])
     project_all(y, yd, y, bool(False), ch, bool(False), LIN[3 * S:].reshape((4, 27)), Pqd, np.zeros((4, 12)))
     return LIN, Pqd
 
+
+# this module's entries compiled ahead of time, when built and current (kernels.extension)
+extension.attach(__name__)

@@ -47,7 +47,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from gimbal_reduction.solver.dynamics.kernels import JIT
+from gimbal_reduction.solver.dynamics.kernels import JIT, extension
 from gimbal_reduction.solver.dynamics.kernels.exponential import advance_diagonal, dense_diagonal, modal_xi, phi_table
 
 N_JOINTS = 4
@@ -1045,3 +1045,7 @@ def pece_run(b, w, cfg, st, hist, ev, out, work):
             r = grow(cfg, st)
         if r != CONTINUE:
             return r
+
+
+# this module's entries compiled ahead of time, when built and current (kernels.extension)
+extension.attach(__name__)

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from gimbal_reduction.solver.dynamics.kernels import FAST, JIT
+from gimbal_reduction.solver.dynamics.kernels import FAST, JIT, extension
 
 # Thin wrappers (a few allocations around one or three calls) are inlined by Numba into their
 # callers (inline="always", on Numba's IR): a compiled function of their own would put one level
@@ -284,7 +284,7 @@ def backward(y, yd, ydd, has_acc, ch, fr, Pqdd, out, LIN, hq_given, LIND):
             inertia_weights(w, ww)
             for c in range(15):
                 ww[c] = -ww[c]
-            rows_combine(M1, o, Dk, ww, 15, Q)
+            rows_combine(M1, o, Dk, ww, int(15), Q)
             h0, h1, h2 = hq[0:Dk], hq[Dk:2 * Dk], hq[2 * Dk:3 * Dk]
             e0, e1, e2 = hqd[0:Dk], hqd[Dk:2 * Dk], hqd[2 * Dk:3 * Dk]
             for i in range(Dk):
@@ -482,8 +482,8 @@ def solve(r, dg, unit, ch, fr):
             z[:] = r[s:s + Dk]
             for a in range(6):
                 t6[a] = -acc[a]
-            rows_combine(V, o, Dk, t6, 3, z)
-            rows_combine(HB[:, o:o + Dk], 0, Dk, t6[3:6], 3, z)
+            rows_combine(V, o, Dk, t6, int(3), z)
+            rows_combine(HB, o, Dk, t6[3:6], int(3), z)
             if child:
                 Lm = Lam[k]
                 mv6(Lm.T, pa_all[k], eY)
@@ -502,7 +502,7 @@ def solve(r, dg, unit, ch, fr):
                     eY[a] += t6[a]
                 for a in range(6):
                     t6[a] = -eY[a]
-                rows_combine(V[6:12], o, Dk, t6, 6, z)
+                rows_combine(V[6:12], o, Dk, t6, int(6), z)
                 mv6(YY[k], eY, t6)
                 for a in range(6):
                     t6[a] = Yr[k, a] - yh[a] - t6[a]     # Y z
@@ -610,3 +610,7 @@ def case_twist(t, case, w1, dw1):
         else:
             integ = math.cos(phase[k]) * t
         w1[3 + k] = om0[k] + amp[k] * integ
+
+
+# this module's entries compiled ahead of time, when built and current (kernels.extension)
+extension.attach(__name__)

@@ -6,7 +6,7 @@ import math
 import numba
 import numpy as np
 
-from gimbal_reduction.solver.dynamics.kernels import JIT
+from gimbal_reduction.solver.dynamics.kernels import JIT, extension
 from gimbal_reduction.solver.dynamics.kernels.modal import dot
 from gimbal_reduction.solver.dynamics.kernels.recursion import (accelerations_lin, case_power_lin, case_twist,
                                                kinetic_energy_lin)
@@ -147,3 +147,7 @@ def rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau, ch):
         if k + 1 < nt:
             y, yd = rk4_core(y, yd, t, h, n_sub, True, acc, LIN, LIND, case, tau, ch)
     return Y, Yd, energy, info
+
+
+# this module's entries compiled ahead of time, when built and current (kernels.extension)
+extension.attach(__name__)
