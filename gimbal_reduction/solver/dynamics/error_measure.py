@@ -17,7 +17,7 @@ trapezoid rule on a uniform grid of step dt integrates e^{i w t} exactly (to end
 0 < |w| < 2 pi / dt: so E is the integral's own value when 2 f_max < 1 / dt, the grid's
 Nyquist frequency 1 / (2 dt) above f_max.  Beyond it a mode's samples alias, and a sum
 frequency f_j + f_k near 1 / dt beats at a low frequency that the window does not average
-out: the measured E moved by up to 3.9 % (thesis scene, 1e-5 s against 6.25e-7 s).  The rule
+out: E moved by up to 3.9 % (thesis scene, 1e-5 s against 6.25e-7 s, measured).  The rule
 (``check_sampling``):
 
     1 / (2 dt) >= SAMPLING_MARGIN x f_max,
@@ -33,13 +33,14 @@ import numpy as np
 GRID_RTOL = 1e-9
 
 # [1] Nyquist frequency / f_max at least this (chosen: the square's alias nearest zero frequency
-# lies at 1/dt - 2 f_max >= 0.2 / dt, i.e. >= 400 periods of the 15 ms window at 1/dt = 2.7e5 Hz,
-# and one sinusoid's samples hold its mean square to 1 / (n |sin(2 pi f dt)|) <= 1.7 / n, n samples)
+# lies at 1/dt - 2 f_max >= 0.2 / dt, on thesis's 2.5e-6 s grid 80 kHz, 1200 periods of its 15 ms;
+# one sinusoid's n samples hold its mean square to 1 / (n |sin(2 pi f dt)|) <= 1.7 / n)
 SAMPLING_MARGIN = 1.25
-# [1] share of a gimbal rate's mean square that makes a coupled mode count for the sampling rule
-# (chosen: a mode below it moves E by <= ~2e-6 even if all its weight were misplaced, below the
-# truth's own resolution of every study scene but smooth (docs/study.md), where the rule resolves
-# every mode above 1e-10 anyway; measured: thesis at 1.25 x the 1e-6 band moves E < 0.4 %)
+# [1] share of a gimbal rate's mean square that makes a coupled mode count for the sampling rule.
+# Chosen by measurement (key models, thesis scene): on the 2.5e-6 s grid the rule asks for, E moved
+# by < 0.01 % where E > 1e-6 (0.3 % at E ~ 2e-8) against a grid 4 times finer; the 1e-5 s grid it
+# refuses moved E by up to 3.7 %. The 1e-10 of the frequency-domain band would ask for ~1 us
+# grids (1e6 samples on the 1 s scene).
 SAMPLING_SHARE = 1e-6
 
 
