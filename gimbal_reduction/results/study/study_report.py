@@ -473,7 +473,7 @@ def methods_section(ctx) -> str:
            "per gimbal rate against the truth on the same scene, and the stable platform's attitude "
            "error: the angle between the model's and the truth's platform frame (case motion "
            "prescribed, so it is the inertial attitude error), largest over the window, in arcsec. "
-           "*Sampling.* Every model is sampled on its scene's output grid (Table @tab-scenes), and "
+           "*Sampling.* Every model is sampled on its scene's output grid (@tab-scenes), and "
            "E is the trapezoid rule over those samples: a mean square, exact while the sampling rate "
            "exceeds twice the highest frequency the rates hold. The rule "
            "(gimbal_reduction.solver.dynamics.error_measure): the grid's Nyquist frequency is at "
