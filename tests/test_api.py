@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from gimbal_reduction import api
+from gimbal_reduction.solver.dynamics import scenes
 from tests.dynamics_fixtures import run_model
 from tests.reduction.test_models import files  # noqa: F401  (the synthetic body files)
 
@@ -15,8 +16,10 @@ def test_reduce_and_simulate_match_the_command_lines(files, tmp_path, scene):  #
     model = api.reduce("xmx-2", scene, bodies=root / "modes", reductions=root / "reduction", config=None)
     assert model.name == "xmx-2" and model.n_elastic == 8 and model.chain.n_modes == (2, 2, 2, 2)
     run = api.simulate(model, scene)
-    assert run.t.shape == (1501,) and run.gamma_dot.shape == (1501, 4)
-    assert run.platform_attitude.shape == (1501, 3, 3) and run.stats["steps"] > 0
+    grid = scenes.load_scene(scene)
+    n = int(round(grid.duration / grid.output_interval)) + 1          # the scene's output samples
+    assert run.t.shape == (n,) and run.gamma_dot.shape == (n, 4)
+    assert run.platform_attitude.shape == (n, 3, 3) and run.stats["steps"] > 0
     assert run_model(scene, "xmx-2", str(root / "modes"), str(root / "reduction"), str(tmp_path)) == 0
     cli = api.read_simulation(tmp_path / scene / "xmx-2.h5")
     assert cli.model == "xmx-2" and cli.scene == scene

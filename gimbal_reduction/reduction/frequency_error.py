@@ -90,7 +90,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gimbal_reduction.reduction.frozen_chain import modal_rates
-from gimbal_reduction.solver.dynamics import compiled, linearized, multibody
+from gimbal_reduction.solver.dynamics import compiled, error_measure, linearized, multibody
 
 N_JOINTS = 4
 INPUT_LABELS = ("case_ax", "case_ay", "case_az", "torque_1", "torque_2", "torque_3", "torque_4")
@@ -359,6 +359,41 @@ def excited_band(omega, share, options):
     if not np.any(excited):
         return float("nan"), 0
     return float(np.max(omega[excited])), int(np.sum(excited))
+
+
+def sampling_band(truth, scene, share=error_measure.SAMPLING_SHARE,
+                  margin=error_measure.SAMPLING_MARGIN, zeta=0.01):
+    """What E's sampling rule (``error_measure``, module docstring there) asks of a scene's output
+    grid: the highest coupled frequency of the truth whose share of a gimbal rate's mean square
+    under the scene's drive is at least ``share`` (``excitation_shares``, outputs rate_1..rate_4;
+    judged undamped, so a damped scene's ringing counts in full), and whether the scene's output
+    interval resolves it.  truth: the truth's ``LinearChain`` at the scene's initial state; scene:
+    ``scenes.Scene``; zeta only builds the modal form (the shares do not use it).  Returns a
+    JSON-ready dict: f_max_hz (None if no mode reaches the share), mode (1-based rank of that
+    coupled mode), share, margin, output_interval_s, nyquist_hz, longest_interval_s, resolved,
+    problem (the one-line reason or None), note.  A scene that does not start at rest (initial gimbal
+    rates or case angular velocity) drives the modes through velocity terms the linearisation at
+    rest drops: its shares say nothing, and resolved is None (not judged), with the reason."""
+    moving = any(scene.initial_rates) or any(scene.case.omega0)
+    if moving:
+        return {"f_max_hz": None, "mode": None, "share": share, "margin": margin,
+                "output_interval_s": scene.output_interval, "nyquist_hz": 0.5 / scene.output_interval,
+                "longest_interval_s": None, "resolved": None, "problem": None,
+                "note": f"scene {scene.name} does not start at rest: its excitation is not judged "
+                        "by the linear chain at rest (the sampling rule is not evaluated)"}
+    modal = ModalTransfer(truth, zeta)
+    t = scene_times(scene)
+    shares = excitation_shares(truth, modal, scene_inputs(scene, t), t)[:N_JOINTS]     # (4, m)
+    counted = np.max(shares, axis=0) >= share if shares.size else np.zeros(0, bool)
+    top = int(np.argmax(np.where(counted, modal.omega, -1.0))) if np.any(counted) else None
+    f_max = float(modal.omega[top] / (2 * np.pi)) if top is not None else float("nan")
+    problem = error_measure.sampling_problem(scene.output_interval, f_max, f"scene {scene.name}", margin)
+    rank = None if top is None else int(np.sum(modal.omega < modal.omega[top])) + 1
+    return {"f_max_hz": f_max if top is not None else None, "mode": rank, "share": share,
+            "margin": margin, "output_interval_s": scene.output_interval,
+            "nyquist_hz": 0.5 / scene.output_interval,
+            "longest_interval_s": error_measure.resolving_interval(f_max, margin) if top is not None else None,
+            "resolved": problem is None, "problem": problem, "note": None}
 
 
 # ------------------------------------------------------------ norms on a grid

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from gimbal_reduction.reduction import frequency_error as fe
-from gimbal_reduction.solver.dynamics import multibody, scenes
+from gimbal_reduction.solver.dynamics import error_measure, multibody, scenes
 from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
 
 ZETA = 0.01
@@ -228,3 +228,32 @@ def test_frequency_errors_of_a_scene_and_refusals():
         fe.frequency_errors(thesis, {"copy": truth})
     with pytest.raises(fe.FrequencyError):
         fe.FrequencyErrorOptions(damping_floor=0.0)
+
+
+# ------------------------------------------------------------ E's sampling rule on a scene
+def test_sampling_band_fails_a_grid_below_the_excited_modes_and_passes_a_fine_one():
+    """The synthetic chain's excited modes on the thesis drive against two grids: one whose
+    Nyquist frequency lies below f_max (must fail, with the one-line reason) and one at the
+    longest interval the rule allows (must pass); a scene with initial rates is not judged."""
+    chain = synthetic_modal_chain(3, seed=1)
+    thesis = scenes.load_scene("thesis")
+    y0 = np.zeros(chain.n_coordinates)
+    y0[:4] = thesis.initial_angles
+    lin = fe.linear_chain(chain, y0)
+    found = fe.sampling_band(lin, thesis)
+    f_max = found["f_max_hz"]
+    assert f_max > 0 and found["mode"] >= 1
+    # f_max is the highest mode at or above the share, from the shares themselves
+    modal = fe.ModalTransfer(lin, ZETA)
+    t = fe.scene_times(thesis)
+    share = fe.excitation_shares(lin, modal, fe.scene_inputs(thesis, t), t)[:4].max(axis=0)
+    counted = modal.omega[share >= error_measure.SAMPLING_SHARE]
+    assert f_max == pytest.approx(counted.max() / (2 * np.pi), rel=1e-12)
+    longest = error_measure.resolving_interval(f_max)
+    coarse = replace(thesis, duration=0.01, output_interval=0.01 / np.floor(0.01 / longest / 2))
+    fine = replace(thesis, duration=0.01, output_interval=0.01 / np.ceil(0.01 / longest))
+    bad, good = fe.sampling_band(lin, coarse), fe.sampling_band(lin, fine)
+    assert bad["resolved"] is False and "does not resolve" in bad["problem"] and "\n" not in bad["problem"]
+    assert good["resolved"] is True and good["problem"] is None
+    moving = replace(thesis, initial_rates=(0.3, 0.0, 0.0, 0.0))
+    assert fe.sampling_band(lin, moving)["resolved"] is None

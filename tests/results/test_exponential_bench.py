@@ -70,7 +70,8 @@ def test_judge_and_reference_prefix_and_duration():
     assert t.size == 4 and g.shape == (4, 4) and t[-1] == pytest.approx(3e-4)
     thesis = scenes.load_scene("thesis")
     assert bench.bench_duration(thesis, None) == pytest.approx(thesis.duration)
-    assert bench.bench_duration(thesis, 2.4e-5) == pytest.approx(2e-5)      # whole output intervals
+    dt = thesis.output_interval                                            # whole output intervals
+    assert bench.bench_duration(thesis, 2.4 * dt) == pytest.approx(2 * dt, rel=1e-9)
     assert bench.bench_duration(thesis, 1.0) == pytest.approx(thesis.duration)
 
 

@@ -9,7 +9,8 @@ import pytest
 from gimbal_reduction.results.study import tables
 from gimbal_reduction.results.study.cases import LOAD_CASES, check_models, describe_model, study_cases, study_models
 from gimbal_reduction.results.study.tables import TABLE_COLUMNS, build_tables, read_table
-from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
+from gimbal_reduction.solver.dynamics.error_measure import (ErrorsInputError, check_same_grid, check_sampling,
+                                                             error_measure, resolving_interval)
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from tests.results.synthetic_study import T_END, truth_rates, write_sim, write_study
 
@@ -75,6 +76,27 @@ def test_columns_are_independent_and_zero_reference_is_nan():
     r0 = r.copy()
     r0[:, 3] = 0.0
     assert np.isnan(error_measure(t, r0, r0 + 1.0)[3])
+
+
+def test_sampling_rule_fails_where_two_modes_alias_onto_zero_and_passes_on_a_fine_grid():
+    """Two error modes whose sum frequency f1 + f2 equals the sampling rate: on that grid the
+    cross term of e^2 samples as a constant, and E comes out ~0 instead of its closed form 2 a^2
+    (the rule must fail); on a grid that meets the rule, E is the closed form (must pass)."""
+    f1, f2, a, T = 3000.0, 6900.0, 1e-2, 0.1            # Hz, Hz, 1, s (whole periods of all)
+
+    def E_on(dt):
+        t = np.linspace(0.0, T, int(round(T / dt)) + 1)
+        r = np.sin(2 * np.pi * 10.0 * t)
+        return error_measure(t, r, r + a * (np.sin(2 * np.pi * f1 * t) + np.sin(2 * np.pi * f2 * t)))
+
+    coarse = 1.0 / (f1 + f2)                            # 1.01e-4 s: Nyquist 4950 Hz < f2
+    with pytest.raises(ErrorsInputError, match="does not resolve"):
+        check_sampling(coarse, f2, "synthetic")
+    assert abs(E_on(coarse) - 2 * a ** 2) > 0.5 * 2 * a ** 2
+    fine = T / np.ceil(T / resolving_interval(f2))
+    check_sampling(fine, f2, "synthetic")               # no error
+    assert E_on(fine) == pytest.approx(2 * a ** 2, rel=1e-2)
+    assert resolving_interval(float("nan")) == float("inf")
 
 
 def test_mismatched_grids_are_refused_with_one_line(tmp_path):

@@ -1,16 +1,19 @@
 """Guards before the work: integration steps, output samples and mesh size above a stated limit
 are refused at once in one line (naming the culprit and the option that lifts the limit); the
 option lifts it."""
+import json
 import time
 
+import numpy as np
 import pytest
 
 from gimbal_reduction.geometry import mesh
+from gimbal_reduction.results.study import run_scene
 from gimbal_reduction.solver.dynamics import scenes, simulate
 from gimbal_reduction.solver.fe import modes
 from gimbal_reduction.workflow import config as cfgmod
 
-from .conftest import write_scene
+from .conftest import body_args, write_scene
 
 MODEL = ("models", "scene", "xmx-2.h5")
 
@@ -40,8 +43,10 @@ def test_output_interval_of_a_nanosecond_refused(work, refused):
 
 
 def test_max_samples_lowered_refuses(work, refused):
+    scene = scenes.load_scene(str(work / "scene.yaml"))
+    samples = int(round(scene.duration / scene.output_interval)) + 1
     refused(simulate.main, sim(work, work / "scene.yaml", ["--max-samples", "50"]),
-            ("101", "--max-samples"), work / "out")
+            (f"{samples} output samples", "--max-samples"), work / "out")
 
 
 def test_max_steps_lowered_refuses_rk4(work, refused):
@@ -118,3 +123,27 @@ def test_a_kernel_compiled_on_first_use_is_announced_once(capsys):
     with event.install_listener("numba:compile", simulate.CompileNotice("x")):
         assert first(3) == 4                                   # compiled already: nothing said
     assert capsys.readouterr().out == ""
+
+
+def test_study_refuses_a_grid_too_coarse_for_E_before_the_truth_runs(work, capsys, monkeypatch):
+    """E's sampling rule (error_measure) at the study's set-up: on a 1 ms grid the synthetic truth's
+    excited modes (up to ~690 Hz) alias (must fail: one line naming the scene and the longest interval, no
+    simulation written); on a grid at the longest interval the rule allows it runs (must pass) and
+    the coupled-mode table records the verdict.  The synthetic bodies hold 6 modes each: their
+    truth is freq-6 (every mode), made under the name truth."""
+    reduce = run_scene.reduction_models.main
+    monkeypatch.setattr(run_scene.reduction_models, "main",
+                        lambda argv: reduce(["freq-6" if a == "truth" else a for a in argv]))
+    coarse = write_scene(work / "coarse.yaml", duration=4e-3, output_interval=1e-3)
+    args = [*body_args(work), "--out-dir", str(work / "out")]
+    rc = run_scene.main(["--scene", str(coarse), "--models", "truth", "rigid", *args])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and "scene coarse" in err[0] and "does not resolve" in err[0]
+    assert not (work / "out" / "truth.h5").exists() and not (work / "out" / "rigid.h5").exists()
+    longest = float(err[0].split("interval <= ")[1].split(" s")[0])
+    interval = float(4e-3 / np.ceil(4e-3 / (0.9 * longest)))           # divides the 4 ms, < the longest
+    fine = write_scene(work / "fine.yaml", duration=4e-3, output_interval=interval)
+    table = work / "out" / "coupled.json"
+    assert run_scene.main(["--scene", str(fine), "--models", "truth", *args, "--coupled-modes", str(table)]) == 0
+    sampling = json.load(open(table))["sampling"]
+    assert sampling["resolved"] is True and sampling["f_max_hz"] > 0.5 / 1e-3 / 1.25

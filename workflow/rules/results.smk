@@ -35,9 +35,9 @@ rule study_scene:
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
     resources:
-        # records: study/long.tsv 249.3 s, 1053.6 MB (max of 4 files)
-        mem_mb=mem_mb(1053.6),
-        runtime=runtime_min(249.3),
+        # records: study/long.tsv 470.1 s (load 11 on 2 cores; 200.5 CPU s), 1395.4 MB (40001 samples)
+        mem_mb=mem_mb(1395.4),
+        runtime=runtime_min(470.1),
     params:
         physics=scene_physics_hash,
         code=code_hash("run-scene"),

@@ -219,9 +219,10 @@ rule truth_basis:
     benchmark:
         "results/benchmarks/rules/truth_basis.tsv"
     resources:
-        # records: truth_basis.tsv 40.3 s, 607.5 MB (three scenes; with long at its tolerance 5e-7: 80.7 s)
-        mem_mb=mem_mb(607.5),
-        runtime=runtime_min(80.7),
+        # records: truth_basis.tsv 340.3 s (load 11 on 2 cores; 135.8 CPU s), 1742.3 MB (E's sampling
+        # rule's grids: thesis 6001, long 40001 samples)
+        mem_mb=mem_mb(1742.3),
+        runtime=runtime_min(340.3),
     params:
         code=code_hash("truth-basis"),
         cfg=body_files_hash,  # the body files are checked against the config

@@ -44,6 +44,7 @@ from gimbal_reduction.results.study.cases import (
 )
 from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
 from gimbal_reduction.solver.bodydata import BODIES
+from gimbal_reduction.solver.dynamics.error_measure import SAMPLING_MARGIN, SAMPLING_SHARE
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow import units
 from gimbal_reduction.workflow import config as cfgmod
@@ -517,8 +518,10 @@ def _scene_methods_section(ctx):
 
 
 def _sampling_paragraph(ctx):
-    """What the output grid resolves: its interval and Nyquist frequency against the truth chain's
-    coupled modes, and what that means for E (a mean square over the samples)."""
+    """What the output grid resolves: its interval and Nyquist frequency against E's sampling rule
+    (``error_measure``: Nyquist >= margin x f_max, f_max the truth's highest coupled mode holding at
+    least a share of a rate's mean square; found by run_scene, coupled_modes.json's "sampling"),
+    and the measured effect of a grid twice as coarse."""
     sc, cm = ctx.get("scene") or {}, ctx.get("coupled_modes") or {}
     try:
         dt = units.convert(sc["output_interval"], "s", "output_interval")
@@ -526,33 +529,31 @@ def _sampling_paragraph(ctx):
     except (KeyError, TypeError, ValueError):
         return ""
     nyquist = 0.5 / dt
-    f = list(cm.get("frequencies_hz") or [])
-    above = [x for x in f if x > nyquist]
+    rule = cm.get("sampling") or {}
     text = (f"*Sampling.* Every model is sampled on the scene's output grid: every {dt * 1e6:.4g} µs "
             f"({int(round(duration / dt)) + 1} samples over {duration_text(duration)}, Nyquist frequency "
             f"{nyquist / 1e3:.4g} kHz); each sample is the integrator's solution at that instant (the "
-            "exponential integrator evaluates its modal solution there, whatever its own step), not an "
-            "average over the interval. ")
-    if f:
-        n = int(round(duration / dt)) + 1
-        # the mean square of n samples of a unit sinusoid at f differs from 1/2 by at most
-        # 1 / (2 n |sin(2 pi f dt)|) (a geometric sum): small unless f is near a multiple of Nyquist
-        worst = max(f, key=lambda x: 1.0 / max(abs(np.sin(2 * np.pi * x * dt)), 1e-300))
-        bound = 1.0 / (n * max(abs(np.sin(2 * np.pi * worst * dt)), 1e-300))
-        text += (f"The truth chain's coupled modes reach {f[-1] / 1e3:.3g} kHz"
-                 + (f"; {len(above)} of the {len(f)} lie above the Nyquist frequency "
-                    f"({above[0] / 1e3:.3g} to {above[-1] / 1e3:.3g} kHz) and alias to lower "
-                    "frequencies on this grid. E is a mean square over the samples, and the mean square "
-                    "of the samples of a sinusoid is its true mean square to within "
-                    "$1 \\/ (n |sin(2 pi f Delta t)|)$ relative ($n$ samples): for these modes at most "
-                    f"{bound:.2g} (mode at {worst / 1e3:.4g} kHz), so aliasing moves where a mode appears "
-                    "in a plotted rate, not its weight in E." if above else
-                    ", all below the Nyquist frequency: the grid resolves every mode the truth keeps."))
-        chk = (ctx.get("decision") or {}).get("sampling")
-        if chk:
-            text += (f" Measured: E of every case computed on every second sample (Nyquist "
-                     f"{nyquist / 2e3:.4g} kHz) differs from E on the full grid by at most "
-                     f"{100 * chk['max_relative_change']:.2g} % ({s(chk['model'])}, {s(chk['rate'])} rate).")
+            "exponential integrator evaluates its modal solution there, whatever its own step). "
+            "E is a mean square over the samples: the square of a rate that holds frequencies up to "
+            "$f_max$ holds them up to $2 f_max$, which the trapezoid rule integrates exactly while "
+            "$2 f_max$ stays below the sampling rate; beyond it two modes whose frequencies add up to "
+            "the sampling rate beat at a low frequency, and E moves. The rule "
+            "(gimbal_reduction.solver.dynamics.error_measure): Nyquist frequency "
+            f"$>= {rule.get('margin', SAMPLING_MARGIN):g} f_max$, $f_max$ the highest coupled mode of the "
+            "truth (every model is compared with it) that holds at least "
+            f"{sci(rule.get('share', SAMPLING_SHARE))} of a gimbal rate's mean square under the scene's "
+            "drive; the study checks it before it simulates the truth. ")
+    if rule and rule.get("f_max_hz"):
+        verdict = "met" if rule.get("resolved") else "NOT met"
+        text += (f"Here $f_max$ = {rule['f_max_hz'] / 1e3:.4g} kHz (coupled mode {rule['mode']}), so the "
+                 f"interval may be at most {rule['longest_interval_s'] * 1e6:.3g} µs: {verdict}. ")
+    elif rule and rule.get("note"):
+        text += f"Not evaluated here: {rule['note']}. "
+    chk = (ctx.get("decision") or {}).get("sampling")
+    if chk:
+        text += (f"Measured: E of every case computed on every second sample (Nyquist "
+                 f"{nyquist / 2e3:.4g} kHz) differs from E on the full grid by at most "
+                 f"{100 * chk['max_relative_change']:.2g} % ({s(chk['model'])}, {s(chk['rate'])} rate).")
     return text + "\n\n"
 
 

@@ -46,11 +46,13 @@ from gimbal_reduction.workflow.provenance import provenance, write_json
 BODY_LABELS = ("outer gimbal", "middle gimbal", "inner gimbal", "stable platform")
 
 
-def coupled_mode_table(model_file, scene_file) -> dict:
+def coupled_mode_table(model_file, scene_file, sampling=None) -> dict:
     """The coupled chain's natural modes at the scene's initial state (``linearized.coupled_modes``:
     joints free), with the body each mode lives in: frequencies_hz (m,) ascending, body (m,) the
     label of the body holding the largest share of the mode's modal mass (the elastic mass block
-    of a body is its modal mass matrix, identity for mass-normalised modes), share (m,) that share."""
+    of a body is its modal mass matrix, identity for mass-normalised modes), share (m,) that share;
+    sampling: what E's sampling rule found for the scene's output grid
+    (``frequency_error.sampling_band``), if given."""
     scene = scenes.load_scene(scene_file)
     chain, _ = chainfile.read_chain(model_file, scene.damping_ratio)
     y0, _ = scenes.initial_state(scene, chain.n_coordinates)
@@ -61,7 +63,8 @@ def coupled_mode_table(model_file, scene_file) -> dict:
     return {"scene": scene.name, "model": "truth", "units": "Hz",
             "frequencies_hz": (omega / (2 * np.pi)).tolist(),
             "body": [BODY_LABELS[k] for k in dominant],
-            "share": share[dominant, np.arange(dominant.size)].tolist()}
+            "share": share[dominant, np.arange(dominant.size)].tolist(),
+            **({"sampling": sampling} if sampling is not None else {})}
 
 
 def model_file_name(model: str) -> str:
@@ -82,10 +85,13 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
     """Reduce and simulate every model of ``models`` on ``scene`` (a scene file); writes
     {out_dir}/{model}.h5, the truth's coupled-mode table to ``coupled_modes`` (JSON) and every
     model's frequency-domain error to ``frequency_errors`` (JSON; the models must hold the truth)
-    if given; cb_bases: the rings' Craig-Bampton stage files (cb- models).  Returns (status,
+    if given; cb_bases: the rings' Craig-Bampton stage files (cb- models).  Before the truth is
+    simulated, its model file is checked against E's sampling rule (``frequency_error.sampling_band``,
+    the rule in ``error_measure``): a grid that does not resolve the truth's excited modes stops the
+    run with a one-line message; the finding goes into the coupled-mode table.  Returns (status,
     failed model or None)."""
-    scene_obj = scenes.load_scene(scene) if frequency_errors else None
-    linear = {}
+    scene_obj = scenes.load_scene(scene)
+    linear, sampling = {}, None
     progress = Progress(f"run_scene {os.path.splitext(os.path.basename(str(scene)))[0]}", len(models),
                         "models")
     with tempfile.TemporaryDirectory(prefix="run_scene_") as tmp:
@@ -102,6 +108,12 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
                 args += ["--cb-bases", *map(str, cb_bases)]
             checked = ["--config", str(config)] if config else []   # body files vs the config
             rc = reduction_models.main(args + checked)
+            if rc == 0 and model == "truth":
+                linear[model] = linearised_model(model_file, scene_obj)
+                sampling = frequency_error.sampling_band(linear[model], scene_obj)
+                if sampling["resolved"] is False:
+                    print(f"run_scene: {sampling['problem']}", file=sys.stderr)
+                    return 2, model
             if rc == 0:
                 rc = simulate.main(["--scene", str(scene), "--model-file", model_file, "--out",
                                     os.path.join(out_dir, model_file_name(model)),
@@ -111,9 +123,9 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
                 return rc, model
             if model == "truth" and coupled_modes:
                 truth_sim = os.path.join(out_dir, model_file_name(model))
-                write_json(coupled_modes, coupled_mode_table(model_file, scene),
+                write_json(coupled_modes, coupled_mode_table(model_file, scene, sampling),
                            record=provenance(sources=[truth_sim]))
-            if frequency_errors:
+            if frequency_errors and model not in linear:
                 linear[model] = linearised_model(model_file, scene_obj)
             os.remove(model_file)
             progress.update(k, note=f"{model} took {time.perf_counter() - t0:.2f} s")

@@ -39,6 +39,8 @@ from gimbal_reduction.results.study.figures import STYLE, pyplot, save
 from gimbal_reduction.results.study.findings import THESIS, THESIS_SUSPECTED_TYPOS, THESIS_TABLE_4_1
 from gimbal_reduction.results.study.report import ROOT, note_revision, stale_list, version_of
 from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
+from gimbal_reduction.solver.dynamics.error_measure import SAMPLING_MARGIN, SAMPLING_SHARE
+from gimbal_reduction.workflow import units
 
 RATES = ("outer", "middle", "inner", "platform")
 RATE_NAMES = {"outer": "outer gimbal", "middle": "middle gimbal", "inner": "inner gimbal",
@@ -470,16 +472,29 @@ def methods_section(ctx) -> str:
            "integrator 100 times tighter, itself checked against DOP853; Verification). *Errors.* E of eq. 3.53 "
            "per gimbal rate against the truth on the same scene, and the stable platform's attitude "
            "error: the angle between the model's and the truth's platform frame (case motion "
-           "prescribed, so it is the inertial attitude error), largest over the window, in arcsec.\n\n"]
+           "prescribed, so it is the inertial attitude error), largest over the window, in arcsec. "
+           "*Sampling.* Every model is sampled on its scene's output grid (@tab-scenes), and "
+           "E is the trapezoid rule over those samples: a mean square, exact while the sampling rate "
+           "exceeds twice the highest frequency the rates hold. The rule "
+           "(gimbal_reduction.solver.dynamics.error_measure): the grid's Nyquist frequency is at "
+           f"least {SAMPLING_MARGIN:g} times the highest coupled mode of the truth that holds "
+           f"{sci(SAMPLING_SHARE)} or more of a gimbal rate's mean square under the scene's drive; "
+           "the study checks it before it simulates the truth, and each scene report states the "
+           "mode.\n\n"]
     rows = []
     for sc in ctx["scenes"]:
         d = sc["scene"] if isinstance(sc["scene"], dict) else {}
         dur = (d.get("duration") or {}).get("value", "--")
         damp = (d.get("damping_ratio") or {}).get("value", "--")
-        rows.append([s(sc["name"]), s(_scene_desc(sc)), s(f"{dur} s"), s(damp), s(len(sc["rows"]) - 1)])
-    out.append(table(["scene", "what", "duration", "damping ratio", "cases"], rows,
+        try:
+            dt = units.convert(d["output_interval"], "s", "output_interval")
+            every = s(f"{dt * 1e6:.4g} µs ({0.5 / dt / 1e3:.4g} kHz)")
+        except (KeyError, TypeError, ValueError, ZeroDivisionError):
+            every = s("--")
+        rows.append([s(sc["name"]), s(_scene_desc(sc)), s(f"{dur} s"), every, s(damp), s(len(sc["rows"]) - 1)])
+    out.append(table(["scene", "what", "duration", "output every (Nyquist)", "damping ratio", "cases"], rows,
                      "The study's scenes (config/scenes/NAME.yaml; every number there carries its "
-                     "unit and source).", "tab-scenes", columns="(auto, 3fr, auto, auto, auto)"))
+                     "unit and source).", "tab-scenes", columns="(auto, 3fr, auto, auto, auto, auto)"))
     groups = sorted({r["group"] for sc in ctx["scenes"] for r in sc["rows"] if r["group"] != "truth"})
     out.append("The cases, by group: " + "; ".join(f"{s(g)}: {s(names.label(g))}"
                                                    for g in groups) + ".\n\n")

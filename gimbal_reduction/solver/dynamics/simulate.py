@@ -141,7 +141,7 @@ def kernel_path(integrator, scene):
 
 # Guards before the work (an explicit option lifts each): integration steps, output samples and
 # the memory the outputs take.  The 15 ms thesis scene takes ~60 exponential steps or ~1e5 RK4
-# steps and 1,501 samples; the long scene (1 s) 10,001 samples.
+# steps and 6,001 samples; the long scene (1 s) 40,001 samples.
 MAX_STEPS = 20_000_000
 MAX_SAMPLES = 1_000_000
 MAX_OUTPUT_GIB = 4.0
