@@ -215,6 +215,7 @@ rule runtime:
         runtime=10,
     params:
         code=code_hash("runtime"),
+        budget=ALL_CASE_BUDGET_S,
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
         cfg=body_files_hash,
@@ -222,7 +223,8 @@ rule runtime:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} runtime --scene {input.scene} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
         "--cb-bases {input.cb} --ranking-table {input.ranking} --static-table {input.static} --truth {input.truth} "
-        "--truth-basis {input.truth_basis} --repeats 5 --integrator {params.integrator} {params.options} "
+        "--truth-basis {input.truth_basis} --repeats 5 --budget {params.budget} "
+        "--integrator {params.integrator} {params.options} "
         "--config {CONFIG} --out {output} > {log} 2>&1"
 
 
