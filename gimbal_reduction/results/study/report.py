@@ -920,9 +920,11 @@ def _performance_section(ctx, root):
     if front:
         body = [[s(r["model"]), s(r["integrator"]), s(r.get("solver", "")), s(r["n_elastic"]),
                  sci(_num(r["E"])), s(f"{_num(r['wall_time_s']):.3g}")] for r in front]
+        scaled = sum(str(r.get("time_basis", "measured")).startswith("extrapolated") for r in front)
         out.append(table(["model", "integrator", "solver", "elastic coord.", "E", "wall time [s]"], body,
-                         "The Pareto front of wall time against error (medians of repeated runs).",
-                         "tab-pareto", size="7pt"))
+                         "The Pareto front of wall time against error (medians of repeated runs"
+                         + (f"; {scaled} of them of a prefix of the scene, scaled by the steps" if scaled
+                            else "") + ").", "tab-pareto", size="7pt"))
     for d in (r for r in ctx["pareto_rows"] if str(r.get("solver", "")).startswith("dense")):
         # the same-run ratio of gimbal_reduction.results.bench.pareto (dense segment against the structured runs)
         out.append(f"Dense-mass-matrix baseline ({s(d['solver'])}), {s(d['model'])} with "
