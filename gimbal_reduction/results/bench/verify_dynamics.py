@@ -318,8 +318,8 @@ def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None):
     median of ``repeats`` runs each, fewer (at least one) where they would not fit in ``budget_s``
     seconds at the first run's pace (a run that slow decides no comparison by its median).
     repeats 1: one run each (``--untimed``: their E and steps, beside other jobs).
-    reference: the converged DOP853 reference file of thesis, taken as the default's run
-    (the same integrator and setting) instead of integrating it again."""
+    reference: the converged DOP853 reference of thesis (``reference_run``), taken as the
+    default's run (the same integrator and setting) instead of integrating it again."""
     chain, prob, scene, t_omega, rk4_limit_step = truth_setup(body_data, rankings)
     limit = integrators.rk4_stability_limit(prob.omega_max)
     cfg = dict(simulate.REFERENCE)
@@ -332,7 +332,7 @@ def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None):
     elif "fraction" in cfg:
         kw.update(fraction=cfg["fraction"])
     if reference is not None:
-        run_h, t_default = reference_run(reference, scene)
+        run_h, t_default = reference
     else:
         t0 = time.perf_counter()
         run_h = go(**kw)
@@ -462,11 +462,13 @@ def main(argv=None):
     args = ap.parse_args(argv)
     start = time.perf_counter()
     try:
-        bodyconfig.check_files(args.bodies + args.reductions, args.config)
+        bodyconfig.check_files(args.bodies + args.reductions + ([args.reference] if args.reference else []),
+                               args.config)
         body_files = dict(zip(models.BODIES, args.bodies))
         reduction_files = dict(zip(models.BODIES, args.reductions))
         rankings = models.read_rankings(reduction_files)
         body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
+        reference = reference_run(args.reference, scenes.load_scene("thesis")) if args.reference else None
     except (OSError, ValueError) as exc:
         print(f"verify_dynamics: {exc}", file=sys.stderr)
         return 2
@@ -491,7 +493,7 @@ def main(argv=None):
     checks += section("bad input", bad_input_checks, body_files, reduction_files, tempfile.mkdtemp())
     truth_checks, bench, info, truth = section("truth", truth_runs, body_data, rankings,
                                                1 if args.untimed else args.repeats,
-                                               args.budget, args.reference)
+                                               args.budget, reference)
     checks += truth_checks
     checks += section("exponential", exponential_checks, body_data, rankings, truth)
     total = time.perf_counter() - start
