@@ -295,6 +295,8 @@ rule report_scene:
         reduction="results/verification/reduction.json",
         coupled="results/study/{scene}/coupled_modes.json",
         decision="results/tables/decision.json",
+        # the run-time section's benchmark: `all`'s version (shown: `bench`'s where made)
+        exponential_bench=all_version(REPORT_OPTIONAL["exponential_bench"]),
     output:
         report(
             "results/report/{scene}.pdf",
@@ -315,12 +317,14 @@ rule report_scene:
     params:
         code=code_hash("scene-report"),
         cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
+        exponential_bench=lambda wildcards: shown_version(REPORT_OPTIONAL["exponential_bench"]),
     shell:
         "{GIMBAL} scene-report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures {input.figures} --fe {input.fe} "
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
         "--config {CONFIG} --scene {input.scene} --mode-shapes --bench-figures "
         "--coupled-modes {input.coupled} --decision {input.decision} --part scene "
+        "--exponential-bench {params.exponential_bench} "
         "--out {output} > {log} 2>&1"
 
 
