@@ -190,7 +190,8 @@ def time_setting(prob, setting, duration, dt, t_ref, g_ref, repeats, budget_s, m
         if repeats > 0:
             row.update(timing.median_timing(lambda d: integrate(prob, setting, d, dt, model), duration,
                                             dt, known["wall_time_s"] if known else first.wall_time,
-                                            int(row["steps"]), repeats, budget_s))
+                                            int(row["steps"]), repeats, budget_s,
+                                            scalable=setting.method != "exponential"))
             row.pop("wall_times_s")
             row.pop("duration_timed_s")
     except (integrators.DivergenceError, integrators.StepTooLargeError) as exc:

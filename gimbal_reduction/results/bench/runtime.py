@@ -19,7 +19,7 @@ Numba kernels, a one-off cost of a fresh process):
 * run [ms]: the integration of the whole scene with the workflow's integrator and options
   (``integrators.Run.wall_time``: the stepping and the output monitor), median of ``--repeats``
   runs, and the spread (largest minus smallest) beside it; a model whose runs would take longer
-  than ``--budget`` is timed over a prefix of the scene, scaled by its steps (``time_basis``).
+  than ``--budget`` runs as often as fits, at least once (``run_ms_all``).
 
 The rounds interleave the models (round k runs every model once), so a slow spell of a shared
 machine falls on every model alike rather than on one.  This is a timing job: the workflow gives it
@@ -43,7 +43,6 @@ import numpy as np  # noqa: E402
 from gimbal_reduction.reduction import models  # noqa: E402
 from gimbal_reduction.reduction import names as names_mod  # noqa: E402
 from gimbal_reduction.reduction.names import needs_load_ranking  # noqa: E402
-from gimbal_reduction.results.bench import timing  # noqa: E402
 from gimbal_reduction.results.study import decision  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
 from gimbal_reduction.solver.dynamics import integrators, scenes, simulate  # noqa: E402
@@ -57,12 +56,11 @@ MIN_REPEATS = 5
 def time_models(names, scene, body_files, reduction_files, load_ranking=None, repeats=MIN_REPEATS,
                 integrator=simulate.DEFAULT_INTEGRATOR, options=None, log=print, cb_files=None,
                 budget_s=None, truth_whole=None) -> dict:
-    """{name: {run_ms, run_ms_spread, run_ms_all, setup_ms, setup_ms_all, n_modes, coordinates,
-    time_basis}} of every model of ``names`` on ``scene`` (a loaded scene); see the module doc.
+    """{name: {run_ms, run_ms_spread, run_ms_all, setup_ms, setup_ms_all, n_modes, coordinates}}
+    of every model of ``names`` on ``scene`` (a loaded scene); see the module doc.
     cb_files: {ring: path} of the Craig-Bampton stage files (read once, like the body files, when
     a cb- model is timed).  budget_s: seconds of timed runs per model (None: no limit); a model
-    whose ``repeats`` whole runs would take longer is timed over a prefix of the scene and scaled
-    by the steps (``timing``).  truth_whole: (wall time [s], steps) of the truth's whole run with
+    whose ``repeats`` runs would take longer runs as often as fits, at least once.  truth_whole: (wall time [s], steps) of the truth's whole run with
     this integrator (its simulation file), so that its warm-up is a short run."""
     options = dict(options or {})
     rankings = models.read_rankings(reduction_files)
@@ -81,36 +79,32 @@ def time_models(names, scene, body_files, reduction_files, load_ranking=None, re
                                                                      model=name, **run_options))
         if name == "truth" and truth_whole is not None:
             go(2 * dt)                                                   # warm-up
-            whole_s, whole_steps = truth_whole
+            whole_s = truth_whole[0]
         else:
             warm = go(scene.duration)                                    # warm-up, and its pace
-            whole_s, whole_steps = warm.wall_time, warm.steps
-        duration = (scene.duration if budget_s is None or whole_s * repeats <= budget_s
-                    else timing.prefix_duration(whole_s, scene.duration, dt, budget_s / repeats))
-        built[name] = (spec, chain, go, duration)
+            whole_s = warm.wall_time
+        # runs of this model: a slow one as many as fit in the budget, at least one (the
+        # exponential integrator's cost per step varies along a scene: no prefix, timing module)
+        count = (repeats if budget_s is None or whole_s * repeats <= budget_s
+                 else max(1, min(repeats, int(budget_s // max(whole_s, 1e-12)))))
+        built[name] = (spec, chain, go, count)
         out[name] = {"run_ms_all": [], "setup_ms_all": [], "n_modes": list(chain.n_modes),
-                     "coordinates": int(chain.n_coordinates), "_whole_steps": whole_steps,
-                     "time_basis": "measured"}
+                     "coordinates": int(chain.n_coordinates)}
     for k in range(repeats):
-        for name, (spec, chain, go, duration) in built.items():
+        for name, (spec, chain, go, count) in built.items():
+            if k >= count:
+                continue
             t0 = time.perf_counter()
             c = models.build_chain(spec, body_data, scene.damping_ratio, cb_stages)
             simulate.scene_problem(c, scene)
             out[name]["setup_ms_all"].append(1e3 * (time.perf_counter() - t0))
-            run = go(duration)
-            scale = 1.0
-            if duration < scene.duration:
-                whole_steps = out[name]["_whole_steps"]
-                scale = whole_steps / max(run.steps, 1)
-                out[name]["time_basis"] = f"extrapolated from {run.steps} of {whole_steps} steps"
-            out[name]["run_ms_all"].append(1e3 * run.wall_time * scale)
+            out[name]["run_ms_all"].append(1e3 * go(scene.duration).wall_time)
         log(f"runtime: round {k + 1} of {repeats} done")
     for name, rec in out.items():
-        rec.pop("_whole_steps")
         runs = np.asarray(rec["run_ms_all"])
         rec.update(run_ms=float(np.median(runs)), run_ms_spread=float(runs.max() - runs.min()),
                    setup_ms=float(np.median(rec["setup_ms_all"])))
-        log(f"runtime: {name}: run {rec['run_ms']:.3g} ms ({rec['time_basis']}), "
+        log(f"runtime: {name}: run {rec['run_ms']:.3g} ms (median of {len(runs)}), "
             f"set-up {rec['setup_ms']:.3g} ms")
     return out
 
@@ -141,8 +135,8 @@ def main(argv=None) -> int:
     ap.add_argument("--truth-basis", help="results/verification/truth_basis.json")
     ap.add_argument("--repeats", type=int, default=MIN_REPEATS)
     ap.add_argument("--budget", type=cli.positive_number("--budget"), default=None,
-                    help="seconds of timed runs per model: a slower one is timed over a prefix of "
-                         "the scene and scaled by its steps (default: whole runs)")
+                    help="seconds of timed runs per model: a slower one runs as often as fits, at "
+                         "least once (default: --repeats runs)")
     ap.add_argument("--integrator", default=simulate.DEFAULT_INTEGRATOR, choices=integrators.METHODS)
     ap.add_argument("--tol", type=cli.positive_number("--tol"), default=None)
     ap.add_argument("--config", help="the configuration file: body files from another one are refused")

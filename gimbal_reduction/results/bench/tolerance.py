@@ -123,7 +123,7 @@ def _median(prob, scene, whole_s, whole_steps, repeats, budget_s):
     run = lambda d: integrators.integrate(prob, d, scene.output_interval,
                                           method=simulate.DEFAULT_INTEGRATOR, **options)
     t = timing.median_timing(run, scene.duration, scene.output_interval, whole_s, whole_steps,
-                             repeats, budget_s)
+                             repeats, budget_s, scalable=simulate.DEFAULT_INTEGRATOR != "exponential")
     return {"run_time_s": t["wall_time_s"], "runs": t["runs"], "time_basis": t["time_basis"]}
 
 
