@@ -635,7 +635,7 @@ use rule integrator_tables as integrator_tables_all with:
 # Accuracy on request in `all`: every scene of `tolerance`, three of its EPS (a decade apart twice).
 # Two jobs: the requests reduced (long's and spin's verified searches) and every model run once for its
 # E, beside the others (~90 CPU s), its model files kept; then their timing alone, each model's 5 runs
-# within ALL_CASE_BUDGET_S (a slower one over a prefix, scaled by its steps)
+# within ALL_CASE_BUDGET_S (a slower one whole as often as fits: common.smk)
 ALL_TOLERANCE_EPS = [1e-2, 1e-4, 1e-6]
 
 

@@ -376,7 +376,8 @@ except Exception:  # snakemake.exceptions.WorkflowError
     TIMING_CORES = 1
 TIMING_RESOURCES = {"slurm_extra": "'--exclusive'"}
 # `all`'s timing jobs: the 5 runs of a case within this [s]; a slower case is timed over a prefix of
-# its scene and scaled by its steps (gimbal_reduction/results/bench/timing.py), so each costs ~1 s
+# its scene and scaled by its steps, or (the exponential integrator, whose steps differ in cost) runs
+# whole as often as fits, at least once (gimbal_reduction/results/bench/timing.py)
 ALL_CASE_BUDGET_S = 0.5
 
 
