@@ -219,6 +219,37 @@ def test_pareto_cli_quick(tmp_path):
 
 
 @needs_real
+def test_pareto_split_takes_the_untimed_errors_and_times_alone(tmp_path, capsys):
+    """--errors-only (one untimed run per setting) then --errors-from (the timing): the rows keep the
+    untimed run's E and steps; 5 runs each, a slow setting over a prefix scaled by its steps; a
+    setting missing from the untimed CSV is a one-line error."""
+    common = ["--duration", "2e-4", "--dense-duration", "1e-4", "--columns-duration", "0",
+              "--truth", REAL["truth"], "--models", "freq-2", "--rk4-fractions", "1",
+              "--rtols", "1e-6", "--galpha-steps", "1e-5", "--exp-tols", "5e-6", *REAL_FILES]
+    errors = tmp_path / "errors.csv"
+    assert pareto.main([*common, "--errors-only", "--out-csv", str(errors)]) == 0
+    untimed = {(r["model"], r["integrator"]): r for r in csv.DictReader(errors.open())}
+    assert {r["time_basis"] for r in untimed.values()} == {"one run, not timed alone"}
+    out = tmp_path / "pareto.csv"
+    assert pareto.main([*common, "--repeats", "5", "--budget", "0.05", "--errors-from", str(errors),
+                        "--out-csv", str(out), "--figure", str(tmp_path / "p.png")]) == 0
+    rows = [r for r in csv.DictReader(out.open()) if r["solver"] == "structured"]
+    assert {(r["model"], r["integrator"]) for r in rows} == set(untimed)
+    for r in rows:
+        u = untimed[(r["model"], r["integrator"])]
+        assert r["E"] == u["E"] and r["steps"] == u["steps"] and r["runs"] == "5"
+        assert r["time_basis"] == "measured" or r["time_basis"].startswith("extrapolated from ")
+    assert any(r["time_basis"] != "measured" for r in rows)       # the truth's DOP853 at least
+    capsys.readouterr()
+    short = tmp_path / "short.csv"
+    short.write_text("".join(line for line in errors.open() if "dop853" not in line))
+    assert pareto.main([*common, "--errors-from", str(short), "--out-csv", str(tmp_path / "x.csv"),
+                        "--figure", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert "dop853-1e-06" in err and err.count("\n") == 1
+
+
+@needs_real
 def test_pareto_cli_bad_model(tmp_path, capsys):
     rc = pareto.main(["--quick", "--truth", REAL["truth"], "--models", "freq-x",
                       "--out-csv", str(tmp_path / "p.csv"), "--figure", str(tmp_path / "p.png"), *REAL_FILES])

@@ -36,7 +36,7 @@ BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "loa
                  "exponential_bench", "exponential_accuracy", "integrator_tables", "control_export",
                  "simulate_modal", "reference_exponential", "exponential_accuracy_all", "exponential_bench_all",
                  "pareto_all", "stability_all", "selection_all", "integrator_tables_all",
-                 "dynamics_verification_all"}
+                 "dynamics_verification_all", "pareto_errors_all"}
 # ... and those that check one body's files (params.cfg = that body file's config hash)
 PER_BODY_CHECKERS = ("reduction_body", "cb_stage", "mode_shapes_body")
 # a stage the rule runs besides its shell's python -m modules

@@ -451,7 +451,9 @@ rule exponential_bench_all:
     params:
         references=lambda wildcards, input: scene_file_arguments(input.references),
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
-        budget=ALL_CASE_BUDGET_S,
+        # s a case: stress_rates_10's 5 runs (~3 s) fit; long's truth (~8 s) and DOP853 (~15 s, once
+        # for both comparisons) run once: a ratio of hundreds is decided by one run of the slow side
+        budget=4.0,
         code=code_hash("bench-exponential"),
         cfg=body_files_hash,
     shell:
@@ -461,14 +463,45 @@ rule exponential_bench_all:
         "--out-csv {output.csv} --config {CONFIG} > {log} 2>&1"
 
 
-# Pareto in `all`: the same models and integrators, DOP853 at rtol 1e-6 and 1e-8 (its 1e-10 is the
-# reference itself), each setting's repeats within ALL_CASE_BUDGET_S
+# Pareto in `all`: the same models and integrators, DOP853 at rtol 1e-6 (1e-8 in `bench`; its 1e-10
+# is the reference itself). Two jobs: the untimed runs (E, steps: ~70 CPU s) beside the others, then
+# the timing alone, each setting's 5 runs within ALL_CASE_BUDGET_S (a slower one timed over a prefix
+# of the scene and scaled by its steps, gimbal_reduction/results/bench/timing.py); the dense
+# baseline over 0.1 ms (0.2 in `bench`)
+rule pareto_errors_all:
+    input:
+        bodies=expand("results/modes/body{n}.h5", n=BODIES),
+        reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        load_ranking="results/reduction/load/thesis.h5",
+        truth="results/reference/thesis/truth.h5",
+        kernels=ancient(KERNELS),
+    output:
+        "results/all/benchmarks/pareto_errors.csv",
+    log:
+        "logs/all/pareto_errors.log",
+    benchmark:
+        "results/benchmarks/rules/all/pareto_errors.tsv"
+    resources:
+        mem_mb=mem_mb(780.5),
+        runtime=30,
+    params:
+        models=" ".join(f"'{m}'" for m in PARETO_MODELS),
+        code=code_hash("pareto"),
+        cfg=body_files_hash,
+    shell:
+        "OMP_NUM_THREADS=1 {GIMBAL} pareto --scene thesis --truth {input.truth} "
+        "--models {params.models} --errors-only --rtols 1e-6 "
+        "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
+        "--out-csv {output} --config {CONFIG} > {log} 2>&1"
+
+
 rule pareto_all:
     input:
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
         load_ranking="results/reduction/load/thesis.h5",
         truth="results/reference/thesis/truth.h5",
+        errors="results/all/benchmarks/pareto_errors.csv",
     output:
         csv="results/all/benchmarks/pareto.csv",
         json="results/all/benchmarks/pareto.json",
@@ -489,7 +522,8 @@ rule pareto_all:
         cfg=body_files_hash,
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} pareto --scene thesis --truth {input.truth} "
-        "--models {params.models} --repeats 5 --budget {params.budget} --rtols 1e-6 1e-8 "
+        "--models {params.models} --repeats 5 --budget {params.budget} --rtols 1e-6 "
+        "--errors-from {input.errors} --dense-duration 1e-4 "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
         "--out-csv {output.csv} --figure {output.figure} --config {CONFIG} > {log} 2>&1"
 
@@ -598,12 +632,14 @@ use rule integrator_tables as integrator_tables_all with:
         "results/benchmarks/rules/all/integrator_tables.tsv"
 
 
-# Accuracy on request in `all`: every scene of `tolerance`, three of its EPS (a decade apart twice),
-# each model's repeats within ALL_CASE_BUDGET_S
+# Accuracy on request in `all`: every scene of `tolerance`, three of its EPS (a decade apart twice).
+# Two jobs: the requests reduced (long's and spin's verified searches) and every model run once for its
+# E, beside the others (~90 CPU s), its model files kept; then their timing alone, each model's 5 runs
+# within ALL_CASE_BUDGET_S (a slower one whole as often as fits: common.smk)
 ALL_TOLERANCE_EPS = [1e-2, 1e-4, 1e-6]
 
 
-rule tolerance_all:
+rule tolerance_untimed_all:
     input:
         scenes=[scene_path(s) for s in TOLERANCE_SCENES],
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
@@ -616,10 +652,36 @@ rule tolerance_all:
         ),
         kernels=ancient(KERNELS),
     output:
-        csv="results/all/benchmarks/tolerance.csv",
-        json="results/all/benchmarks/tolerance.json",
+        csv="results/all/benchmarks/tolerance_untimed.csv",
+        json="results/all/benchmarks/tolerance_untimed.json",
+        models=directory("results/all/benchmarks/tolerance_models"),
         figure="results/all/figures/bench/tolerance.png",
         figure_pdf="results/all/figures/bench/tolerance.pdf",
+    log:
+        "logs/all/tolerance_untimed.log",
+    benchmark:
+        "results/benchmarks/rules/all/tolerance_untimed.tsv"
+    resources:
+        mem_mb=mem_mb(1035.4),
+        runtime=runtime_min(1147.0),
+    params:
+        eps=" ".join(f"{e:g}" for e in ALL_TOLERANCE_EPS),
+        code=code_hash("tolerance"),
+    shell:
+        "OMP_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} tolerance --untimed --keep-models {output.models} "
+        "--scenes {input.scenes} --eps {params.eps} --modes-dir results/modes "
+        "--reduction-dir results/reduction --tables-dir results/tables "
+        "--out-csv {output.csv} --out-json {output.json} --figure {output.figure} > {log} 2>&1"
+
+
+rule tolerance_all:
+    input:
+        scenes=[scene_path(s) for s in TOLERANCE_SCENES],
+        untimed="results/all/benchmarks/tolerance_untimed.json",
+        models="results/all/benchmarks/tolerance_models",
+    output:
+        csv="results/all/benchmarks/tolerance.csv",
+        json="results/all/benchmarks/tolerance.json",
     log:
         "logs/all/tolerance.log",
     benchmark:
@@ -628,14 +690,11 @@ rule tolerance_all:
     resources:
         **TIMING_RESOURCES,
         mem_mb=mem_mb(1035.4),
-        runtime=runtime_min(1147.0),
+        runtime=10,
     params:
-        eps=" ".join(f"{e:g}" for e in ALL_TOLERANCE_EPS),
         budget=ALL_CASE_BUDGET_S,
         code=code_hash("tolerance"),
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} tolerance "
-        "--scenes {input.scenes} --eps {params.eps} --modes-dir results/modes "
-        "--reduction-dir results/reduction --tables-dir results/tables --repeats 5 "
-        "--budget {params.budget} --out-csv {output.csv} --out-json {output.json} --figure {output.figure} "
-        "> {log} 2>&1"
+        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} tolerance --scenes {input.scenes} "
+        "--times-from {input.untimed} --models-from {input.models} --repeats 5 "
+        "--budget {params.budget} --out-csv {output.csv} --out-json {output.json} > {log} 2>&1"

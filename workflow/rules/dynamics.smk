@@ -135,12 +135,15 @@ rule dynamics:
         "results/verification/dynamics.json",
 
 
-# `all`'s version (results/all/): the same checks, each integrator's timing repeats within
-# ALL_CASE_BUDGET_S (bench.smk, "`all`'s versions")
+# `all`'s version (results/all/): the same checks, beside other jobs: the truth's default DOP853 run
+# taken from the converged reference of thesis (the same setting), the benchmark's integrators run
+# once for their E and steps, untimed (the truth's times with them, alone: pareto_all's truth rows)
 rule dynamics_verification_all:
     input:
         bodies=expand("results/modes/body{n}.h5", n=BODIES),
         reductions=expand("results/reduction/body{n}.h5", n=BODIES),
+        reference="results/reference/thesis/truth.h5",
+        kernels=ancient(KERNELS),
     output:
         verification="results/all/verification/dynamics.json",
         benchmark="results/all/benchmarks/dynamics.json",
@@ -148,16 +151,13 @@ rule dynamics_verification_all:
         "logs/all/dynamics_verification.log",
     benchmark:
         "results/benchmarks/rules/all/dynamics_verification.tsv"
-    threads: TIMING_CORES
     resources:
-        **TIMING_RESOURCES,
         mem_mb=2000,
         runtime=60,
     params:
-        budget=ALL_CASE_BUDGET_S,
         code=code_hash("verify-dynamics"),
         cfg=body_files_hash,
     shell:
-        "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} verify-dynamics --bodies {input.bodies} "
-        "--reductions {input.reductions} --budget {params.budget} --verification {output.verification} "
-        "--benchmark {output.benchmark} --config {CONFIG} > {log} 2>&1"
+        "OMP_NUM_THREADS=1 {GIMBAL} verify-dynamics --untimed --bodies {input.bodies} "
+        "--reductions {input.reductions} --reference {input.reference} "
+        "--verification {output.verification} --benchmark {output.benchmark} --config {CONFIG} > {log} 2>&1"

@@ -215,6 +215,7 @@ rule runtime:
         runtime=10,
     params:
         code=code_hash("runtime"),
+        budget=ALL_CASE_BUDGET_S,
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
         cfg=body_files_hash,
@@ -222,7 +223,8 @@ rule runtime:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} runtime --scene {input.scene} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
         "--cb-bases {input.cb} --ranking-table {input.ranking} --static-table {input.static} --truth {input.truth} "
-        "--truth-basis {input.truth_basis} --repeats 5 --integrator {params.integrator} {params.options} "
+        "--truth-basis {input.truth_basis} --repeats 5 --budget {params.budget} "
+        "--integrator {params.integrator} {params.options} "
         "--config {CONFIG} --out {output} > {log} 2>&1"
 
 
@@ -293,6 +295,8 @@ rule report_scene:
         reduction="results/verification/reduction.json",
         coupled="results/study/{scene}/coupled_modes.json",
         decision="results/tables/decision.json",
+        # the run-time section's benchmark: `all`'s version (shown: `bench`'s where made)
+        exponential_bench=all_version(REPORT_OPTIONAL["exponential_bench"]),
     output:
         report(
             "results/report/{scene}.pdf",
@@ -313,12 +317,14 @@ rule report_scene:
     params:
         code=code_hash("scene-report"),
         cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
+        exponential_bench=lambda wildcards: shown_version(REPORT_OPTIONAL["exponential_bench"]),
     shell:
         "{GIMBAL} scene-report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures {input.figures} --fe {input.fe} "
         "--modes-benchmark {input.modes} --reduction {input.reduction} --truth {input.truth} "
         "--config {CONFIG} --scene {input.scene} --mode-shapes --bench-figures "
         "--coupled-modes {input.coupled} --decision {input.decision} --part scene "
+        "--exponential-bench {params.exponential_bench} "
         "--out {output} > {log} 2>&1"
 
 

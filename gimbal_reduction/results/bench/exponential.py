@@ -114,7 +114,7 @@ SCENES = ("thesis", "stress_rates_10", "long")     # the issue's truth cases, in
 DOP853_RTOL = 1e-6       # E ~ 2e-10 on the truth model on thesis (measured before this bench)
 DOP853_ATOL = 1e-14      # as the converged reference
 REFERENCE = simulate.REFERENCE   # the converged reference: dop853 at rtol 1e-10
-WARMUP_INTERVALS = 2     # DOP853's warm-up: this many output intervals (compiles the kernels)
+WARMUP_INTERVALS = 2     # a warm-up run: this many output intervals (loads the kernels)
 RHS_STATES = 8           # states of the run at which one right-hand-side evaluation is timed
 PROFILE_TOP = 10         # functions listed from the cProfile run
 # The tolerance sweep on thesis truth (run time against error, the Pareto front): the default
@@ -661,8 +661,9 @@ def run_stats(run):
 
 def time_case(case, model_file, scene, duration, method, options, repeats, reference, model,
               log=print, budget_s=None):
-    """One case: one warm-up run, then ``repeats`` timed runs end to end (fewer, at least one,
-    where they would not fit in ``budget_s`` seconds at the warm-up's pace: a run that long is
+    """One case: one warm-up run over WARMUP_INTERVALS output intervals, then ``repeats`` timed
+    runs end to end (fewer, at least one, where they would not fit in ``budget_s`` seconds at the
+    first one's pace: a run that long is
     far from every bound it is judged against, so more runs decide nothing); the row (CSV_COLUMNS
     and more) with the medians, the run's statistics (of the last run; the integrator is
     deterministic) and E against ``reference`` (None: no reference).  A run that fails
@@ -672,9 +673,12 @@ def time_case(case, model_file, scene, duration, method, options, repeats, refer
            "reference": None if reference is None else reference["path"]}
     t0 = time.perf_counter()
     try:
-        _, _, warm = timed_run(model_file, scene, duration, method, options, model)          # warm-up
-        samples, run, prob = [], None, None
-        for _ in range(repeats if budget_s is None else run_budget(warm["end_to_end_s"], repeats, budget_s)):
+        timed_run(model_file, scene, min(duration, WARMUP_INTERVALS * scene.output_interval), method,
+                  options, model)                                                          # warm-up
+        run, prob, timing = timed_run(model_file, scene, duration, method, options, model)
+        samples = [timing]
+        for _ in range((repeats if budget_s is None else run_budget(timing["end_to_end_s"], repeats, budget_s))
+                       - 1):
             run, prob, timing = timed_run(model_file, scene, duration, method, options, model)
             samples.append(timing)
     except FAILURES as exc:
@@ -694,24 +698,28 @@ def time_case(case, model_file, scene, duration, method, options, repeats, refer
 
 
 def alternating_comparison(model_file, scene, duration, repeats, exp_options, rtol, reference,
-                           log=print, budget_s=None):
+                           log=print, budget_s=None, dop853_runs=None):
     """DOP853 at rtol (atol DOP853_ATOL) and the exponential integrator, alternating in this
     process, ``repeats`` runs each after a warm-up of each (DOP853's over WARMUP_INTERVALS
     output intervals); with ``budget_s``, DOP853 runs only in the rounds that fit in it at its
     first run's pace (at least one: a ratio of hundreds is decided by one run of the slow side).
+    dop853_runs: (timings, Run) of DOP853 at the same rtol from an earlier comparison of this
+    process (its ``summary["_dop853"]``): taken, and only the exponential side runs.
     Returns (summary dict for ``issue_table``, [dop853 row, exponential row])."""
     dop_options = {"rtol": rtol, "atol": DOP853_ATOL}
     t0 = time.perf_counter()
     warm = min(duration, WARMUP_INTERVALS * scene.output_interval)
     try:
-        timed_run(model_file, scene, warm, "dop853", dop_options, "truth")
+        if dop853_runs is None:
+            timed_run(model_file, scene, warm, "dop853", dop_options, "truth")
         timed_run(model_file, scene, duration, "exponential", exp_options, "truth")
-        samples = {"dop853": [], "exponential": []}
-        runs = {}
+        samples = {"dop853": list(dop853_runs[0]) if dop853_runs else [], "exponential": []}
+        runs = {"dop853": dop853_runs[1]} if dop853_runs else {}
         for k in range(repeats):
             for method, opts in (("dop853", dop_options), ("exponential", exp_options)):
-                if method == "dop853" and samples["dop853"] and budget_s is not None and k >= run_budget(
-                        samples["dop853"][0]["end_to_end_s"], repeats, budget_s):
+                if method == "dop853" and (dop853_runs is not None or (
+                        samples["dop853"] and budget_s is not None and k >= run_budget(
+                            samples["dop853"][0]["end_to_end_s"], repeats, budget_s))):
                     continue
                 runs[method], prob, timing = timed_run(model_file, scene, duration, method, opts, "truth")
                 samples[method].append(timing)
@@ -746,7 +754,8 @@ def alternating_comparison(model_file, scene, duration, repeats, exp_options, rt
         "exponential_end_to_end_median_s": exp["end_to_end_median_s"],
         "dop853_steps": dop["steps"], "E_dop853": e_dop, "E_exponential": e_exp,
         "equal_or_better": (e_dop is not None and e_exp is not None and e_dop <= e_exp),
-        "seconds": time.perf_counter() - t0}
+        "dop853_from_earlier_comparison": dop853_runs is not None,
+        "seconds": time.perf_counter() - t0, "_dop853": (samples["dop853"], runs["dop853"])}
     log(f"{PROG}: DOP853 rtol {rtol:g} / exponential: x{summary['speedup']:.3g} (integration), "
         f"x{summary['speedup_end_to_end']:.3g} (end to end); E {e_dop} vs {e_exp}", flush=True)
     return summary, rows
@@ -973,7 +982,7 @@ def main(argv=None) -> int:
         if fastest is not None:
             fastest_comparison, comp_rows = alternating_comparison(
                 args.truth_model, scene, duration, args.repeats, {"tol": fastest["tol"]}, args.dop853_rtol,
-                refs.get(name), budget_s=args.budget)
+                refs.get(name), budget_s=args.budget, dop853_runs=comparison.get("_dop853"))
             rows += comp_rows
     thesis = inputs["scenes"]["thesis"]
     duration = bench_duration(thesis, args.duration)
@@ -984,6 +993,9 @@ def main(argv=None) -> int:
         case["model_file"] = path
         reduced.append(case)
         rows.append(case)
+    for c in (comparison, fastest_comparison):
+        if c is not None:
+            c.pop("_dop853", None)                # the runs themselves: not for the JSON
     table = issue_table(truth_cases, comparison, reduced, fastest, fastest_comparison)
     prov = inputs_provenance(args, inputs)
     vers = versions()

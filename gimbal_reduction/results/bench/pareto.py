@@ -15,9 +15,11 @@ at three steps), the scene is integrated and two numbers are recorded:
 * time: the wall time of the integration (``integrators.Run.wall_time``: the
   stepping and the output monitor; the model's assembly and its coupled
   omega_max are setup, reported apart), median of ``--repeats`` runs after one
-  short warm-up run that compiles the JIT kernels.  A setting whose first run
-  takes longer than ``--budget / --repeats`` seconds gets fewer runs (at least
-  one, as many as fit in the budget); the CSV's ``runs`` says how many.
+  short warm-up run that compiles the JIT kernels.  A setting whose run takes
+  longer than ``--budget / --repeats`` seconds is timed over a prefix of the
+  scene and scaled by its step count (``gimbal_reduction.results.bench.timing``);
+  the CSV's ``time_basis`` says which.  ``--errors-only`` makes the untimed
+  runs (E, steps) as a job beside others; ``--errors-from`` then times alone.
 * E: thesis eq 3.53 per gimbal rate (``gimbal_reduction.solver.dynamics.error_measure.error_measure``) against
   the converged truth file, and E = the maximum over the four rates (the
   convention of docs/dynamics.md's convergence and integrator tables; the study
@@ -57,6 +59,7 @@ import numpy as np  # noqa: E402
 from gimbal_reduction.reduction import models  # noqa: E402
 from gimbal_reduction.reduction.names import STYLES, needs_load_ranking, parse_or_none  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
+from gimbal_reduction.results.bench import timing  # noqa: E402
 from gimbal_reduction.results.study.cases import describe_model  # noqa: E402
 from gimbal_reduction.results.study.figures import STYLE, pareto_front  # noqa: E402
 from gimbal_reduction.results.study.tables import RATE_COLUMNS  # noqa: E402
@@ -160,26 +163,52 @@ def integrate(prob, setting, duration, dt, model):
     return integrators.integrate(prob, duration, dt, model=model, **setting.kwargs())
 
 
-def time_setting(prob, setting, duration, dt, t_ref, g_ref, repeats, budget_s, model):
-    """Row fields of one model x setting: median wall time [s] of up to ``repeats`` runs
-    after a warm-up run over two output intervals, and E against (t_ref, g_ref)."""
+def time_setting(prob, setting, duration, dt, t_ref, g_ref, repeats, budget_s, model, known=None):
+    """Row fields of one model x setting: E against (t_ref, g_ref) from a run of the whole scene,
+    and the median wall time of ``repeats`` runs after a warm-up run over two output intervals
+    (``timing.median_timing``: whole runs where they fit in ``budget_s``, else a prefix scaled by
+    the step count).  known: this setting's row of an untimed run (``--errors-from``): its E and
+    steps are taken and only the timing runs; repeats 0: no timing (``--errors-only``: the row's
+    time is its one run's, ``time_basis`` says so)."""
     row = {"solver": "structured", "integrator": setting.name, "method": setting.method,
            "fraction": setting.fraction, "rtol": setting.rtol}
     try:
         integrate(prob, setting, min(2 * dt, duration), dt, model)           # JIT warm-up
-        first = integrate(prob, setting, duration, dt, model)
+        if known is None:
+            first = integrate(prob, setting, duration, dt, model)
+            check_same_grid(t_ref, first.t, f"{model} {setting.name}")
+            E, per = max_rate_error(t_ref, g_ref, first.yd[:, :4])
+            step = duration / max(first.steps, 1) if setting.method == "dop853" else first.step
+            row.update(step_s=step, steps=first.steps, E=E, **dict(zip(RATE_COLUMNS, map(float, per))),
+                       status="ok", _run=first, wall_time_s=first.wall_time,
+                       wall_time_min_s=first.wall_time, runs=1,
+                       time_basis="one run, not timed alone")
+        elif known.get("status") != "ok":
+            return {**row, "status": known.get("status") or "failed"}
+        else:
+            row.update({k: known[k] for k in ("step_s", "steps", "E", *RATE_COLUMNS)}, status="ok")
+        if repeats > 0:
+            row.update(timing.median_timing(lambda d: integrate(prob, setting, d, dt, model), duration,
+                                            dt, known["wall_time_s"] if known else first.wall_time,
+                                            int(row["steps"]), repeats, budget_s,
+                                            scalable=setting.method != "exponential"))
+            row.pop("wall_times_s")
+            row.pop("duration_timed_s")
     except (integrators.DivergenceError, integrators.StepTooLargeError) as exc:
         return {**row, "status": f"failed: {exc}"}
-    times = [first.wall_time]
-    for _ in range(run_budget(first.wall_time, repeats, budget_s) - 1):
-        times.append(integrate(prob, setting, duration, dt, model).wall_time)
-    check_same_grid(t_ref, first.t, f"{model} {setting.name}")
-    E, per = max_rate_error(t_ref, g_ref, first.yd[:, :4])
-    step = duration / max(first.steps, 1) if setting.method == "dop853" else first.step
-    return {**row, "step_s": step, "steps": first.steps, "wall_time_s": float(np.median(times)),
-            "wall_time_min_s": float(np.min(times)), "runs": len(times), "time_basis": "measured",
-            "E": E, **dict(zip(RATE_COLUMNS, map(float, per))), "status": "ok",
-            "_run": first}
+    return row
+
+
+def read_errors(path):
+    """{(model, integrator): row} of a CSV of this module (``--errors-only``): the numbers as floats."""
+    import csv
+    out = {}
+    with open(path, newline="") as fh:
+        for r in csv.DictReader(fh):
+            row = {k: (float(v) if v not in ("", None) and k not in ("model", "family", "solver",
+                   "integrator", "method", "time_basis", "status") else v) for k, v in r.items()}
+            out[(r["model"], r["integrator"])] = row
+    return out
 
 
 def dense_comparison(prob, duration, dt, repeats, assembly="composite"):
@@ -226,8 +255,9 @@ def load_models(names, scene, body_files, reduction_files, load_ranking=None):
     return out
 
 
-def evaluate(problems, settings, duration, dt, truth, repeats, budget_s, log=print):
-    """Rows (dicts) of every model x setting, without the Pareto mark."""
+def evaluate(problems, settings, duration, dt, truth, repeats, budget_s, log=print, known=None):
+    """Rows (dicts) of every model x setting, without the Pareto mark; known: {(model,
+    integrator): row} of an untimed run (read_errors), whose E the rows take."""
     t_ref, g_ref = truth_prefix(truth, duration)
     rows = []
     for name, (chain, prob, setup) in problems.items():
@@ -235,9 +265,14 @@ def evaluate(problems, settings, duration, dt, truth, repeats, budget_s, log=pri
                 "omega_max_rad_s": prob.omega_max, "setup_s": setup}
         for s in settings:
             t0 = time.perf_counter()
-            row = {**base, **time_setting(prob, s, duration, dt, t_ref, g_ref, repeats, budget_s, name)}
+            k = None
+            if known is not None:
+                k = known.get((name, s.name))
+                if k is None:
+                    raise ValueError(f"{name} {s.name}: not in the untimed run's CSV (--errors-from)")
+            row = {**base, **time_setting(prob, s, duration, dt, t_ref, g_ref, repeats, budget_s, name, k)}
             rows.append(row)
-            what = (f"{row['wall_time_s']:.3g} s (x{row['runs']}), E {row['E']:.2e}"
+            what = (f"{row['wall_time_s']:.3g} s (x{row['runs']}, {row['time_basis']}), E {row['E']:.2e}"
                     if row["status"] == "ok" else row["status"])
             log(f"gimbal_reduction.results.bench.pareto: {name} {s.name}: {what} [{time.perf_counter() - t0:.0f} s]")
     return rows
@@ -372,7 +407,13 @@ def main(argv=None) -> int:
     ap.add_argument("--load-ranking", default=None,
                     help="the scene's load-aware ranking, for load-N / global-N models")
     ap.add_argument("--out-csv", required=True)
-    ap.add_argument("--figure", required=True, help="PNG path")
+    ap.add_argument("--figure", help="PNG path (required unless --errors-only)")
+    ap.add_argument("--errors-only", action="store_true",
+                    help="one untimed run per setting: E and steps, the CSV only (no timing, dense "
+                         "baseline or chart); a job that may run beside others")
+    ap.add_argument("--errors-from", metavar="CSV",
+                    help="the CSV of an --errors-only run of the same settings: its E and steps are "
+                         "taken, and only the timing runs (a job that runs alone)")
     ap.add_argument("--config", help="the current configuration file: input files of another "
                                      "configuration are refused before the work (gimbal_reduction.solver.bodyconfig)")
     ap.add_argument("--rk4-fractions", type=float, nargs="+", default=[1.0, 0.5])
@@ -396,6 +437,11 @@ def main(argv=None) -> int:
                                                                 else []), args.config)
         if args.repeats < 1:
             raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
+        if not args.errors_only and not args.figure:
+            raise ValueError("--figure is required (unless --errors-only)")
+        if args.errors_only and args.errors_from:
+            raise ValueError("--errors-only and --errors-from exclude each other")
+        known = read_errors(args.errors_from) if args.errors_from else None
         scene = scenes.load_scene(args.scene)
         truth = read_sim(args.truth)
         dt = scene.output_interval
@@ -419,7 +465,20 @@ def main(argv=None) -> int:
     except (ValueError, FileNotFoundError, ErrorsInputError, models.ModelError) as exc:
         print(f"gimbal_reduction.results.bench.pareto: error: {exc}", file=sys.stderr)
         return 2
-    rows = evaluate(problems, settings, duration, dt, truth, repeats, args.budget)
+    try:
+        rows = evaluate(problems, settings, duration, dt, truth, 0 if args.errors_only else repeats,
+                        args.budget, known=known)
+    except ValueError as exc:
+        print(f"gimbal_reduction.results.bench.pareto: error: {exc}", file=sys.stderr)
+        return 2
+    if args.errors_only:
+        for r in rows:
+            r.pop("_run", None)
+        write_text(args.out_csv, format_csv(rows), provenance(sources=[args.truth, *args.bodies,
+                                                                       *args.reductions]))
+        print(f"gimbal_reduction.results.bench.pareto: {len(rows)} rows, untimed; "
+              f"{time.perf_counter() - start:.0f} s -> {args.out_csv}")
+        return 0
     truth_prob = problems["truth"][1]
     comparisons = []
     for assembly, seg in (("composite", dense_d), ("columns", cols_d)):
@@ -454,7 +513,8 @@ def main(argv=None) -> int:
         "description": "Wall time [s] against eq 3.53 error E (max over the gimbal rates) per model x "
                        "integrator on scene " + scene.name + "; dense baseline comparison (gimbal_reduction.results.bench.pareto).",
         "scene": scene.name, "duration_s": duration, "truth": args.truth, "repeats": repeats,
-        "budget_s": args.budget, "settings": [s.__dict__ for s in settings],
+        "budget_s": args.budget, "errors_from": args.errors_from,
+        "settings": [s.__dict__ for s in settings],
         "dense_comparison": comparisons, "e_floor": E_FLOOR,
         "pareto_front": [{k: r.get(k) for k in ("model", "integrator", "solver", "wall_time_s", "E")}
                          for r in sorted((r for r in rows if r["pareto"]), key=lambda r: r["wall_time_s"])],

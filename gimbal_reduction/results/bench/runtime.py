@@ -18,7 +18,8 @@ Numba kernels, a one-off cost of a fresh process):
   ``--repeats``; reading the body files (shared by every model) is not in it;
 * run [ms]: the integration of the whole scene with the workflow's integrator and options
   (``integrators.Run.wall_time``: the stepping and the output monitor), median of ``--repeats``
-  runs, and the spread (largest minus smallest) beside it.
+  runs, and the spread (largest minus smallest) beside it; a model whose runs would take longer
+  than ``--budget`` runs as often as fits, at least once (``run_ms_all``).
 
 The rounds interleave the models (round k runs every model once), so a slow spell of a shared
 machine falls on every model alike rather than on one.  This is a timing job: the workflow gives it
@@ -45,6 +46,7 @@ from gimbal_reduction.reduction.names import needs_load_ranking  # noqa: E402
 from gimbal_reduction.results.study import decision  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
 from gimbal_reduction.solver.dynamics import integrators, scenes, simulate  # noqa: E402
+from gimbal_reduction.solver.dynamics.simfile import read_sim  # noqa: E402
 from gimbal_reduction.workflow import cli  # noqa: E402
 from gimbal_reduction.workflow.provenance import provenance, versions, write_json  # noqa: E402
 
@@ -52,11 +54,14 @@ MIN_REPEATS = 5
 
 
 def time_models(names, scene, body_files, reduction_files, load_ranking=None, repeats=MIN_REPEATS,
-                integrator=simulate.DEFAULT_INTEGRATOR, options=None, log=print, cb_files=None) -> dict:
+                integrator=simulate.DEFAULT_INTEGRATOR, options=None, log=print, cb_files=None,
+                budget_s=None, truth_whole=None) -> dict:
     """{name: {run_ms, run_ms_spread, run_ms_all, setup_ms, setup_ms_all, n_modes, coordinates}}
-    of every model of ``names`` on ``scene`` (a loaded scene); see the module doc.  cb_files:
-    {ring: path} of the Craig-Bampton stage files (read once, like the body files, when a cb-
-    model is timed)."""
+    of every model of ``names`` on ``scene`` (a loaded scene); see the module doc.
+    cb_files: {ring: path} of the Craig-Bampton stage files (read once, like the body files, when
+    a cb- model is timed).  budget_s: seconds of timed runs per model (None: no limit); a model
+    whose ``repeats`` runs would take longer runs as often as fits, at least once.  truth_whole: (wall time [s], steps) of the truth's whole run with
+    this integrator (its simulation file), so that its warm-up is a short run."""
     options = dict(options or {})
     rankings = models.read_rankings(reduction_files)
     if any(needs_load_ranking(n) for n in names):
@@ -64,28 +69,55 @@ def time_models(names, scene, body_files, reduction_files, load_ranking=None, re
     specs = {n: models.model_spec(n, rankings) for n in names}        # every name before any work
     body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
     cb_stages = models.cb_stages_for(specs.values(), body_data, cb_files)
+    dt = scene.output_interval
+    run_options = simulate.scene_options(scene, integrator, None, options)
     built, out = {}, {}
     for name, spec in specs.items():
         chain = models.build_chain(spec, body_data, scene.damping_ratio, cb_stages)
         prob = simulate.scene_problem(chain, scene)
-        simulate.run_scene(chain, scene, integrator, problem=prob, model_name=name, **options)  # warm-up
-        built[name] = (spec, chain, prob)
+        go = (lambda d, prob=prob, name=name: integrators.integrate(prob, d, dt, method=integrator,
+                                                                     model=name, **run_options))
+        if name == "truth" and truth_whole is not None:
+            go(2 * dt)                                                   # warm-up
+            whole_s = truth_whole[0]
+        else:
+            warm = go(scene.duration)                                    # warm-up, and its pace
+            whole_s = warm.wall_time
+        # runs of this model: a slow one as many as fit in the budget, at least one (the
+        # exponential integrator's cost per step varies along a scene: no prefix, timing module)
+        count = (repeats if budget_s is None or whole_s * repeats <= budget_s
+                 else max(1, min(repeats, int(budget_s // max(whole_s, 1e-12)))))
+        built[name] = (spec, chain, go, count)
         out[name] = {"run_ms_all": [], "setup_ms_all": [], "n_modes": list(chain.n_modes),
                      "coordinates": int(chain.n_coordinates)}
     for k in range(repeats):
-        for name, (spec, chain, prob) in built.items():
+        for name, (spec, chain, go, count) in built.items():
+            if k >= count:
+                continue
             t0 = time.perf_counter()
             c = models.build_chain(spec, body_data, scene.damping_ratio, cb_stages)
             simulate.scene_problem(c, scene)
             out[name]["setup_ms_all"].append(1e3 * (time.perf_counter() - t0))
-            run, _ = simulate.run_scene(chain, scene, integrator, problem=prob, model_name=name, **options)
-            out[name]["run_ms_all"].append(1e3 * run.wall_time)
+            out[name]["run_ms_all"].append(1e3 * go(scene.duration).wall_time)
         log(f"runtime: round {k + 1} of {repeats} done")
-    for rec in out.values():
+    for name, rec in out.items():
         runs = np.asarray(rec["run_ms_all"])
         rec.update(run_ms=float(np.median(runs)), run_ms_spread=float(runs.max() - runs.min()),
                    setup_ms=float(np.median(rec["setup_ms_all"])))
+        log(f"runtime: {name}: run {rec['run_ms']:.3g} ms (median of {len(runs)}), "
+            f"set-up {rec['setup_ms']:.3g} ms")
     return out
+
+
+def truth_whole_run(path, scene, integrator, options):
+    """(integration time [s], steps) of the truth's simulation file if it ran ``integrator`` with
+    the tolerance of ``options`` (as ``simulate.scene_options`` completes them), else None."""
+    a = read_sim(path)["attrs"]
+    tol = simulate.scene_options(scene, integrator, None, options).get("tol")
+    if (a.get("model") != "truth" or a.get("integrator") != integrator or "steps" not in a
+            or (tol is not None and a.get("stat_tol") != tol)):
+        return None
+    return float(a["integration_time_s"]), int(a["steps"])
 
 
 def main(argv=None) -> int:
@@ -102,6 +134,9 @@ def main(argv=None) -> int:
     ap.add_argument("--truth", required=True, help="the truth's simulation file of the scene")
     ap.add_argument("--truth-basis", help="results/verification/truth_basis.json")
     ap.add_argument("--repeats", type=int, default=MIN_REPEATS)
+    ap.add_argument("--budget", type=cli.positive_number("--budget"), default=None,
+                    help="seconds of timed runs per model: a slower one runs as often as fits, at "
+                         "least once (default: --repeats runs)")
     ap.add_argument("--integrator", default=simulate.DEFAULT_INTEGRATOR, choices=integrators.METHODS)
     ap.add_argument("--tol", type=cli.positive_number("--tol"), default=None)
     ap.add_argument("--config", help="the configuration file: body files from another one are refused")
@@ -122,12 +157,14 @@ def main(argv=None) -> int:
                             dict(zip(models.BODIES, args.reductions)), args.load_ranking,
                             args.repeats, args.integrator, options,
                             cb_files=dict(zip(names_mod.INTERFACE_BODIES, args.cb_bases)) if args.cb_bases
-                            else None)
+                            else None, budget_s=args.budget,
+                            truth_whole=truth_whole_run(args.truth, scene, args.integrator, options))
     except (ValueError, FileNotFoundError) as exc:
         print(f"runtime: {exc}", file=sys.stderr)
         return 2
     samples = int(round(scene.duration / scene.output_interval)) + 1
-    write_json(args.out, {"scene": scene.name, "repeats": args.repeats, "integrator": args.integrator,
+    write_json(args.out, {"scene": scene.name, "repeats": args.repeats, "budget_s": args.budget,
+                          "integrator": args.integrator,
                           "duration_s": scene.duration, "output_interval_s": scene.output_interval,
                           "samples": samples, "models": timed, "environment": versions(),
                           "cpu_count": os.cpu_count(),

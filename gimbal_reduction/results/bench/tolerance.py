@@ -26,8 +26,9 @@ simulations; ``gimbal_reduction.results.study.run_scene`` does the same):
    times and tol-EPS's compare at equal error.
 
 Times: ``run_time_s`` is the integration's wall time (``integrators.Run.wall_time``), the median of
-up to ``--repeats`` runs (fewer, at least one, where they would not fit in ``--budget`` seconds:
-``runs``), after one untimed run of the rigid model per scene that loads the compiled kernels;
+``--repeats`` runs (a model whose runs would not fit in ``--budget`` seconds timed over a prefix of
+the scene and scaled by its steps, ``gimbal_reduction.results.bench.timing``: ``time_basis``); with
+``--untimed`` one run (beside other jobs), which ``--times-from`` times alone; after one untimed run of the rigid model per scene that loads the compiled kernels;
 ``selection_time_s`` is the reduction stage's wall time of one run (for a verified search it
 includes the candidates' simulations, which the later EPS of a scene partly reuse:
 ``search_cost_s`` is the search's cost on its own, the truth's run plus every probe's).  One row
@@ -58,10 +59,10 @@ import numpy as np  # noqa: E402
 from gimbal_reduction.reduction import models as reduction_models  # noqa: E402
 from gimbal_reduction.reduction import verified_search  # noqa: E402
 from gimbal_reduction.results.bench.equal_error import FAMILIES, cheapest_within, max_error  # noqa: E402
-from gimbal_reduction.results.bench.pareto import run_budget  # noqa: E402
+from gimbal_reduction.results.bench import timing  # noqa: E402
 from gimbal_reduction.results.study.figures import STYLE, pyplot, save  # noqa: E402
 from gimbal_reduction.results.study.tables import read_table  # noqa: E402
-from gimbal_reduction.solver.dynamics import chainfile, scenes, simulate  # noqa: E402
+from gimbal_reduction.solver.dynamics import chainfile, integrators, scenes, simulate  # noqa: E402
 from gimbal_reduction.solver.dynamics.error_measure import error_measure  # noqa: E402
 from gimbal_reduction.workflow.provenance import csv_text, provenance, write_json, write_text  # noqa: E402
 
@@ -102,15 +103,65 @@ def reduce(model, scene_file, bodies, reductions, load_ranking, tmp, runs=None):
 
 def timed_run(model_file, scene, repeats, budget_s):
     """One model file through the scene: {t (T,) [s], rates (T, 4) [rad/s], run_time_s (median
-    integration wall time), runs, steps}; up to ``repeats`` runs within ``budget_s`` seconds."""
+    integration wall time), runs, steps, time_basis}: ``timing.median_timing`` after one run that
+    gives the rates (whole runs within ``budget_s`` seconds, else a prefix scaled by the steps);
+    repeats 0: that one run's time (``--untimed``)."""
     chain, _ = chainfile.read_chain(model_file, scene.damping_ratio)
     prob = simulate.scene_problem(chain, scene)
     first, _ = simulate.run_scene(chain, scene, problem=prob)
-    times = [first.wall_time]
-    for _ in range(run_budget(first.wall_time, repeats, budget_s) - 1):
-        times.append(simulate.run_scene(chain, scene, problem=prob)[0].wall_time)
-    return {"t": np.asarray(first.t, float), "rates": np.asarray(first.yd[:, :4], float),
-            "run_time_s": float(np.median(times)), "runs": len(times), "steps": int(first.steps)}
+    out = {"t": np.asarray(first.t, float), "rates": np.asarray(first.yd[:, :4], float),
+           "run_time_s": first.wall_time, "runs": 1, "steps": int(first.steps),
+           "time_basis": "one run, not timed alone"}
+    if repeats > 0:
+        out.update(_median(prob, scene, first.wall_time, first.steps, repeats, budget_s))
+    return out
+
+
+def _median(prob, scene, whole_s, whole_steps, repeats, budget_s):
+    """{run_time_s, runs, time_basis} of a problem on ``scene`` (``timing.median_timing``)."""
+    options = simulate.scene_options(scene, simulate.DEFAULT_INTEGRATOR, None, {})
+    run = lambda d: integrators.integrate(prob, d, scene.output_interval,
+                                          method=simulate.DEFAULT_INTEGRATOR, **options)
+    t = timing.median_timing(run, scene.duration, scene.output_interval, whole_s, whole_steps,
+                             repeats, budget_s, scalable=simulate.DEFAULT_INTEGRATOR != "exponential")
+    return {"run_time_s": t["wall_time_s"], "runs": t["runs"], "time_basis": t["time_basis"]}
+
+
+def retime(summary, scene_files, models_dir, repeats, budget_s, log=print):
+    """``--times-from``: the rows and comparisons of an ``--untimed`` run (its JSON, changed in
+    place), each model timed in this process from its file in ``models_dir``/{scene}/{model}.h5
+    (the untimed run's ``--keep-models``); E, choices and searches are the untimed run's."""
+    for scene_file in scene_files:
+        scene = scenes.load_scene(scene_file)
+        folder = os.path.join(models_dir, scene.name)
+        timed = {}
+
+        def time_model(model, whole_s, steps):
+            if model not in timed:
+                chain, _ = chainfile.read_chain(os.path.join(folder, f"{model}.h5"), scene.damping_ratio)
+                prob = simulate.scene_problem(chain, scene)
+                integrators.integrate(prob, 2 * scene.output_interval, scene.output_interval,
+                                      method=simulate.DEFAULT_INTEGRATOR)          # warm-up
+                timed[model] = _median(prob, scene, whole_s, steps, repeats, budget_s)
+                log(f"tolerance: {scene.name}: {model}: {timed[model]['run_time_s']:.3g} s "
+                    f"({timed[model]['time_basis']})")
+            return timed[model]
+        truth = summary["truths"][scene.name]
+        truth.update(time_model(truth["model"], truth["run_time_s"], truth["steps"]))
+        tol = {}
+        for r in summary["rows"]:
+            if r["scene"] == scene.name:
+                r["truth_run_time_s"] = truth["run_time_s"]
+                if r.get("status") == "ok":
+                    r.update(time_model(r["model"], r["run_time_s"], r["steps"]))
+                    tol[r["eps"]] = r
+        for c in summary["comparisons"]:
+            if c["scene"] == scene.name and c.get("model"):
+                c.update(time_model(c["model"], c["run_time_s"], c["steps"]))
+                if c["eps"] in tol:
+                    c["tol_run_time_s"] = tol[c["eps"]]["run_time_s"]
+                    c["time_ratio"] = tol[c["eps"]]["run_time_s"] / c["run_time_s"]
+    return summary
 
 
 def _float(attrs, key):
@@ -143,20 +194,25 @@ def tol_row(scene, eps, attrs, run, truth, selection_time):
             "search_cost_s": float(_float(attrs, "tol_search_truth_time_s") + np.nansum(probe_s))
             if verified else float("nan"),
             "run_time_s": run["run_time_s"], "runs": run["runs"], "truth_run_time_s": truth["run_time_s"],
+            "steps": run["steps"], "time_basis": run["time_basis"],
             "measured_E_per_rate": E.tolist(),
             "estimated_E_per_rate": np.asarray(attrs.get("tol_estimate", np.full(4, np.nan)), float).tolist(),
             "frozen_chain_reason": str(attrs.get("tol_frozen_chain_reason", "")), "status": "ok"}
 
 
 def bench_scene(scene_file, eps_list, bodies, reductions, load_ranking, table=None, repeats=5,
-                budget_s=60.0, reference="truth", log=print):
-    """(tol rows, comparison rows) of one scene (module docstring); reference: the model every
-    error is measured against (the truth; a test's synthetic bodies: global-Q)."""
+                budget_s=60.0, reference="truth", log=print, keep_dir=None):
+    """(tol rows, comparison rows, the reference's {model, run_time_s, runs, steps}) of one
+    scene (module docstring); reference: the model every error is measured against (the truth;
+    a test's synthetic bodies: global-Q); keep_dir: the model files are kept there (else in a
+    temporary folder)."""
     scene = scenes.load_scene(scene_file)
     name = scene.name
     rows, comparisons = [], []
     runs = verified_search.Runs()       # the verified searches of this scene's requests share runs
-    with tempfile.TemporaryDirectory(prefix="tolerance_") as tmp:
+    with (contextlib.nullcontext(keep_dir) if keep_dir
+          else tempfile.TemporaryDirectory(prefix="tolerance_")) as tmp:
+        os.makedirs(tmp, exist_ok=True)
         rc, lines, path, _, _ = reduce("rigid", scene_file, bodies, reductions, load_ranking, tmp)
         if rc:
             raise RuntimeError(f"rigid on {name} failed: {lines[-1] if lines else rc}")
@@ -190,7 +246,8 @@ def bench_scene(scene_file, eps_list, bodies, reductions, load_ranking, table=No
         if table is not None:
             comparisons = compare_families(name, scene, scene_file, eps_list, table, rows, truth, bodies,
                                            reductions, load_ranking, tmp, repeats, budget_s, log)
-    return rows, comparisons
+    return rows, comparisons, {"model": reference, **{k: truth[k] for k in ("run_time_s", "runs", "steps",
+                                                                           "time_basis")}}
 
 
 def compare_families(name, scene, scene_file, eps_list, table, rows, truth, bodies, reductions,
@@ -219,7 +276,7 @@ def compare_families(name, scene, scene_file, eps_list, table, rows, truth, bodi
                 run = timed_run(path, scene, repeats, budget_s)
                 E = np.asarray(error_measure(truth["t"], truth["rates"], run["rates"]), float)
                 done[model] = {"measured_E_max": float(np.max(E)), "run_time_s": run["run_time_s"],
-                               "runs": run["runs"]}
+                               "runs": run["runs"], "steps": run["steps"], "time_basis": run["time_basis"]}
                 log(f"tolerance: {name}: {model}: measured {np.max(E):.3e} (table {max_error(choice):.3e}), "
                     f"{run['run_time_s']:.3g} s")
             row.update({"model": model, "n_elastic": int(choice["n_elastic"]),
@@ -297,35 +354,70 @@ def main(argv=None) -> int:
                     help="study error tables {dir}/{scene}/errors_ranking.csv (read where present)")
     ap.add_argument("--repeats", type=int, default=5, help="timed runs per model (median)")
     ap.add_argument("--budget", type=float, default=60.0,
-                    help="seconds of timed runs per model; slower models get fewer repeats")
+                    help="seconds of timed runs per model; a slower one is timed over a prefix of the "
+                         "scene and scaled by its steps (gimbal_reduction.results.bench.timing)")
+    ap.add_argument("--untimed", action="store_true",
+                    help="every model run once (E, the choices, the searches; no timing): a job beside "
+                         "others; with --keep-models, --times-from then times them alone")
+    ap.add_argument("--keep-models", metavar="DIR", help="keep the model files in DIR/{scene}/")
+    ap.add_argument("--times-from", metavar="JSON",
+                    help="the --out-json of an --untimed run with --keep-models DIR (--models-from DIR): "
+                         "only its models are timed, its CSV and JSON rewritten with the times")
+    ap.add_argument("--models-from", metavar="DIR", help="the --keep-models folder of --times-from")
     ap.add_argument("--reference", default="truth", help="the model errors are measured against")
     ap.add_argument("--out-csv", default="results/benchmarks/tolerance.csv")
     ap.add_argument("--out-json", default="results/benchmarks/tolerance.json")
     ap.add_argument("--figure", default="results/figures/bench/tolerance.png",
-                    help="PNG path; the PDF is written beside it")
+                    help="PNG path; the PDF is written beside it (not with --times-from: no time in it)")
     args = ap.parse_args(argv)
     if args.repeats < 1 or args.budget <= 0 or any(not np.isfinite(e) or e <= 0 for e in args.eps):
         print("tolerance: --repeats must be >= 1, --budget and every --eps > 0", file=sys.stderr)
         return 2
+    if bool(args.times_from) != bool(args.models_from) or (args.times_from and args.untimed):
+        print("tolerance: --times-from needs --models-from (and no --untimed)", file=sys.stderr)
+        return 2
+    scene_files = [a if a.endswith((".yaml", ".yml")) else os.path.join("config", "scenes", f"{a}.yaml")
+                   for a in args.scenes]
+    if args.times_from:
+        import json
+        with open(args.times_from) as fh:
+            summary = json.load(fh)
+        summary.pop("provenance", None)
+        t0 = time.perf_counter()
+        try:
+            retime(summary, scene_files, args.models_from, args.repeats, args.budget)
+        except (OSError, ValueError, KeyError) as exc:
+            print(f"tolerance: {' '.join(str(exc).split())}", file=sys.stderr)
+            return 2
+        summary.update(repeats=args.repeats, budget_s=args.budget, timing_wall_time_s=time.perf_counter() - t0,
+                       timed_alone=True)
+        record = provenance(sources=[args.times_from])
+        write_json(args.out_json, summary, record)
+        write_text(args.out_csv, csv_text([{k: r.get(k, "") for k in COLUMNS} for r in summary["rows"]],
+                                          COLUMNS), record)
+        print(f"tolerance: {len(summary['rows'])} requests timed -> {args.out_csv}, {args.out_json}")
+        return 0
     bodies = [os.path.join(args.modes_dir, f"body{b}.h5") for b in reduction_models.BODIES]
     reductions = [os.path.join(args.reduction_dir, f"body{b}.h5") for b in reduction_models.BODIES]
-    rows, comparisons = [], []
+    rows, comparisons, truths = [], [], {}
     t0 = time.perf_counter()
-    for arg in args.scenes:
-        scene_file = arg if arg.endswith((".yaml", ".yml")) else os.path.join("config", "scenes", f"{arg}.yaml")
+    for scene_file in scene_files:
         name = os.path.splitext(os.path.basename(scene_file))[0]
         load_ranking = os.path.join(args.reduction_dir, "load", f"{name}.h5")
         table_path = os.path.join(args.tables_dir, name, "errors_ranking.csv")
         table = read_table(table_path) if os.path.exists(table_path) else None
         try:
-            r, c = bench_scene(scene_file, args.eps, bodies, reductions, load_ranking, table,
-                               args.repeats, args.budget, args.reference)
+            r, c, truths[name] = bench_scene(
+                scene_file, args.eps, bodies, reductions, load_ranking, table,
+                0 if args.untimed else args.repeats, args.budget, args.reference,
+                keep_dir=os.path.join(args.keep_models, name) if args.keep_models else None)
         except (RuntimeError, OSError, ValueError) as exc:
             print(f"tolerance: {name}: {' '.join(str(exc).split())}", file=sys.stderr)
             return 2
         rows += r
         comparisons += c
-    summary = {"rows": rows, "comparisons": comparisons, "counts": summarise(rows, args.eps),
+    summary = {"rows": rows, "comparisons": comparisons, "truths": truths,
+               "counts": summarise(rows, args.eps), "timed_alone": not args.untimed,
                "scenes": [os.path.splitext(os.path.basename(s))[0] for s in args.scenes],
                "eps": args.eps, "repeats": args.repeats, "budget_s": args.budget,
                "wall_time_s": time.perf_counter() - t0, "created": time.strftime("%Y-%m-%dT%H:%M:%S"),

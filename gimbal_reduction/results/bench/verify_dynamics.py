@@ -36,6 +36,7 @@ import io
 import os
 import sys
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -47,6 +48,7 @@ from gimbal_reduction.reduction import models
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.results.bench.oracle import Oracle, jax_available, synthetic_chain
 from gimbal_reduction.results.bench.pareto import run_budget
+from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow.progress import Progress
 from gimbal_reduction.workflow.provenance import check_record, provenance, versions, write_json
 
@@ -261,16 +263,64 @@ def bad_input_checks(body_files, reduction_files, out_dir):
 
 
 # ------------------------------------------------ truth: convergence, benchmark
-def truth_runs(body_data, rankings, repeats, budget_s=None):
-    """Truth on thesis: default-step convergence, and every integrator's cost and accuracy: the
-    median of ``repeats`` runs each, fewer (at least one) where they would not fit in ``budget_s``
-    seconds at the first run's pace (a run that slow decides no comparison by its median)."""
-    spec = models.model_spec("truth", rankings)
-    chain = models.build_chain(spec, body_data)
+def reference_run(path, scene):
+    """The converged DOP853 reference of ``scene`` on the truth model (rule reference_simulation:
+    ``simulate.REFERENCE``) as a run: t (T,) [s], yd (T, 4) gimbal rates [rad/s], steps, step [s]
+    (the mean), its integration time [s]; a file of another scene, model or integrator setting
+    is refused."""
+    f = read_sim(path)
+    a = f["attrs"]
+    want = {"scene": scene.name, "model": "truth", "integrator": simulate.REFERENCE["integrator"],
+            "stat_rtol": simulate.REFERENCE["rtol"], "stat_atol": simulate.REFERENCE["atol"]}
+    wrong = {k: a.get(k) for k, v in want.items() if a.get(k) != v}
+    if wrong:
+        raise ValueError(f"{path}: not the converged reference of {scene.name} ({want}): {wrong}")
+    steps = int(a["steps"])
+    return SimpleNamespace(t=f["t"], yd=f["gamma_dot"], steps=steps, step=scene.duration / steps,
+                           stats={}), float(a["integration_time_s"])
+
+
+def _bench_record(label, method, walls, run, ref):
+    """The benchmark record of one integrator: its runs' wall times [s], E of ``run`` against
+    ``ref`` (the converged truth), step and steps."""
+    return {"integrator": method, "label": label, "wall_times_s": walls,
+            "median_wall_time_s": float(np.median(walls)), "step_s": run.step,
+            "steps_taken": run.steps, "E_vs_converged_truth": rate_error(run, ref),
+            "E_per_rate": np.asarray(error_measure(ref.t, ref.yd[:, :4], run.yd[:, :4])).tolist(),
+            "stats": {k: float(v) for k, v in run.stats.items()}}
+
+
+def truth_setup(body_data, rankings):
+    """(chain, problem, scene thesis, seconds of the coupled omega_max, the RK4 step at the
+    stability limit dividing the output interval [s])."""
+    chain = models.build_chain(models.model_spec("truth", rankings), body_data)
     scene = scenes.load_scene("thesis")
     t0 = time.perf_counter()
     prob = simulate.scene_problem(chain, scene)
     t_omega = time.perf_counter() - t0
+    limit = integrators.rk4_stability_limit(prob.omega_max)
+    n_sub = int(np.ceil(scene.output_interval / limit - 1e-9))
+    return chain, prob, scene, t_omega, scene.output_interval / n_sub
+
+
+def bench_settings(rk4_step):
+    """(label, integrate keywords) of every integrator the benchmark times on the truth."""
+    return [("rk4 at its stability-limited step (largest step <= 2.785/omega_max dividing the "
+             "output interval)", dict(method="rk4", step=rk4_step)),
+            (f"dop853 rtol {DOP853_RTOL:g} (truth default)",
+             dict(method="dop853", rtol=DOP853_RTOL, atol=1e-14)),
+            (f"generalized-alpha h = {GA_STEP:g} s, rho_inf 0.9",
+             dict(method="generalized-alpha", step=GA_STEP))]
+
+
+def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None):
+    """Truth on thesis: default-step convergence, and every integrator's cost and accuracy: the
+    median of ``repeats`` runs each, fewer (at least one) where they would not fit in ``budget_s``
+    seconds at the first run's pace (a run that slow decides no comparison by its median).
+    repeats 1: one run each (``--untimed``: their E and steps, beside other jobs).
+    reference: the converged DOP853 reference of thesis (``reference_run``), taken as the
+    default's run (the same integrator and setting) instead of integrating it again."""
+    chain, prob, scene, t_omega, rk4_limit_step = truth_setup(body_data, rankings)
     limit = integrators.rk4_stability_limit(prob.omega_max)
     cfg = dict(simulate.REFERENCE)
     go = lambda **kw: integrators.integrate(prob, scene.duration, scene.output_interval, **kw)
@@ -281,9 +331,12 @@ def truth_runs(body_data, rankings, repeats, budget_s=None):
         kw.update(rtol=cfg["rtol"], atol=cfg["atol"])
     elif "fraction" in cfg:
         kw.update(fraction=cfg["fraction"])
-    t0 = time.perf_counter()
-    run_h = go(**kw)
-    t_default = time.perf_counter() - t0
+    if reference is not None:
+        run_h, t_default = reference
+    else:
+        t0 = time.perf_counter()
+        run_h = go(**kw)
+        t_default = time.perf_counter() - t0
     h_mean = scene.duration / run_h.steps
     half = dict(kw, max_step=h_mean / 2) if cfg["integrator"] == "dop853" else dict(kw, step=run_h.step / 2)
     half.pop("fraction", None)
@@ -296,8 +349,10 @@ def truth_runs(body_data, rankings, repeats, budget_s=None):
                   E_per_rate=np.asarray(E).tolist(), default=cfg, mean_step=h_mean,
                   steps=run_h.steps, steps_half=run_h2.steps, wall_time_default_s=t_default,
                   wall_time_half_s=t_half, coupled_omega_max=prob.omega_max,
-                  modal_omega_max=prob.modal_omega_max, rk4_stability_limit=limit)
+                  modal_omega_max=prob.modal_omega_max, rk4_stability_limit=limit,
+                  default_run="the converged reference file" if reference else "integrated here")
     ref = run_h2
+    default_is_dop = cfg["integrator"] == "dop853" and cfg["rtol"] == DOP853_RTOL
 
     def bench(label, repeats, **kw):
         walls, run = [], None
@@ -306,22 +361,18 @@ def truth_runs(body_data, rankings, repeats, budget_s=None):
             t0 = time.perf_counter()
             run = go(**kw)
             walls.append(time.perf_counter() - t0)
-        return {"integrator": kw["method"], "label": label, "wall_times_s": walls,
-                "median_wall_time_s": float(np.median(walls)), "step_s": run.step,
-                "steps_taken": run.steps, "E_vs_converged_truth": rate_error(run, ref),
-                "E_per_rate": np.asarray(error_measure(ref.t, ref.yd[:, :4], run.yd[:, :4])).tolist(),
-                "stats": {k: float(v) for k, v in run.stats.items()}}, run
-    n_sub = int(np.ceil(scene.output_interval / limit - 1e-9))
-    rk4_limit_step = scene.output_interval / n_sub
-    bench_rk4, _ = bench("rk4 at its stability-limited step (largest step <= 2.785/omega_max "
-                         "dividing the output interval)", repeats, method="rk4", step=rk4_limit_step)
-    bench_dop, _ = bench(f"dop853 rtol {DOP853_RTOL:g} (truth default)", repeats - 1, method="dop853",
-                         rtol=DOP853_RTOL, atol=1e-14)
-    if cfg["integrator"] == "dop853" and cfg["rtol"] == DOP853_RTOL:    # the default run counts
-        bench_dop["wall_times_s"].append(t_default)
-        bench_dop["median_wall_time_s"] = float(np.median(bench_dop["wall_times_s"]))
-    bench_ga, ga = bench(f"generalized-alpha h = {GA_STEP:g} s, rho_inf 0.9", repeats,
-                         method="generalized-alpha", step=GA_STEP)
+        return _bench_record(label, kw["method"], walls, run, ref), run
+    records, ga = [], None
+    for label, kw in bench_settings(rk4_step=rk4_limit_step):
+        if kw["method"] == "dop853" and default_is_dop:        # the default run counts
+            rec, _ = (bench(label, repeats - 1, **kw) if repeats > 1
+                      else (_bench_record(label, "dop853", [], run_h, ref), None))
+            rec["wall_times_s"].append(t_default)
+            rec["median_wall_time_s"] = float(np.median(rec["wall_times_s"]))
+        else:
+            rec, run = bench(label, repeats, **kw)
+            ga = run if kw["method"] == "generalized-alpha" else ga
+        records.append(rec)
     ga2 = go(method="generalized-alpha", step=GA_STEP / 2)
     Ega, Ega2 = rate_error(ga, ref), rate_error(ga2, ref)
     ga_check = _check(f"generalized-alpha accuracy on thesis (truth, h = {GA_STEP:g} s) vs the converged truth",
@@ -334,7 +385,7 @@ def truth_runs(body_data, rankings, repeats, budget_s=None):
             "rk4_stability_limit_s": limit, "coupled_omega_time_s": t_omega,
             "converged_truth": f"{cfg['integrator']} with max step {h_mean / 2:.4e} s (half the "
                                f"truth default's mean step)"}
-    return [conv, ga_check], [bench_rk4, bench_dop, bench_ga], info, (chain, prob, ref)
+    return [conv, ga_check], records, info, (chain, prob, ref)
 
 
 EXP_TIGHT_TOL = 1e-7      # the tight tolerance of the exponential integrator's check
@@ -402,26 +453,34 @@ def main(argv=None):
                          "at the first run's pace (default: no limit)")
     ap.add_argument("--config", help="the current configuration file: input files of another "
                                      "configuration are refused before the work (gimbal_reduction.solver.bodyconfig)")
+    ap.add_argument("--untimed", action="store_true",
+                    help="the benchmark's integrators run once each (E, steps, that run's wall time): a "
+                         "job beside others; the truth's times alone are the Pareto benchmark's rows")
+    ap.add_argument("--reference", help="the converged DOP853 reference of thesis on the truth model "
+                                        "(results/reference/thesis/truth.h5): the default's run is "
+                                        "taken from it rather than integrated again")
     args = ap.parse_args(argv)
     start = time.perf_counter()
     try:
-        bodyconfig.check_files(args.bodies + args.reductions, args.config)
+        bodyconfig.check_files(args.bodies + args.reductions + ([args.reference] if args.reference else []),
+                               args.config)
         body_files = dict(zip(models.BODIES, args.bodies))
         reduction_files = dict(zip(models.BODIES, args.reductions))
         rankings = models.read_rankings(reduction_files)
         body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
+        reference = reference_run(args.reference, scenes.load_scene("thesis")) if args.reference else None
     except (OSError, ValueError) as exc:
         print(f"verify_dynamics: {exc}", file=sys.stderr)
         return 2
-    checks, timing = [], {}
+    checks, timing_s = [], {}
     progress = Progress("verify_dynamics", len(SECTIONS), "sections")
 
     def section(name, fn, *a):
         t0 = time.perf_counter()
         res = fn(*a)
-        timing[name] = time.perf_counter() - t0
-        print(f"verify_dynamics: {name}: {timing[name]:.1f} s", flush=True)
-        progress.advance(note=f"{name} took {timing[name]:.0f} s")
+        timing_s[name] = time.perf_counter() - t0
+        print(f"verify_dynamics: {name}: {timing_s[name]:.1f} s", flush=True)
+        progress.advance(note=f"{name} took {timing_s[name]:.0f} s")
         return res
 
     real_small = models.build_chain(models.model_spec("freq-10", rankings), body_data)
@@ -432,8 +491,9 @@ def main(argv=None):
     checks += section("rigid limits", rigid_checks, body_data, rankings)
     import tempfile
     checks += section("bad input", bad_input_checks, body_files, reduction_files, tempfile.mkdtemp())
-    truth_checks, bench, info, truth = section("truth", truth_runs, body_data, rankings, args.repeats,
-                                               args.budget)
+    truth_checks, bench, info, truth = section("truth", truth_runs, body_data, rankings,
+                                               1 if args.untimed else args.repeats,
+                                               args.budget, reference)
     checks += truth_checks
     checks += section("exponential", exponential_checks, body_data, rankings, truth)
     total = time.perf_counter() - start
@@ -446,10 +506,11 @@ def main(argv=None):
     record = provenance(sources=[*args.bodies, *args.reductions])
     write_json(args.verification, {"stage": "dynamics", "checks": checks,
                                    "passed": all(c["passed"] for c in checks),
-                                   "wall_time_s": total, "section_times_s": timing, "versions": vers},
+                                   "wall_time_s": total, "section_times_s": timing_s, "versions": vers},
                record)
-    write_json(args.benchmark, {"stage": "dynamics", **info, "runs": bench, "repeats": args.repeats,
-                                "budget_s": args.budget,
+    write_json(args.benchmark, {"stage": "dynamics", **info, "runs": bench,
+                                "repeats": 1 if args.untimed else args.repeats,
+                                "budget_s": args.budget, "timed_alone": not args.untimed,
                                 "versions": vers}, record)
     failed = [c["name"] for c in checks if not c["passed"]]
     print(f"verify_dynamics: {len(checks) - len(failed)}/{len(checks)} checks passed in {total:.0f} s"
