@@ -170,6 +170,8 @@ rule reference_simulation:
         scene=scene_file,
         code=code_hash("simulate"),
         cfg=body_files_hash,  # the model's body files are checked against the config
+    message:
+        "DOP853 reference of scene {wildcards.scene} at rtol 1e-10 (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} simulate --scene {params.scene} --model-file {input.model} "
         "--integrator dop853 --rtol 1e-10 --atol 1e-14 --config {CONFIG} --out {output} > {log} 2>&1"
@@ -394,6 +396,8 @@ rule reference_exponential:
             )
             / ALL_REFERENCE_FACTOR
         ),
+    message:
+        "Converged reference of scene {wildcards.scene}: the exponential integrator at tol/100 (~1-2 CPU-minutes on long; log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} simulate --scene {params.scene} --model-file {input.model} "
         "--integrator exponential --tol {params.tol} --config {CONFIG} --out {output} > {log} 2>&1"
@@ -422,6 +426,8 @@ rule exponential_accuracy_all:
         tol=cfgmod.value(config, "simulation.tolerance"),
         code=code_hash("exponential-accuracy"),
         cfg=body_files_hash,
+    message:
+        "The exponential integrator against DOP853 on the short scenes (~1 CPU-minute; log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} exponential-accuracy --truth-model {input.truth_model} "
         "--reference {params.references} --anchor {params.anchors} --tol {params.tol} "
@@ -456,6 +462,8 @@ rule exponential_bench_all:
         budget=4.0,
         code=code_hash("bench-exponential"),
         cfg=body_files_hash,
+    message:
+        "Exponential integrator benchmark: medians of repeated runs, alone on the machine (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} bench-exponential "
         "--truth-model {input.truth_model} --reference {params.references} --models {params.models} "
@@ -488,6 +496,8 @@ rule pareto_errors_all:
         models=" ".join(f"'{m}'" for m in PARETO_MODELS),
         code=code_hash("pareto"),
         cfg=body_files_hash,
+    message:
+        "Pareto front, untimed part: each model and integrator's error against the reference (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} pareto --scene thesis --truth {input.truth} "
         "--models {params.models} --errors-only --rtols 1e-6 "
@@ -520,6 +530,8 @@ rule pareto_all:
         budget=ALL_CASE_BUDGET_S,
         code=code_hash("pareto"),
         cfg=body_files_hash,
+    message:
+        "Pareto front, timed part: medians of repeated runs, alone on the machine (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} pareto --scene thesis --truth {input.truth} "
         "--models {params.models} --repeats 5 --budget {params.budget} --rtols 1e-6 "
@@ -568,6 +580,8 @@ rule stability_all:
     params:
         code=code_hash("stability"),
         cfg=body_files_hash,
+    message:
+        "Stability stress tests: RK4's step limit and the energy drift over 10 s (~1 CPU-minute; log: {log})"
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} stability --quick --bodies {input.bodies} "
         "--reductions {input.reductions} --out-dir $(dirname {output.json}) "
@@ -667,6 +681,8 @@ rule tolerance_untimed_all:
     params:
         eps=" ".join(f"{e:g}" for e in ALL_TOLERANCE_EPS),
         code=code_hash("tolerance"),
+    message:
+        "Accuracy on request, untimed part: the smallest model per error target and scene (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} tolerance --untimed --keep-models {output.models} "
         "--scenes {input.scenes} --eps {params.eps} --modes-dir results/modes "
@@ -694,6 +710,8 @@ rule tolerance_all:
     params:
         budget=ALL_CASE_BUDGET_S,
         code=code_hash("tolerance"),
+    message:
+        "Accuracy on request, timed part: medians of repeated runs, alone on the machine (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} tolerance --scenes {input.scenes} "
         "--times-from {input.untimed} --models-from {input.models} --repeats 5 "

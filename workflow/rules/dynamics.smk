@@ -58,6 +58,8 @@ rule load_ranking:
         code=code_hash("load-ranking"),
         scene=scene_file,
         cfg=body_files_hash,  # the body and reduction files are checked against the config
+    message:
+        "Load-aware ranking of scene {wildcards.scene}: the rigid chain's loads on each body (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} load-ranking --scene {params.scene} --bodies {input.bodies} "
         "--reductions {input.reductions} --config {CONFIG} --out {output} > {log} 2>&1"
@@ -157,6 +159,8 @@ rule dynamics_verification_all:
     params:
         code=code_hash("verify-dynamics"),
         cfg=body_files_hash,
+    message:
+        "Dynamics against the independent JAX oracle and DOP853 (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} verify-dynamics --untimed --bodies {input.bodies} "
         "--reductions {input.reductions} --reference {input.reference} "

@@ -25,6 +25,8 @@ rule modes_body:
         code=code_hash("modes"),
         # gimbal_reduction.workflow.config.body_inputs: what the stage reads (and the body file's config_hash)
         cfg=body_hash(),
+    message:
+        "Modes of body {wildcards.n}: DOLFINx shells and SLEPc, 100 modes (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {resources.mpi} {GIMBAL} modes --body {wildcards.n} --mesh {input.mesh} "
         "--mesh-meta {input.meta} --out {output} --config {CONFIG} > {log} 2>&1"

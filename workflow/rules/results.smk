@@ -47,6 +47,8 @@ rule study_scene:
         out_dir="results/study/{scene}/sim",
         # the body, reduction and ranking files are checked against the configuration (--config)
         cfg=body_files_hash,
+    message:
+        "Study of scene {wildcards.scene}: the truth and every study model simulated in one process (~1-3 CPU-minutes on long; log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} run-scene --scene {input.scene} --models {params.models} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
@@ -178,6 +180,8 @@ rule study_figures:
     params:
         code=code_hash("figures"),
         out_dir="results/figures/study/{scene}",
+    message:
+        "Figures of scene {wildcards.scene}'s study (log: {log})"
     shell:
         "MPLBACKEND=Agg {GIMBAL} figures --truth {input.truth} --cases {input.cases} "
         "--ranking-table {input.ranking} --static-table {input.static} --out-dir {params.out_dir} "
@@ -219,6 +223,8 @@ rule runtime:
         integrator=cfgmod.value(config, "simulation.integrator"),
         options=integrator_options,
         cfg=body_files_hash,
+    message:
+        "Run times of scene {wildcards.scene}'s decision models: medians of repeated runs, alone on the machine (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} runtime --scene {input.scene} "
         "--bodies {input.bodies} --reductions {input.reductions} --load-ranking {input.load_ranking} "
@@ -317,7 +323,9 @@ rule report_scene:
     params:
         code=code_hash("scene-report"),
         cfg=config_hash(),  # the report prints the config's values (the file given by --configfile)
-        exponential_bench=lambda wildcards: shown_version(REPORT_OPTIONAL["exponential_bench"]),
+        exponential_bench=lambda wildcards: shown_version(
+            REPORT_OPTIONAL["exponential_bench"]
+        ),
     shell:
         "{GIMBAL} scene-report --ranking-table {input.ranking} --static-table {input.static} "
         "--findings {input.findings} --figures {input.figures} --fe {input.fe} "

@@ -201,6 +201,8 @@ rule modes_body_large:
         code=code_hash("modes"),
         cfg=body_hash(),
         modes=LARGE_BASIS_MODES,
+    message:
+        "Modes of body {wildcards.n} on the finer mesh (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} modes --body {wildcards.n} --mesh {input.mesh} "
         "--mesh-meta {input.meta} --count {params.modes} --known-modes {input.known} --out {output} "
@@ -230,6 +232,8 @@ rule truth_basis:
             scenes_mod.load_scene(f"config/scenes/{s}.yaml").config_hash()
             for s in TRUTH_BASIS_SCENES
         ],
+    message:
+        "The truth's own error: a 200-mode truth simulated on every study scene (~1-2 CPU-minutes; log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} truth-basis --bodies {input.bodies} --scenes {input.scenes} "
         "--config {CONFIG} --out {output} > {log} 2>&1"
@@ -282,6 +286,8 @@ rule verify_convergence_all:
         levels=lambda wildcards: ALL_CONVERGENCE_LEVELS[
             cfgmod.body_parameters(config, int(wildcards.n))["shape"]
         ],
+    message:
+        "Mesh convergence of body {wildcards.n}: all 100 modes on a finer mesh (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} fe-verify convergence --body {wildcards.n} --levels {params.levels} "
         "--config {CONFIG} --out {output} > {log} 2>&1"
