@@ -28,10 +28,9 @@ import json
 import os
 from pathlib import Path
 
-import jsonschema
 import yaml
 
-from gimbal_reduction.workflow import units, yamlfile
+from gimbal_reduction.workflow import memo, units, yamlfile
 
 
 
@@ -140,12 +139,34 @@ def resolve_units(config: dict) -> dict:
     return out
 
 
+# A configuration that passed is kept with its resolved form between invocations (memo.DiskMemo,
+# salted with this file, the schema, the units module and the versions of jsonschema and pint):
+# a no-op's DAG build validates an unchanged config without importing jsonschema or pint.
+_MEMO = memo.DiskMemo("config", lambda: memo.salt(
+    files=(Path(__file__), SCHEMA, Path(units.__file__)), distributions=("jsonschema", "pint")))
+
+
 def validate(config: dict) -> dict:
     """Check ``config`` against the JSON schema and the model's cross-field rules.
 
     Returns the config with its values in the units their keys are read in
     (:func:`resolve_units`); ``config`` itself is not changed.
     """
+    try:
+        key = hashlib.sha256(json.dumps(config, sort_keys=True, allow_nan=False).encode()).hexdigest()
+    except (TypeError, ValueError):     # not plain JSON data (the schema refuses it below)
+        key = None
+    known = _MEMO.get(key) if key else None
+    if known is not None:
+        return copy.deepcopy(known)
+    resolved = _validate(config)
+    if key:
+        _MEMO.put(key, copy.deepcopy(resolved))
+    return resolved
+
+
+def _validate(config: dict) -> dict:
+    import jsonschema      # on first need only (the memo above)
     config = resolve_units(config)
     schema = yamlfile.load_file(SCHEMA)
     validator = jsonschema.Draft7Validator(schema)

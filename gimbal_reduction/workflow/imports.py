@@ -177,17 +177,33 @@ def all_imports(root: Path = ROOT) -> tuple[Import, ...]:
 
 def graph(root: Path = ROOT) -> dict[str, set[str]]:
     """module -> the project modules it imports (module level and function level)."""
-    return {name: set(targets) for name, targets in _graph(root, all_imports(root)).items()}
+    return {name: set(targets) for name, targets in _graph(root).items()}
 
 
-@functools.lru_cache(maxsize=4)
-def _graph(root: Path, found: tuple[Import, ...]) -> dict[str, frozenset[str]]:
-    """``graph`` once per version of the import list (a Snakefile asks it for every rule's code
-    hash; ``all_imports`` is itself cached, so a cleared cache gives a new graph)."""
-    out = {name: set() for name in module_files(root)}
-    for imp in found:
-        out[imp.source].add(imp.target)
-    return {name: frozenset(targets) for name, targets in out.items()}
+# Results derived from one version of the import list, keyed by (what, arguments) and kept with
+# that list: ``all_imports`` is itself cached, so a cleared cache (a changed tree) gives a new
+# list object, and an entry made from another object is made again (an identity test: hashing
+# the ~450 imports on every lookup would cost a Snakefile most of its ~50 code hashes).
+_DERIVED: dict = {}
+
+
+def _derived(what: str, key: tuple, root: Path, make):
+    found = all_imports(root)
+    kept = _DERIVED.get((what, key, root))
+    if kept is None or kept[0] is not found:
+        kept = (found, make(found))
+        _DERIVED[(what, key, root)] = kept
+    return kept[1]
+
+
+def _graph(root: Path) -> dict[str, frozenset[str]]:
+    """``graph`` once per version of the import list (a Snakefile asks it for every rule's code hash)."""
+    def make(found):
+        out = {name: set() for name in module_files(root)}
+        for imp in found:
+            out[imp.source].add(imp.target)
+        return {name: frozenset(targets) for name, targets in out.items()}
+    return _derived("graph", (), root, make)
 
 
 def _parents(module: str) -> list[str]:
@@ -198,7 +214,7 @@ def _parents(module: str) -> list[str]:
 def closure(*entries: str, root: Path = ROOT) -> list[str]:
     """The project modules that running ``entries`` executes, sorted: the entries, everything they
     import, transitively, and the package ``__init__`` of each on the way."""
-    modules, edges = module_files(root), _graph(root, all_imports(root))
+    modules, edges = module_files(root), _graph(root)
     unknown = [e for e in entries if e not in modules]
     if unknown:
         raise ValueError(f"unknown project module(s): {', '.join(unknown)}")
@@ -215,10 +231,14 @@ def closure(*entries: str, root: Path = ROOT) -> list[str]:
 
 def files(*entries: str, root: Path = ROOT) -> list[str]:
     """The files (relative to the root) that running ``entries`` reads as code: modules and data files."""
-    modules, executed = module_files(root), closure(*entries, root=root)
-    out = [str(modules[m].relative_to(root)) for m in executed]
-    out += [f for m in executed for f in DATA_FILES.get(m, ())]
-    return sorted(set(out))
+    def make(found):
+        modules, executed = module_files(root), closure(*entries, root=root)
+        prefix = os.path.join(str(root), "")        # module_files joins onto root: a string cut
+        out = [str(modules[m])[len(prefix):] if str(modules[m]).startswith(prefix)
+               else str(modules[m].relative_to(root)) for m in executed]
+        out += [f for m in executed for f in DATA_FILES.get(m, ())]
+        return tuple(sorted(set(out)))
+    return list(_derived("files", entries, root, make))
 
 
 def normalised_source(path: Path) -> str:
@@ -278,13 +298,16 @@ class _FactsCache:
                 self.entries.setdefault(path, entry)
 
     def get(self, path: Path, root: Path) -> dict:
+        return self.get_str(str(path), root)
+
+    def get_str(self, key: str, root: Path) -> dict:
+        """``get`` of the file named ``key`` (a string: no Path objects on the no-op's path)."""
         if root not in self.loaded:
             self._load(root)
-        key = str(path)
-        stat = path.stat()
+        stat = os.stat(key)
         entry = self.entries.get(key)
         if entry is None or entry.get("stamp") != [stat.st_mtime_ns, stat.st_size]:
-            entry = {"stamp": [stat.st_mtime_ns, stat.st_size], **_file_facts(path)}
+            entry = {"stamp": [stat.st_mtime_ns, stat.st_size], **_file_facts(Path(key))}
             entry["imports"] = [list(i) for i in entry["imports"]]
             self.entries[key] = entry
             self.dirty.add(root)
@@ -327,7 +350,7 @@ def code_hash(*entries: str, root: Path = ROOT) -> str:
     """Stable 12-hex-digit hash of the code that running ``entries`` executes (:func:`files`)."""
     digest, resolved = hashlib.sha256(), root.resolve()
     for rel in files(*entries, root=root):
-        digest.update(json.dumps([rel, _file_digest(resolved / rel, resolved)]).encode())
+        digest.update(json.dumps([rel, _CACHE.get_str(f"{resolved}/{rel}", resolved)["digest"]]).encode())
     _CACHE.save(resolved)
     return digest.hexdigest()[:12]
 

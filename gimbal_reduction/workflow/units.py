@@ -19,6 +19,11 @@ A unit may carry a note in parentheses after a space (``"1 (of structural mass)"
 ``"deg (from +x towards +z)"``): when the whole string is not a unit expression, the
 trailing note is dropped. Non-physical labels (``"sign of local x"``, ``"body number"``)
 are matched exactly, from an explicit tuple the caller gives instead of a unit.
+
+What pint answers for a pair (unit given, unit expected) (the same unit, or the factor between
+them) is kept between invocations (:class:`gimbal_reduction.workflow.memo.DiskMemo`, salted with
+this file, ``DEFINITIONS`` and pint's version): a workflow run that reads only known pairs, a
+no-op's DAG build, neither imports pint nor builds the registry. A refused unit is never kept.
 """
 from __future__ import annotations
 
@@ -26,8 +31,9 @@ import functools
 import math
 import re
 from numbers import Real
+from pathlib import Path
 
-import pint
+from gimbal_reduction.workflow import memo
 
 # The project's units (pint definition syntax). Exact definitions: 1 in = 0.0254 m,
 # 1 lb = 0.45359237 kg, g0 = 9.80665 m/s^2.
@@ -89,8 +95,10 @@ class UnitError(ValueError):
 
 
 @functools.lru_cache(maxsize=1)
-def registry() -> pint.UnitRegistry:
-    """The project's unit registry (built once)."""
+def registry():
+    """The project's unit registry (a ``pint.UnitRegistry``, built once; pint is imported here,
+    on first need: see the module docstring)."""
+    import pint
     reg = pint.UnitRegistry(None, autoconvert_offset_to_baseunit=False)
     for line in DEFINITIONS.strip().splitlines():
         reg.define(line)
@@ -161,6 +169,28 @@ def convert(entry: dict, expected, key: str):
         return value
     if not isinstance(unit, str) or not unit.strip():
         raise UnitError(key, f"no unit given (expected {expected})")
+    factor = _factor(unit, expected, key)
+    if factor is None:
+        return value
+    if _is_number(value):
+        return value * factor
+    if isinstance(value, list) and all(_is_number(v) for v in value):
+        return [v * factor for v in value]
+    return value
+
+
+# (unit given, unit expected) -> "same", or the factor from the first to the second (module docstring)
+_MEMO = memo.DiskMemo("units", lambda: memo.salt(DEFINITIONS, files=(Path(__file__),),
+                                                 distributions=("pint",)))
+
+
+def _factor(unit: str, expected: str, key: str):
+    """The factor that takes a value in ``unit`` to ``expected``, None when they are the same
+    unit; UnitError naming ``key`` for an unknown unit or one of another dimension."""
+    pair = f"{unit}\n{expected}"
+    known = _MEMO.get(pair)
+    if known is not None:
+        return None if known == "same" else float(known)
     target = quantity(expected)
     if target is None:
         raise ValueError(f"{key}: the expected unit {expected!r} is not in the project's registry")
@@ -175,13 +205,11 @@ def convert(entry: dict, expected, key: str):
         raise UnitError(key, f"unit {unit!r} is {describe(given.dimensionality)}, expected "
                              f"{describe(target.dimensionality)} ({expected}){hint}")
     if given.units == target.units and given.magnitude == target.magnitude:
-        return value
+        _MEMO.put(pair, "same")
+        return None
     factor = float((given / target).to("dimensionless").magnitude)
-    if _is_number(value):
-        return value * factor
-    if isinstance(value, list) and all(_is_number(v) for v in value):
-        return [v * factor for v in value]
-    return value
+    _MEMO.put(pair, factor)
+    return factor
 
 
 __all__ = ["DEFINITIONS", "UnitError", "convert", "describe", "quantity", "registry"]

@@ -1,4 +1,6 @@
 """Config validation: every bad value stops with a one-line error naming the key."""
+import copy
+
 import pytest
 
 from gimbal_reduction.workflow import config as cfgmod
@@ -157,3 +159,26 @@ def test_a_config_with_aliases_or_deep_nesting_is_refused_in_one_line(tmp_path):
             cfgmod.read_config_file(path)
         message = str(info.value)
         assert "\n" not in message and all(w in message for w in words), message
+
+
+def test_a_config_that_passed_is_known_and_a_refused_one_is_checked_again(tmp_path, monkeypatch):
+    """In a Snakemake project the resolved form of a config that passed is kept (memo.DiskMemo):
+    a fresh process gets the same resolved config without the schema check; one edited value is
+    checked again, and a refused config is refused every time."""
+    from gimbal_reduction.workflow import memo
+    shipped = cfgmod.read_config_file(cfgmod.DEFAULT_CONFIG)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / ".snakemake").mkdir()
+    monkeypatch.setattr(cfgmod, "_MEMO", memo.DiskMemo("config", lambda: "salt-1"))
+    resolved = cfgmod.validate(shipped)
+    checks = []
+    real = cfgmod._validate
+    monkeypatch.setattr(cfgmod, "_validate", lambda c: checks.append(1) or real(c))
+    monkeypatch.setattr(cfgmod, "_MEMO", memo.DiskMemo("config", lambda: "salt-1"))
+    assert cfgmod.validate(shipped) == resolved and checks == []
+    bad = copy.deepcopy(shipped)
+    bad["modes"]["count"]["value"] = 3
+    for _ in range(2):
+        with pytest.raises(cfgmod.ConfigError, match="modes.count"):
+            cfgmod.validate(bad)
+    assert len(checks) == 2

@@ -177,3 +177,38 @@ def test_duplicate_keys_at_any_depth():
         yamlfile.load_text("a:\n  b: [{c: 1, c: 2}]\n", "f.yaml")
     assert info.value.key == "a.b.[0].c" and info.value.path == "f.yaml" and info.value.line == 2
     assert yamlfile.load_text("a: {b: 1}\nc: {b: 2}\n") == {"a": {"b": 1}, "c": {"b": 2}}
+
+
+def test_the_memo_gives_pints_answers_and_never_keeps_a_refusal(tmp_path, monkeypatch):
+    """In a Snakemake project (.snakemake/ exists) a fresh process answers a known pair from the
+    memo file, without pint (the registry is made to fail), with pint's factor; a refused unit
+    is refused again, naming the key; another salt (an edited units module) starts afresh."""
+    from gimbal_reduction.workflow import memo
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / ".snakemake").mkdir()
+    monkeypatch.setattr(units, "_MEMO", memo.DiskMemo("units", lambda: "salt-1"))
+    expected = units.convert({"value": 2.0, "unit": "m"}, "in", "length")
+    assert expected == pytest.approx(2.0 / 0.0254, rel=1e-15)
+    with pytest.raises(units.UnitError, match="^mass: unit 'm' is a length"):
+        units.convert({"value": 2.0, "unit": "m"}, "lb", "mass")
+    assert (tmp_path / memo.FOLDER / "gimbal_reduction-memo-units.json").is_file()
+
+    def no_pint():
+        raise AssertionError("pint was asked")
+    monkeypatch.setattr(units, "_MEMO", memo.DiskMemo("units", lambda: "salt-1"))
+    monkeypatch.setattr(units, "quantity", lambda unit: no_pint())
+    assert units.convert({"value": 2.0, "unit": "m"}, "in", "length") == expected
+    assert units.convert({"value": [1, 2.0], "unit": "m"}, "in", "length") == [expected / 2, expected]
+    with pytest.raises(AssertionError, match="pint was asked"):   # never kept: computed again
+        units.convert({"value": 2.0, "unit": "m"}, "lb", "mass")
+    monkeypatch.setattr(units, "_MEMO", memo.DiskMemo("units", lambda: "salt-2"))
+    with pytest.raises(AssertionError, match="pint was asked"):   # another salt: nothing known
+        units.convert({"value": 2.0, "unit": "m"}, "in", "length")
+
+
+def test_outside_a_snakemake_project_the_memo_writes_nothing(tmp_path, monkeypatch):
+    from gimbal_reduction.workflow import memo
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(units, "_MEMO", memo.DiskMemo("units", lambda: "salt-1"))
+    assert units.convert({"value": 1.0, "unit": "ft"}, "in", "length") == pytest.approx(12.0, rel=1e-15)
+    assert list(tmp_path.iterdir()) == []
