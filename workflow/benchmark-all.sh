@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# The whole answer's cost as a new user meets it: `snakemake --cores 2 all` on clean clones.
+#   1. clones the committed HEAD of this project into a temporary folder and runs its
+#      `make install` there (timed apart: the budget is the run after installation);
+#   2. runs `snakemake --cores 2 all` RUNS times (default 2), each from nothing (results/, logs/
+#      and .snakemake/ removed; the installed .venv and its kernels' extension kept, as after
+#      `make install`);
+#   3. summarises every run (gimbal_reduction.results.bench.workflow_run: wall, the jobs' CPU,
+#      the critical path) into results/benchmarks/all-clean.json of this project, and prints it.
+# Run it on a quiet machine: the runs are timed as they are. KEEP=1 keeps the clone.
+#   make benchmark-all            RUNS=1 make benchmark-all
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+runs="${RUNS:-2}"
+work="$(mktemp -d /tmp/gimbal-benchmark-all.XXXXXX)"
+[ "${KEEP:-0}" = 1 ] || trap 'rm -rf "$work"' EXIT
+git clone -q "$root" "$work/clone"
+cd "$work/clone"
+echo "benchmark-all: $(git rev-parse --short HEAD) cloned into $work/clone; make install ..."
+start=$(date +%s)
+SNAKEMAKE_BINDIR="${SNAKEMAKE_BINDIR:-/nonexistent}" bash workflow/envs/install.sh > "$work/install.log" 2>&1 \
+  || { echo "benchmark-all: make install failed (log: $work/install.log)" >&2; exit 1; }
+echo "benchmark-all: install took $(( $(date +%s) - start )) s"
+logs=() projects=()
+for i in $(seq 1 "$runs"); do
+  rm -rf results logs .snakemake
+  start=$(date +%s)
+  .venv/bin/python -m snakemake --cores 2 all > "$work/run$i.out" 2>&1 \
+    || { echo "benchmark-all: run $i failed (output: $work/run$i.out)" >&2; KEEP=1; exit 1; }
+  echo "benchmark-all: run $i of $runs: $(( $(date +%s) - start )) s wall (snakemake's start included)"
+  mkdir -p "$work/run$i"
+  cp "$(ls -t .snakemake/log/*.snakemake.log | head -1)" "$work/run$i/snakemake.log"
+  cp -r results/benchmarks "$work/run$i/"
+  mkdir -p "$work/run$i/results" && mv "$work/run$i/benchmarks" "$work/run$i/results/"
+  logs+=("$work/run$i/snakemake.log") projects+=(--project "$work/run$i")
+done
+.venv/bin/python -m gimbal_reduction.results.bench.workflow_run "${logs[@]}" "${projects[@]}" \
+  --out "$root/results/benchmarks/all-clean.json"
