@@ -297,14 +297,14 @@ def second_method_run(path, scene):
                            tol=float(a["stat_exponential_tol"]))
 
 
-def second_method_check(default, second, method, bound=1e-10, **details):
-    """The truth's convergence as the agreement of two methods: E (eq. 3.53) of ``default`` (the
+def second_method_check(default_run, second, method, bound=1e-10, /, **details):
+    """The truth's convergence as the agreement of two methods: E (eq. 3.53) of ``default_run`` (the
     converged DOP853 run) against ``second`` (``second_method_run``) per gimbal rate, passed when
     max E <= ``bound``; both runs on the same output grid, else ValueError."""
-    if second.yd.shape[0] != default.yd.shape[0]:
+    if second.yd.shape[0] != default_run.yd.shape[0]:
         raise ValueError(f"the second method's run has {second.yd.shape[0]} outputs, the default "
-                         f"{default.yd.shape[0]}")
-    E = error_measure(default.t, default.yd[:, :4], second.yd[:, :4])
+                         f"{default_run.yd.shape[0]}")
+    E = error_measure(default_run.t, default_run.yd[:, :4], second.yd[:, :4])
     return _check(f"truth convergence on thesis: the default ({method}) against the exponential "
                   f"integrator at tol {second.tol:g}, max E over the 4 gimbal rates", float(np.max(E)),
                   bound, E_per_rate=np.asarray(E).tolist(), steps_second=second.steps, **details)
