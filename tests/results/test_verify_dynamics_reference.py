@@ -8,7 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
-from gimbal_reduction.results.bench.verify_dynamics import (main, reference_run, second_method_check,
+from gimbal_reduction.results.bench.verify_dynamics import (_shared_record, main, pareto_truth_rows,
+                                                            reference_run, second_method_check,
                                                             second_method_run)
 from gimbal_reduction.solver.dynamics import scenes, simulate
 
@@ -98,3 +99,42 @@ def test_bad_options_are_refused_in_one_line(tmp_path, capsys, args, word):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and word in err[0]
     assert not (tmp_path / "v.json").exists()
+
+
+# ---- --runs-from: the truth's untimed RK4 and generalised-alpha runs of the Pareto benchmark
+PARETO_HEADER = ("model,integrator,method,step_s,steps,wall_time_s,E,E_outer_gimbal,E_middle_gimbal,"
+                 "E_inner_gimbal,E_stable_platform,status\n")
+
+
+def _pareto_csv(path, *rows):
+    path.write_text(PARETO_HEADER + "".join(rows))
+    return str(path)
+
+
+def test_the_truths_pareto_rows_give_the_records_of_the_same_step(tmp_path):
+    path = _pareto_csv(tmp_path / "p.csv",
+                       "freq-10,rk4-1,rk4,4.16667e-07,36000,3.0,0.07,0.07,1e-3,1e-6,3e-3,ok\n",
+                       "truth,rk4-1,rk4,4.16667e-07,36000,9.1,5.9e-06,5.9e-06,2.7e-07,1.3e-09,5.6e-08,ok\n",
+                       "truth,galpha-2.5e-06,generalized-alpha,2.5e-06,6000,8.8,1e-3,1e-3,1.9e-5,4.9e-6,2.4e-5,ok\n")
+    rows = pareto_truth_rows(path)
+    assert [(m, h) for m, h, _ in rows] == [("rk4", 4.16667e-07), ("generalized-alpha", 2.5e-06)]
+    rec = _shared_record("rk4", "rk4", 0.015 / 36000, rows, path)          # the step to 6 digits
+    assert rec["steps_taken"] == 36000 and rec["E_vs_converged_truth"] == 5.9e-06
+    assert rec["E_per_rate"] == [5.9e-06, 2.7e-07, 1.3e-09, 5.6e-08] and "rk4-1" in rec["run_from"]
+    assert _shared_record("rk4", "rk4", 0.015 / 72000, rows, path) is None  # another step: none
+    assert _shared_record("ga", "generalized-alpha", 2.5e-06, rows, path)["wall_times_s"] == [8.8]
+
+
+@pytest.mark.parametrize("rows, word", [(["freq-10,rk4-1,rk4,4e-07,36000,3.0,0.07,0.07,0,0,0,ok\n"], "no row"),
+                                        (["truth,rk4-1,rk4,4e-07,36000,9.1,,,,,,ok\n"], "without")])
+def test_pareto_rows_without_the_truth_or_its_error_are_refused(tmp_path, rows, word):
+    with pytest.raises(ValueError, match=word):
+        pareto_truth_rows(_pareto_csv(tmp_path / "p.csv", *rows))
+
+
+def test_runs_from_needs_the_untimed_converged_referee(tmp_path, capsys):
+    files = [str(tmp_path / f"b{n}.h5") for n in range(4)]
+    rc = main(["--bodies", *files, "--reductions", *files, "--verification", str(tmp_path / "v.json"),
+               "--benchmark", str(tmp_path / "b.json"), "--runs-from", "p.csv"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--runs-from" in err[0]

@@ -30,7 +30,8 @@ dynamics.json: every check as {name, value, tolerance, passed, details}:
 
 benchmarks/dynamics.json: wall times (median of ``--repeats`` runs) of the
 truth model on ``thesis`` with each integrator, with step, steps taken and E
-against the converged truth, and the software versions.
+against the converged truth, and the software versions; with ``--runs-from`` the untimed RK4 and
+generalised-alpha rows are the Pareto benchmark's runs of the same setting (``pareto_truth_rows``).
 """
 
 import argparse
@@ -51,6 +52,7 @@ from gimbal_reduction.reduction import models
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.results.bench.oracle import Oracle, jax_available, synthetic_chain
 from gimbal_reduction.results.bench.pareto import run_budget
+from gimbal_reduction.results.study.tables import RATE_COLUMNS
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow.progress import Progress
 from gimbal_reduction.workflow.provenance import check_record, provenance, versions, write_json
@@ -310,6 +312,35 @@ def second_method_check(default_run, second, method, bound=1e-10, /, **details):
                   bound, E_per_rate=np.asarray(E).tolist(), steps_second=second.steps, **details)
 
 
+def pareto_truth_rows(path):
+    """The truth's rows of a Pareto benchmark's CSV (``gimbal pareto --errors-only``, judged against
+    the same converged reference): [(method, step [s], row)], each row with its E per rate; a
+    missing file, no truth row or a row without E refused in one line (ValueError)."""
+    import csv
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r.get("model") == "truth" and r.get("status", "ok") == "ok"]
+    if not rows:
+        raise ValueError(f"{path}: no row of the truth")
+    bad = [r.get("integrator") for r in rows
+           if not all(r.get(c) not in (None, "") for c in ("step_s", "steps", "E", *RATE_COLUMNS))]
+    if bad:
+        raise ValueError(f"{path}: truth rows without step, steps or E: {', '.join(map(str, bad))}")
+    return [(r["method"], float(r["step_s"]), r) for r in rows]
+
+
+def _shared_record(label, method, step, shared, source):
+    """The benchmark record of an integrator setting taken from a Pareto truth row of the same
+    method and step (``pareto_truth_rows``; the step to the CSV's 6 digits), or None."""
+    for m, h, row in shared or ():
+        if m == method and np.isclose(h, step, rtol=1e-5):
+            E = [float(row[c]) for c in RATE_COLUMNS]
+            return {"integrator": method, "label": label, "wall_times_s": [float(row["wall_time_s"])],
+                    "median_wall_time_s": float(row["wall_time_s"]), "step_s": h,
+                    "steps_taken": int(row["steps"]), "E_vs_converged_truth": float(row["E"]),
+                    "E_per_rate": E, "stats": {}, "run_from": f"{source} ({row['integrator']})"}
+    return None
+
+
 def _bench_record(label, method, walls, run, ref):
     """The benchmark record of one integrator: its runs' wall times [s], E of ``run`` against
     ``ref`` (the converged truth), step and steps."""
@@ -343,7 +374,8 @@ def bench_settings(rk4_step):
              dict(method="generalized-alpha", step=GA_STEP))]
 
 
-def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None, second=None):
+def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None, second=None,
+               shared=None, shared_source=""):
     """Truth on thesis: default-step convergence, and every integrator's cost and accuracy: the
     median of ``repeats`` runs each, fewer (at least one) where they would not fit in ``budget_s``
     seconds at the first run's pace (a run that slow decides no comparison by its median).
@@ -352,7 +384,10 @@ def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None, seco
     default's run (the same integrator and setting) instead of integrating it again.
     second: with ``reference``, the exponential integrator's tight run (``second_method_run``):
     the convergence check compares the default with it instead of integrating the default at half
-    its step, and the default is the converged truth the benchmark's E are measured against."""
+    its step, and the default is the converged truth the benchmark's E are measured against.
+    shared: with ``second``, ``pareto_truth_rows`` of a Pareto run against the same converged
+    truth (``shared_source`` its file): an untimed setting of the same method and step is taken
+    from its row, not integrated again."""
     chain, prob, scene, t_omega, rk4_limit_step = truth_setup(body_data, rankings)
     limit = integrators.rk4_stability_limit(prob.omega_max)
     cfg = dict(simulate.REFERENCE)
@@ -407,6 +442,15 @@ def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None, seco
             run = go(**kw)
             walls.append(time.perf_counter() - t0)
         return _bench_record(label, kw["method"], walls, run, referee), run
+
+    def effective_step(method, kw):
+        """The step a fixed-step setting runs at: RK4's given one; generalised-alpha's the largest
+        dividing the output interval, not above the given one (integrators._generalized_alpha)."""
+        n = max(int(np.ceil(scene.output_interval / kw["step"] - 1e-9)), 1)
+        return kw["step"] if method == "rk4" else scene.output_interval / n
+
+    # rows of another job's untimed runs apply only against the same referee: the converged file
+    shared = shared if (repeats == 1 and ref is run_h) else None
     records, ga = [], None
     for label, kw in bench_settings(rk4_step=rk4_limit_step):
         if kw["method"] == "dop853" and default_is_dop:        # the default run counts
@@ -417,18 +461,26 @@ def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None, seco
             rec["wall_times_s"].append(t_default)
             rec["median_wall_time_s"] = float(np.median(rec["wall_times_s"]))
         else:
-            rec, run = bench(label, repeats, **kw)
-            ga = run if kw["method"] == "generalized-alpha" else ga
+            rec = (_shared_record(label, kw["method"], effective_step(kw["method"], kw), shared,
+                                  shared_source) if kw["method"] in ("rk4", "generalized-alpha") else None)
+            if rec is None:
+                rec, run = bench(label, repeats, **kw)
+                rec["run_from"] = "integrated here"
+            if kw["method"] == "generalized-alpha":
+                ga = (rec["step_s"], rec["E_vs_converged_truth"])
         records.append(rec)
-    # a step never exceeds the output interval (it divides it: integrators._generalized_alpha), so
-    # where both GA_STEP and its half are capped there, the half-step run is the same run
-    half_step = scene.output_interval / max(int(np.ceil(scene.output_interval / (GA_STEP / 2) - 1e-9)), 1)
-    ga2 = ga if np.isclose(half_step, ga.step, rtol=1e-12) else go(method="generalized-alpha",
-                                                                   step=GA_STEP / 2)
-    Ega, Ega2 = rate_error(ga, ref), rate_error(ga2, ref)
+    # a step never exceeds the output interval (it divides it), so where both GA_STEP and its half
+    # are capped there, the half-step run is the same run
+    half = dict(method="generalized-alpha", step=GA_STEP / 2)
+    if np.isclose(effective_step("generalized-alpha", half), ga[0], rtol=1e-9):
+        ga2 = ga
+    else:
+        run2 = go(**half)
+        ga2 = (run2.step, rate_error(run2, ref))
+    (h_ga, Ega), (h_ga2, Ega2) = ga, ga2
     ga_check = _check(f"generalized-alpha accuracy on thesis (truth, h = {GA_STEP:g} s) vs the converged truth",
                       Ega, 1e-1, E_half_step=Ega2, ratio_on_halving=Ega / Ega2 if Ega2 > 0 else None,
-                      steps_used_s=[float(ga.step), float(ga2.step)],
+                      steps_used_s=[float(h_ga), float(h_ga2)],
                       note="measured, not a convergence claim: rho_inf 0.9 filters the top modes, "
                            "so E stalls at their share of the rates (outer gimbal rate, tiny, has the "
                            "largest E); the tolerance 0.1 only flags a gross failure")
@@ -516,6 +568,10 @@ def main(argv=None):
                     help="with --reference: the truth on thesis by the exponential integrator at a "
                          "tight tolerance (results/all/reference/thesis/truth.h5); the truth's "
                          "convergence is the default against it, not a run at half its step")
+    ap.add_argument("--runs-from", metavar="CSV",
+                    help="with --untimed and --convergence-reference: a Pareto benchmark's untimed "
+                         "errors (gimbal pareto --errors-only) against the same reference; the truth's "
+                         "RK4 and generalised-alpha settings are taken from its rows of the same step")
     ap.add_argument("--conservation-duration", type=float, metavar="SECONDS",
                     help="the exponential integrator's energy and momentum drift over the first "
                          "SECONDS of free_10s (default: all 10 s)")
@@ -524,6 +580,9 @@ def main(argv=None):
     try:
         if args.convergence_reference and not args.reference:
             raise ValueError("--convergence-reference needs --reference (the default it checks)")
+        if args.runs_from and not (args.untimed and args.convergence_reference):
+            raise ValueError("--runs-from needs --untimed and --convergence-reference (the rows are "
+                             "untimed runs against the converged reference)")
         if args.conservation_duration is not None and not (
                 0 < args.conservation_duration <= scenes.load_scene("free_10s").duration):
             raise ValueError(f"--conservation-duration {args.conservation_duration:g}: not within "
@@ -537,6 +596,7 @@ def main(argv=None):
         reference = reference_run(args.reference, scenes.load_scene("thesis")) if args.reference else None
         second = (second_method_run(args.convergence_reference, scenes.load_scene("thesis"))
                   if args.convergence_reference else None)
+        shared = pareto_truth_rows(args.runs_from) if args.runs_from else None
     except (OSError, ValueError) as exc:
         print(f"verify_dynamics: {exc}", file=sys.stderr)
         return 2
@@ -561,7 +621,8 @@ def main(argv=None):
     checks += section("bad input", bad_input_checks, body_files, reduction_files, tempfile.mkdtemp())
     truth_checks, bench, info, truth = section("truth", truth_runs, body_data, rankings,
                                                1 if args.untimed else args.repeats,
-                                               args.budget, reference, second)
+                                               args.budget, reference, second, shared,
+                                               args.runs_from or "")
     checks += truth_checks
     checks += section("exponential", exponential_checks, body_data, rankings, truth,
                       args.conservation_duration)
