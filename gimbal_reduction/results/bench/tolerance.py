@@ -15,7 +15,8 @@ simulations; ``gimbal_reduction.results.study.run_scene`` does the same):
 2. for every EPS the model ``tol-EPS`` is reduced through the stage the workflow runs
    (``gimbal_reduction.reduction.models.main``, in process): the a-priori choice of the frozen linear chain, or,
    where that chain does not hold (``long``, ``spin``), the verified search
-   (``gimbal_reduction.reduction.verified_search``); then integrated the same way, and its error measured:
+   (``gimbal_reduction.reduction.verified_search``, its truth the run of step 1); then integrated the
+   same way, and its error measured:
 
        E_n = int (x_n - r_n)^2 dt / int r_n^2 dt   (eq. 3.53, n = the four gimbal rates),
        within the request  <=>  max_n E_n <= EPS ;
@@ -103,17 +104,19 @@ def reduce(model, scene_file, bodies, reductions, load_ranking, tmp, runs=None):
     return 0, lines, path, attrs, wall
 
 
-def timed_run(model_file, scene, repeats, budget_s):
+def timed_run(model_file, scene, repeats, budget_s, frames=False):
     """One model file through the scene: {t (T,) [s], rates (T, 4) [rad/s], run_time_s (median
     integration wall time), runs, steps, time_basis}: ``timing.median_timing`` after one run that
     gives the rates (whole runs within ``budget_s`` seconds, else a prefix scaled by the steps);
-    repeats 0: that one run's time (``--untimed``)."""
+    repeats 0: that one run's time (``--untimed``); frames: also the platform's frames (T, 3, 3)."""
     chain, _ = chainfile.read_chain(model_file, scene.damping_ratio)
     prob = simulate.scene_problem(chain, scene)
     first, _ = simulate.run_scene(chain, scene, problem=prob)
     out = {"t": np.asarray(first.t, float), "rates": np.asarray(first.yd[:, :4], float),
            "run_time_s": first.wall_time, "runs": 1, "steps": int(first.steps),
            "time_basis": "one run, not timed alone"}
+    if frames:
+        out["frames"] = simulate.platform_attitude(chain, first)
     if repeats > 0:
         out.update(_median(prob, scene, first.wall_time, first.steps, repeats, budget_s))
     return out
@@ -130,6 +133,7 @@ def file_run(path, scene, model_file, reference="truth"):
     with h5py.File(path, "r") as f:
         a = dict(f.attrs)
         t, rates = np.asarray(f["t"][()], float), np.asarray(f["gamma_dot"][()][:, :4], float)
+        frames = np.asarray(f["platform_attitude"][()], float) if "platform_attitude" in f else None
     options = simulate.scene_options(scene, simulate.DEFAULT_INTEGRATOR, None, {})
     want = {"scene": scene.name, "model": reference, "model_config_hash": model_hash,
             "integrator": simulate.DEFAULT_INTEGRATOR}
@@ -143,7 +147,7 @@ def file_run(path, scene, model_file, reference="truth"):
     if wrong:
         raise ValueError(f"--truths {path} is not the {reference} of scene {scene.name} as this bench "
                          f"runs it ({want}): {wrong}")
-    return {"t": t, "rates": rates, "run_time_s": float(a["integration_time_s"]), "runs": 1,
+    return {"t": t, "rates": rates, "frames": frames, "run_time_s": float(a["integration_time_s"]), "runs": 1,
             "steps": int(a["steps"]), "time_basis": "one run, not timed alone (the study's file)",
             "run_file": path}
 
@@ -240,7 +244,6 @@ def bench_scene(scene_file, eps_list, bodies, reductions, load_ranking, table=No
     scene = scenes.load_scene(scene_file)
     name = scene.name
     rows, comparisons = [], []
-    runs = verified_search.Runs()       # the verified searches of this scene's requests share runs
     with (contextlib.nullcontext(keep_dir) if keep_dir
           else tempfile.TemporaryDirectory(prefix="tolerance_")) as tmp:
         os.makedirs(tmp, exist_ok=True)
@@ -252,7 +255,10 @@ def bench_scene(scene_file, eps_list, bodies, reductions, load_ranking, table=No
         if rc:
             raise RuntimeError(f"{reference} on {name} failed: {lines[-1] if lines else rc}")
         truth = (file_run(truth_file, scene, path, reference) if truth_file
-                 else timed_run(path, scene, repeats, budget_s))
+                 else timed_run(path, scene, repeats, budget_s, frames=reference == "truth"))
+        # the verified searches of this scene's requests share runs, the truth's this one
+        runs = verified_search.Runs(truth=(truth["t"], truth["rates"], truth["frames"], truth["run_time_s"])
+                                    if reference == "truth" and truth.get("frames") is not None else None)
         log(f"tolerance: {name}: {reference} {truth['run_time_s']:.2f} s (median of {truth['runs']})")
         for eps in eps_list:
             model = f"tol-{eps:g}"
