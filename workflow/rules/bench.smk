@@ -440,7 +440,7 @@ rule exponential_accuracy_all:
         code=code_hash("exponential-accuracy"),
         cfg=body_files_hash,
     message:
-        "The exponential integrator against DOP853 on the short scenes (~1 CPU-minute; log: {log})"
+        "The exponential integrator against its converged references on every scene, the study's truths read (~1 CPU-minute; log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} exponential-accuracy --truth-model {input.truth_model} "
         "--reference {params.references} --anchor {params.anchors} --runs {params.runs} --tol {params.tol} "
@@ -603,7 +603,7 @@ rule stability_all:
         code=code_hash("stability"),
         cfg=body_files_hash,
     message:
-        "Stability stress tests: RK4's step limit and the energy drift over 10 s (~1 CPU-minute; log: {log})"
+        "Stability stress tests: RK4's step limit and the energy drift over 1 s (~20 CPU s with RK4's kernels compiled; log: {log})"
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} stability --quick --bodies {input.bodies} "
         "--reductions {input.reductions} --out-dir $(dirname {output.json}) "
@@ -671,9 +671,10 @@ use rule integrator_tables as integrator_tables_all with:
 # Accuracy on request in `all`: every scene of `tolerance`, two of its EPS, each verdict with its case
 # (measured at these EPS): at 1e-2 the frozen chain's estimate holds and long's and spin's searches stop at
 # the rigid model; at 1e-6 the estimate misses on thesis (measured 1.4e-6), the search's first guess
-# misses on spin and meets on long. 1e-4 too (~50 CPU s: long's search simulates 4 candidates) in `bench`.
+# misses on spin and meets on long (`bench` asks all of TOLERANCE_EPS; 1e-4 would cost ~50 CPU s more:
+# long's search simulates 4 candidates).
 # Two jobs: the requests reduced (long's and spin's verified searches) and every model run once for its
-# E, beside the others (~90 CPU s), its model files kept; then their timing alone, each model's 5 runs
+# E, beside the others (~50 CPU s), its model files kept; then their timing alone, each model's 5 runs
 # within ALL_CASE_BUDGET_S (a slower one whole as often as fits: common.smk)
 ALL_TOLERANCE_EPS = [1e-2, 1e-6]
 
@@ -714,7 +715,7 @@ rule tolerance_untimed_all:
         ),
         code=code_hash("tolerance"),
     message:
-        "Accuracy on request, untimed part: the smallest model per error target and scene (log: {log})"
+        "Accuracy on request, untimed part: the smallest model per error target and scene, the study's truths read (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 MPLBACKEND=Agg {GIMBAL} tolerance --untimed --keep-models {output.models} "
         "--scenes {input.scenes} --truths {params.truths} --eps {params.eps} --modes-dir results/modes "
