@@ -156,10 +156,16 @@ def smallest_verified(eps, measure, total, guess=None, known=None) -> SearchResu
 class Runs:
     """The simulations of the judges one caller makes: key -> {"truth": (t, rates, frames, s),
     N: (E, s)}, so that several requests on one scene (``gimbal_reduction.results.bench.tolerance``)
-    simulate each candidate once.  Passed to each ``SimulationJudge``; nothing is kept elsewhere."""
+    simulate each candidate once.  Passed to each ``SimulationJudge``; nothing is kept elsewhere.
 
-    def __init__(self):
+    truth: (t (T,) [s], rates (T, 4) [rad/s], platform frames (T, 3, 3), wall time [s]) of the
+    scene's truth the caller has already integrated with the default integrator (every mode of the
+    scene's elastic bodies, the same body files: the set global-Q keeps, in another order); each
+    judge takes it as its truth's run instead of simulating global-Q again."""
+
+    def __init__(self, truth=None):
         self._by_key = {}
+        self.truth = truth
 
     def of(self, key):
         """The runs kept under ``key`` (a dict the judge fills)."""
@@ -186,6 +192,10 @@ class SimulationJudge:
         self.size = N_RATES + 1 if attitude else N_RATES
         self.log = log or (lambda text: None)
         self.runs = runs.of(key) if runs is not None and key is not None else {}
+        if runs is not None and runs.truth is not None and "truth" not in self.runs:
+            self.runs["truth"] = runs.truth
+            self.log(f"truth (global-{self.truth_N}): the caller's run of it, "
+                     f"{runs.truth[-1]:.1f} s, not simulated again")
         self.seconds = 0.0          # wall time of the simulations this judge ran itself
 
     def _run(self, N):

@@ -340,3 +340,17 @@ def test_attitude_request_is_answered_by_a_verified_search(invalid_scene, tmp_pa
     assert _measured_attitude(tmp_path / "a", f"global-{N}") <= A
     below = _measured(root, valid, f"global-{N - 1}", tmp_path / "b")
     assert below > eps or _measured_attitude(tmp_path / "b", f"global-{N - 1}") > A
+
+
+def test_a_judge_takes_the_truth_run_its_caller_made():
+    """Runs(truth=...): the truth the caller integrated is each judge's truth, global-Q is not
+    simulated again (chain_for is never asked for it); without it the judge has no truth yet."""
+    from gimbal_reduction.reduction.verified_search import Runs, SimulationJudge
+    t = np.linspace(0.0, 1e-3, 11)
+    seeded = (t, np.ones((11, 4)), np.tile(np.eye(3), (11, 1, 1)), 1.5)
+    asked, lines = [], []
+    judge = SimulationJudge("scene", asked.append, 400, key=("tol", "k"), runs=Runs(truth=seeded),
+                            log=lines.append)
+    assert judge.truth() is seeded and asked == []
+    assert "not simulated again" in lines[0]
+    assert "truth" not in SimulationJudge("scene", asked.append, 400, key=("tol", "k"), runs=Runs()).runs

@@ -98,3 +98,42 @@ def test_a_faster_reference_is_checked_against_dop853():
         row, check = ea.anchor_check("thesis", (t, rates * (1 + offset), "exponential tol 1e-08"), anchor)
         assert check["passed"] is passed and len(row["E"]) == 4
         assert check["tolerance"] == pytest.approx(1e-9)
+
+
+# ---- --runs: the default case read from the workflow's own run of the scene
+RUN_ATTRS = {"integrator": "exponential", "stat_exponential_tol": 1e-5, "steps": 41,
+             "stat_evaluations": 45, "stat_relinearisations": 0, "stat_phase_relinearisations": 0,
+             "stat_rejected": 1, "integration_time_s": 0.3, "stat_basis_time_s": 0.05}
+
+
+def test_the_default_case_is_read_from_the_scenes_run(tmp_path):
+    t = np.linspace(0, 1e-3, 11)
+    ref = np.ones((11, 4))
+    path = write_reference(tmp_path / "run.h5", **RUN_ATTRS)     # zero rates: E = 1 on every rate
+    case = ea.file_case(path, "thesis", "abc", t, ref, 1e-5)
+    assert case["E_max"] == pytest.approx(1.0) and case["steps"] == 41 and case["bases"] == 1
+    assert case["wall_s"] == 0.3 and case["run_file"] == path
+
+
+@pytest.mark.parametrize("attrs, word", [({"scene": "free"}, "scene"), ({"model": "freq-10"}, "model"),
+                                         ({"stat_exponential_tol": 1e-6}, "tol"),
+                                         ({"integrator": "dop853"}, "integrator")])
+def test_a_run_of_another_case_is_refused_in_one_line(tmp_path, attrs, word):
+    path = write_reference(tmp_path / "run.h5", **{**RUN_ATTRS, **attrs})
+    with pytest.raises(ea.AccuracyInputError) as exc:
+        ea.file_case(path, "thesis", "abc", np.linspace(0, 1e-3, 11), np.ones((11, 4)), 1e-5)
+    assert word in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_a_run_on_another_grid_is_refused(tmp_path):
+    path = write_reference(tmp_path / "run.h5", **RUN_ATTRS)
+    with pytest.raises(ea.AccuracyInputError, match="outputs"):
+        ea.file_case(path, "thesis", "abc", np.linspace(0, 1e-3, 21), np.ones((21, 4)), 1e-5)
+
+
+def test_a_run_without_its_reference_is_refused_by_the_cli(tmp_path, capsys):
+    rc = ea.main(["--truth-model", str(tmp_path / "none.h5"), "--reference", f"thesis={tmp_path}/x.h5",
+                  "--runs", f"free={tmp_path}/r.h5",
+                  "--out-json", str(tmp_path / "o.json"), "--out-md", str(tmp_path / "o.md")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--runs" in err[0]

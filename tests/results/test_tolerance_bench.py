@@ -133,3 +133,54 @@ def test_bench_compares_the_cheapest_family_models_at_equal_error(bench_run):
     c = by[("freq", eps[1])]
     assert c["n_elastic"] == 24 and c["measured_E_max"] == pytest.approx(0.0, abs=1e-12)   # all modes
     assert c["time_ratio"] == pytest.approx(c["tol_run_time_s"] / c["run_time_s"])
+
+
+# ---- --truths: the truth's run read from the study's file of the scene
+def _truth_files(tmp_path, **change):
+    """(simulation file, model file) as the study and the reduction stage write them, thesis."""
+    import h5py
+    from gimbal_reduction.solver.dynamics import scenes
+    scene = scenes.load_scene("thesis")
+    n = int(round(scene.duration / scene.output_interval)) + 1
+    model = tmp_path / "truth_model.h5"
+    with h5py.File(model, "w") as f:
+        f.attrs["config_hash"] = "feb4"
+    attrs = {"scene": "thesis", "model": "truth", "model_config_hash": "feb4",
+             "integrator": "exponential", "stat_exponential_tol": 1e-5, "steps": 41,
+             "integration_time_s": 0.3, **change}
+    sim = tmp_path / "sim.h5"
+    with h5py.File(sim, "w") as f:
+        f["t"] = np.linspace(0.0, scene.duration, n)
+        f["gamma_dot"] = np.ones((n, 4))
+        for k, v in attrs.items():
+            f.attrs[k] = v
+    return str(sim), str(model), scene
+
+
+def test_the_truth_is_read_from_the_studys_run(tmp_path):
+    sim, model, scene = _truth_files(tmp_path)
+    run = tb.file_run(sim, scene, model)
+    assert run["rates"].shape == (run["t"].size, 4) and run["steps"] == 41
+    assert run["run_time_s"] == 0.3 and run["runs"] == 1 and "not timed alone" in run["time_basis"]
+
+
+@pytest.mark.parametrize("change", [{"scene": "damped"}, {"model": "global-100"},
+                                    {"model_config_hash": "other"}, {"integrator": "rk4"},
+                                    {"stat_exponential_tol": 1e-6}])
+def test_another_run_is_refused_as_the_truth_in_one_line(tmp_path, change):
+    sim, model, scene = _truth_files(tmp_path, **change)
+    with pytest.raises(ValueError) as err:
+        tb.file_run(sim, scene, model)
+    assert "sim.h5" in str(err.value) and "\n" not in str(err.value)
+    assert all(str(v) in str(err.value) for v in change.values())
+
+
+@pytest.mark.parametrize("args", [["--truths", "thesis=x.h5"],                       # not --untimed
+                                  ["--untimed", "--truths", "spin=x.h5"],            # not a scene given
+                                  ["--untimed", "--truths", "thesis"]])
+def test_bad_truths_are_refused_in_one_line(tmp_path, capsys, args):
+    rc = tb.main(["--scenes", "thesis", "--out-csv", str(tmp_path / "t.csv"),
+                  "--out-json", str(tmp_path / "t.json"), *args])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--truths" in err[0]
+    assert not (tmp_path / "t.json").exists()

@@ -21,6 +21,10 @@ seconds).  The second is only as good as its agreement with the first: ``--ancho
 gives DOP853 references of some scenes, and each exponential reference of such a scene is checked
 against it, E_max <= ``ANCHOR_BOUND`` (a referee ten times finer than the bound it referees).  A
 reference of the same truth model and scene, or a one-line error before any integration.
+
+``--runs SCENE=FILE`` gives the workflow's own run of a scene's truth at the tolerance it runs the
+scene at (the study's results/study/{scene}/sim/truth.h5): the default case is read from it, not
+integrated again (checked: the same scene, truth model, integrator and tolerance as the case).
 """
 from __future__ import annotations
 
@@ -112,6 +116,34 @@ def scene_case(chain, scene, t_ref, rates_ref, tol):
             "wall_s": wall, "basis_s": float(st["basis_time_s"])}
 
 
+def file_case(path, scene, truth_hash, t_ref, rates_ref, tol):
+    """The record of ``scene_case`` from a simulation file of the truth at ``tol`` (``--runs``), its
+    wall time the file's integration time; AccuracyInputError if the file is another scene, model,
+    integrator or tolerance, or has another output grid than the reference."""
+    if not os.path.exists(path):
+        raise AccuracyInputError(f"--runs of scene {scene!r}: {path} does not exist")
+    with h5py.File(path, "r") as f:
+        a = dict(f.attrs)
+        t, rates = f["t"][()], f["gamma_dot"][()]
+    file_tol = float(a.get("stat_exponential_tol", np.nan))
+    problems = [what for what, bad in (
+        (f"scene {a.get('scene')!r}", str(a.get("scene")) != scene),
+        (f"model {a.get('model')!r} of another config",
+         str(a.get("model")) != "truth" or str(a.get("model_config_hash")) != truth_hash),
+        (f"integrator {a.get('integrator')} at tol {file_tol:g} (the case: exponential at {tol:g})",
+         str(a.get("integrator")) != "exponential" or not abs(file_tol - tol) <= 1e-9 * tol),
+        (f"{len(t)} outputs (the reference: {len(t_ref)})", len(t) != len(t_ref))) if bad]
+    if problems:
+        raise AccuracyInputError(f"--runs {path} is not the truth of scene {scene!r} at tol {tol:g}: "
+                                 + ", ".join(problems))
+    E = np.asarray(error_measure(t_ref, rates_ref, rates[:, :4]))
+    return {"tol": tol, "E": E.tolist(), "E_max": float(np.nanmax(E)), "steps": int(a["steps"]),
+            "evaluations": int(a["stat_evaluations"]), "bases": int(a["stat_relinearisations"]) + 1,
+            "phase_bases": int(a["stat_phase_relinearisations"]), "rejected": int(a["stat_rejected"]),
+            "wall_s": float(a["integration_time_s"]), "basis_s": float(a["stat_basis_time_s"]),
+            "run_file": path}
+
+
 def anchor_check(scene, reference, anchor):
     """(row, check) of a reference against a DOP853 one of the same scene: E of eq. 3.53 per gimbal
     rate, the reference taken as the case; the check: E_max <= ANCHOR_BOUND.  ``reference`` and
@@ -147,6 +179,9 @@ def main(argv=None) -> int:
     ap.add_argument("--anchor", nargs="*", default=[], metavar="SCENE=FILE",
                     help="DOP853 references (rtol <= 1e-10) that the exponential references of the same "
                          "scenes are checked against")
+    ap.add_argument("--runs", nargs="*", default=[], metavar="SCENE=FILE",
+                    help="the workflow's runs of the truth at the scenes' tolerance: each scene's "
+                         "default case read from its file instead of integrated")
     ap.add_argument("--tol", type=float, default=exponential.DEFAULTS.tol)
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-md", required=True)
@@ -159,6 +194,10 @@ def main(argv=None) -> int:
         exponential.ExponentialOptions(tol=args.tol)
         refs = parse_references(args.reference)
         anchors = parse_references(args.anchor)
+        run_files = parse_references(args.runs)
+        if set(run_files) - set(refs):
+            raise AccuracyInputError(f"--runs of scene(s) {', '.join(sorted(set(run_files) - set(refs)))} "
+                                     "without a --reference to judge them")
         if set(anchors) - set(refs):
             raise AccuracyInputError(f"--anchor of scene(s) {', '.join(sorted(set(anchors) - set(refs)))} "
                                      "without a --reference to check")
@@ -175,6 +214,9 @@ def main(argv=None) -> int:
                 anchored[name] = read_reference(name, anchors[name], truth_hash)
                 if not anchored[name][2].startswith("dop853"):
                     raise AccuracyInputError(f"--anchor {anchors[name]}: not a DOP853 reference")
+        from_files = {name: file_case(path, name, truth_hash, loaded[name][2], loaded[name][3],
+                                      loaded[name][0].tighter_tolerance(args.tol))
+                      for name, path in run_files.items()}
     except (OSError, ValueError) as exc:
         print(f"exponential_accuracy: {exc}", file=sys.stderr)
         return 2
@@ -186,7 +228,7 @@ def main(argv=None) -> int:
         print(f"exponential_accuracy: {check['name']}: {row['E_max']:.2e}", flush=True)
     for name, (scene, chain, t_ref, rates_ref, kind) in loaded.items():
         tol = scene.tighter_tolerance(args.tol)         # as the workflow runs the scene
-        default = scene_case(chain, scene, t_ref, rates_ref, tol)
+        default = from_files.get(name) or scene_case(chain, scene, t_ref, rates_ref, tol)
         tight_factor = TIGHT_FACTOR if kind.startswith("dop853") else EXPONENTIAL_TIGHT_FACTOR
         tight = scene_case(chain, scene, t_ref, rates_ref, tol / tight_factor)
         rows.append({"scene": name, "reference": refs[name], "reference_kind": kind, "default": default,
@@ -198,7 +240,7 @@ def main(argv=None) -> int:
         print(f"exponential_accuracy: {name}: E {default['E_max']:.2e} ({default['steps']} steps, "
               f"{default['bases']} bases, {default['wall_s']:.2f} s); tight {tight['E_max']:.2e}",
               flush=True)
-    record = provenance(sources=[args.truth_model, *refs.values(), *anchors.values()])
+    record = provenance(sources=[args.truth_model, *refs.values(), *anchors.values(), *run_files.values()])
     write_text(args.out_md, markdown(rows, anchor_rows), record)
     write_json(args.out_json, {"stage": "exponential_accuracy", "rows": rows, "anchors": anchor_rows,
                                "checks": checks,

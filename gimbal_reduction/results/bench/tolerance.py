@@ -15,7 +15,8 @@ simulations; ``gimbal_reduction.results.study.run_scene`` does the same):
 2. for every EPS the model ``tol-EPS`` is reduced through the stage the workflow runs
    (``gimbal_reduction.reduction.models.main``, in process): the a-priori choice of the frozen linear chain, or,
    where that chain does not hold (``long``, ``spin``), the verified search
-   (``gimbal_reduction.reduction.verified_search``); then integrated the same way, and its error measured:
+   (``gimbal_reduction.reduction.verified_search``, its truth the run of step 1); then integrated the
+   same way, and its error measured:
 
        E_n = int (x_n - r_n)^2 dt / int r_n^2 dt   (eq. 3.53, n = the four gimbal rates),
        within the request  <=>  max_n E_n <= EPS ;
@@ -29,6 +30,8 @@ Times: ``run_time_s`` is the integration's wall time (``integrators.Run.wall_tim
 ``--repeats`` runs (a model whose runs would not fit in ``--budget`` seconds timed over a prefix of
 the scene and scaled by its steps, ``gimbal_reduction.results.bench.timing``: ``time_basis``); with
 ``--untimed`` one run (beside other jobs), which ``--times-from`` times alone; after one untimed run of the rigid model per scene that loads the compiled kernels;
+with ``--truths SCENE=FILE`` (``--untimed`` only) the truth's rates and time are read from the
+study's run of the scene (``file_run``: the same model, integrator and tolerance), not integrated;
 ``selection_time_s`` is the reduction stage's wall time of one run (for a verified search it
 includes the candidates' simulations, which the later EPS of a scene partly reuse:
 ``search_cost_s`` is the search's cost on its own, the truth's run plus every probe's).  One row
@@ -62,7 +65,7 @@ from gimbal_reduction.results.bench.equal_error import FAMILIES, cheapest_within
 from gimbal_reduction.results.bench import timing  # noqa: E402
 from gimbal_reduction.results.study.figures import STYLE, pyplot, save  # noqa: E402
 from gimbal_reduction.results.study.tables import read_table  # noqa: E402
-from gimbal_reduction.solver.dynamics import chainfile, integrators, scenes, simulate  # noqa: E402
+from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, scenes, simulate  # noqa: E402
 from gimbal_reduction.solver.dynamics.error_measure import error_measure  # noqa: E402
 from gimbal_reduction.workflow.provenance import csv_text, provenance, write_json, write_text  # noqa: E402
 
@@ -101,20 +104,52 @@ def reduce(model, scene_file, bodies, reductions, load_ranking, tmp, runs=None):
     return 0, lines, path, attrs, wall
 
 
-def timed_run(model_file, scene, repeats, budget_s):
+def timed_run(model_file, scene, repeats, budget_s, frames=False):
     """One model file through the scene: {t (T,) [s], rates (T, 4) [rad/s], run_time_s (median
     integration wall time), runs, steps, time_basis}: ``timing.median_timing`` after one run that
     gives the rates (whole runs within ``budget_s`` seconds, else a prefix scaled by the steps);
-    repeats 0: that one run's time (``--untimed``)."""
+    repeats 0: that one run's time (``--untimed``); frames: also the platform's frames (T, 3, 3)."""
     chain, _ = chainfile.read_chain(model_file, scene.damping_ratio)
     prob = simulate.scene_problem(chain, scene)
     first, _ = simulate.run_scene(chain, scene, problem=prob)
     out = {"t": np.asarray(first.t, float), "rates": np.asarray(first.yd[:, :4], float),
            "run_time_s": first.wall_time, "runs": 1, "steps": int(first.steps),
            "time_basis": "one run, not timed alone"}
+    if frames:
+        out["frames"] = simulate.platform_attitude(chain, first)
     if repeats > 0:
         out.update(_median(prob, scene, first.wall_time, first.steps, repeats, budget_s))
     return out
+
+
+def file_run(path, scene, model_file, reference="truth"):
+    """``timed_run``'s record of the reference from a simulation file the workflow made of it on
+    ``scene`` (``--truths``: the study's results/study/{scene}/sim/truth.h5), its time the file's
+    integration time (one run, not timed alone); ValueError (one line) unless the file is the same
+    scene and model (``model_file``'s config hash) run with the default integrator at the scene's
+    tolerance."""
+    with h5py.File(model_file, "r") as f:
+        model_hash = str(f.attrs.get("config_hash"))
+    with h5py.File(path, "r") as f:
+        a = dict(f.attrs)
+        t, rates = np.asarray(f["t"][()], float), np.asarray(f["gamma_dot"][()][:, :4], float)
+        frames = np.asarray(f["platform_attitude"][()], float) if "platform_attitude" in f else None
+    options = simulate.scene_options(scene, simulate.DEFAULT_INTEGRATOR, None, {})
+    want = {"scene": scene.name, "model": reference, "model_config_hash": model_hash,
+            "integrator": simulate.DEFAULT_INTEGRATOR}
+    wrong = {k: a.get(k) for k, v in want.items() if str(a.get(k)) != v}
+    if simulate.DEFAULT_INTEGRATOR == "exponential":
+        tol = float(options.get("tol", exponential.DEFAULTS.tol))
+        if not abs(float(a.get("stat_exponential_tol", np.nan)) - tol) <= 1e-9 * tol:
+            wrong["stat_exponential_tol"] = a.get("stat_exponential_tol")
+    if len(t) != int(round(scene.duration / scene.output_interval)) + 1:
+        wrong["outputs"] = len(t)
+    if wrong:
+        raise ValueError(f"--truths {path} is not the {reference} of scene {scene.name} as this bench "
+                         f"runs it ({want}): {wrong}")
+    return {"t": t, "rates": rates, "frames": frames, "run_time_s": float(a["integration_time_s"]), "runs": 1,
+            "steps": int(a["steps"]), "time_basis": "one run, not timed alone (the study's file)",
+            "run_file": path}
 
 
 def _median(prob, scene, whole_s, whole_steps, repeats, budget_s):
@@ -201,15 +236,14 @@ def tol_row(scene, eps, attrs, run, truth, selection_time):
 
 
 def bench_scene(scene_file, eps_list, bodies, reductions, load_ranking, table=None, repeats=5,
-                budget_s=60.0, reference="truth", log=print, keep_dir=None):
+                budget_s=60.0, reference="truth", log=print, keep_dir=None, truth_file=None):
     """(tol rows, comparison rows, the reference's {model, run_time_s, runs, steps}) of one
     scene (module docstring); reference: the model every error is measured against (the truth;
     a test's synthetic bodies: global-Q); keep_dir: the model files are kept there (else in a
-    temporary folder)."""
+    temporary folder); truth_file: the reference's run is read from it (``file_run``), not integrated."""
     scene = scenes.load_scene(scene_file)
     name = scene.name
     rows, comparisons = [], []
-    runs = verified_search.Runs()       # the verified searches of this scene's requests share runs
     with (contextlib.nullcontext(keep_dir) if keep_dir
           else tempfile.TemporaryDirectory(prefix="tolerance_")) as tmp:
         os.makedirs(tmp, exist_ok=True)
@@ -220,7 +254,11 @@ def bench_scene(scene_file, eps_list, bodies, reductions, load_ranking, table=No
         rc, lines, path, _, _ = reduce(reference, scene_file, bodies, reductions, load_ranking, tmp)
         if rc:
             raise RuntimeError(f"{reference} on {name} failed: {lines[-1] if lines else rc}")
-        truth = timed_run(path, scene, repeats, budget_s)
+        truth = (file_run(truth_file, scene, path, reference) if truth_file
+                 else timed_run(path, scene, repeats, budget_s, frames=reference == "truth"))
+        # the verified searches of this scene's requests share runs, the truth's this one
+        runs = verified_search.Runs(truth=(truth["t"], truth["rates"], truth["frames"], truth["run_time_s"])
+                                    if reference == "truth" and truth.get("frames") is not None else None)
         log(f"tolerance: {name}: {reference} {truth['run_time_s']:.2f} s (median of {truth['runs']})")
         for eps in eps_list:
             model = f"tol-{eps:g}"
@@ -365,6 +403,9 @@ def main(argv=None) -> int:
                          "only its models are timed, its CSV and JSON rewritten with the times")
     ap.add_argument("--models-from", metavar="DIR", help="the --keep-models folder of --times-from")
     ap.add_argument("--reference", default="truth", help="the model errors are measured against")
+    ap.add_argument("--truths", nargs="*", default=[], metavar="SCENE=FILE",
+                    help="with --untimed: the reference's run on SCENE read from FILE (the study's "
+                         "results/study/{scene}/sim/truth.h5) instead of integrated again")
     ap.add_argument("--out-csv", default="results/benchmarks/tolerance.csv")
     ap.add_argument("--out-json", default="results/benchmarks/tolerance.json")
     ap.add_argument("--figure", default="results/figures/bench/tolerance.png",
@@ -378,6 +419,14 @@ def main(argv=None) -> int:
         return 2
     scene_files = [a if a.endswith((".yaml", ".yml")) else os.path.join("config", "scenes", f"{a}.yaml")
                    for a in args.scenes]
+    truth_files = dict(item.partition("=")[::2] for item in args.truths)
+    names = {os.path.splitext(os.path.basename(f))[0] for f in scene_files}
+    bad = [item for item in args.truths if "=" not in item or item.partition("=")[0] not in names
+           or not item.partition("=")[2]]
+    if (args.truths and not args.untimed) or bad or len(truth_files) != len(args.truths):
+        print("tolerance: --truths takes SCENE=FILE, once per scene of --scenes, with --untimed"
+              + (f" (got {' '.join(bad)})" if bad else ""), file=sys.stderr)
+        return 2
     if args.times_from:
         import json
         with open(args.times_from) as fh:
@@ -410,7 +459,8 @@ def main(argv=None) -> int:
             r, c, truths[name] = bench_scene(
                 scene_file, args.eps, bodies, reductions, load_ranking, table,
                 0 if args.untimed else args.repeats, args.budget, args.reference,
-                keep_dir=os.path.join(args.keep_models, name) if args.keep_models else None)
+                keep_dir=os.path.join(args.keep_models, name) if args.keep_models else None,
+                truth_file=truth_files.get(name))
         except (RuntimeError, OSError, ValueError) as exc:
             print(f"tolerance: {name}: {' '.join(str(exc).split())}", file=sys.stderr)
             return 2

@@ -17,7 +17,10 @@ dynamics.json: every check as {name, value, tolerance, passed, details}:
   stability limit.
 * RK4 observed order on the real bodies (``thesis`` scene, small model).
 * truth convergence on ``thesis``: the truth model at its default step and at
-  half of it, E (thesis eq. 3.53) of every gimbal rate < 1e-10.
+  half of it, E (thesis eq. 3.53) of every gimbal rate < 1e-10; with
+  ``--convergence-reference`` the default (the converged DOP853 file) against
+  the exponential integrator at a tight tolerance instead, a second method
+  whose own error is independent of DOP853's (same bound).
 * rigid-limit closed forms: case spin about the outer drive axis (real
   elastic bodies), motor spin-up (real mass properties, principal-axis
   idealisation).
@@ -27,7 +30,8 @@ dynamics.json: every check as {name, value, tolerance, passed, details}:
 
 benchmarks/dynamics.json: wall times (median of ``--repeats`` runs) of the
 truth model on ``thesis`` with each integrator, with step, steps taken and E
-against the converged truth, and the software versions.
+against the converged truth, and the software versions; with ``--runs-from`` the untimed RK4 and
+generalised-alpha rows are the Pareto benchmark's runs of the same setting (``pareto_truth_rows``).
 """
 
 import argparse
@@ -48,6 +52,7 @@ from gimbal_reduction.reduction import models
 from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.results.bench.oracle import Oracle, jax_available, synthetic_chain
 from gimbal_reduction.results.bench.pareto import run_budget
+from gimbal_reduction.results.study.tables import RATE_COLUMNS
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow.progress import Progress
 from gimbal_reduction.workflow.provenance import check_record, provenance, versions, write_json
@@ -280,6 +285,62 @@ def reference_run(path, scene):
                            stats={}), float(a["integration_time_s"])
 
 
+def second_method_run(path, scene):
+    """The truth on ``scene`` by the exponential integrator at a tight tolerance (rule
+    reference_exponential) as a run: t (T,) [s], yd (T, 4) gimbal rates [rad/s], steps, and its
+    tolerance; a file of another scene, model or integrator is refused."""
+    f = read_sim(path)
+    a = f["attrs"]
+    wrong = {k: a.get(k) for k, v in {"scene": scene.name, "model": "truth",
+                                      "integrator": "exponential"}.items() if a.get(k) != v}
+    if wrong:
+        raise ValueError(f"{path}: not the exponential integrator's truth on {scene.name}: {wrong}")
+    return SimpleNamespace(t=f["t"], yd=f["gamma_dot"], steps=int(a["steps"]),
+                           tol=float(a["stat_exponential_tol"]))
+
+
+def second_method_check(default_run, second, method, bound=1e-10, /, **details):
+    """The truth's convergence as the agreement of two methods: E (eq. 3.53) of ``default_run`` (the
+    converged DOP853 run) against ``second`` (``second_method_run``) per gimbal rate, passed when
+    max E <= ``bound``; both runs on the same output grid, else ValueError."""
+    if second.yd.shape[0] != default_run.yd.shape[0]:
+        raise ValueError(f"the second method's run has {second.yd.shape[0]} outputs, the default "
+                         f"{default_run.yd.shape[0]}")
+    E = error_measure(default_run.t, default_run.yd[:, :4], second.yd[:, :4])
+    return _check(f"truth convergence on thesis: the default ({method}) against the exponential "
+                  f"integrator at tol {second.tol:g}, max E over the 4 gimbal rates", float(np.max(E)),
+                  bound, E_per_rate=np.asarray(E).tolist(), steps_second=second.steps, **details)
+
+
+def pareto_truth_rows(path):
+    """The truth's rows of a Pareto benchmark's CSV (``gimbal pareto --errors-only``, judged against
+    the same converged reference): [(method, step [s], row)], each row with its E per rate; a
+    missing file, no truth row or a row without E refused in one line (ValueError)."""
+    import csv
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r.get("model") == "truth" and r.get("status", "ok") == "ok"]
+    if not rows:
+        raise ValueError(f"{path}: no row of the truth")
+    bad = [r.get("integrator") for r in rows
+           if not all(r.get(c) not in (None, "") for c in ("step_s", "steps", "E", *RATE_COLUMNS))]
+    if bad:
+        raise ValueError(f"{path}: truth rows without step, steps or E: {', '.join(map(str, bad))}")
+    return [(r["method"], float(r["step_s"]), r) for r in rows]
+
+
+def _shared_record(label, method, step, shared, source):
+    """The benchmark record of an integrator setting taken from a Pareto truth row of the same
+    method and step (``pareto_truth_rows``; the step to the CSV's 6 digits), or None."""
+    for m, h, row in shared or ():
+        if m == method and np.isclose(h, step, rtol=1e-5):
+            E = [float(row[c]) for c in RATE_COLUMNS]
+            return {"integrator": method, "label": label, "wall_times_s": [float(row["wall_time_s"])],
+                    "median_wall_time_s": float(row["wall_time_s"]), "step_s": h,
+                    "steps_taken": int(row["steps"]), "E_vs_converged_truth": float(row["E"]),
+                    "E_per_rate": E, "stats": {}, "run_from": f"{source} ({row['integrator']})"}
+    return None
+
+
 def _bench_record(label, method, walls, run, ref):
     """The benchmark record of one integrator: its runs' wall times [s], E of ``run`` against
     ``ref`` (the converged truth), step and steps."""
@@ -313,13 +374,20 @@ def bench_settings(rk4_step):
              dict(method="generalized-alpha", step=GA_STEP))]
 
 
-def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None):
+def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None, second=None,
+               shared=None, shared_source=""):
     """Truth on thesis: default-step convergence, and every integrator's cost and accuracy: the
     median of ``repeats`` runs each, fewer (at least one) where they would not fit in ``budget_s``
     seconds at the first run's pace (a run that slow decides no comparison by its median).
     repeats 1: one run each (``--untimed``: their E and steps, beside other jobs).
     reference: the converged DOP853 reference of thesis (``reference_run``), taken as the
-    default's run (the same integrator and setting) instead of integrating it again."""
+    default's run (the same integrator and setting) instead of integrating it again.
+    second: with ``reference``, the exponential integrator's tight run (``second_method_run``):
+    the convergence check compares the default with it instead of integrating the default at half
+    its step, and the default is the converged truth the benchmark's E are measured against.
+    shared: with ``second``, ``pareto_truth_rows`` of a Pareto run against the same converged
+    truth (``shared_source`` its file): an untimed setting of the same method and step is taken
+    from its row, not integrated again."""
     chain, prob, scene, t_omega, rk4_limit_step = truth_setup(body_data, rankings)
     limit = integrators.rk4_stability_limit(prob.omega_max)
     cfg = dict(simulate.REFERENCE)
@@ -338,64 +406,100 @@ def truth_runs(body_data, rankings, repeats, budget_s=None, reference=None):
         run_h = go(**kw)
         t_default = time.perf_counter() - t0
     h_mean = scene.duration / run_h.steps
-    half = dict(kw, max_step=h_mean / 2) if cfg["integrator"] == "dop853" else dict(kw, step=run_h.step / 2)
-    half.pop("fraction", None)
-    t0 = time.perf_counter()
-    run_h2 = go(**half)
-    t_half = time.perf_counter() - t0
-    E = error_measure(run_h2.t, run_h2.yd[:, :4], run_h.yd[:, :4])
-    conv = _check(f"truth convergence on thesis: step halving of the default ({cfg['integrator']}), "
-                  f"max E over the 4 gimbal rates", float(np.max(E)), 1e-10,
-                  E_per_rate=np.asarray(E).tolist(), default=cfg, mean_step=h_mean,
-                  steps=run_h.steps, steps_half=run_h2.steps, wall_time_default_s=t_default,
-                  wall_time_half_s=t_half, coupled_omega_max=prob.omega_max,
-                  modal_omega_max=prob.modal_omega_max, rk4_stability_limit=limit,
+    common = dict(default=cfg, mean_step=h_mean, steps=run_h.steps, wall_time_default_s=t_default,
+                  coupled_omega_max=prob.omega_max, modal_omega_max=prob.modal_omega_max,
+                  rk4_stability_limit=limit,
                   default_run="the converged reference file" if reference else "integrated here")
-    ref = run_h2
+    if second is not None and reference is not None:
+        # two methods whose errors are independent (an explicit Runge-Kutta pair at rtol 1e-10,
+        # the modal exponential integrator at a tolerance 100x under the scene's): their
+        # difference bounds the default's error as well as its step halving does
+        conv = second_method_check(run_h, second, cfg["integrator"], **common)
+        ref, converged = run_h, f"{cfg['integrator']} at rtol {cfg.get('rtol')} (the converged reference)"
+    else:
+        half = dict(kw, max_step=h_mean / 2) if cfg["integrator"] == "dop853" else dict(kw, step=run_h.step / 2)
+        half.pop("fraction", None)
+        t0 = time.perf_counter()
+        run_h2 = go(**half)
+        t_half = time.perf_counter() - t0
+        E = error_measure(run_h2.t, run_h2.yd[:, :4], run_h.yd[:, :4])
+        conv = _check(f"truth convergence on thesis: step halving of the default ({cfg['integrator']}), "
+                      f"max E over the 4 gimbal rates", float(np.max(E)), 1e-10,
+                      E_per_rate=np.asarray(E).tolist(), steps_half=run_h2.steps,
+                      wall_time_half_s=t_half, **common)
+        ref, converged = run_h2, (f"{cfg['integrator']} with max step {h_mean / 2:.4e} s (half the "
+                                  f"truth default's mean step)")
     default_is_dop = cfg["integrator"] == "dop853" and cfg["rtol"] == DOP853_RTOL
 
-    def bench(label, repeats, **kw):
+    # the default's own E: against the second method where the default is the converged truth
+    default_referee = second if ref is run_h else ref
+
+    def bench(label, repeats, referee=ref, **kw):
         walls, run = [], None
         while len(walls) < (repeats if budget_s is None or not walls
                             else run_budget(walls[0], repeats, budget_s)):
             t0 = time.perf_counter()
             run = go(**kw)
             walls.append(time.perf_counter() - t0)
-        return _bench_record(label, kw["method"], walls, run, ref), run
+        return _bench_record(label, kw["method"], walls, run, referee), run
+
+    def effective_step(method, kw):
+        """The step a fixed-step setting runs at: RK4's given one; generalised-alpha's the largest
+        dividing the output interval, not above the given one (integrators._generalized_alpha)."""
+        n = max(int(np.ceil(scene.output_interval / kw["step"] - 1e-9)), 1)
+        return kw["step"] if method == "rk4" else scene.output_interval / n
+
+    # rows of another job's untimed runs apply only against the same referee: the converged file
+    shared = shared if (repeats == 1 and ref is run_h) else None
     records, ga = [], None
     for label, kw in bench_settings(rk4_step=rk4_limit_step):
         if kw["method"] == "dop853" and default_is_dop:        # the default run counts
-            rec, _ = (bench(label, repeats - 1, **kw) if repeats > 1
-                      else (_bench_record(label, "dop853", [], run_h, ref), None))
+            rec, _ = (bench(label, repeats - 1, referee=default_referee, **kw) if repeats > 1
+                      else (_bench_record(label, "dop853", [], run_h, default_referee), None))
+            if default_referee is not ref:
+                rec["E_against"] = f"the exponential integrator at tol {second.tol:g}"
             rec["wall_times_s"].append(t_default)
             rec["median_wall_time_s"] = float(np.median(rec["wall_times_s"]))
         else:
-            rec, run = bench(label, repeats, **kw)
-            ga = run if kw["method"] == "generalized-alpha" else ga
+            rec = (_shared_record(label, kw["method"], effective_step(kw["method"], kw), shared,
+                                  shared_source) if kw["method"] in ("rk4", "generalized-alpha") else None)
+            if rec is None:
+                rec, run = bench(label, repeats, **kw)
+                rec["run_from"] = "integrated here"
+            if kw["method"] == "generalized-alpha":
+                ga = (rec["step_s"], rec["E_vs_converged_truth"])
         records.append(rec)
-    ga2 = go(method="generalized-alpha", step=GA_STEP / 2)
-    Ega, Ega2 = rate_error(ga, ref), rate_error(ga2, ref)
+    # a step never exceeds the output interval (it divides it), so where both GA_STEP and its half
+    # are capped there, the half-step run is the same run
+    half = dict(method="generalized-alpha", step=GA_STEP / 2)
+    if np.isclose(effective_step("generalized-alpha", half), ga[0], rtol=1e-9):
+        ga2 = ga
+    else:
+        run2 = go(**half)
+        ga2 = (run2.step, rate_error(run2, ref))
+    (h_ga, Ega), (h_ga2, Ega2) = ga, ga2
     ga_check = _check(f"generalized-alpha accuracy on thesis (truth, h = {GA_STEP:g} s) vs the converged truth",
                       Ega, 1e-1, E_half_step=Ega2, ratio_on_halving=Ega / Ega2 if Ega2 > 0 else None,
+                      steps_used_s=[float(h_ga), float(h_ga2)],
                       note="measured, not a convergence claim: rho_inf 0.9 filters the top modes, "
                            "so E stalls at their share of the rates (outer gimbal rate, tiny, has the "
                            "largest E); the tolerance 0.1 only flags a gross failure")
     info = {"model": "truth", "scene": "thesis", "n_modes": list(chain.n_modes),
             "coupled_omega_max_rad_s": prob.omega_max, "modal_omega_max_rad_s": prob.modal_omega_max,
             "rk4_stability_limit_s": limit, "coupled_omega_time_s": t_omega,
-            "converged_truth": f"{cfg['integrator']} with max step {h_mean / 2:.4e} s (half the "
-                               f"truth default's mean step)"}
+            "converged_truth": converged}
     return [conv, ga_check], records, info, (chain, prob, ref)
 
 
 EXP_TIGHT_TOL = 1e-7      # the tight tolerance of the exponential integrator's check
 
 
-def exponential_checks(body_data, rankings, truth):
+def exponential_checks(body_data, rankings, truth, conservation_s=None):
     """The modal exponential integrator on the real bodies: the truth on thesis
     against the converged DOP853 truth at the default and a tight tolerance; a reduced model
     against RK4 at a tenth of its stability limit; energy
-    and axial momentum over the 10 s scene free_10s (case at rest)."""
+    and axial momentum over the 10 s scene free_10s (case at rest), or its first
+    ``conservation_s`` seconds."""
     chain, prob, ref = truth
     scene = scenes.load_scene("thesis")
     out = []
@@ -425,7 +529,8 @@ def exponential_checks(body_data, rankings, truth):
     # not conservation to round-off: the method is not symplectic and its local errors (tol
     # per step) accumulate (docs/exponential.md Section 9; the measured drifts are in
     # results/verification/dynamics.json)
-    recs, run = dc.exponential_conservation("free_10s (truth model)", fp, free.duration,
+    t_end = free.duration if conservation_s is None else conservation_s
+    recs, run = dc.exponential_conservation("free_10s (truth model)", fp, t_end,
                                             free.output_interval, limit=1e-3, tol=1e-6)
     for r in recs:
         r.update(wall_time_s=time.perf_counter() - t0, steps=run.steps,
@@ -459,16 +564,39 @@ def main(argv=None):
     ap.add_argument("--reference", help="the converged DOP853 reference of thesis on the truth model "
                                         "(results/reference/thesis/truth.h5): the default's run is "
                                         "taken from it rather than integrated again")
+    ap.add_argument("--convergence-reference", metavar="FILE",
+                    help="with --reference: the truth on thesis by the exponential integrator at a "
+                         "tight tolerance (results/all/reference/thesis/truth.h5); the truth's "
+                         "convergence is the default against it, not a run at half its step")
+    ap.add_argument("--runs-from", metavar="CSV",
+                    help="with --untimed and --convergence-reference: a Pareto benchmark's untimed "
+                         "errors (gimbal pareto --errors-only) against the same reference; the truth's "
+                         "RK4 and generalised-alpha settings are taken from its rows of the same step")
+    ap.add_argument("--conservation-duration", type=float, metavar="SECONDS",
+                    help="the exponential integrator's energy and momentum drift over the first "
+                         "SECONDS of free_10s (default: all 10 s)")
     args = ap.parse_args(argv)
     start = time.perf_counter()
     try:
-        bodyconfig.check_files(args.bodies + args.reductions + ([args.reference] if args.reference else []),
-                               args.config)
+        if args.convergence_reference and not args.reference:
+            raise ValueError("--convergence-reference needs --reference (the default it checks)")
+        if args.runs_from and not (args.untimed and args.convergence_reference):
+            raise ValueError("--runs-from needs --untimed and --convergence-reference (the rows are "
+                             "untimed runs against the converged reference)")
+        if args.conservation_duration is not None and not (
+                0 < args.conservation_duration <= scenes.load_scene("free_10s").duration):
+            raise ValueError(f"--conservation-duration {args.conservation_duration:g}: not within "
+                             "(0, the duration of free_10s]")
+        bodyconfig.check_files(args.bodies + args.reductions + [p for p in (args.reference,
+                               args.convergence_reference) if p], args.config)
         body_files = dict(zip(models.BODIES, args.bodies))
         reduction_files = dict(zip(models.BODIES, args.reductions))
         rankings = models.read_rankings(reduction_files)
         body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
         reference = reference_run(args.reference, scenes.load_scene("thesis")) if args.reference else None
+        second = (second_method_run(args.convergence_reference, scenes.load_scene("thesis"))
+                  if args.convergence_reference else None)
+        shared = pareto_truth_rows(args.runs_from) if args.runs_from else None
     except (OSError, ValueError) as exc:
         print(f"verify_dynamics: {exc}", file=sys.stderr)
         return 2
@@ -493,9 +621,11 @@ def main(argv=None):
     checks += section("bad input", bad_input_checks, body_files, reduction_files, tempfile.mkdtemp())
     truth_checks, bench, info, truth = section("truth", truth_runs, body_data, rankings,
                                                1 if args.untimed else args.repeats,
-                                               args.budget, reference)
+                                               args.budget, reference, second, shared,
+                                               args.runs_from or "")
     checks += truth_checks
-    checks += section("exponential", exponential_checks, body_data, rankings, truth)
+    checks += section("exponential", exponential_checks, body_data, rankings, truth,
+                      args.conservation_duration)
     total = time.perf_counter() - start
     vers = versions()
     for mod in ("numba", "jax"):
