@@ -290,13 +290,16 @@ def test_a_new_bank_tries_the_nudge_a_previous_one_needed_first():
 
 def test_a_condition_that_no_nudge_lowers_takes_one_decomposition():
     """A fast damped mode (1e7 rad/s, damping ratio 0.5) has condition ~|mu| ~ 1.2e7 beyond
-    NUDGE_CONDITION from the scales of eta and eta' ~ |mu| eta alone, far from any other
-    eigenvalue (``CoupledBank.nudge_can_help``): the nominal damping after one decomposition,
-    kept below CONDITION_LIMIT.  With a critical pair beside it the nudges are tried."""
-    fast = exponential.CoupledBank(np.array([1e7, 3.0]), np.diag([1e7, 0.6]))
-    condition = exponential.CoupledBank._decompose(np.array([1e7, 3.0]), fast.damping, 0.0)[3]
-    assert condition.max() > exponential.CoupledBank.NUDGE_CONDITION
-    assert fast.nudge == 0 and fast.decompositions == 1
+    NUDGE_CONDITION from the scales of eta and eta' ~ |mu| eta alone, far from critical
+    damping (``CoupledBank.nudge_can_help``), alone or beside a mode 1e-6 away in frequency:
+    the nominal damping after one decomposition, kept below CONDITION_LIMIT.  With a critical
+    pair beside it the nudges are tried."""
+    for omega in ([1e7, 3.0], [1e7, 1e7 * (1 + 1e-6)]):    # alone; beside a mode of ~its frequency
+        omega = np.array(omega)
+        fast = exponential.CoupledBank(omega, np.diag(omega))
+        condition = exponential.CoupledBank._decompose(omega, fast.damping, 0.0)[3]
+        assert condition.max() > exponential.CoupledBank.NUDGE_CONDITION
+        assert fast.nudge == 0 and fast.decompositions == 1
     omega, Ct = critical_pair()
     both = exponential.CoupledBank(np.concatenate([[1e7], omega]),
                                    scipy.linalg.block_diag([[1e7]], Ct))

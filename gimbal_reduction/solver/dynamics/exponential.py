@@ -253,8 +253,8 @@ class CoupledBank:
     pair's eigenvectors are nearly parallel, and V^-1 amplifies rounding by the eigenvalue
     condition number kappa_k = |v_k| |p_k| (~ 1 / the pair's relative gap, ~1e8 for a mode at
     critical damping to the last bit, as an uncoupled mode at damping ratio 1 is).  Beyond
-    ``NUDGE_CONDITION`` at such a near coincidence (``nudge_can_help``) the bank is built for
-    the damping Ct (1 +- CRITICAL_NUDGE) instead,
+    ``NUDGE_CONDITION`` at such a pair (``nudge_can_help``) the bank is built for the damping
+    Ct (1 +- CRITICAL_NUDGE) instead,
     which splits such a pair by ~sqrt(2 CRITICAL_NUDGE) of its magnitude (kappa ~1e5), and
     ``damping`` records it: the modal forcing g = phi^-1 a + Lambda eta + damping eta' is
     formed with the same matrix, so the equations stay exact and the nudge, +-CRITICAL_NUDGE
@@ -279,14 +279,13 @@ class CoupledBank:
 
     def __init__(self, omega, Ct, t=0.0, first_nudge=0):
         m = omega.size
-        # the dampings tried, Ct (1 + sign CRITICAL_NUDGE): nominal first (sign 0), then down
-        # (an underdamped pair near critical keeps ~1e-13: its phase e^{i nu H} is exact; a real
-        # pair loses its exponentials' argument rounding times kappa), then up; the first within
-        # NUDGE_CONDITION is taken, else the up one goes to the refusal check below.  first_nudge
-        # (the sign a previous basis of the run needed) is tried before them: the bases of one
-        # run share their near-critical modes, and each try is an eigendecomposition of the
-        # (2m, 2m) state matrix.  A try is taken unless ``nudge_can_help``; when no try is,
-        # the up one goes to the refusal check.
+        # the dampings tried, Ct (1 + sign CRITICAL_NUDGE), each one eigendecomposition of the
+        # (2m, 2m) state matrix: first_nudge first (the sign the run's previous basis took: its
+        # near-critical modes stay), then nominal (sign 0), down (an underdamped pair near
+        # critical keeps ~1e-13: its phase e^{i nu H} is exact; a real pair loses its
+        # exponentials' argument rounding times kappa), up.  The first try that a nudge cannot
+        # improve (``nudge_can_help``: none beyond NUDGE_CONDITION, or none near critical
+        # damping) is taken; if none, the up one goes to the refusal check below.
         if first_nudge not in self.NUDGE_SIGNS:
             raise ValueError(f"CoupledBank: first_nudge {first_nudge!r} is not one of {self.NUDGE_SIGNS}")
         order = (first_nudge,) + tuple(s for s in self.NUDGE_SIGNS if s != first_nudge)
@@ -326,21 +325,26 @@ class CoupledBank:
     @classmethod
     def nudge_can_help(cls, mu, condition):
         """Whether a nudge may lower the condition of the decomposition (mu (p,), condition (p,)
-        of ``_decompose``): some entry beyond NUDGE_CONDITION (or non-finite) lies within
-        NUDGE_GAP (relative) of another eigenvalue (its pair's conjugate, or any other).  A nudge
-        eps of the damping moves a near-critical pair's relative gap g by ~4 eps / g and its
-        condition ~1 / g with it; away from a coincidence (g >= NUDGE_GAP) it changes the
-        condition by < 4 eps / g^2 = 2e-2 relative: the condition there has another cause
-        (eta' ~ |mu| eta in z = [eta; eta'] alone gives ~|mu| / 2, 2e6-7e6 on the truth's fast
-        damped modes at gaps 4e-3..0.2), and each try is one eigendecomposition."""
-        over = ~(condition <= cls.NUDGE_CONDITION)                # non-finite counts as over
-        if not over.any():
-            return False
-        spectrum = np.concatenate([mu, np.conj(mu[mu.imag > 0])])
-        for k in np.flatnonzero(over):
-            distance = np.abs(spectrum - mu[k])
-            distance[k] = np.inf                                  # itself
-            if not distance.min() >= cls.NUDGE_GAP * abs(mu[k]):
+        of ``_decompose``): some condition is non-finite, or an entry beyond NUDGE_CONDITION
+        is near critical damping, where its pair meets: a complex mu within NUDGE_GAP (relative)
+        of its own conjugate, 2 |Im mu| < NUDGE_GAP |mu|, or a real one as near another real
+        one.  A nudge eps of the damping moves such a pair's relative gap g by ~4 eps / g and
+        its condition ~1 / g with it; at g >= NUDGE_GAP by < 4 eps / g^2 = 2e-2 relative.  Other
+        causes it cannot touch: eta' ~ |mu| eta in z = [eta; eta'] alone gives a condition
+        ~|mu| / 2 (2e6-1.3e7 on the truth's and freq-200's fast damped modes), and two modes
+        of nearly one frequency (freq-200: gaps 6e-5) both move by ~eps.  Each try is one
+        eigendecomposition."""
+        if not np.all(np.isfinite(condition)):
+            return True
+        real = mu.imag == 0
+        real_values = mu.real[real]
+        for k in np.flatnonzero(condition > cls.NUDGE_CONDITION):
+            if real[k]:
+                distance = np.abs(real_values - mu[k].real)
+                gap = np.partition(distance, 1)[1] if distance.size > 1 else np.inf  # not itself
+            else:
+                gap = 2.0 * abs(mu[k].imag)
+            if gap < cls.NUDGE_GAP * abs(mu[k]):
                 return True
         return False
 
@@ -510,9 +514,9 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0, first_nudge=0):
 
     mass_matrix: y -> M(y) (n, n); stiffness (n,) Omega^2 [(rad/s)^2] and damping (n,)
     2 zeta Omega [1/s] on the diagonal (zero for the joints); first_nudge: the damped bank's
-    critical-damping nudge to try first (``CoupledBank``; a previous basis's).  Raises ExponentialError
-    when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal lock) or the
-    damped bank cannot be diagonalised (``CoupledBank``)."""
+    critical-damping nudge to try first (``CoupledBank``; a previous basis's).  Raises
+    ExponentialError when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal
+    lock) or the damped bank cannot be diagonalised (``CoupledBank``)."""
     y = np.asarray(y, float)
     n = y.size
     M0 = mass_matrix(y)
@@ -762,7 +766,8 @@ class ExponentialAdams:
             Ky=np.zeros(m), omega_ref=np.zeros(n), omega=np.zeros(n), omega2=np.zeros(n),
             Lt=np.zeros((j, j)), J=np.zeros((j, m)), Lg=np.zeros((j, n)), rates=np.zeros((j, n)),
             mu=None, delta=np.zeros(0 if damped else m, complex), P_eta=None, P_vel=None,
-            V_eta=None, V_vel=None, phase_mode=None, V_real=None, Ct=np.zeros(square if damped else (0, 0)),
+            V_eta=None, V_vel=None, phase_mode=None, V_real=None,
+            Ct=np.zeros(square if damped else (0, 0)),
             version=np.zeros(1, dtype=np.int64))
         self.kw = None
         self._allocate_bank(p)
