@@ -37,6 +37,7 @@ from scipy.integrate import quad, solve_ivp
 
 from gimbal_reduction.results.bench.oracle import synthetic_chain
 from gimbal_reduction.solver.dynamics import exponential, integrators, scenes, simulate
+from gimbal_reduction.solver.dynamics.kernels import exponential as kernels
 from gimbal_reduction.solver.dynamics.error_measure import error_measure
 
 # ----------------------------------------------------------------------------- helpers
@@ -227,6 +228,108 @@ def test_advance_is_exact_for_polynomial_forcing(coupled, zeta, degree, theta):
     y_ex, v_ex = exact_linear_step(M, K, C, F, h, H, y0, v0, omega_max)
     assert relative_error_by_block(y1, y_ex, y0) <= 1e-10, (y1, y_ex)
     assert relative_error_by_block(v1, v_ex, v0) <= 1e-10, (v1, v_ex)
+
+
+@pytest.mark.parametrize("zeta", [0.01, 0.2, 1.0, 2.0])
+@pytest.mark.parametrize("coupled", [False, True], ids=["diagonal mass", "coupled mass"])
+def test_damped_dense_outputs_match_the_advance_and_the_exact_solution(coupled, zeta):
+    """The damped bank's dense outputs of one step (``kernels.exponential.dense_coupled``: the
+    start and the forcing mapped to the bank once, all outputs back by one real product) at
+    four points inside a step of h (omega_max h = 1e3), against one ``advance`` per point (the
+    loop's former route) and against the exact solution (Van Loan); underdamped, overdamped
+    and, with the diagonal mass at zeta = 1, nudged off critical damping.  Each block of the
+    modal state is judged on its own scale (``relative_error_by_block``).  Measured: <= 1.6e-15
+    against the advance, <= 2.4e-12 against the exact solution (the nudged critical case)."""
+    M, K, C, basis, omega_max, h, F, y0, v0 = linear_case(coupled, zeta, 3)
+    bank = basis.bank
+    assert isinstance(bank, exponential.CoupledBank)
+    eta, etad = basis.to_modal(y0, v0)
+    coef = np.ascontiguousarray(F @ basis.phi)
+    ticks, offset, spacing, count = 16, 3, 4, 4           # outputs at 3, 7, 11, 15 ticks of h / 16
+    tick = h / ticks
+    out_eta, out_etad = np.empty((count, eta.size)), np.empty((count, eta.size))
+    kernels.dense_coupled(eta, etad, coef, bank.mu, bank.P_eta, bank.P_vel, bank.V_real, h, tick,
+                          offset, spacing, count, exponential.SERIES_RADIUS,
+                          exponential.SERIES_TERMS, exponential._INV_FACTORIALS,
+                          exponential._FACTORIALS, out_eta, out_etad)
+    weights = exponential.StepWeights(basis, 3)
+    for k in range(count):
+        H = (offset + k * spacing) * tick
+        eta1, etad1 = exponential.advance(basis, weights, eta, etad, coef, H, H / h)
+        assert relative_error_by_block(out_eta[k], eta1, eta) <= 1e-13, (k, out_eta[k], eta1)
+        assert relative_error_by_block(out_etad[k], etad1, etad) <= 1e-13, (k, out_etad[k], etad1)
+        y1, v1 = basis.to_physical(out_eta[k], out_etad[k])
+        y_ex, v_ex = exact_linear_step(M, K, C, F, h, H, y0, v0, omega_max)
+        assert relative_error_by_block(y1, y_ex, y0) <= 1e-10, (k, y1, y_ex)
+        assert relative_error_by_block(v1, v_ex, v0) <= 1e-10, (k, v1, v_ex)
+
+
+def critical_pair():
+    """(Omega (2,) [rad/s], Ct (2, 2) [1/s]): two uncoupled modes at damping ratio 1 exactly,
+    whose bank must be nudged off critical damping (``CoupledBank``)."""
+    omega = np.array([1.0, 0.37])
+    return omega, np.diag(2.0 * omega)
+
+
+def test_a_new_bank_tries_the_nudge_a_previous_one_needed_first():
+    """At critical damping the nominal try fails the condition check: the fresh bank takes
+    more than one eigendecomposition, one started from the nudge it settled on takes one, and
+    solves the same damping (eigenvalues to rounding of their magnitude)."""
+    omega, Ct = critical_pair()
+    fresh = exponential.CoupledBank(omega, Ct)
+    assert fresh.nudge != 0 and fresh.decompositions > 1, (fresh.nudge, fresh.decompositions)
+    again = exponential.CoupledBank(omega, Ct, first_nudge=fresh.nudge)
+    assert again.nudge == fresh.nudge and again.decompositions == 1
+    np.testing.assert_allclose(again.damping, fresh.damping, rtol=1e-15, atol=0.0)
+    np.testing.assert_allclose(again.mu, fresh.mu, rtol=0.0, atol=1e-12 * np.abs(fresh.mu).max())
+    # a light damping needs no nudge: the nominal one is taken whatever comes first
+    light = exponential.CoupledBank(omega, 0.02 * np.diag(omega), first_nudge=1)
+    assert light.nudge == 1 and light.decompositions == 1
+    assert exponential.CoupledBank(omega, 0.02 * np.diag(omega)).nudge == 0
+
+
+def test_a_condition_that_no_nudge_lowers_takes_one_decomposition():
+    """A fast damped mode (1e7 rad/s, damping ratio 0.5) has condition ~|mu| ~ 1.2e7 beyond
+    NUDGE_CONDITION from the scales of eta and eta' ~ |mu| eta alone, far from critical
+    damping (``CoupledBank.nudge_can_help``), alone or beside a mode 1e-6 away in frequency:
+    the nominal damping after one decomposition, kept below CONDITION_LIMIT.  With a critical
+    pair beside it the nudges are tried."""
+    for omega in ([1e7, 3.0], [1e7, 1e7 * (1 + 1e-6)]):    # alone; beside a mode of ~its frequency
+        omega = np.array(omega)
+        fast = exponential.CoupledBank(omega, np.diag(omega))
+        condition = exponential.CoupledBank._decompose(omega, fast.damping, 0.0)[3]
+        assert condition.max() > exponential.CoupledBank.NUDGE_CONDITION
+        assert fast.nudge == 0 and fast.decompositions == 1
+    omega, Ct = critical_pair()
+    both = exponential.CoupledBank(np.concatenate([[1e7], omega]),
+                                   scipy.linalg.block_diag([[1e7]], Ct))
+    assert both.nudge != 0 and both.decompositions > 1
+
+
+@pytest.mark.parametrize("first_nudge", [0, -1, 1])
+def test_the_nudge_order_leaves_the_refusal_as_strict(first_nudge):
+    """Whatever is tried first: a bank whose every try fails the nudge check gets the up
+    nudge after all three tries, and is refused when that one is beyond the limit."""
+    omega, Ct = critical_pair()
+
+    class Strict(exponential.CoupledBank):
+        NUDGE_CONDITION = 0.0                  # no try passes
+        CONDITION_LIMIT = np.inf
+
+    bank = Strict(omega, Ct, first_nudge=first_nudge)
+    assert bank.nudge == 1 and bank.decompositions == 3
+
+    class Refusing(Strict):
+        CONDITION_LIMIT = 1.0                  # below any condition number (>= 1)
+
+    with pytest.raises(exponential.ExponentialError, match="cannot be diagonalised"):
+        Refusing(omega, Ct, first_nudge=first_nudge)
+
+
+def test_a_bad_first_nudge_is_refused():
+    omega, Ct = critical_pair()
+    with pytest.raises(ValueError, match="first_nudge 0.5"):
+        exponential.CoupledBank(omega, Ct, first_nudge=0.5)
 
 
 @pytest.mark.parametrize("zeta", [0.0, 0.01], ids=["undamped", "damped"])
@@ -437,7 +540,7 @@ def test_a_basis_with_more_real_eigenvalues_reallocates_the_loops_bank():
     integrator._new_basis(1e-3, heavy.y0)
     bank = integrator.basis.bank
     assert integrator.kb.mu.size == bank.mu.size > m
-    for name in ("mu", "P_eta", "P_vel", "V_eta", "V_vel", "phase_mode"):
+    for name in ("mu", "P_eta", "P_vel", "V_eta", "V_vel", "phase_mode", "V_real"):
         np.testing.assert_array_equal(getattr(integrator.kb, name), getattr(bank, name))
     assert integrator.kw.E_re.shape[1] == bank.mu.size and integrator.kw.used[2] == 5
 

@@ -253,7 +253,8 @@ class CoupledBank:
     pair's eigenvectors are nearly parallel, and V^-1 amplifies rounding by the eigenvalue
     condition number kappa_k = |v_k| |p_k| (~ 1 / the pair's relative gap, ~1e8 for a mode at
     critical damping to the last bit, as an uncoupled mode at damping ratio 1 is).  Beyond
-    ``NUDGE_CONDITION`` the bank is built for the damping Ct (1 +- CRITICAL_NUDGE) instead,
+    ``NUDGE_CONDITION`` at such a pair (``nudge_can_help``) the bank is built for the damping
+    Ct (1 +- CRITICAL_NUDGE) instead,
     which splits such a pair by ~sqrt(2 CRITICAL_NUDGE) of its magnitude (kappa ~1e5), and
     ``damping`` records it: the modal forcing g = phi^-1 a + Lambda eta + damping eta' is
     formed with the same matrix, so the equations stay exact and the nudge, +-CRITICAL_NUDGE
@@ -266,25 +267,40 @@ class CoupledBank:
     mu (p,) complex; P_eta, P_vel (p, m) complex the rows P[:, :m], P[:, m:]; V_eta, V_vel
     (m, p) complex the scaled columns' eta and eta' parts; phase_mode (p,) int the coupled mode
     (0..m-1) whose frozen-frequency phase error an entry takes, -1 for a real eigenvalue (it
-    does not oscillate); damping (m, m) [1/s] the Ct the bank solves (Ct, or nudged)."""
+    does not oscillate); V_real (2p, 2m) real, [Re xi, Im xi] V_real = [eta, eta'];
+    damping (m, m) [1/s] the Ct the bank solves (Ct, or nudged), nudge its sign (0, -1, 1:
+    Ct (1 + nudge CRITICAL_NUDGE)), decompositions the tries it took."""
 
     NUDGE_CONDITION = 1e6
     CRITICAL_NUDGE = 5e-11
+    NUDGE_SIGNS = (0, -1, 1)     # nominal, down, up: the order of the tries
+    NUDGE_GAP = 1e-4             # [1] a relative eigenvalue gap below which a nudge is tried
     CONDITION_LIMIT = 1e8
 
-    def __init__(self, omega, Ct, t=0.0):
+    def __init__(self, omega, Ct, t=0.0, first_nudge=0):
         m = omega.size
-        mu, P, V, condition = self._decompose(omega, Ct, t)
-        self.damping = Ct
-        if condition.max(initial=0.0) > self.NUDGE_CONDITION:
-            # down first: an underdamped pair near critical keeps ~1e-13 (its phase e^{i nu H}
-            # is exact), a real pair loses its exponentials' argument rounding times kappa
-            for sign in (-1.0, 1.0):
-                damping = Ct * (1.0 + sign * self.CRITICAL_NUDGE)
-                mu, P, V, condition = self._decompose(omega, damping, t)
-                self.damping = damping
-                if condition.max(initial=0.0) <= self.NUDGE_CONDITION:
-                    break
+        # the dampings tried, Ct (1 + sign CRITICAL_NUDGE), each one eigendecomposition of the
+        # (2m, 2m) state matrix: first_nudge first (the sign the run's previous basis took: its
+        # near-critical modes stay), then nominal (sign 0), down (an underdamped pair near
+        # critical keeps ~1e-13: its phase e^{i nu H} is exact; a real pair loses its
+        # exponentials' argument rounding times kappa), up.  The first try that a nudge cannot
+        # improve (``nudge_can_help``: none beyond NUDGE_CONDITION, or none near critical
+        # damping) is taken; if none, the up one goes to the refusal check below.
+        if first_nudge not in self.NUDGE_SIGNS:
+            raise ValueError(f"CoupledBank: first_nudge {first_nudge!r} is not one of {self.NUDGE_SIGNS}")
+        order = (first_nudge,) + tuple(s for s in self.NUDGE_SIGNS if s != first_nudge)
+        tried = {}
+        for sign in order:
+            damping = Ct * (1.0 + sign * self.CRITICAL_NUDGE) if sign else Ct
+            tried[sign] = damping, self._decompose(omega, damping, t)
+            mu, _, _, condition = tried[sign][1]
+            if not self.nudge_can_help(mu, condition):
+                break
+        else:
+            sign = self.NUDGE_SIGNS[-1]
+        self.nudge = sign
+        self.decompositions = len(tried)
+        self.damping, (mu, P, V, condition) = tried[sign]
         if not np.all(np.isfinite(condition)) or condition.max(initial=0.0) > self.CONDITION_LIMIT:
             k = int(np.argmax(np.where(np.isfinite(condition), condition, np.inf)))
             raise ExponentialError(
@@ -297,11 +313,40 @@ class CoupledBank:
             return np.ascontiguousarray(a, dtype=complex)
         self.P_eta, self.P_vel = contiguous(P[:, :m]), contiguous(P[:, m:])
         self.V_eta, self.V_vel = contiguous(V[:m]), contiguous(V[m:])
+        # Re(V xi) = Re V Re xi - Im V Im xi: [Re xi, Im xi] (2p,) times V_real (2p, 2m) gives
+        # [eta, eta'] by one real product (the dense outputs', ``kernels.exponential.dense_coupled``)
+        self.V_real = np.ascontiguousarray(np.vstack([V.real.T, -V.imag.T]))
         # a pair takes the phase of its coupled mode: the same index while every mode is a pair
         # (sorted alike), else the coupled frequency nearest its undamped one |mu|
         nearest = (np.arange(m) if mu.size == m else
                    np.abs(np.abs(mu)[:, None] - omega[None, :]).argmin(axis=1))
         self.phase_mode = np.where(mu.imag > 0, nearest, -1).astype(np.int64)
+
+    @classmethod
+    def nudge_can_help(cls, mu, condition):
+        """Whether a nudge may lower the condition of the decomposition (mu (p,), condition (p,)
+        of ``_decompose``): some condition is non-finite, or an entry beyond NUDGE_CONDITION
+        is near critical damping, where its pair meets: a complex mu within NUDGE_GAP (relative)
+        of its own conjugate, 2 |Im mu| < NUDGE_GAP |mu|, or a real one as near another real
+        one.  A nudge eps of the damping moves such a pair's relative gap g by ~4 eps / g and
+        its condition ~1 / g with it; at g >= NUDGE_GAP by < 4 eps / g^2 = 2e-2 relative.  Other
+        causes it cannot touch: eta' ~ |mu| eta in z = [eta; eta'] alone gives a condition
+        ~|mu| / 2 (2e6-1.3e7 on the truth's and freq-200's fast damped modes), and two modes
+        of nearly one frequency (freq-200: gaps 6e-5) both move by ~eps.  Each try is one
+        eigendecomposition."""
+        if not np.all(np.isfinite(condition)):
+            return True
+        real = mu.imag == 0
+        real_values = mu.real[real]
+        for k in np.flatnonzero(condition > cls.NUDGE_CONDITION):
+            if real[k]:
+                distance = np.abs(real_values - mu[k].real)
+                gap = np.partition(distance, 1)[1] if distance.size > 1 else np.inf  # not itself
+            else:
+                gap = 2.0 * abs(mu[k].imag)
+            if gap < cls.NUDGE_GAP * abs(mu[k]):
+                return True
+        return False
 
     @staticmethod
     def _decompose(omega, Ct, t):
@@ -464,13 +509,14 @@ def _or_empty(a, ndim):
     return np.zeros((0,) * ndim) if a is None else a
 
 
-def linearise(mass_matrix, stiffness, damping, y, t=0.0):
+def linearise(mass_matrix, stiffness, damping, y, t=0.0, first_nudge=0):
     """The ``ModalBasis`` of a chain at configuration y (n,).
 
     mass_matrix: y -> M(y) (n, n); stiffness (n,) Omega^2 [(rad/s)^2] and damping (n,)
-    2 zeta Omega [1/s] on the diagonal (zero for the joints).  Raises ExponentialError
-    when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal lock) or the
-    damped bank cannot be diagonalised (``CoupledBank``)."""
+    2 zeta Omega [1/s] on the diagonal (zero for the joints); first_nudge: the damped bank's
+    critical-damping nudge to try first (``CoupledBank``; a previous basis's).  Raises
+    ExponentialError when the joint mass block is singular (cond > JOINT_MASS_COND: gimbal
+    lock) or the damped bank cannot be diagonalised (``CoupledBank``)."""
     y = np.asarray(y, float)
     n = y.size
     M0 = mass_matrix(y)
@@ -510,7 +556,7 @@ def linearise(mass_matrix, stiffness, damping, y, t=0.0):
         # C phi_r = 0 exactly (joints carry no damping): only the elastic block
         Ct = X.T @ (c[j:, None] * X)            # phi_e = [J X; X], c zero on the joints
         Ct = 0.5 * (Ct + Ct.T)
-        bank = CoupledBank(om, Ct, t)
+        bank = CoupledBank(om, Ct, t, first_nudge)
         Ct = bank.damping                       # nudged off critical damping if it had to be
     else:
         bank = DiagonalBank(om, np.zeros_like(om))
@@ -720,7 +766,8 @@ class ExponentialAdams:
             Ky=np.zeros(m), omega_ref=np.zeros(n), omega=np.zeros(n), omega2=np.zeros(n),
             Lt=np.zeros((j, j)), J=np.zeros((j, m)), Lg=np.zeros((j, n)), rates=np.zeros((j, n)),
             mu=None, delta=np.zeros(0 if damped else m, complex), P_eta=None, P_vel=None,
-            V_eta=None, V_vel=None, phase_mode=None, Ct=np.zeros(square if damped else (0, 0)),
+            V_eta=None, V_vel=None, phase_mode=None, V_real=None,
+            Ct=np.zeros(square if damped else (0, 0)),
             version=np.zeros(1, dtype=np.int64))
         self.kw = None
         self._allocate_bank(p)
@@ -747,7 +794,8 @@ class ExponentialAdams:
         self.kb = kb._replace(mu=np.zeros(p, complex), P_eta=np.zeros(rows, complex),
                               P_vel=np.zeros(rows, complex), V_eta=np.zeros(cols, complex),
                               V_vel=np.zeros(cols, complex),
-                              phase_mode=np.zeros(p if damped else 0, dtype=np.int64))
+                              phase_mode=np.zeros(p if damped else 0, dtype=np.int64),
+                              V_real=np.zeros((2 * p, 2 * m) if damped else (0, 0)))
         K = max(self.order, 2)                       # the first step's midpoint fit: degree 2
         C = self.options.weight_cache_entries
         computed = 0 if self.kw is None else int(self.kw.used[2])
@@ -778,7 +826,7 @@ class ExponentialAdams:
         kb.rates[:] = b.phi[:j]
         if kb.Ct.size:
             kb.Ct[:] = b.damping_matrix
-            for name in ("P_eta", "P_vel", "V_eta", "V_vel", "phase_mode"):
+            for name in ("P_eta", "P_vel", "V_eta", "V_vel", "phase_mode", "V_real"):
                 getattr(kb, name)[:] = getattr(b.bank, name)
         self._load_frequencies()
 
@@ -803,7 +851,9 @@ class ExponentialAdams:
         t0 = time.perf_counter()
         p = self.problem
         old = getattr(self, "basis", None)
-        self.basis = linearise(p.mass_matrix, p.stiffness_diagonal, p.damping_diagonal, y, t)
+        # the nudge the previous basis needed first (the run's near-critical modes stay)
+        nudge = old.bank.nudge if old is not None and isinstance(old.bank, CoupledBank) else 0
+        self.basis = linearise(p.mass_matrix, p.stiffness_diagonal, p.damping_diagonal, y, t, nudge)
         p = self.basis.bank.mu.size
         if old is None:
             b = self.basis

@@ -3,7 +3,8 @@
 ``advance_diagonal``: the variation-of-constants update of every mode over a length H with
 the forcing polynomial sum_r c_r (s / h)^r, for the undamped (diagonal) oscillator bank, in
 one loop over the modes (``modal_xi`` its complex coordinates at the start); ``phi_table``:
-the phi-functions its weights are made of.  Used by the compiled step loop
+the phi-functions its weights are made of; ``dense_diagonal``, ``dense_coupled``: the
+outputs inside a step, of the undamped and the damped bank.  Used by the compiled step loop
 (``kernels.pece``) and by ``exponential.advance``.
 """
 
@@ -195,6 +196,82 @@ def dense_diagonal(eta, etad, xi_re, xi_im, coef, mu, delta, h, dt, count, Ed_re
             out_eta[k, a] = p
             out_etad[k, a] = v
 
+
+
+@numba.njit(**JIT)
+def dense_coupled(eta, etad, coef, mu, P_eta, P_vel, V_real, h, tick, offset, spacing, count, radius,
+                  terms, inv_fact, fact, out_eta, out_etad):
+    """The damped bank's dense outputs (``exponential.CoupledBank``) at the lengths
+    H_k = (offset + k spacing) tick [s] (offset, spacing in grid ticks of tick [s]),
+    k = 0..count-1, inside a step of h [s] from (eta, eta') (n,) with the
+    forcing polynomial p(s) = sum_r coef[r] (s / h)^r (coef (kk, n)), into out_eta, out_etad
+    (count, n): the exact solution of ``pece.coupled_advance`` at each length, arranged so that
+    the O(p m) products are paid once per step and not once per output.
+
+    In the bank's coordinates xi = P [eta; eta'] (p,) complex, with xi' = mu xi + P_vel p(s),
+    the variation of constants over H = theta h reads
+
+        xi(H) = e^{H mu} xi_0 + sum_r H r! phi_{r+1}(H mu) theta^r b_r,   b_r = P_vel c_r,
+
+    so the start xi_0 = P_eta eta_0 + P_vel eta'_0 and the forcing's coordinates b_r are mapped
+    once (one complex product P_vel [eta'_0, c_0, .., c_{kk-1}], (p, kk + 1)); each output then
+    costs its phi-functions (``phi_table`` at H mu) and O(p kk) products.  The outputs return to
+    (eta, eta') together: with Xi (count, 2p) the rows [Re xi(H_k), Im xi(H_k)] and V_real
+    (2p, 2m) = [[Re V_eta^T, Re V_vel^T], [-Im V_eta^T, -Im V_vel^T]] (P_eta, P_vel (p, m) and
+    V_eta, V_vel (m, p) complex as in ``pece.Basis``), Re(V xi) = Re V Re xi - Im V Im xi makes
+    [eta_e, eta'_e] (count, 2m) = Xi V_real one real matrix product.  Joints: eta + H eta' +
+    sum_r H^2 r!/(r+2)! theta^r c_r, eta' + sum_r H r!/(r+1)! theta^r c_r.  inv_fact, fact
+    (>= terms + kk + 2,) 1/k!, k!."""
+    kk = coef.shape[0]
+    p = mu.shape[0]
+    j = N_JOINTS
+    m = eta.shape[0] - j
+    rhs = np.empty((m, kk + 1), dtype=np.complex128)      # [eta'_0, c_0, .., c_{kk-1}] (elastic)
+    for i in range(m):
+        rhs[i, 0] = etad[j + i]
+        for r in range(kk):
+            rhs[i, r + 1] = coef[r, j + i]
+    B = np.dot(P_vel, rhs)                                 # (p, kk + 1): P_vel eta'_0, b_r
+    xi0 = np.dot(P_eta, eta[j:].astype(np.complex128)) + B[:, 0]
+    Bt = np.ascontiguousarray(B.T)                        # (kk + 1, p): rows contiguous
+    Xi = np.empty((count, 2 * p))
+    z = np.empty(p, dtype=np.complex128)
+    phis = np.empty((kk + 1, p), dtype=np.complex128)
+    acc = np.empty(p, dtype=np.complex128)
+    for k in range(count):
+        H = (offset + k * spacing) * tick
+        u = H / h
+        for i in range(p):
+            z[i] = H * mu[i]
+        phi_table(z, kk, radius, terms, inv_fact, phis)
+        for i in range(p):
+            acc[i] = phis[0, i] * xi0[i]
+        tp = 1.0
+        for r in range(kk):
+            wr = H * fact[r] * tp
+            b_r, ph = Bt[r + 1], phis[r + 1]
+            for i in range(p):
+                acc[i] += wr * ph[i] * b_r[i]
+            tp *= u
+        for i in range(p):
+            Xi[k, i] = acc[i].real
+            Xi[k, p + i] = acc[i].imag
+    Z = np.dot(Xi, V_real)                                 # (count, 2m): [eta_e, eta'_e]
+    for k in range(count):
+        out_eta[k, j:] = Z[k, :m]
+        out_etad[k, j:] = Z[k, m:]
+        H = (offset + k * spacing) * tick
+        u = H / h
+        for a in range(j):
+            pa = eta[a] + H * etad[a]
+            v = etad[a]
+            tp = 1.0
+            for r in range(kk):
+                pa += H * H * (fact[r] / fact[r + 2]) * tp * coef[r, a]
+                v += H * (fact[r] / fact[r + 1]) * tp * coef[r, a]
+                tp *= u
+            out_eta[k, a] = pa
+            out_etad[k, a] = v
 
 # this module's entries compiled ahead of time, when built and current (kernels.extension)
 extension.attach(__name__)

@@ -48,7 +48,8 @@ import numba
 import numpy as np
 
 from gimbal_reduction.solver.dynamics.kernels import JIT, extension
-from gimbal_reduction.solver.dynamics.kernels.exponential import advance_diagonal, dense_diagonal, modal_xi, phi_table
+from gimbal_reduction.solver.dynamics.kernels.exponential import (advance_diagonal, dense_coupled, dense_diagonal,
+                                                                  modal_xi, phi_table)
 
 N_JOINTS = 4
 # The stages and their thin wrappers are inlined into ``pece_run`` by Numba (its IR, before LLVM):
@@ -151,8 +152,9 @@ class Basis(NamedTuple):
     / delta); damped (``CoupledBank``, any damping) mu (p,) (p >= m: a pair per underdamped
     mode, two real eigenvalues per overdamped one), P_eta, P_vel (p, m) and V_eta, V_vel (m, p)
     complex (V scaled: z = Re(V xi)), phase_mode (p,) int (the coupled mode whose phase error
-    an entry takes, -1 none), Ct (m, m) [1/s] the modal damping (all size 0 undamped; delta of
-    size 0 damped).
+    an entry takes, -1 none), V_real (2p, 2m) = [[Re V_eta^T, Re V_vel^T], [-Im V_eta^T,
+    -Im V_vel^T]] (the dense outputs' map back, ``dense_coupled``), Ct (m, m) [1/s] the modal
+    damping (all size 0 undamped; delta of size 0 damped).
     version (1,) int: counted up by Python on every change (the loop then clears its weight
     cache)."""
     y_ref: np.ndarray
@@ -173,6 +175,7 @@ class Basis(NamedTuple):
     V_eta: np.ndarray
     V_vel: np.ndarray
     phase_mode: np.ndarray
+    V_real: np.ndarray
     Ct: np.ndarray
     version: np.ndarray
 
@@ -825,21 +828,31 @@ def decide(b, cfg, st, ev, work):
 @numba.njit(**STAGE)
 def dense_outputs(b, w, c, s, out, work, coef, first, last):
     """The outputs first..last (indices) inside or at the end of the accepted step (Loop s,
-    settings c) by the exact formula: the undamped bank's from a step start on an output tick
-    by the particular polynomial + free oscillation, one set of weights (one output interval)
-    for all outputs before t + h (``kernels.exponential.dense_diagonal``), the others one
-    advance each (the end of the step: the corrected state).  Returns the first output of the
+    settings c) by the exact formula: the damped bank's all before t + h together, the step's
+    start and forcing mapped to the bank once, the outputs back by one matrix product
+    (``kernels.exponential.dense_coupled``); the undamped bank's from a step start on an output
+    tick by the particular polynomial + free oscillation, one set of weights (one output
+    interval) for all outputs before t + h (``kernels.exponential.dense_diagonal``); the others
+    one advance each (the end of the step: the corrected state).  Returns the first output of the
     second kind (what the OUTPUTS request reports from)."""
     i, m = s.tick, s.step_ticks
     tpo = c.ticks_per_output
     inside = last - first + 1 if (i + m) % tpo else last - first     # outputs before t + h
-    if b.P_eta.shape[0] == 0 and i % tpo == 0 and inside >= 1:
-        k = weights(w.keys, w.used, w.E_re, w.E_im, w.F_re, w.F_im, w.wpos, w.wvel, w.H, w.inv_fact,
-                    w.fact, w.z, w.phis, b.mu, b.delta, b.version[0], c.tick, c.series_radius,
-                    c.series_terms, tpo, tpo)
-        dense_diagonal(work.eta, work.etad, work.xi_re, work.xi_im, coef, b.mu, b.delta, m * c.tick,
-                       tpo * c.tick, inside, w.E_re[k], w.E_im[k], c.series_radius, c.series_terms,
-                       w.inv_fact, w.fact, out.eta[first:first + inside], out.etad[first:first + inside])
+    damped = b.P_eta.shape[0] > 0
+    if inside >= 1 and (damped or i % tpo == 0):
+        if damped:
+            dense_coupled(work.eta, work.etad, coef, b.mu, b.P_eta, b.P_vel, b.V_real, m * c.tick,
+                          c.tick, first * tpo - i, tpo, inside, c.series_radius, c.series_terms,
+                          w.inv_fact, w.fact, out.eta[first:first + inside],
+                          out.etad[first:first + inside])
+        else:
+            k = weights(w.keys, w.used, w.E_re, w.E_im, w.F_re, w.F_im, w.wpos, w.wvel, w.H,
+                        w.inv_fact, w.fact, w.z, w.phis, b.mu, b.delta, b.version[0], c.tick,
+                        c.series_radius, c.series_terms, tpo, tpo)
+            dense_diagonal(work.eta, work.etad, work.xi_re, work.xi_im, coef, b.mu, b.delta,
+                           m * c.tick, tpo * c.tick, inside, w.E_re[k], w.E_im[k], c.series_radius,
+                           c.series_terms, w.inv_fact, w.fact, out.eta[first:first + inside],
+                           out.etad[first:first + inside])
         for k in range(first, first + inside):
             out.segment[k] = s.segment
         first += inside
