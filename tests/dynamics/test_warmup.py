@@ -10,15 +10,19 @@ from gimbal_reduction.solver.dynamics import chainfile, scenes, warmup
 from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
 
 
-def test_warmup_simulates_the_elastic_chain_per_scene_and_the_rigid_chain_with_dop853(tmp_path):
+def test_warmup_simulates_the_elastic_chain_per_scene_the_checks_integrators_and_the_rigid_chain(tmp_path):
     thesis = os.path.join(scenes.SCENES_DIR, "thesis.yaml")
     damped = os.path.join(scenes.SCENES_DIR, "damped.yaml")
     out = tmp_path / "kernels.json"
     assert warmup.main(["--scenes", thesis, damped, "--tol", "1e-6", "--out", str(out)]) == 0
     record = json.loads(out.read_text())
     assert [(r["scene"], r["model"]) for r in record["runs"]] == [(thesis, "elastic"), (damped, "elastic"),
+                                                                  (thesis, "elastic"), (thesis, "elastic"),
                                                                   (thesis, "rigid")]
     assert record["runs"][0]["options"] == ["--integrator", "exponential", "--tol", "1e-6"]
+    # the other integrators all's checks run (their kernels into the extension)
+    assert [r["options"] for r in record["runs"][2:4]] == [["--integrator", "rk4"],
+                                                           ["--integrator", "generalized-alpha"]]
     assert record["runs"][-1]["options"] == ["--integrator", "dop853"]
     assert record["git_revision"] and record["versions"] and record["wall_time_s"] > 0
 
