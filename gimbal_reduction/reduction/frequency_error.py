@@ -340,8 +340,14 @@ def excitation_shares(truth, modal, scene_inputs, t):
         return np.zeros((N_OUTPUTS, 0))
     rates = modal_rates(modal.omega, u @ modal.modal_inputs.T, t)           # (T, m)
     reference = rigid + rates @ modal.modal_outputs.T                       # (T, 7)
-    den = np.trapezoid(reference ** 2, t, axis=0)                           # (7,)
-    num = modal.modal_outputs ** 2 * np.trapezoid(rates ** 2, t, axis=0)[None, :]
+    # the mean squares by the trapezoid rule, int f^2 dt = sum_k w_k f_k^2 with its weights w (T,):
+    # one pass over the (T, m) rates, no (T, m) temporaries (1.3 s a call on long's truth with them)
+    dt = np.diff(t)
+    w = np.zeros(t.size)
+    w[:-1] += 0.5 * dt
+    w[1:] += 0.5 * dt
+    den = np.einsum("k,kn,kn->n", w, reference, reference)                 # (7,)
+    num = modal.modal_outputs ** 2 * np.einsum("k,km,km->m", w, rates, rates)[None, :]
     return np.where(den[:, None] > 0, num / np.where(den > 0, den, 1.0)[:, None], 0.0)
 
 

@@ -764,3 +764,25 @@ def test_free_scene_with_elastic_energy_conserves_energy():
     assert prob.potential_energy(r.y[0]) > 0.1 * E[0]
     drift = np.max(np.abs(E - E[0])) / E[0]
     assert drift <= exponential.DEFAULTS.tol, drift
+
+
+def test_modal_states_rows_and_functionals_per_segment():
+    """ModalStates builds row k as offset_s + phi_s eta_k with s its segment, whatever the order
+    of the segments (grouped by one sort), for a block of rows and columns, the whole array and
+    linear functionals L y; a row read with another segment's basis would differ by O(1)."""
+    from gimbal_reduction.solver.dynamics.exponential import ModalStates
+    rng = np.random.default_rng(3)
+    T, n = 9, 5
+    eta = rng.standard_normal((T, n))
+    segment = np.array([0, 0, 2, 1, 1, 2, 0, 2, 1])
+    offsets = [rng.standard_normal(n) for _ in range(3)]
+    phis = [rng.standard_normal((n, n)) for _ in range(3)]
+    direct = np.array([offsets[s] + phis[s] @ eta[k] for k, s in enumerate(segment)])
+    states = ModalStates(eta, segment, offsets, phis)
+    np.testing.assert_allclose(states[1:7, 1:3], direct[1:7, 1:3], rtol=0, atol=1e-13)
+    L = rng.standard_normal((2, n))
+    np.testing.assert_allclose(states.functionals(L), direct @ L.T, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(np.asarray(states), direct, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(states.functionals(L), direct @ L.T, rtol=0, atol=1e-13)   # from full
+    wrong = ModalStates(eta, np.roll(segment, 1), offsets, phis)
+    assert np.abs(np.asarray(wrong) - direct).max() > 0.1

@@ -144,3 +144,23 @@ def test_the_file_records_the_exponential_options_and_what_the_timings_include(t
     # which kernels ran: the extension compiled ahead of time when it is current, else the JIT
     from gimbal_reduction.solver.dynamics.kernels import extension
     assert attrs["kernels"] == ("extension" if extension.attached() else "jit")
+
+
+def test_attitude_from_the_modal_outputs_equals_the_full_states(tmp_path):
+    """simulate.platform_attitude reads the 13 functionals of the state per basis
+    (``ModalStates.functionals``); multibody.platform_attitude of the run's full (T, n) states is the
+    other route.  Several bases (fixed steps, a new basis every 0.2 ms), rotations of scale 1: a
+    few roundings apart.
+    Leaving the bearings' elastic rotations out moves it far beyond that (the check can fail)."""
+    from gimbal_reduction.solver.dynamics import multibody
+    chain, _ = synthetic_chain(seed=1)
+    scene = scenes.load_scene(str(copied_scene(tmp_path, "thesis_copy", "thesis_copy")))
+    run, _ = simulate.run_scene(chain, scene, step=1e-4, relinearise_every=2e-4)
+    assert len(run.y.phis) > 2                                   # several bases, each its own segment
+    fast = simulate.platform_attitude(chain, run)
+    full = multibody.platform_attitude(chain, np.asarray(run.y))
+    assert np.abs(fast - full).max() <= 1e-13
+    L = multibody.attitude_functionals(chain)
+    L[4:] = 0.0
+    rigid = multibody.attitude_of_functionals(chain, np.asarray(run.y) @ L.T)
+    assert np.abs(rigid - full).max() > 1e3 * 1e-13

@@ -168,3 +168,35 @@ def test_a_reduction_file_in_another_bodys_slot_is_refused_by_the_model_stage(wo
     i = args.index("--reductions")
     args[i + 1], args[i + 2] = args[i + 2], args[i + 1]
     refused(models.main, args, (str(args[i + 1]), "body 3", "body 2's"), work / "out")
+
+
+def test_a_verified_file_is_hashed_once_and_a_rewritten_one_again(tmp_path, monkeypatch):
+    """content_problem remembers a settled file it found intact (VerifiedContent: the study's loop
+    reads the same files for every model), and still names a number changed since: the write gives
+    the file a new mtime.  A file written within the last second is not remembered (a coarse
+    file-system clock could give a quick rewrite the same mtime)."""
+    import os
+    import time
+    path = tmp_path / "f.h5"
+    with provenance.atomic_h5(path) as f:
+        f["x"] = np.arange(4.0)
+    settled = time.time_ns() - 10 * provenance.VerifiedContent.SETTLED_NS
+    os.utime(path, ns=(settled, settled))
+    calls = []
+    digest = provenance.dataset_digest
+    monkeypatch.setattr(provenance, "dataset_digest", lambda v: calls.append(1) or digest(v))
+    for _ in range(3):
+        with h5py.File(path, "r") as f:
+            assert provenance.content_problem(f, path) is None
+    assert len(calls) == 1                                   # hashed once, then remembered
+    scale(path, "x", 2.0)                                    # same size, a new mtime
+    with h5py.File(path, "r") as f:
+        assert "'x' was changed" in provenance.content_problem(f, path)
+    fresh = tmp_path / "g.h5"                                # written just now: not remembered
+    with provenance.atomic_h5(fresh) as f:
+        f["x"] = np.arange(4.0)
+    calls.clear()
+    for _ in range(2):
+        with h5py.File(fresh, "r") as f:
+            assert provenance.content_problem(f, fresh) is None
+    assert len(calls) == 2

@@ -15,11 +15,10 @@ temporary folder; ``gimbal_reduction.solver.dynamics.simulate`` integrates it an
 ``--frequency-error`` every model's H-infinity and H2 error against the truth,
 ``gimbal_reduction.reduction.frequency_error``: each model file is linearised as it is made, the
 norms computed once all are), called in process with the same arguments, so a study file equals the file
-``snakemake results/sim/{scene}/{model}.h5`` makes, but for one thing the study does not need: a
-reduced model's file has no energy history (``simulate --no-energy``; no stage of the study reads it,
-and on the 1 s scene ``long`` it cost as much as the run: 0.41 s of rhs and case power at 10,001
-samples against 0.41 s of integration for xmx-10). The truth's file keeps it,
-the record of the reference run's energy balance.
+``snakemake results/sim/{scene}/{model}.h5`` makes, but for one thing the study does not need: no
+file has an energy history (``simulate --no-energy``; no stage of the study reads it, and it costs a
+right-hand side, the case power and every coordinate per output sample: on the 1 s scene ``long``
+as much as the run, 16 of the truth's 39 s).
 
 Progress (``gimbal_reduction.workflow.progress``, stderr): at most one line every ``progress.EVERY`` seconds with
 the models done of the total, the time elapsed and the estimated time left.  The first model
@@ -117,8 +116,7 @@ def run_scene(scene, models, bodies, reductions, load_ranking, out_dir, integrat
             if rc == 0:
                 rc = simulate.main(["--scene", str(scene), "--model-file", model_file, "--out",
                                     os.path.join(out_dir, model_file_name(model)),
-                                    *checked, *integrator_args,
-                                    *([] if model == "truth" else ["--no-energy"])])
+                                    *checked, *integrator_args, "--no-energy"])
             if rc:
                 return rc, model
             if model == "truth" and coupled_modes:

@@ -681,12 +681,30 @@ class ModalStates:
     def __len__(self):
         return self.shape[0]
 
+    def _groups(self, rows):
+        """(segment, positions into rows) of every segment the outputs ``rows`` (k,) fall in, the
+        positions ascending: one stable sort, not a mask over all rows per segment (a run of ~800
+        bases over the 40,001 outputs of long spent 0.4 s a read on the masks)."""
+        seg = self.segment[rows]
+        order = np.argsort(seg, kind="stable")
+        bounds = np.flatnonzero(np.diff(seg[order])) + 1
+        return [(int(seg[idx[0]]), idx) for idx in np.split(order, bounds) if idx.size]
+
     def _block(self, rows, cols):
         out = np.empty((rows.size, cols.size))
-        seg = self.segment[rows]
-        for s in np.unique(seg):
-            sel = seg == s
-            out[sel] = self.offsets[s][cols] + self.eta[rows[sel]] @ self.phis[s][cols].T
+        for s, idx in self._groups(rows):
+            out[idx] = self.offsets[s][cols] + self.eta[rows[idx]] @ self.phis[s][cols].T
+        return out
+
+    def functionals(self, L):
+        """L y (T, r) at every output for the linear functionals L (r, n): per segment
+        L offset_s + eta (L phi_s)^T, an (n, r) product per basis instead of the (T, n) states
+        (``multibody.attitude_functionals``: r = 13 against n ~ 400 on the truth)."""
+        if self._full is not None:
+            return self._full @ L.T
+        out = np.empty((self.shape[0], L.shape[0]))
+        for s, idx in self._groups(np.arange(self.shape[0])):
+            out[idx] = L @ self.offsets[s] + self.eta[idx] @ (L @ self.phis[s]).T
         return out
 
     def full(self):

@@ -403,17 +403,45 @@ def platform_attitude(chain, y):
     motion is prescribed, the same in every model, so two models' platform attitude in
     inertial axes differ exactly as their R here do (R_case cancels in R_a^T R_b)."""
     y = np.atleast_2d(np.asarray(y, float))
-    R = chain.case_to_outer @ _rotations(0, y[:, 0])
+    bearings = [y[:, chain.slices[k]] @ np.asarray(chain.bodies[k].inside_rotation, float).T
+                if chain.bodies[k].n_modes else None for k in range(3)]
+    return attitude_of(chain, y[:, :4], bearings)
+
+
+def attitude_of(chain, gamma, bearings):
+    """``platform_attitude`` (T, 3, 3) from what it reads: the gimbal angles gamma (T, 4) [rad]
+    and, per parent body k = 0, 1, 2 (bodies 2-4), its inside bearing's elastic rotations
+    th = Theta q (T, 3) [rad], or None for a body without modes (E = I)."""
+    R = chain.case_to_outer @ _rotations(0, gamma[:, 0])
     C = chain.parent_to_child
     for j in range(2, 5):
-        Rj = C @ _rotations(0, y[:, j - 1])
-        parent = chain.bodies[j - 2]
-        if parent.n_modes:
-            th = y[:, chain.slices[j - 2]] @ np.asarray(parent.inside_rotation, float).T   # (T, 3)
+        Rj = C @ _rotations(0, gamma[:, j - 1])
+        th = bearings[j - 2]
+        if th is not None:
             E = _rotations(0, th[:, 0]) @ _rotations(1, th[:, 1]) @ _rotations(2, th[:, 2])
             Rj = E @ Rj
         R = R @ Rj
     return R
+
+
+def attitude_functionals(chain):
+    """L (13, n_y): the linear functionals of y that ``platform_attitude`` reads, rows 0-3 the
+    gimbal angles, rows 4 + 3k .. 6 + 3k the inside-bearing rotations Theta q of parent body k
+    (zero rows for a body without modes).  L y gives ``attitude_of``'s arguments: a trajectory
+    known as y = y_r + Phi eta (the exponential integrator's outputs) needs only L Phi (13, n),
+    not its (T, n) states (``simulate.platform_attitude``)."""
+    L = np.zeros((13, chain.n_coordinates))
+    L[np.arange(4), np.arange(4)] = 1.0
+    for k in range(3):
+        if chain.bodies[k].n_modes:
+            L[4 + 3 * k:7 + 3 * k, chain.slices[k]] = np.asarray(chain.bodies[k].inside_rotation, float)
+    return L
+
+
+def attitude_of_functionals(chain, f):
+    """``platform_attitude`` (T, 3, 3) from f = y L^T (T, 13) (``attitude_functionals``)."""
+    return attitude_of(chain, f[:, :4], [f[:, 4 + 3 * k:7 + 3 * k] if chain.bodies[k].n_modes else None
+                                         for k in range(3)])
 
 
 def attitude_coordinates(chain):

@@ -105,11 +105,13 @@ def energy_history(prob, run):
 
 def platform_attitude(chain, run):
     """The platform's frame in case axes (T, 3, 3) at the outputs of a run
-    (``multibody.platform_attitude``; only the columns it reads are built from a modal run)."""
-    cols = multibody.attitude_coordinates(chain)
-    y = np.zeros((len(run.t), chain.n_coordinates))
-    y[:, cols] = run.y[:, cols]
-    return multibody.platform_attitude(chain, y)
+    (``multibody.platform_attitude``): from the 13 linear functionals of the state it reads
+    (``multibody.attitude_functionals``), taken from a modal run's coordinates per basis
+    (``exponential.ModalStates.functionals``) without forming its (T, n) states."""
+    L = multibody.attitude_functionals(chain)
+    y = run.y
+    f = y.functionals(L) if hasattr(y, "functionals") else np.asarray(y, float) @ L.T
+    return multibody.attitude_of_functionals(chain, f)
 
 
 positive_number = cli.positive_number        # (argparse type; kept for callers of this module)
