@@ -5,8 +5,8 @@
 #   2. runs `snakemake --cores 2 all` RUNS times (default 2), each from nothing (results/, logs/
 #      and .snakemake/ removed; the installed .venv and its kernels' extension kept, as after
 #      `make install`);
-#   3. summarises every run (gimbal_reduction.results.bench.workflow_run: wall, the jobs' CPU,
-#      the critical path) into results/benchmarks/all-clean.json of this project, and prints it.
+#   3. summarises every run from Snakemake's job records and the benchmark files
+#      (gimbal_reduction.results.bench.workflow_run: wall, the jobs' CPU, the critical path) into results/benchmarks/all-clean.json of this project, and prints it.
 # Run it on a quiet machine: the runs are timed as they are. KEEP=1 keeps the clone.
 #   make benchmark-all            RUNS=1 make benchmark-all
 set -euo pipefail
@@ -21,18 +21,18 @@ start=$(date +%s)
 SNAKEMAKE_BINDIR="${SNAKEMAKE_BINDIR:-/nonexistent}" bash workflow/envs/install.sh > "$work/install.log" 2>&1 \
   || { echo "benchmark-all: make install failed (log: $work/install.log)" >&2; exit 1; }
 echo "benchmark-all: install took $(( $(date +%s) - start )) s"
-logs=() projects=()
+projects=()
 for i in $(seq 1 "$runs"); do
   rm -rf results logs .snakemake
   start=$(date +%s)
   .venv/bin/python -m snakemake --cores 2 all > "$work/run$i.out" 2>&1 \
     || { echo "benchmark-all: run $i failed (output: $work/run$i.out)" >&2; KEEP=1; exit 1; }
   echo "benchmark-all: run $i of $runs: $(( $(date +%s) - start )) s wall (snakemake's start included)"
-  mkdir -p "$work/run$i"
-  cp "$(ls -t .snakemake/log/*.snakemake.log | head -1)" "$work/run$i/snakemake.log"
-  cp -r results/benchmarks "$work/run$i/"
-  mkdir -p "$work/run$i/results" && mv "$work/run$i/benchmarks" "$work/run$i/results/"
-  logs+=("$work/run$i/snakemake.log") projects+=(--project "$work/run$i")
+  # what the summary reads, kept with their times: Snakemake's job records and the benchmark files
+  mkdir -p "$work/run$i/.snakemake" "$work/run$i/results"
+  cp -a .snakemake/metadata "$work/run$i/.snakemake/"
+  cp -a results/benchmarks "$work/run$i/results/"
+  projects+=("$work/run$i")
 done
-.venv/bin/python -m gimbal_reduction.results.bench.workflow_run "${logs[@]}" "${projects[@]}" \
+.venv/bin/python -m gimbal_reduction.results.bench.workflow_run "${projects[@]}" \
   --out "$root/results/benchmarks/all-clean.json"

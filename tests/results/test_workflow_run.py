@@ -1,63 +1,65 @@
-"""The whole-run summary read from a Snakemake log: jobs, critical path, waiting (a made-up log)."""
+"""The whole-run summary read from Snakemake's job records: jobs, CPU, critical path, waiting
+(a made-up project folder)."""
+import base64
 import json
+import os
 
 import pytest
 
 from gimbal_reduction.results.bench import workflow_run
 
-LOG = """Building DAG of jobs...
-[Sat Nov 28 09:00:00 2026]
-localrule mesh:
-    output: results/mesh.msh
-    jobid: 1
-    benchmark: bench/mesh.tsv
-    wildcards: n=2
-[Sat Nov 28 09:00:00 2026]
-localrule other:
-    output: results/other.json
-    jobid: 2
-[Sat Nov 28 09:00:10 2026]
-Finished jobid: 1 (Rule: mesh)
-[Sat Nov 28 09:00:30 2026]
-Finished jobid: 2 (Rule: other)
-[Sat Nov 28 09:00:30 2026]
-localrule modes:
-    input: results/mesh.msh, results/other.json
-    output: results/modes.h5
-    jobid: 3
-    benchmark: bench/modes.tsv
-[Sat Nov 28 09:01:00 2026]
-Finished jobid: 3 (Rule: modes)
-[Sat Nov 28 09:01:05 2026]
-localrule report:
-    input: results/mesh.msh, results/modes.h5
-    output: results/report.pdf
-    jobid: 4
-[Sat Nov 28 09:01:10 2026]
-Finished jobid: 4 (Rule: report)
-"""
+T0 = 1_800_000_000.0
+# rule, start, end [s after T0], inputs, outputs, benchmark file (or None)
+JOBS = [
+    ("mesh", 0, 10, [], ["results/mesh.msh"], "mesh.tsv"),
+    ("other", 0, 30, [], ["results/other.json"], None),
+    ("modes", 30, 60, ["results/mesh.msh", "results/other.json"], ["results/modes.h5", "results/modes.json"],
+     "modes.tsv"),
+    ("report", 65, 70, ["results/mesh.msh", "results/modes.h5", "config/config.yaml"], ["results/report.pdf"],
+     None),
+]
+
+
+def make_project(folder, cpu):
+    meta = folder / ".snakemake" / "metadata"
+    bench = folder / "results" / "benchmarks"
+    meta.mkdir(parents=True)
+    bench.mkdir(parents=True)
+    for k, (rule, start, end, inputs, outputs, benchmark) in enumerate(JOBS):
+        for out in outputs:
+            name = base64.b64encode(out.encode()).decode()
+            (meta / name).write_text(json.dumps({"rule": rule, "input": inputs, "starttime": T0 + start,
+                                                 "endtime": T0 + end, "job_hash": k, "incomplete": False}))
+        if benchmark:
+            path = bench / benchmark
+            path.write_text(f"s\tcpu_time\n{end - start}\t{cpu[rule]}\n")
+            os.utime(path, (T0 + end + 0.5, T0 + end + 0.5))     # written as its job ended
+    return folder
 
 
 def test_the_critical_path_follows_the_input_that_ended_last(tmp_path):
-    jobs = workflow_run.parse_log(LOG)
-    assert [j.name for j in jobs] == ["mesh[n=2]", "other", "modes", "report"]
+    project = make_project(tmp_path, {"mesh": 9.5, "modes": 28.5})
+    jobs = workflow_run.read_jobs(project)
+    assert [j.rule for j in jobs] == ["mesh", "other", "modes", "report"]
     assert [(j.start, j.end) for j in jobs] == [(0, 10), (0, 30), (30, 60), (65, 70)]
+    assert [j.cpu_s for j in jobs] == [9.5, 0.0, 28.5, 0.0]      # matched by end time and length
     chain = workflow_run.critical_path(jobs)
     # report waited on modes (not on mesh, which ended earlier); modes on other (ended at 30 s)
-    assert [j.name for j in chain] == ["other", "modes", "report"]
-    (tmp_path / "bench").mkdir()
-    (tmp_path / "bench" / "modes.tsv").write_text("s\tcpu_time\n30.0\t28.5\n")
-    (tmp_path / "bench" / "mesh.tsv").write_text("s\tcpu_time\n10.0\t9.5\n")
-    log = tmp_path / "run.log"
-    log.write_text(LOG)
+    assert [j.rule for j in chain] == ["other", "modes", "report"]
     out = tmp_path / "summary.json"
-    assert workflow_run.main([str(log), "--project", str(tmp_path), "--out", str(out)]) == 0
+    assert workflow_run.main([str(project), "--out", str(out)]) == 0
     run = json.loads(out.read_text())["runs"][0]
-    assert run["wall_s"] == 70 and run["cpu_s"] == 38.0
+    assert run["wall_s"] == 70 and run["cpu_s"] == 38.0 and run["jobs"] == 4
     assert run["critical_path_s"] == 70 and run["waits_s"] == 5     # 60-65 s: nothing on the path ran
     assert run["cores_busy"] == pytest.approx(38.0 / 140.0, abs=1e-3)
 
 
-def test_a_log_without_a_finished_job_is_refused():
+def test_a_benchmark_file_of_no_job_is_left_out_and_an_empty_record_refused(tmp_path):
+    project = make_project(tmp_path / "run", {"mesh": 9.5, "modes": 28.5})
+    stray = project / "results" / "benchmarks" / "stray.tsv"      # from an earlier run
+    stray.write_text("s\tcpu_time\n40\t39\n")
+    os.utime(stray, (T0 - 500, T0 - 500))
+    assert sum(j.cpu_s for j in workflow_run.read_jobs(project)) == 38.0
+    (tmp_path / "empty").mkdir()
     with pytest.raises(ValueError, match="no finished job"):
-        workflow_run.parse_log(LOG.split("[Sat Nov 28 09:00:10 2026]")[0])
+        workflow_run.read_jobs(tmp_path / "empty")

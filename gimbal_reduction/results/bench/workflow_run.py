@@ -1,11 +1,12 @@
 """What bounds a whole workflow run: its wall time, its jobs' CPU and its critical path.
 
-``python -m gimbal_reduction.results.bench.workflow_run LOG [LOG ...] --project DIR --out F.json``
-reads the Snakemake log of each run (``.snakemake/log/*.snakemake.log``) and the rules'
-benchmark files it names, and writes, per run:
+``python -m gimbal_reduction.results.bench.workflow_run DIR [DIR ...] --out F.json`` reads the
+jobs of each run from Snakemake's records (``DIR/.snakemake/metadata``: per output file its rule,
+inputs, start and end) and the rules' benchmark files (``DIR/results/benchmarks``), and writes,
+per run:
 
-* ``wall_s``: from the first job's start to the last job's end (the log's second-resolution
-  time stamps; the DAG build before the first job is not in it);
+* ``wall_s``: from the first job's start to the last job's end (the DAG build before the first
+  job is not in it);
 * ``cpu_s``: the sum of the jobs' ``cpu_time`` (Snakemake's ``benchmark:``), and ``cores_busy``
   = cpu_s / (cores * wall_s), how full the run kept its cores;
 * ``critical_path``: the chain of jobs, from the last one to finish back to a first one, each
@@ -21,75 +22,81 @@ and calls this; the summary is printed and the JSON kept.  Nothing is timed in a
 from __future__ import annotations
 
 import argparse
+import base64
 import csv
 import json
-import re
 import statistics
 from dataclasses import dataclass, field
-from datetime import datetime
 from pathlib import Path
 
-_STAMP = re.compile(r"^\[(\w{3} \w{3} +\d+ \d\d:\d\d:\d\d \d{4})\]$")
-_START = re.compile(r"^(?:local)?rule (\S+):$")
-_FINISHED = re.compile(r"^Finished jobid: (\d+)")
-_FIELD = re.compile(r"^    (input|output|jobid|benchmark|wildcards): (.*)$")
+# the rules' benchmark files, matched to their jobs by time: Snakemake writes one when its job
+# ends, so its modification time is the job's end, and its ``s`` the job's wall time [s]
+MATCH_TOLERANCE_S = 3.0
 
 
 @dataclass
 class Job:
     """One job of a run: rule, start and end [s since the run's first start], files, CPU [s]."""
 
-    jobid: int
     rule: str
     start: float
-    end: float | None = None
+    end: float
     inputs: list[str] = field(default_factory=list)
     outputs: list[str] = field(default_factory=list)
     benchmark: str | None = None
-    wildcards: str = ""
     cpu_s: float = 0.0
 
     @property
     def name(self) -> str:
-        return f"{self.rule}[{self.wildcards}]" if self.wildcards else self.rule
+        if self.benchmark:
+            return f"{self.rule}[{Path(self.benchmark).stem}]"
+        return f"{self.rule}[{Path(self.outputs[0]).name}]" if self.outputs else self.rule
 
 
-def parse_log(text: str) -> list[Job]:
-    """The jobs of a Snakemake log (start and end in seconds of the log's clock)."""
-    jobs, stamp, current = {}, None, None
-    for line in text.splitlines():
-        m = _STAMP.match(line)
-        if m:
-            stamp = datetime.strptime(m.group(1), "%a %b %d %H:%M:%S %Y").timestamp()
-            current = None
+def read_jobs(project: Path) -> list[Job]:
+    """The jobs of a project's last run, from Snakemake's metadata (``.snakemake/metadata``: one
+    record per output file with its rule, inputs, start and end; a job is the outputs of one
+    ``job_hash``), start and end in seconds from the first start."""
+    folder = project / ".snakemake" / "metadata"
+    jobs: dict = {}
+    for path in sorted(folder.iterdir()) if folder.is_dir() else ():
+        try:
+            record = json.loads(path.read_text())
+            output = base64.b64decode(path.name).decode()
+        except (ValueError, OSError):
             continue
-        m = _START.match(line)
-        if m and stamp is not None:
-            current = Job(jobid=-1, rule=m.group(1), start=stamp)
+        if record.get("incomplete") or record.get("starttime") is None or record.get("endtime") is None:
             continue
-        m = _FIELD.match(line)
-        if m and current is not None:
-            key, value = m.groups()
-            if key == "jobid":
-                current.jobid = int(value)
-                jobs[current.jobid] = current
-            elif key in ("input", "output"):
-                getattr(current, key + "s").extend(v.strip() for v in value.split(", "))
-            elif key == "benchmark":
-                current.benchmark = value.strip()
-            else:
-                current.wildcards = value.strip()
-            continue
-        m = _FINISHED.match(line)
-        if m and stamp is not None and int(m.group(1)) in jobs:
-            jobs[int(m.group(1))].end = stamp
-    done = [j for j in jobs.values() if j.end is not None]
-    if not done:
-        raise ValueError("no finished job in the log")
+        job = jobs.setdefault(record.get("job_hash"), Job(record["rule"], float(record["starttime"]),
+                                                          float(record["endtime"]),
+                                                          inputs=list(record.get("input") or [])))
+        job.outputs.append(output)
+    if not jobs:
+        raise ValueError(f"{folder}: no finished job recorded")
+    done = list(jobs.values())
     t0 = min(j.start for j in done)
     for j in done:
         j.start, j.end = j.start - t0, j.end - t0
-    return sorted(done, key=lambda j: (j.start, j.jobid))
+        j.outputs.sort()
+    _attach_benchmarks(done, project, t0)
+    return sorted(done, key=lambda j: (j.start, j.rule))
+
+
+def _attach_benchmarks(jobs: list[Job], project: Path, t0: float) -> None:
+    """Each benchmark file of the run to the job that ended nearest its modification time and
+    lasted nearest its ``s`` (within MATCH_TOLERANCE_S), its ``cpu_time`` to the job's cpu_s."""
+    for path in sorted((project / "results" / "benchmarks").rglob("*.tsv")):
+        try:
+            rows = list(csv.reader(path.open(), delimiter="\t"))
+            values = dict(zip(rows[0], rows[1]))
+            wall, cpu = float(values["s"]), float(values.get("cpu_time") or 0.0)
+        except (OSError, IndexError, KeyError, ValueError):
+            continue
+        end = path.stat().st_mtime - t0
+        free = [j for j in jobs if j.benchmark is None]
+        best = min(free, key=lambda j: abs(j.end - end) + abs((j.end - j.start) - wall), default=None)
+        if best is not None and abs(best.end - end) + abs((best.end - best.start) - wall) <= MATCH_TOLERANCE_S:
+            best.benchmark, best.cpu_s = str(path.relative_to(project)), cpu
 
 
 def critical_path(jobs: list[Job]) -> list[Job]:
@@ -103,17 +110,6 @@ def critical_path(jobs: list[Job]) -> list[Job]:
             break
         chain.append(max(before, key=lambda j: j.end))
     return chain[::-1]
-
-
-def read_cpu(job: Job, project: Path) -> float:
-    """The job's ``cpu_time`` [s] from its benchmark file (0 without one)."""
-    if not job.benchmark:
-        return 0.0
-    try:
-        rows = list(csv.reader((project / job.benchmark).open(), delimiter="\t"))
-        return float(dict(zip(rows[0], rows[1])).get("cpu_time") or 0.0)
-    except (OSError, IndexError, ValueError):
-        return 0.0
 
 
 def summarise(jobs: list[Job], cores: int, largest: int = 12) -> dict:
@@ -136,20 +132,12 @@ def summarise(jobs: list[Job], cores: int, largest: int = 12) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("logs", nargs="+", type=Path, help="Snakemake logs, one per run")
-    parser.add_argument("--project", type=Path, action="append", required=True,
-                        help="the run's project folder (its benchmark files), once per log")
+    parser.add_argument("projects", nargs="+", type=Path,
+                        help="project folders, one per run (their .snakemake/metadata and results/benchmarks)")
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
-    if len(args.project) != len(args.logs):
-        parser.error(f"{len(args.logs)} logs but {len(args.project)} --project folders")
-    runs = []
-    for log, project in zip(args.logs, args.project):
-        jobs = parse_log(log.read_text())
-        for j in jobs:
-            j.cpu_s = read_cpu(j, project)
-        runs.append({"log": str(log), **summarise(jobs, args.cores)})
+    runs = [{"project": str(project), **summarise(read_jobs(project), args.cores)} for project in args.projects]
     walls = [r["wall_s"] for r in runs]
     out = {"runs": runs, "wall_s_median": statistics.median(walls), "cores": args.cores}
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -157,7 +145,7 @@ def main(argv=None) -> int:
     tmp.write_text(json.dumps(out, indent=1))
     tmp.replace(args.out)
     for r in runs:
-        print(f"workflow_run: {r['log']}: {r['jobs']} jobs, wall {r['wall_s']:.0f} s, CPU {r['cpu_s']:.0f} s "
+        print(f"workflow_run: {r['project']}: {r['jobs']} jobs, wall {r['wall_s']:.0f} s, CPU {r['cpu_s']:.0f} s "
               f"({r['cores_busy']:.0%} of {args.cores} cores); critical path {r['critical_path_s']:.0f} s "
               f"({r['waits_s']:.0f} s waiting for cores):")
         for step in r["critical_path"]:
