@@ -5,7 +5,8 @@
 #   2. runs `snakemake --cores 2 all` RUNS times (default 2), each from nothing (results/, logs/
 #      and .snakemake/ removed; the installed .venv and its kernels' extension kept, as after
 #      `make install`);
-#   3. summarises every run from Snakemake's job records and the benchmark files
+#   3. times 5 no-op reruns of the last run (`snakemake --cores 2 all` with nothing to do);
+#   4. summarises every run from Snakemake's job records and the benchmark files
 #      (gimbal_reduction.results.bench.workflow_run: wall, the jobs' CPU, the critical path) into results/benchmarks/all-clean.json of this project, and prints it.
 # Run it on a quiet machine: the runs are timed as they are. KEEP=1 keeps the clone.
 #   make benchmark-all            RUNS=1 make benchmark-all
@@ -34,5 +35,11 @@ for i in $(seq 1 "$runs"); do
   cp -a results/benchmarks "$work/run$i/results/"
   projects+=("$work/run$i")
 done
-.venv/bin/python -m gimbal_reduction.results.bench.workflow_run "${projects[@]}" \
+# 4. the no-op: `snakemake --cores 2 all` again on the last run's outputs, 5 times
+noop=()
+TIMEFORMAT=%R
+for k in 1 2 3 4 5; do
+  noop+=("$( { time .venv/bin/python -m snakemake --cores 2 all -q > "$work/noop$k.out" 2>&1; } 2>&1 )")
+done
+.venv/bin/python -m gimbal_reduction.results.bench.workflow_run "${projects[@]}" --noop-s "${noop[@]}" \
   --out "$root/results/benchmarks/all-clean.json"

@@ -47,8 +47,10 @@ def test_the_critical_path_follows_the_input_that_ended_last(tmp_path):
     # report waited on modes (not on mesh, which ended earlier); modes on other (ended at 30 s)
     assert [j.rule for j in chain] == ["other", "modes", "report"]
     out = tmp_path / "summary.json"
-    assert workflow_run.main([str(project), "--out", str(out)]) == 0
-    run = json.loads(out.read_text())["runs"][0]
+    assert workflow_run.main([str(project), "--noop-s", "2.5", "1.5", "1.9", "--out", str(out)]) == 0
+    summary = json.loads(out.read_text())
+    assert summary["noop_s_median"] == 1.9
+    run = summary["runs"][0]
     assert run["wall_s"] == 70 and run["cpu_s"] == 38.0 and run["jobs"] == 4
     assert run["critical_path_s"] == 70 and run["waits_s"] == 5     # 60-65 s: nothing on the path ran
     assert run["cores_busy"] == pytest.approx(38.0 / 140.0, abs=1e-3)

@@ -14,7 +14,9 @@ per run:
   length ``critical_path_s`` (first start to last end along it) is what no number of cores
   shortens; ``waits_s`` is the time on it when none of its jobs ran (another job held the
   cores);
-* ``largest``: the jobs of most CPU.
+* ``largest``: the jobs of most CPU;
+
+and, given ``--noop-s``, the wall times of no-op reruns (Snakemake with nothing to do) and their median.
 
 The ``make benchmark-all`` script (``workflow/benchmark-all.sh``) runs clean clones' ``all``
 and calls this; the summary is printed and the JSON kept.  Nothing is timed in a test.
@@ -135,11 +137,14 @@ def main(argv=None) -> int:
     parser.add_argument("projects", nargs="+", type=Path,
                         help="project folders, one per run (their .snakemake/metadata and results/benchmarks)")
     parser.add_argument("--cores", type=int, default=2)
+    parser.add_argument("--noop-s", type=float, nargs="*", default=[],
+                        help="wall times [s] of no-op reruns (snakemake with nothing to do), to record")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
     runs = [{"project": str(project), **summarise(read_jobs(project), args.cores)} for project in args.projects]
     walls = [r["wall_s"] for r in runs]
-    out = {"runs": runs, "wall_s_median": statistics.median(walls), "cores": args.cores}
+    out = {"runs": runs, "wall_s_median": statistics.median(walls), "cores": args.cores,
+           "noop_s": args.noop_s, "noop_s_median": statistics.median(args.noop_s) if args.noop_s else None}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     tmp = args.out.with_name(args.out.name + ".tmp")
     tmp.write_text(json.dumps(out, indent=1))
@@ -151,6 +156,8 @@ def main(argv=None) -> int:
         for step in r["critical_path"]:
             print(f"  {step['start_s']:6.0f}-{step['end_s']:6.0f} s  {step['cpu_s']:6.1f} CPU-s  {step['job']}")
         print("  largest: " + ", ".join(f"{x['job']} {x['cpu_s']:.0f}" for x in r["largest"]))
+    if args.noop_s:
+        print(f"workflow_run: no-op rerun {out['noop_s_median']:.2f} s (median of {len(args.noop_s)})")
     print(f"workflow_run: median wall {out['wall_s_median']:.0f} s of {len(runs)} run(s) -> {args.out}")
     return 0
 
