@@ -242,3 +242,25 @@ def test_the_frequency_error_table_has_a_cell_per_model_of_a_family_and_skips_mi
     out = frequency_rows(rows)
     assert len(out) == 2                                   # xmx has no frequency-domain error
     assert out[1][1:] == ['#"5: 2 / 1.5"', '#"10: 1.41 / 1.16"']
+
+
+def test_the_first_call_of_a_fresh_process_is_reported_against_the_median():
+    """runtime.first_call: the process's first run against the median of the later ones; the
+    decision keeps it per scene and the report quotes the largest excess (never below 0)."""
+    from gimbal_reduction.results.bench import runtime as runtime_bench
+    from gimbal_reduction.results.study import study_report
+    c = runtime_bench.first_call(57.5, [43.0, 44.5, 42.5, 45.0, 43.5])
+    assert c == {"first_run_ms": 57.5, "run_ms": 43.5, "extra_ms": 14.0}
+    noisy = runtime_bench.first_call(40.0, [43.0, 44.5, 42.5])          # the first ran faster
+    assert noisy["extra_ms"] == -3.0
+    runtime = {"models": {"rigid": {"run_ms": 1.5, "setup_ms": 0.3, "first_call": c},
+                          "truth": {"run_ms": 43.5, "setup_ms": 1.0}}}
+    kept = decision.decide_scene("thesis", scene_rows(), RMS, None, runtime)["runtime"]["first_call"]
+    assert kept == dict(c, model="rigid")
+    assert decision.decide_scene("thesis", scene_rows(), RMS, None, {"models": {}})["runtime"]["first_call"] is None
+    scene = {"scene": "thesis", "runtime": {"first_call": dict(c, model="rigid")}}
+    other = {"scene": "long", "runtime": {"first_call": dict(noisy, model="rigid")}}
+    note = study_report.first_call_note([other, scene])
+    assert 'at most #"14 ms"' in note and 'largest on #"thesis"' in note and '#"rigid"' in note
+    assert 'at most #"0 ms"' in study_report.first_call_note([other])
+    assert study_report.first_call_note([{"scene": "smooth", "runtime": {}}]) == ""

@@ -16,6 +16,9 @@ Numba kernels, a one-off cost of a fresh process):
   build_chain``: the kept modes' modal integrals) and the scene's problem (``simulate.
   scene_problem``: the initial state and the coupled chain's highest frequency), median of
   ``--repeats``; reading the body files (shared by every model) is not in it;
+* first call [ms]: the first model's warm-up run, the process's first simulation, against that
+  model's median (``first_call``): what a user running one simulation in a fresh process pays
+  beyond the medians (the kernels come from their extension: milliseconds);
 * run [ms]: the integration of the whole scene with the workflow's integrator and options
   (``integrators.Run.wall_time``: the stepping and the output monitor), median of ``--repeats``
   runs, and the spread (largest minus smallest) beside it; a model whose runs would take longer
@@ -71,7 +74,7 @@ def time_models(names, scene, body_files, reduction_files, load_ranking=None, re
     cb_stages = models.cb_stages_for(specs.values(), body_data, cb_files)
     dt = scene.output_interval
     run_options = simulate.scene_options(scene, integrator, None, options)
-    built, out = {}, {}
+    built, out, first = {}, {}, None
     for name, spec in specs.items():
         chain = models.build_chain(spec, body_data, scene.damping_ratio, cb_stages)
         prob = simulate.scene_problem(chain, scene)
@@ -83,6 +86,8 @@ def time_models(names, scene, body_files, reduction_files, load_ranking=None, re
         else:
             warm = go(scene.duration)                                    # warm-up, and its pace
             whole_s = warm.wall_time
+            if first is None and not built:          # this process's first simulation: a whole run
+                first = (name, 1e3 * whole_s)
         # runs of this model: a slow one as many as fit in the budget, at least one (the
         # exponential integrator's cost per step varies along a scene: no prefix, timing module)
         count = (repeats if budget_s is None or whole_s * repeats <= budget_s
@@ -106,7 +111,20 @@ def time_models(names, scene, body_files, reduction_files, load_ranking=None, re
                    setup_ms=float(np.median(rec["setup_ms_all"])))
         log(f"runtime: {name}: run {rec['run_ms']:.3g} ms (median of {len(runs)}), "
             f"set-up {rec['setup_ms']:.3g} ms")
+    if first is not None:
+        out[first[0]]["first_call"] = first_call(first[1], out[first[0]]["run_ms_all"])
+        log(f"runtime: this process's first simulation ({first[0]}): "
+            f"+{out[first[0]]['first_call']['extra_ms']:.3g} ms over its median")
     return out
+
+
+def first_call(first_run_ms: float, run_ms_all) -> dict:
+    """What a fresh process's first simulation costs beyond the same run later in the process:
+    {first_run_ms, run_ms (the median of the later runs ``run_ms_all``), extra_ms = the first's
+    excess (loading the kernels, first-use set-up of the libraries; can be slightly negative
+    on a noisy machine)} [ms]."""
+    later = float(np.median(np.asarray(run_ms_all, float)))
+    return {"first_run_ms": float(first_run_ms), "run_ms": later, "extra_ms": float(first_run_ms) - later}
 
 
 def truth_whole_run(path, scene, integrator, options):

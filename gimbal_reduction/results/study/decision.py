@@ -322,7 +322,11 @@ def decide_scene(name, rows, truth_rms, basis_scene, runtime, requirements=Requi
                         "duration_s": (runtime or {}).get("duration_s"),
                         "samples": (runtime or {}).get("samples"),
                         "load_average": (runtime or {}).get("load_average"),
-                        "cpu_count": (runtime or {}).get("cpu_count")}}
+                        "cpu_count": (runtime or {}).get("cpu_count"),
+                        # a fresh process's first simulation against its median (bench.runtime.first_call)
+                        "first_call": next((dict(t["first_call"], model=m) for m, t in
+                                            ((runtime or {}).get("models") or {}).items()
+                                            if isinstance(t, dict) and t.get("first_call")), None)}}
 
 
 def chosen_models(rows, truth_rms, basis_scene, requirements=Requirements()) -> list[str]:

@@ -301,12 +301,25 @@ def decision_tables(dec) -> str:
         caption = (f"The cheapest model whose {what} plus the truth's own error is within the "
                    "requirement: name (kept coordinates: 4 joint angles + elastic) run + set-up time, "
                    "medians of 5 runs in one process (run: the whole scene; set-up: building the model "
-                   "and its problem)."
+                   "and its problem)." + first_call_note(scenes)
                    if not out else f"As @tab-decision-{next(iter(dec['measures']))}, for the {what}.")
         out.append(table([MEASURE_HEADS.get(measure, measure)] + [s(sc["scene"]) for sc in scenes],
                          rows + [res], caption,
                          f"tab-decision-{measure}", columns=f"(auto,) + (1fr,) * {len(scenes)}", size="6.5pt"))
     return "".join(out)
+
+
+def first_call_note(scenes) -> str:
+    """What a user running one simulation in a fresh process sees beyond the medians: the timing
+    jobs' first simulations (bench.runtime.first_call), the largest excess over the scenes."""
+    calls = [(sc["scene"], sc["runtime"]["first_call"]) for sc in scenes
+             if (sc.get("runtime") or {}).get("first_call")]
+    if not calls:
+        return ""
+    name, c = max(calls, key=lambda x: x[1]["extra_ms"])
+    return (f" A fresh process's first simulation takes longer than these medians by at most "
+            f"{ms(max(c['extra_ms'], 0.0))} (measured in each timing job; largest on {s(name)}: "
+            f"{s(c['model'])} {ms(c['first_run_ms'])} against {ms(c['run_ms'])}).")
 
 
 CAMP_HEADS = {"thesis": "the thesis's selections (freq, XMX, XMGMX, static)",
