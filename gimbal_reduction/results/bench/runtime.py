@@ -114,7 +114,7 @@ def time_models(names, scene, body_files, reduction_files, load_ranking=None, re
     if first is not None:
         out[first[0]]["first_call"] = first_call(first[1], out[first[0]]["run_ms_all"])
         log(f"runtime: this process's first simulation ({first[0]}): "
-            f"+{out[first[0]]['first_call']['extra_ms']:.3g} ms over its median")
+            f"{out[first[0]]['first_call']['extra_ms']:+.3g} ms against its median")
     return out
 
 
