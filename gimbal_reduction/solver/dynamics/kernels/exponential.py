@@ -185,17 +185,25 @@ def dense_diagonal(eta, etad, xi_re, xi_im, coef, mu, delta, h, dt, count, Ed_re
                     tp *= u
                 oe[i] = 2.0 * acc.real
                 od[i] = 2.0 * (mu[i] * acc).real
-        for a in range(j):
-            p = eta[a] + H * etad[a]
-            v = etad[a]
-            tp = 1.0
-            for r in range(kk):
-                p += H * H * (fact[r] / fact[r + 2]) * tp * coef[r, a]
-                v += H * (fact[r] / fact[r + 1]) * tp * coef[r, a]
-                tp *= u
-            out_eta[k, a] = p
-            out_etad[k, a] = v
+        joints_dense(eta, etad, coef, H, u, fact, out_eta[k], out_etad[k])
 
+
+@numba.njit(**JIT)
+def joints_dense(eta, etad, coef, H, u, fact, out_eta, out_etad):
+    """The joints' part of a dense output at length H [s], u = H / h inside a step of h [s]: the
+    forcing polynomial sum_r coef[r] u^r integrated twice from (eta, eta') (n,),
+    eta + H eta' + sum_r H^2 r!/(r+2)! u^r c_r and eta' + sum_r H r!/(r+1)! u^r c_r, into the
+    first N_JOINTS entries of out_eta, out_etad (n,).  fact (>= kk + 2,) k!."""
+    for a in range(N_JOINTS):
+        p = eta[a] + H * etad[a]
+        v = etad[a]
+        tp = 1.0
+        for r in range(coef.shape[0]):
+            p += H * H * (fact[r] / fact[r + 2]) * tp * coef[r, a]
+            v += H * (fact[r] / fact[r + 1]) * tp * coef[r, a]
+            tp *= u
+        out_eta[a] = p
+        out_etad[a] = v
 
 
 @numba.njit(**JIT)
@@ -219,8 +227,8 @@ def dense_coupled(eta, etad, coef, mu, P_eta, P_vel, V_real, h, tick, offset, sp
     (eta, eta') together: with Xi (count, 2p) the rows [Re xi(H_k), Im xi(H_k)] and V_real
     (2p, 2m) = [[Re V_eta^T, Re V_vel^T], [-Im V_eta^T, -Im V_vel^T]] (P_eta, P_vel (p, m) and
     V_eta, V_vel (m, p) complex as in ``pece.Basis``), Re(V xi) = Re V Re xi - Im V Im xi makes
-    [eta_e, eta'_e] (count, 2m) = Xi V_real one real matrix product.  Joints: eta + H eta' +
-    sum_r H^2 r!/(r+2)! theta^r c_r, eta' + sum_r H r!/(r+1)! theta^r c_r.  inv_fact, fact
+    [eta_e, eta'_e] (count, 2m) = Xi V_real one real matrix product.  Joints: ``joints_dense``.
+    inv_fact, fact
     (>= terms + kk + 2,) 1/k!, k!."""
     kk = coef.shape[0]
     p = mu.shape[0]
@@ -261,17 +269,7 @@ def dense_coupled(eta, etad, coef, mu, P_eta, P_vel, V_real, h, tick, offset, sp
         out_eta[k, j:] = Z[k, :m]
         out_etad[k, j:] = Z[k, m:]
         H = (offset + k * spacing) * tick
-        u = H / h
-        for a in range(j):
-            pa = eta[a] + H * etad[a]
-            v = etad[a]
-            tp = 1.0
-            for r in range(kk):
-                pa += H * H * (fact[r] / fact[r + 2]) * tp * coef[r, a]
-                v += H * (fact[r] / fact[r + 1]) * tp * coef[r, a]
-                tp *= u
-            out_eta[k, a] = pa
-            out_etad[k, a] = v
+        joints_dense(eta, etad, coef, H, H / h, fact, out_eta[k], out_etad[k])
 
 # this module's entries compiled ahead of time, when built and current (kernels.extension)
 extension.attach(__name__)
