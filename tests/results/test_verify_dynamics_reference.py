@@ -40,9 +40,14 @@ def test_the_reference_is_taken_as_the_default_run(tmp_path):
 @pytest.mark.parametrize("change", [{"integrator": "exponential"}, {"stat_rtol": 1e-8},
                                     {"model": "freq-10"}, {"scene": "damped"}])
 def test_another_run_is_refused_in_one_line(tmp_path, change):
-    path = sim_file(tmp_path / "other.h5", **{**REFERENCE, **change})
+    assert_refused_in_one_line(reference_run, sim_file(tmp_path / "other.h5", **{**REFERENCE, **change}),
+                               change)
+
+
+def assert_refused_in_one_line(reader, path, change):
+    """``reader`` refuses the file of thesis ``path`` in one line naming it and every changed value."""
     with pytest.raises(ValueError) as err:
-        reference_run(path, scenes.load_scene("thesis"))
+        reader(path, scenes.load_scene("thesis"))
     message = str(err.value)
     assert "other.h5" in message and "\n" not in message
     assert all(str(v) in message for v in change.values())
@@ -61,12 +66,8 @@ def test_the_second_method_is_the_exponential_truth_of_thesis(tmp_path):
 @pytest.mark.parametrize("change", [{"integrator": "dop853"}, {"model": "global-100"},
                                     {"scene": "damped"}])
 def test_another_second_method_run_is_refused_in_one_line(tmp_path, change):
-    path = sim_file(tmp_path / "other.h5", **{**SECOND, **change})
-    with pytest.raises(ValueError) as err:
-        second_method_run(path, scenes.load_scene("thesis"))
-    message = str(err.value)
-    assert "other.h5" in message and "\n" not in message
-    assert all(str(v) in message for v in change.values())
+    assert_refused_in_one_line(second_method_run, sim_file(tmp_path / "other.h5", **{**SECOND, **change}),
+                               change)
 
 
 def _run(t, yd, **extra):
