@@ -164,3 +164,16 @@ def test_attitude_from_the_modal_outputs_equals_the_full_states(tmp_path):
     L[4:] = 0.0
     rigid = multibody.attitude_of_functionals(chain, np.asarray(run.y) @ L.T)
     assert np.abs(rigid - full).max() > 1e3 * 1e-13
+
+
+def test_a_files_attributes_are_matched_by_value_str_form_or_tolerance():
+    """simfile.mismatches: what a reader of a given run names when it refuses the file."""
+    from gimbal_reduction.solver.dynamics import simfile
+    attrs = {"scene": b"thesis", "model": "truth", "stat_rtol": np.float64(1e-10), "stat_exponential_tol": 1e-7}
+    assert simfile.mismatches(attrs, {"scene": "thesis", "model": "truth", "stat_rtol": 1e-10}) == {}
+    assert simfile.mismatches(attrs, {"model": "freq-10", "integrator": "dop853"}) == {"model": "truth",
+                                                                                      "integrator": None}
+    tol = {"stat_exponential_tol": 1e-9}
+    assert simfile.mismatches(attrs, {"stat_exponential_tol": 1e-7 * (1 + 1e-12)}, tol) == {}
+    assert simfile.mismatches(attrs, {"stat_exponential_tol": 1.1e-7}, tol) == {"stat_exponential_tol": 1e-7}
+    assert simfile.mismatches({}, {"stat_exponential_tol": 1e-7}, tol) == {"stat_exponential_tol": None}

@@ -65,7 +65,7 @@ from gimbal_reduction.results.bench.equal_error import FAMILIES, cheapest_within
 from gimbal_reduction.results.bench import timing  # noqa: E402
 from gimbal_reduction.results.study.figures import STYLE, pyplot, save  # noqa: E402
 from gimbal_reduction.results.study.tables import read_table  # noqa: E402
-from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, scenes, simulate  # noqa: E402
+from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, scenes, simfile, simulate  # noqa: E402
 from gimbal_reduction.solver.dynamics.error_measure import error_measure  # noqa: E402
 from gimbal_reduction.workflow.provenance import csv_text, provenance, write_json, write_text  # noqa: E402
 
@@ -137,11 +137,10 @@ def file_run(path, scene, model_file, reference="truth"):
     options = simulate.scene_options(scene, simulate.DEFAULT_INTEGRATOR, None, {})
     want = {"scene": scene.name, "model": reference, "model_config_hash": model_hash,
             "integrator": simulate.DEFAULT_INTEGRATOR}
-    wrong = {k: a.get(k) for k, v in want.items() if str(a.get(k)) != v}
+    wrong = simfile.mismatches(a, want)
     if simulate.DEFAULT_INTEGRATOR == "exponential":
         tol = float(options.get("tol", exponential.DEFAULTS.tol))
-        if not abs(float(a.get("stat_exponential_tol", np.nan)) - tol) <= 1e-9 * tol:
-            wrong["stat_exponential_tol"] = a.get("stat_exponential_tol")
+        wrong.update(simfile.mismatches(a, {"stat_exponential_tol": tol}, {"stat_exponential_tol": 1e-9}))
     if len(t) != int(round(scene.duration / scene.output_interval)) + 1:
         wrong["outputs"] = len(t)
     if wrong:

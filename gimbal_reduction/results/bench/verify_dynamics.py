@@ -53,7 +53,7 @@ from gimbal_reduction.solver import bodyconfig
 from gimbal_reduction.results.bench.oracle import Oracle, jax_available, synthetic_chain
 from gimbal_reduction.results.bench.pareto import run_budget
 from gimbal_reduction.results.study.tables import RATE_COLUMNS
-from gimbal_reduction.solver.dynamics.simfile import read_sim
+from gimbal_reduction.solver.dynamics.simfile import mismatches, read_sim
 from gimbal_reduction.workflow.progress import Progress
 from gimbal_reduction.workflow.provenance import check_record, provenance, versions, write_json
 
@@ -277,7 +277,7 @@ def reference_run(path, scene):
     a = f["attrs"]
     want = {"scene": scene.name, "model": "truth", "integrator": simulate.REFERENCE["integrator"],
             "stat_rtol": simulate.REFERENCE["rtol"], "stat_atol": simulate.REFERENCE["atol"]}
-    wrong = {k: a.get(k) for k, v in want.items() if a.get(k) != v}
+    wrong = mismatches(a, want)
     if wrong:
         raise ValueError(f"{path}: not the converged reference of {scene.name} ({want}): {wrong}")
     steps = int(a["steps"])
@@ -291,8 +291,7 @@ def second_method_run(path, scene):
     tolerance; a file of another scene, model or integrator is refused."""
     f = read_sim(path)
     a = f["attrs"]
-    wrong = {k: a.get(k) for k, v in {"scene": scene.name, "model": "truth",
-                                      "integrator": "exponential"}.items() if a.get(k) != v}
+    wrong = mismatches(a, {"scene": scene.name, "model": "truth", "integrator": "exponential"})
     if wrong:
         raise ValueError(f"{path}: not the exponential integrator's truth on {scene.name}: {wrong}")
     return SimpleNamespace(t=f["t"], yd=f["gamma_dot"], steps=int(a["steps"]),

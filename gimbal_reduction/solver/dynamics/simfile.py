@@ -82,6 +82,28 @@ def read_sim(path) -> dict:
     return out
 
 
+def mismatches(attrs: dict, want: dict, rel_tol: dict | None = None) -> dict:
+    """{key: the file's value (None if absent)} of every entry of ``want`` that a simulation
+    file's ``attrs`` does not hold: a value matches when it is equal or has the same str form
+    (an HDF5 attribute read back as bytes or a NumPy scalar), or, for a key of ``rel_tol``
+    {key: relative tolerance}, when it lies within that tolerance of the wanted number.  The
+    readers that take a file as a given run (a reference, the study's truth) name these in
+    their one-line refusal."""
+    wrong = {}
+    for key, value in want.items():
+        got = _plain(attrs.get(key))
+        if key in (rel_tol or {}):
+            try:
+                ok = abs(float(got) - float(value)) <= rel_tol[key] * abs(float(value))
+            except (TypeError, ValueError):
+                ok = False
+        else:
+            ok = got == value or str(got) == str(value)
+        if not ok:
+            wrong[key] = got
+    return wrong
+
+
 def _plain(v):
     if isinstance(v, bytes):
         return v.decode()
