@@ -65,3 +65,6 @@ def test_a_benchmark_file_of_no_job_is_left_out_and_an_empty_record_refused(tmp_
     (tmp_path / "empty").mkdir()
     with pytest.raises(ValueError, match="no finished job"):
         workflow_run.read_jobs(tmp_path / "empty")
+    out = tmp_path / "summary.json"           # the command: one line, exit 2, nothing written
+    assert workflow_run.main([str(project), str(tmp_path / "empty"), "--out", str(out)]) == 2
+    assert not out.exists()

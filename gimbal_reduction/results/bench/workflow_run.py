@@ -28,6 +28,7 @@ import base64
 import csv
 import json
 import statistics
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -141,7 +142,12 @@ def main(argv=None) -> int:
                         help="wall times [s] of no-op reruns (snakemake with nothing to do), to record")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
-    runs = [{"project": str(project), **summarise(read_jobs(project), args.cores)} for project in args.projects]
+    try:                                    # every folder read before anything is written
+        jobs = [read_jobs(project) for project in args.projects]
+    except ValueError as exc:
+        print(f"workflow_run: {exc}", file=sys.stderr)
+        return 2
+    runs = [{"project": str(project), **summarise(j, args.cores)} for project, j in zip(args.projects, jobs)]
     walls = [r["wall_s"] for r in runs]
     out = {"runs": runs, "wall_s_median": statistics.median(walls), "cores": args.cores,
            "noop_s": args.noop_s, "noop_s_median": statistics.median(args.noop_s) if args.noop_s else None}
