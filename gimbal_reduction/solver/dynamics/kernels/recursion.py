@@ -531,7 +531,7 @@ def accelerations_lin(y, yd, w1, dw1, tau, LIN, lin_given, LIND, ch):
         c[i] = -c[i]
     for j in range(4):
         c[j] += tau[j]
-    return solve(c, c, True, ch, fr)
+    return solve(c, c, bool(True), ch, fr)
 
 
 @numba.njit(**FAST, inline="always")

@@ -76,7 +76,7 @@ def rk4_core(y, yd, t0, h, n_steps, first_given, K0, LIN0, LIND0, case, tau, ch)
 def rk4_run(y, yd, t0, h, n_steps, case, tau, ch):
     """n_steps classical RK4 steps from (t0, y, y') (``rk4_core``)."""
     dummy = np.zeros(0)
-    return rk4_core(y, yd, t0, h, n_steps, False, dummy, dummy, dummy, case, tau, ch)
+    return rk4_core(y, yd, t0, h, n_steps, bool(False), dummy, dummy, dummy, case, tau, ch)
 
 
 @numba.njit(**JIT)
@@ -120,7 +120,7 @@ def rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau, ch):
         Y[k, :] = y
         Yd[k, :] = yd
         case_twist(t, case, w1, dw1)
-        acc = accelerations_lin(y, yd, w1, dw1, tau, LIN, False, LIND, ch)
+        acc = accelerations_lin(y, yd, w1, dw1, tau, LIN, bool(False), LIND, ch)
         T = kinetic_energy_lin(y, yd, w1, LIN, LIND[3 * S:].reshape((4, 27)), ch)
         U = 0.0
         P = 0.0
@@ -145,7 +145,7 @@ def rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau, ch):
             info[0], info[1], info[2], info[3] = 2.0, k, E, scale
             return Y, Yd, energy, info
         if k + 1 < nt:
-            y, yd = rk4_core(y, yd, t, h, n_sub, True, acc, LIN, LIND, case, tau, ch)
+            y, yd = rk4_core(y, yd, t, h, n_sub, bool(True), acc, LIN, LIND, case, tau, ch)
     return Y, Yd, energy, info
 
 
