@@ -91,10 +91,10 @@ def rigid_run(rigid_chain, scene, rtol=1e-12, atol=1e-14):
 
     DOP853 at rtol 1e-12 in one solve over the whole scene, read at the output samples by its
     dense output (the method's own interpolant, of the order of its steps): 4 coordinates, 0.7 s
-    on the 40,001 samples of ``long``.  Restarted at every sample (``integrators``' DOP853, the
-    references' route) it took 29 s there for the same motion: rates within 4.3e-13, angles
-    within 7e-14 rad, accelerations within 3.6e-14 of their largest (thesis, spin, long;
-    ``test_rigid_run_matches_the_restarted_reference``).  Accelerations from the equations of
+    on the 40,001 samples of ``long``; restarted at every sample it took 29 s there for the same
+    motion (rates within 4.3e-13, angles within 7e-14 rad, accelerations within 3.6e-14 of their
+    largest; thesis, spin, long).  It agrees with ``integrators``' DOP853, the references' route
+    (``test_rigid_run_matches_the_integrators_dop853``).  Accelerations from the equations of
     motion at the output samples."""
     if sum(rigid_chain.n_modes):
         raise LoadAwareError(f"rigid_run needs a chain without modes, got {rigid_chain.n_modes}")

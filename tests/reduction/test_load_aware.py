@@ -548,10 +548,10 @@ def test_ranking_progress_counts_the_work_it_planned(synthetic, monkeypatch, cap
     assert all(re.search(r"\d+ % of the work, \d+ s elapsed, ~\d+ s left; ", ln) for ln in lines)
 
 
-def test_rigid_run_matches_the_restarted_reference():
-    """One DOP853 solve read by its dense output (``rigid_run``) against the references' route,
-    DOP853 restarted at every output sample (``integrators``): the same motion to the
-    tolerance's scale (rtol 1e-12), on the spin scene (the gimbals turn by radians)."""
+def test_rigid_run_matches_the_integrators_dop853():
+    """``rigid_run`` (scipy's solve_ivp read at the samples) against the references' route,
+    ``integrators``' DOP853 (its own step loop, outputs and divergence watch): the same motion
+    to the tolerance's scale (rtol 1e-12), on the spin scene (the gimbals turn by radians)."""
     from gimbal_reduction.solver.dynamics import integrators
     rng = np.random.default_rng(5)
     bodies = {b: synthetic_body(rng, b, n_nodes=8, rotations=(b % 2 == 0), n_modes=2, omega_max=3e3)
