@@ -427,6 +427,8 @@ def test_a_truth_case_from_the_runtime_benchmark_and_the_study_run(synthetic_fil
     assert case["end_to_end_median_s"] == pytest.approx(0.092)          # median of (run + set-up)
     assert case["setup_median_s"] + case["integration_median_s"] == pytest.approx(case["end_to_end_median_s"])
     assert 0 <= case["E_max"] < 1e-6 and "runtime benchmark's 5 whole runs" in case["time_basis"]
+    table = bench.issue_table({"thesis": case}, None, [])
+    assert all("not run here: the runtime benchmark's 5 whole runs" in r["measured"] for r in table[:3])
 
 
 @pytest.mark.parametrize("runtime, truth_hash, tol, message", [

@@ -324,9 +324,11 @@ def _measured(case, key):
     v = _case_value(case, q)
     if v is None:
         return _missing(case, q)
+    elsewhere = ("" if case.get("time_basis", "measured") == "measured" else
+                 f"; not run here: {case['time_basis']}")
     if q == "E_max":
         per = ", ".join(f"{case[c]:.2g}" for c in RATE_COLUMNS)
-        return f"E_max {v:.2g} (rates {per})"
+        return f"E_max {v:.2g} (rates {per}{elsewhere})"
     what = "integration" if q == "integration_median_s" else "end to end"
     setup = case.get("setup_median_s")
     split = ("" if setup is None else
@@ -337,7 +339,7 @@ def _measured(case, key):
              f"{plural(case['relinearisations'] + 1, 'basis', 'bases')}" if case.get("steps") is not None else "")
     tol = (f"; tol {case['tol']:g}, the scene's exponential_tolerance" if case.get("scene_tol")
            else "")
-    return f"{what} {format_seconds(v)} (median of {case['runs']}{split}{extra}{tol})"
+    return f"{what} {format_seconds(v)} (median of {case['runs']}{split}{extra}{tol}{elsewhere})"
 
 
 def issue_table(truth_cases, comparison, reduced, fastest=None, fastest_comparison=None):
@@ -694,7 +696,7 @@ def time_case(case, model_file, scene, duration, method, options, repeats, refer
         row["status"] = "failed: " + " ".join(str(exc).split())
         log(f"{PROG}: {case}: {row['status']}")
         return row, None, None
-    row.update(n_coordinates=prob.chain.n_coordinates, status="ok", **timing_summary(samples),
+    row.update(n_coordinates=prob.chain.n_coordinates, status="ok", time_basis="measured", **timing_summary(samples),
                **run_stats(run), **accuracy(run, reference, duration, case),
                integration_times_s=[s["integration_s"] for s in samples],
                end_to_end_times_s=[s["end_to_end_s"] for s in samples])
