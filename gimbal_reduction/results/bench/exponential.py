@@ -746,7 +746,7 @@ def alternating_comparison(model_file, scene, duration, repeats, exp_options, rt
         firsts, runs, first_steps = [], {}, 0
         for k in range(repeats):
             if dop853 is not None:
-                pass
+                pass                                     # taken from the earlier comparison
             elif prefix is not None:
                 first, _, timing_1 = timed_run(model_file, scene, dt, "dop853", dop_options, "truth")
                 firsts.append(timing_1)
@@ -764,8 +764,10 @@ def alternating_comparison(model_file, scene, duration, repeats, exp_options, rt
             samples["exponential"].append(timing_k)
             dop_last = (dop853["integration_median_s"] if dop853 is not None else
                         samples["dop853"][-1]["integration_s"])
+            dop_where = (f" (over {format_seconds(prefix)} of the scene)" if prefix is not None else
+                         " (the earlier comparison's whole run)" if dop853 is not None else "")
             log(f"{PROG}: DOP853 vs exponential, round {k + 1}/{repeats}: "
-                f"{dop_last:.3g} s{' (over ' + format_seconds(prefix) + ' of the scene)' if prefix else ''} vs "
+                f"{dop_last:.3g} s{dop_where} vs "
                 f"{format_seconds(samples['exponential'][-1]['integration_s'])}", flush=True)
     except FAILURES as exc:
         status = "failed: " + " ".join(str(exc).split())
@@ -781,7 +783,7 @@ def alternating_comparison(model_file, scene, duration, repeats, exp_options, rt
                 "integration_times_s": [s["integration_s"] for s in samples[method]],
                 "end_to_end_times_s": [s["end_to_end_s"] for s in samples[method]]}
     if dop853 is not None:
-        dop = {**dop853, "referee": dop853["referee"]}
+        dop = dict(dop853)
         referee = dop853["referee"]
     elif prefix is not None:
         dop = row_of("dop853", dop_options, prefix_summary(firsts, first_steps, samples["dop853"],
