@@ -377,8 +377,7 @@ def test_cli_times_dop853_over_a_prefix_and_takes_the_untimed_runs_error(tmp_pat
     untimed = _untimed_csv(tmp_path / "u.csv", E_untimed, 400, 5.0)
     assert bench.main(_args(tmp_path, "--reference", f"thesis={ref}", "--scenes", "thesis",
                             "--repeats", "1", "--duration", "2e-4", "--sweep-tols", "--budget", "1e-6",
-                            "--dop853-untimed", str(untimed), str(ref), "--dop853-prefix-budget", "1e-6",
-                            truth=model)) == 0
+                            "--dop853-untimed", str(untimed), str(ref), truth=model)) == 0
     data = json.loads((tmp_path / "e.json").read_text())
     comp = data["dop853_comparison"]
     assert comp["dop853_time_basis"].startswith("extrapolated from ") and comp["dop853_time_basis"].endswith(

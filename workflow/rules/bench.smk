@@ -480,10 +480,9 @@ rule exponential_bench_all:
         references=lambda wildcards, input: scene_file_arguments(input.references),
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
         # s a case: stress_rates_10's 5 runs (~3 s) fit; DOP853 (~22 s a whole run) is timed over a
-        # prefix (5 runs of ~0.4 s: dop853_prefix_budget) and scaled by the steps of
-        # pareto_errors_all's untimed whole run, whose E it takes
+        # prefix (5 runs of ~0.8 s) and scaled by the steps of pareto_errors_all's untimed whole
+        # run, whose E it takes
         budget=4.0,
-        dop853_prefix_budget=2.0,
         code=code_hash("bench-exponential"),
         cfg=body_files_hash,
     message:
@@ -492,7 +491,6 @@ rule exponential_bench_all:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} bench-exponential "
         "--truth-model {input.truth_model} --reference {params.references} --models {params.models} "
         "--repeats 5 --budget {params.budget} --dop853-untimed {input.dop853_untimed} {input.dop853_reference} "
-        "--dop853-prefix-budget {params.dop853_prefix_budget} "
         "--truth-runs long {input.long_runtime} {input.long_truth} "
         "--out-json {output.json} --out-md {output.md} "
         "--out-csv {output.csv} --config {CONFIG} > {log} 2>&1"

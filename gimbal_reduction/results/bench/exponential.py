@@ -719,7 +719,7 @@ def alternating_comparison(model_file, scene, duration, repeats, exp_options, rt
     * untimed (``read_untimed_dop853``: E, steps and one run's wall time of the whole scene, made
       by an untimed job beside the others) and ``repeats`` whole runs over ``budget_s``: each
       round times DOP853 over the first output interval and over a prefix of the scene
-      (``timing.prefix_duration``: one such run ~ budget_s / repeats, or untimed["prefix_budget_s"] / repeats), and its whole run's time is
+      (``timing.prefix_duration``: one such run ~ budget_s / repeats), and its whole run's time is
       the line through the two medians in the step count (``timing.whole_from_prefix``; DOP853's
       steps on these scenes are stability-limited, nearly uniform); E is the untimed run's, and
       the exponential side's E of the comparison is measured against the same reference;
@@ -736,8 +736,7 @@ def alternating_comparison(model_file, scene, duration, repeats, exp_options, rt
     prefix = None
     if dop853 is None and untimed is not None and budget_s is not None \
             and untimed["wall_time_s"] * repeats > budget_s:
-        prefix = timing.prefix_duration(untimed["wall_time_s"], duration, dt,
-                                        (untimed.get("prefix_budget_s") or budget_s) / repeats)
+        prefix = timing.prefix_duration(untimed["wall_time_s"], duration, dt, budget_s / repeats)
     referee = untimed["reference"] if prefix is not None else reference
     try:
         if dop853 is None:
@@ -1030,9 +1029,6 @@ def parser():
                          "benchmark's --errors-only CSV) and the reference its E was measured against: "
                          "its E and steps are taken, and DOP853 is timed over a prefix where --repeats "
                          "whole runs exceed --budget (alternating_comparison)")
-    ap.add_argument("--dop853-prefix-budget", type=simulate.positive_number("--dop853-prefix-budget"),
-                    default=None, help="seconds of DOP853's --repeats prefix runs of a comparison with "
-                                       "--dop853-untimed (default --budget)")
     ap.add_argument("--truth-runs", nargs=3, action="append", default=[],
                     metavar=("SCENE", "RUNTIME_JSON", "SIM_FILE"),
                     help="a scene other than thesis whose truth case is not run here: its times from the "
@@ -1079,7 +1075,6 @@ def prepare(args):
         referee = read_sim(ref_path)
         check_reference("thesis", referee, truth_attrs, ref_path)
         untimed = read_untimed_dop853(csv_path, args.dop853_rtol, referee)
-        untimed["prefix_budget_s"] = args.dop853_prefix_budget
     truth_chain, _ = chainfile.read_chain(args.truth_model)    # every dataset present and consistent
     from_runs = {}
     for name, runtime_path, sim_path in args.truth_runs:
@@ -1125,9 +1120,7 @@ def inputs_provenance(args, inputs):
             "reference_config_hash": str(inputs["dop853_untimed"]["reference"]["attrs"].get("config_hash", ""))},
         "scenes": {n: s.config_hash() for n, s in inputs["scenes"].items()},
         "truth_runs": {n: c["sources"] for n, c in inputs["truth_runs"].items()},
-        "options": {"repeats": args.repeats, "budget_s": args.budget,
-                    "dop853_prefix_budget_s": args.dop853_prefix_budget, "tol": args.tol,
-                    "default_tol": exponential.DEFAULTS.tol,
+        "options": {"repeats": args.repeats, "budget_s": args.budget, "tol": args.tol, "default_tol": exponential.DEFAULTS.tol,
                     "sweep_tols": list(args.sweep_tols),
                     "dop853_rtol": args.dop853_rtol, "dop853_atol": DOP853_ATOL, "duration": args.duration}}
     return {"config_hash": inputs_hash(payload), "inputs": payload}
