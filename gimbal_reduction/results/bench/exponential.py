@@ -1090,14 +1090,15 @@ def prepare(args):
                                   f"({exc.__class__.__name__})") from None
         scene = scene_objs[name]
         options = simulate.scene_options(scene, "exponential", None, {} if args.tol is None else {"tol": args.tol})
-        from_runs[name] = case_from_runs(name, scene, runtime, read_sim(sim_path), truth_attrs,
+        sim = read_sim(sim_path)
+        from_runs[name] = case_from_runs(name, scene, runtime, sim, truth_attrs,
                                          truth_chain.n_coordinates,
                                          {"tol": options.get("tol", exponential.DEFAULTS.tol)}, refs.get(name),
                                          bench_duration(scene, None))
         from_runs[name]["scene_tol"] = "tol" in options and args.tol is None
         from_runs[name]["sources"] = {
             "runtime": runtime_path, "runtime_config_hash": str((runtime.get("provenance") or {}).get("config_hash", "")),
-            "sim": sim_path, "sim_config_hash": str(read_sim(sim_path)["attrs"].get("config_hash", ""))}
+            "sim": sim_path, "sim_config_hash": str(sim["attrs"].get("config_hash", ""))}
     for _, path, _ in models:
         chainfile.read_chain(path)
     return {"scenes": scene_objs, "references": refs, "truth_attrs": truth_attrs, "models": models,
