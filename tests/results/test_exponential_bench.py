@@ -324,3 +324,121 @@ def test_cli_smoke_on_a_synthetic_chain(tmp_path, synthetic_files):
     compared = ["dop853", "exponential"] if swept["fastest_meeting_E_1e-8"] == 1e-4 else []
     assert [r["method"] for r in rows] == ["exponential", "dop853", "exponential", "exponential",
                                            *compared, "exponential"]
+
+
+# ------------------------------------------------------------------ DOP853 over a prefix
+def test_prefix_summary_puts_the_whole_run_on_the_line_through_the_two_medians():
+    """First interval 0.1 s for 8 steps, prefix 1.0 s for 100 steps: a run of 1000 steps takes
+    0.1 + 0.9 * 992 / 92 s (the fixed cost once); read, problem and set-up stay as measured."""
+    def sample(integration, read=0.01):
+        return {"read_s": read, "problem_s": 0.02, "first_basis_s": 0.0, "later_bases_s": 0.0,
+                "run_s": integration, "setup_s": read + 0.02, "integration_s": integration,
+                "end_to_end_s": read + 0.02 + integration}
+    firsts = [sample(0.1), sample(0.3), sample(0.1)]
+    prefixes = [sample(1.0), sample(1.2), sample(0.9, read=0.03)]
+    out = bench.prefix_summary(firsts, 8, prefixes, 100, 1000)
+    assert out["integration_median_s"] == pytest.approx(0.1 + 0.9 * 992 / 92, rel=1e-12)
+    assert out["integration_min_s"] == pytest.approx(0.1 + 0.8 * 992 / 92, rel=1e-12)
+    assert out["end_to_end_median_s"] == pytest.approx(0.13 + 0.9 * 992 / 92, rel=1e-12)
+    assert out["read_median_s"] == pytest.approx(0.01) and out["runs"] == 3
+    assert out["time_basis"] == "extrapolated from 100 and 8 of 1000 steps"
+
+
+def _untimed_csv(path, E, steps, wall, status="ok", integrator="dop853-1e-06"):
+    cols = ["model", "integrator", "steps", "wall_time_s", "E", *RATE_COLUMNS, "status"]
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        w.writerow(["load-10", integrator, 9, 0.5, 0.04, 0.04, 0.0, 0.0, 0.0, "ok"])
+        w.writerow(["truth", integrator, steps, wall, E, E, E / 2, E / 3, E / 4, status])
+    return path
+
+
+def test_an_untimed_dop853_run_that_cannot_serve_is_one_line(tmp_path):
+    ref = {"path": "r.h5", "attrs": {}}
+    with pytest.raises(bench.BenchInputError, match="no row of the truth with dop853-1e-08"):
+        bench.read_untimed_dop853(_untimed_csv(tmp_path / "a.csv", 1e-11, 100, 2.0), 1e-8, ref)
+    with pytest.raises(bench.BenchInputError, match="status 'failed: diverged'"):
+        bench.read_untimed_dop853(_untimed_csv(tmp_path / "b.csv", 1e-11, 100, 2.0, "failed: diverged"),
+                                  1e-6, ref)
+    with pytest.raises(bench.BenchInputError, match="file not found"):
+        bench.read_untimed_dop853(str(tmp_path / "none.csv"), 1e-6, ref)
+    got = bench.read_untimed_dop853(_untimed_csv(tmp_path / "c.csv", 1e-11, 100, 2.0), 1e-6, ref)
+    assert (got["E_max"], got["steps"], got["wall_time_s"], got["reference"]) == (1e-11, 100, 2.0, ref)
+
+
+@pytest.mark.parametrize("E_untimed, better", [(0.0, True), (1.0, False)])
+def test_cli_times_dop853_over_a_prefix_and_takes_the_untimed_runs_error(tmp_path, synthetic_files,
+                                                                       E_untimed, better):
+    """A budget no whole DOP853 run fits: DOP853 is timed over a prefix (two output intervals)
+    and scaled to the untimed run's steps; its E is the untimed run's, so an untimed E worse
+    than the exponential run's fails the ratio check whatever the speed-up."""
+    model, ref = synthetic_files
+    untimed = _untimed_csv(tmp_path / "u.csv", E_untimed, 400, 5.0)
+    assert bench.main(_args(tmp_path, "--reference", f"thesis={ref}", "--scenes", "thesis",
+                            "--repeats", "1", "--duration", "2e-4", "--sweep-tols", "--budget", "1e-6",
+                            "--dop853-untimed", str(untimed), str(ref), truth=model)) == 0
+    data = json.loads((tmp_path / "e.json").read_text())
+    comp = data["dop853_comparison"]
+    assert comp["dop853_time_basis"].startswith("extrapolated from ") and comp["dop853_time_basis"].endswith(
+        " of 400 steps")
+    assert comp["E_dop853"] == E_untimed and comp["dop853_steps"] == 400
+    assert comp["E_reference"].endswith(f"({ref})")
+    assert comp["equal_or_better"] is better
+    row = next(r for r in data["table"] if r["check"] == "dop853_speedup")
+    assert row["met"] == ("yes" if better and comp["speedup"] >= 500 else "no")
+    assert "extrapolated from" in row["measured"]
+    assert ("not at equal E" in row["measured"]) is not better
+    rows = list(csv.DictReader(io.StringIO((tmp_path / "e.csv").read_text())))
+    dop = next(r for r in rows if r["method"] == "dop853")
+    assert dop["time_basis"].startswith("extrapolated") and int(dop["steps"]) == 400
+
+
+# ------------------------------------------------------------------ a truth case from the workflow's runs
+@pytest.fixture(scope="module")
+def study_run(synthetic_files, tmp_path_factory):
+    """The synthetic truth's exponential run over the first 0.2 ms of thesis, as a study file."""
+    model, _ = synthetic_files
+    scene = scenes.load_scene("thesis")
+    chain, _ = chainfile.read_chain(model, scene.damping_ratio)
+    prob = simulate.scene_problem(chain, scene)
+    run = integrators.integrate(prob, 2e-4, scene.output_interval, method="exponential", tol=1e-5)
+    path = tmp_path_factory.mktemp("study_run") / "truth.h5"
+    simfile.write_sim(path, run, simulate.energy_history(prob, run),
+                      {"scene": "thesis", "model": "truth", "integrator": "exponential",
+                       "model_config_hash": "synthetic", "steps": run.steps})
+    return simfile.read_sim(path), chain.n_coordinates, scene
+
+
+def _runtime(n, scene="thesis", integrator="exponential"):
+    return {"scene": scene, "integrator": integrator, "path": "runtime.json",
+            "models": {"truth": {"coordinates": n, "run_ms_all": [90.0, 80.0, 100.0, 85.0, 95.0],
+                                 "setup_ms_all": [2.0, 1.0, 3.0, 1.0, 2.0]}}}
+
+
+def test_a_truth_case_from_the_runtime_benchmark_and_the_study_run(synthetic_files, study_run):
+    """Times: the runtime benchmark's medians (end to end = set-up + run); E: the study file's rates
+    against the reference (the exponential run at tol 1e-5 on 0.2 ms: far below 1e-6)."""
+    _, ref = synthetic_files
+    sim, n, scene = study_run
+    case = bench.case_from_runs("thesis", scene, _runtime(n), sim, {"config_hash": "synthetic"}, n,
+                                {"tol": 1e-5}, simfile.read_sim(ref), 2e-4)
+    assert case["status"] == "ok" and case["runs"] == 5 and case["steps"] == int(sim["attrs"]["steps"])
+    assert case["end_to_end_median_s"] == pytest.approx(0.092)          # median of (run + set-up)
+    assert case["setup_median_s"] + case["integration_median_s"] == pytest.approx(case["end_to_end_median_s"])
+    assert 0 <= case["E_max"] < 1e-6 and "runtime benchmark's 5 whole runs" in case["time_basis"]
+    table = bench.issue_table({"thesis": case}, None, [])
+    assert all("not run here: the runtime benchmark's 5 whole runs" in r["measured"] for r in table[:3])
+
+
+@pytest.mark.parametrize("runtime, truth_hash, tol, message", [
+    ({"scene": "long"}, "synthetic", 1e-5, "has no timed truth of thesis"),
+    ({"integrator": "rk4"}, "synthetic", 1e-5, "has no timed truth of thesis"),
+    ({}, "elsewhere", 1e-5, "model_config_hash"),
+    ({}, "synthetic", 5e-7, "stat_exponential_tol"),
+])
+def test_a_truth_case_from_runs_of_another_setting_is_refused(study_run, runtime, truth_hash, tol, message):
+    sim, n, scene = study_run
+    with pytest.raises(bench.BenchInputError, match=message):
+        bench.case_from_runs("thesis", scene, {**_runtime(n), **runtime}, sim, {"config_hash": truth_hash}, n,
+                             {"tol": tol}, None, 2e-4)

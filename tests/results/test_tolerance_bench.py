@@ -184,3 +184,48 @@ def test_bad_truths_are_refused_in_one_line(tmp_path, capsys, args):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "--truths" in err[0]
     assert not (tmp_path / "t.json").exists()
+
+
+# ---- --truth-times: the truth's time from the runtime benchmark of the scene
+def _runtime_files(tmp_path, **change):
+    """(runtime JSON, truth model file) of a synthetic truth on thesis."""
+    from gimbal_reduction.results.bench.oracle import synthetic_chain
+    from gimbal_reduction.solver.dynamics import chainfile, scenes
+    chain, _ = synthetic_chain(seed=1)
+    model = tmp_path / "truth.h5"
+    chainfile.write_chain(model, chain, {b.number: np.arange(b.n_modes) for b in chain.bodies},
+                          {b.number: () for b in chain.bodies}, {"model": "truth", "config_hash": "synthetic"})
+    data = {"scene": "thesis", "integrator": "exponential",
+            "models": {"truth": {"n_modes": [int(n) for n in chain.n_modes],
+                                 "run_ms_all": [30.0, 10.0, 20.0, 50.0, 40.0]}}}
+    data.update({k: v for k, v in change.items() if k != "n_modes"})
+    if "n_modes" in change:
+        data["models"]["truth"]["n_modes"] = change["n_modes"]
+    path = tmp_path / "runtime.json"
+    path.write_text(json.dumps(data))
+    return str(path), str(model), scenes.load_scene("thesis")
+
+
+def test_the_truth_time_is_the_runtime_benchmarks_median(tmp_path):
+    path, model, scene = _runtime_files(tmp_path)
+    got = tb.runtime_truth_time(path, scene, model)
+    assert got["run_time_s"] == pytest.approx(0.03) and got["runs"] == 5
+    assert got["time_basis"].startswith("measured: the runtime benchmark's whole runs")
+
+
+@pytest.mark.parametrize("change", [{"scene": "damped"}, {"integrator": "rk4"}, {"n_modes": [1, 2, 3, 4]}])
+def test_a_runtime_benchmark_of_another_run_is_refused_in_one_line(tmp_path, change):
+    path, model, scene = _runtime_files(tmp_path, **change)
+    with pytest.raises(ValueError) as err:
+        tb.runtime_truth_time(path, scene, model)
+    assert "runtime.json" in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("args", [["--truth-times", "thesis=x.json"],                 # not --times-from
+                                  ["--truth-times", "thesis"]])
+def test_bad_truth_times_are_refused_in_one_line(tmp_path, capsys, args):
+    rc = tb.main(["--scenes", "thesis", "--out-csv", str(tmp_path / "t.csv"),
+                  "--out-json", str(tmp_path / "t.json"), *args])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--truth-times" in err[0]
+    assert not (tmp_path / "t.json").exists()

@@ -456,6 +456,13 @@ rule exponential_bench_all:
             "results/all/reference/{scene}/truth.h5", scene=ALL_EXPONENTIAL_SCENES
         ),
         models=expand("results/models/thesis/{model}.h5", model=EXPONENTIAL_MODELS),
+        # the truth's untimed DOP853 run at rtol 1e-6 (E, steps) and the reference of its E
+        dop853_untimed="results/all/benchmarks/pareto_errors.csv",
+        dop853_reference="results/reference/thesis/truth.h5",
+        # long's truth case is not run here: its 5 whole runs timed alone by the runtime job, its E
+        # and steps from the study's run (gimbal_reduction.results.bench.exponential.case_from_runs)
+        long_runtime="results/benchmarks/runtime/long.json",
+        long_truth="results/study/long/sim/truth.h5",
     output:
         json="results/all/benchmarks/exponential.json",
         md="results/all/benchmarks/exponential.md",
@@ -472,8 +479,9 @@ rule exponential_bench_all:
     params:
         references=lambda wildcards, input: scene_file_arguments(input.references),
         models=lambda wildcards, input: " ".join(f"'{f}'" for f in input.models),
-        # s a case: stress_rates_10's 5 runs (~3 s) fit; long's truth (~8 s) and DOP853 (~15 s, once
-        # for both comparisons) run once: a ratio of hundreds is decided by one run of the slow side
+        # s a case: stress_rates_10's 5 runs (~3 s) fit; DOP853 (~22 s a whole run) is timed over a
+        # prefix (5 runs of ~0.8 s) and scaled by the steps of pareto_errors_all's untimed whole
+        # run, whose E it takes
         budget=4.0,
         code=code_hash("bench-exponential"),
         cfg=body_files_hash,
@@ -482,7 +490,9 @@ rule exponential_bench_all:
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} bench-exponential "
         "--truth-model {input.truth_model} --reference {params.references} --models {params.models} "
-        "--repeats 5 --budget {params.budget} --out-json {output.json} --out-md {output.md} "
+        "--repeats 5 --budget {params.budget} --dop853-untimed {input.dop853_untimed} {input.dop853_reference} "
+        "--truth-runs long {input.long_runtime} {input.long_truth} "
+        "--out-json {output.json} --out-md {output.md} "
         "--out-csv {output.csv} --config {CONFIG} > {log} 2>&1"
 
 
@@ -730,6 +740,10 @@ rule tolerance_all:
         scenes=[scene_path(s) for s in TOLERANCE_SCENES],
         untimed="results/all/benchmarks/tolerance_untimed.json",
         models="results/all/benchmarks/tolerance_models",
+        # the truth of each study scene timed by the runtime job (5 whole runs, alone), not again
+        runtimes=expand(
+            "results/benchmarks/runtime/{scene}.json", scene=TOLERANCE_TABLE_SCENES
+        ),
     output:
         csv="results/all/benchmarks/tolerance.csv",
         json="results/all/benchmarks/tolerance.json",
@@ -744,10 +758,13 @@ rule tolerance_all:
         runtime=10,
     params:
         budget=ALL_CASE_BUDGET_S,
+        truth_times=lambda wildcards, input: " ".join(
+            f"'{s}={f}'" for s, f in zip(TOLERANCE_TABLE_SCENES, input.runtimes)
+        ),
         code=code_hash("tolerance"),
     message:
         "Accuracy on request, timed part: medians of repeated runs, alone on the machine (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 {GIMBAL} tolerance --scenes {input.scenes} "
-        "--times-from {input.untimed} --models-from {input.models} --repeats 5 "
+        "--times-from {input.untimed} --models-from {input.models} --truth-times {params.truth_times} --repeats 5 "
         "--budget {params.budget} --out-csv {output.csv} --out-json {output.json} > {log} 2>&1"

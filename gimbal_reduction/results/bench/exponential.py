@@ -34,7 +34,10 @@ The cases (``TARGETS`` holds the issue's bounds, each with its source):
 2. the same against DOP853 at rtol ``--dop853-rtol`` (default 1e-6, atol 1e-14):
    the two integrators alternate in this process (DOP853, exponential, DOP853,
    ...), ``--repeats`` runs each after a warm-up of each (DOP853's warm-up over
-   two output intervals: a full one costs 10-20 s and compiles nothing more).
+   two output intervals: a full one costs 10-20 s and compiles nothing more;
+   with ``--dop853-untimed`` and ``--budget``, a DOP853 side too slow for the
+   budget is timed over a prefix of the scene and scaled by its steps, its E and
+   steps taken from an untimed whole run: ``alternating_comparison``).
    The speed-up is the ratio of the medians, s = median(T_dop853) /
    median(T_exp), for the integration time (the issue's figure: DOP853 has no
    set-up beyond the problem's, the exponential integrator's initial basis is
@@ -86,6 +89,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import json  # noqa: E402
 import cProfile  # noqa: E402
 import math  # noqa: E402
 import pstats  # noqa: E402
@@ -98,12 +102,13 @@ import numpy as np  # noqa: E402
 from gimbal_reduction.results.bench.scaling import time_interleaved  # noqa: E402
 from gimbal_reduction.results.study.tables import RATE_COLUMNS  # noqa: E402
 from gimbal_reduction.solver import bodyconfig  # noqa: E402
-from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, scenes, simulate  # noqa: E402
+from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, scenes, simfile, simulate  # noqa: E402
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
 from gimbal_reduction.solver.dynamics.simfile import read_sim  # noqa: E402
 # a reference may be the exponential integrator at the scene's tolerance / this factor
 from gimbal_reduction.results.bench.exponential_accuracy import EXPONENTIAL_REFERENCE_FACTOR  # noqa: E402
-from gimbal_reduction.results.bench.pareto import run_budget  # noqa: E402
+from gimbal_reduction.results.bench import timing  # noqa: E402
+from gimbal_reduction.results.bench.pareto import read_errors, run_budget  # noqa: E402
 from gimbal_reduction.workflow.config import inputs_hash  # noqa: E402
 from gimbal_reduction.workflow.provenance import csv_text, provenance, versions, write_json, write_text  # noqa: E402
 from gimbal_reduction.workflow import config as cfgmod
@@ -176,7 +181,7 @@ CSV_COLUMNS = ("case", "scene", "model", "n_coordinates", "method", "tol", "rtol
                "integration_median_s", "integration_min_s", "setup_median_s", "setup_min_s",
                "end_to_end_median_s", "end_to_end_min_s", "run_median_s", "first_basis_median_s",
                "read_median_s", "problem_median_s", "steps", "evaluations", "rejected",
-               "relinearisations", "basis_time_s", "E_max", *RATE_COLUMNS, "reference", "status")
+               "relinearisations", "basis_time_s", "E_max", *RATE_COLUMNS, "reference", "time_basis", "status")
 
 
 class BenchInputError(ValueError):
@@ -319,9 +324,11 @@ def _measured(case, key):
     v = _case_value(case, q)
     if v is None:
         return _missing(case, q)
+    elsewhere = ("" if case.get("time_basis", "measured") == "measured" else
+                 f"; not run here: {case['time_basis']}")
     if q == "E_max":
         per = ", ".join(f"{case[c]:.2g}" for c in RATE_COLUMNS)
-        return f"E_max {v:.2g} (rates {per})"
+        return f"E_max {v:.2g} (rates {per}{elsewhere})"
     what = "integration" if q == "integration_median_s" else "end to end"
     setup = case.get("setup_median_s")
     split = ("" if setup is None else
@@ -332,7 +339,7 @@ def _measured(case, key):
              f"{plural(case['relinearisations'] + 1, 'basis', 'bases')}" if case.get("steps") is not None else "")
     tol = (f"; tol {case['tol']:g}, the scene's exponential_tolerance" if case.get("scene_tol")
            else "")
-    return f"{what} {format_seconds(v)} (median of {case['runs']}{split}{extra}{tol})"
+    return f"{what} {format_seconds(v)} (median of {case['runs']}{split}{extra}{tol}{elsewhere})"
 
 
 def issue_table(truth_cases, comparison, reduced, fastest=None, fastest_comparison=None):
@@ -380,11 +387,15 @@ def _comparison_row(comparison, key="dop853_speedup"):
     e_dop, e_exp = comparison["E_dop853"], comparison["E_exponential"]
     e_text = ("no E (no reference)" if e_dop is None or e_exp is None else
               f"E {e_dop:.2g} (DOP853 rtol {comparison['rtol']:g}) vs {e_exp:.2g} (exponential)"
+              + (f", both against {comparison['E_reference']}" if comparison.get("E_reference") else "")
               + ("" if better else ": DOP853 less accurate, not at equal E"))
+    basis = comparison.get("dop853_time_basis", "measured")
+    dop_basis = "" if basis == "measured" else f", DOP853's whole run {basis} (prefix runs)"
     measured = (f"{comparison['speedup']:.3g}× integration (without the initial basis), "
                 f"{comparison['speedup_end_to_end']:.3g}× end to end (from the file read, the initial basis "
                 f"in) (medians of {comparison['runs']} alternating runs"
-                f"{'' if comparison.get('dop853_runs', comparison['runs']) == comparison['runs'] else f', DOP853 in the first ' + str(comparison['dop853_runs'])}: "
+                f"{'' if comparison.get('dop853_runs', comparison['runs']) == comparison['runs'] else f', DOP853 in the first ' + str(comparison['dop853_runs'])}"
+                f"{dop_basis}: "
                 f"{format_seconds(comparison['dop853_integration_median_s'])} vs "
                 f"{format_seconds(comparison['exponential_integration_median_s'])} integration, "
                 f"{format_seconds(comparison['dop853_end_to_end_median_s'])} vs "
@@ -685,7 +696,7 @@ def time_case(case, model_file, scene, duration, method, options, repeats, refer
         row["status"] = "failed: " + " ".join(str(exc).split())
         log(f"{PROG}: {case}: {row['status']}")
         return row, None, None
-    row.update(n_coordinates=prob.chain.n_coordinates, status="ok", **timing_summary(samples),
+    row.update(n_coordinates=prob.chain.n_coordinates, status="ok", time_basis="measured", **timing_summary(samples),
                **run_stats(run), **accuracy(run, reference, duration, case),
                integration_times_s=[s["integration_s"] for s in samples],
                end_to_end_times_s=[s["end_to_end_s"] for s in samples])
@@ -698,67 +709,208 @@ def time_case(case, model_file, scene, duration, method, options, repeats, refer
 
 
 def alternating_comparison(model_file, scene, duration, repeats, exp_options, rtol, reference,
-                           log=print, budget_s=None, dop853_runs=None):
+                           log=print, budget_s=None, dop853=None, untimed=None):
     """DOP853 at rtol (atol DOP853_ATOL) and the exponential integrator, alternating in this
     process, ``repeats`` runs each after a warm-up of each (DOP853's over WARMUP_INTERVALS
-    output intervals); with ``budget_s``, DOP853 runs only in the rounds that fit in it at its
-    first run's pace (at least one: a ratio of hundreds is decided by one run of the slow side).
-    dop853_runs: (timings, Run) of DOP853 at the same rtol from an earlier comparison of this
-    process (its ``summary["_dop853"]``): taken, and only the exponential side runs.
+    output intervals).
+
+    DOP853's side, by what is known of its whole run:
+
+    * untimed (``read_untimed_dop853``: E, steps and one run's wall time of the whole scene, made
+      by an untimed job beside the others) and ``repeats`` whole runs over ``budget_s``: each
+      round times DOP853 over the first output interval and over a prefix of the scene
+      (``timing.prefix_duration``: one such run ~ budget_s / repeats), and its whole run's time is
+      the line through the two medians in the step count (``timing.whole_from_prefix``; DOP853's
+      steps on these scenes are stability-limited, nearly uniform); E is the untimed run's, and
+      the exponential side's E of the comparison is measured against the same reference;
+    * otherwise whole runs, with ``budget_s`` only in the rounds that fit at its first run's pace
+      (at least one: a ratio of hundreds is decided by one run of the slow side);
+    * dop853: the DOP853 row of an earlier comparison of this process at the same rtol (its
+      ``summary["_dop853"]``): taken, and only the exponential side runs.
+
     Returns (summary dict for ``issue_table``, [dop853 row, exponential row])."""
     dop_options = {"rtol": rtol, "atol": DOP853_ATOL}
+    dt = scene.output_interval
     t0 = time.perf_counter()
-    warm = min(duration, WARMUP_INTERVALS * scene.output_interval)
+    warm = min(duration, WARMUP_INTERVALS * dt)
+    prefix = None
+    if dop853 is None and untimed is not None and budget_s is not None \
+            and untimed["wall_time_s"] * repeats > budget_s:
+        prefix = timing.prefix_duration(untimed["wall_time_s"], duration, dt, budget_s / repeats)
+    referee = untimed["reference"] if prefix is not None else reference
     try:
-        if dop853_runs is None:
+        if dop853 is None:
             timed_run(model_file, scene, warm, "dop853", dop_options, "truth")
         timed_run(model_file, scene, duration, "exponential", exp_options, "truth")
-        samples = {"dop853": list(dop853_runs[0]) if dop853_runs else [], "exponential": []}
-        runs = {"dop853": dop853_runs[1]} if dop853_runs else {}
+        samples = {"dop853": [], "exponential": []}
+        firsts, runs, first_steps = [], {}, 0
         for k in range(repeats):
-            for method, opts in (("dop853", dop_options), ("exponential", exp_options)):
-                if method == "dop853" and (dop853_runs is not None or (
-                        samples["dop853"] and budget_s is not None and k >= run_budget(
-                            samples["dop853"][0]["end_to_end_s"], repeats, budget_s))):
-                    continue
-                runs[method], prob, timing = timed_run(model_file, scene, duration, method, opts, "truth")
-                samples[method].append(timing)
+            if dop853 is not None:
+                pass                                     # taken from the earlier comparison
+            elif prefix is not None:
+                first, _, timing_1 = timed_run(model_file, scene, dt, "dop853", dop_options, "truth")
+                firsts.append(timing_1)
+                first_steps = first.steps
+                runs["dop853"], prob, timing_k = timed_run(model_file, scene, prefix, "dop853", dop_options,
+                                                           "truth")
+                samples["dop853"].append(timing_k)
+            elif not (samples["dop853"] and budget_s is not None and k >= run_budget(
+                    samples["dop853"][0]["end_to_end_s"], repeats, budget_s)):
+                runs["dop853"], prob, timing_k = timed_run(model_file, scene, duration, "dop853", dop_options,
+                                                           "truth")
+                samples["dop853"].append(timing_k)
+            runs["exponential"], prob, timing_k = timed_run(model_file, scene, duration, "exponential",
+                                                            exp_options, "truth")
+            samples["exponential"].append(timing_k)
+            dop_last = (dop853["integration_median_s"] if dop853 is not None else
+                        samples["dop853"][-1]["integration_s"])
+            dop_where = (f" (over {format_seconds(prefix)} of the scene)" if prefix is not None else
+                         " (the earlier comparison's whole run)" if dop853 is not None else "")
             log(f"{PROG}: DOP853 vs exponential, round {k + 1}/{repeats}: "
-                f"{samples['dop853'][-1]['integration_s']:.3g} s vs "
+                f"{dop_last:.3g} s{dop_where} vs "
                 f"{format_seconds(samples['exponential'][-1]['integration_s'])}", flush=True)
     except FAILURES as exc:
         status = "failed: " + " ".join(str(exc).split())
         log(f"{PROG}: DOP853 comparison: {status}")
         return {"status": status, "rtol": rtol}, []
-    rows = []
-    for method, opts in (("dop853", dop_options), ("exponential", exp_options)):
+
+    def row_of(method, opts, timings):
         case = f"thesis: {method}" + (f" rtol {rtol:g}" if method == "dop853" else "") + " (alternating)"
-        row = {"case": case, "scene": scene.name, "model": "truth", "method": method,
-               "tol": opts.get("tol"), "rtol": opts.get("rtol"), "duration_s": duration,
-               "reference": None if reference is None else reference["path"], "status": "ok",
-               "n_coordinates": prob.chain.n_coordinates, **timing_summary(samples[method]),
-               **run_stats(runs[method]), **accuracy(runs[method], reference, duration, case),
-               "integration_times_s": [s["integration_s"] for s in samples[method]],
-               "end_to_end_times_s": [s["end_to_end_s"] for s in samples[method]]}
-        rows.append(row)
-    dop, exp = rows
-    e_dop, e_exp = dop["E_max"], exp["E_max"]
+        return {"case": case, "scene": scene.name, "model": "truth", "method": method,
+                "tol": opts.get("tol"), "rtol": opts.get("rtol"), "duration_s": duration,
+                "reference": None if reference is None else reference["path"], "status": "ok",
+                "n_coordinates": prob.chain.n_coordinates, **timings,
+                "integration_times_s": [s["integration_s"] for s in samples[method]],
+                "end_to_end_times_s": [s["end_to_end_s"] for s in samples[method]]}
+    if dop853 is not None:
+        dop = dict(dop853)
+        referee = dop853["referee"]
+    elif prefix is not None:
+        dop = row_of("dop853", dop_options, prefix_summary(firsts, first_steps, samples["dop853"],
+                                                           runs["dop853"].steps, untimed["steps"]))
+        dop.update({k: untimed[k] for k in ("E_max", *RATE_COLUMNS)}, steps=untimed["steps"],
+                   reference=untimed["reference"]["path"], duration_timed_s=prefix, referee=referee)
+    else:
+        dop = row_of("dop853", dop_options, {**timing_summary(samples["dop853"]), "time_basis": "measured"})
+        dop.update(**run_stats(runs["dop853"]), **accuracy(runs["dop853"], reference, duration, dop["case"]),
+                   referee=referee)
+    exp = row_of("exponential", exp_options, {**timing_summary(samples["exponential"]), "time_basis": "measured"})
+    exp.update(**run_stats(runs["exponential"]), **accuracy(runs["exponential"], reference, duration, exp["case"]))
+    e_dop = dop["E_max"]
+    e_exp = (exp["E_max"] if referee is reference else
+             accuracy(runs["exponential"], referee, duration, exp["case"])["E_max"])
     summary = {
-        "status": "ok", "rtol": rtol, "atol": DOP853_ATOL, "runs": repeats, "dop853_runs": len(samples["dop853"]),
+        "status": "ok", "rtol": rtol, "atol": DOP853_ATOL, "runs": repeats, "dop853_runs": dop["runs"],
         "tol": exp_options.get("tol"),
-        "speedup": speed_ratio(dop["integration_times_s"], exp["integration_times_s"]),
-        "speedup_end_to_end": speed_ratio(dop["end_to_end_times_s"], exp["end_to_end_times_s"]),
+        "speedup": speed_ratio([dop["integration_median_s"]], exp["integration_times_s"]),
+        "speedup_end_to_end": speed_ratio([dop["end_to_end_median_s"]], exp["end_to_end_times_s"]),
         "dop853_integration_median_s": dop["integration_median_s"],
         "exponential_integration_median_s": exp["integration_median_s"],
         "dop853_end_to_end_median_s": dop["end_to_end_median_s"],
         "exponential_end_to_end_median_s": exp["end_to_end_median_s"],
-        "dop853_steps": dop["steps"], "E_dop853": e_dop, "E_exponential": e_exp,
+        "dop853_steps": dop["steps"], "dop853_time_basis": dop["time_basis"],
+        "E_dop853": e_dop, "E_exponential": e_exp,
+        "E_reference": None if referee is None else f"{reference_kind(referee['attrs'])} ({referee['path']})",
         "equal_or_better": (e_dop is not None and e_exp is not None and e_dop <= e_exp),
-        "dop853_from_earlier_comparison": dop853_runs is not None,
-        "seconds": time.perf_counter() - t0, "_dop853": (samples["dop853"], runs["dop853"])}
+        "dop853_from_earlier_comparison": dop853 is not None,
+        "seconds": time.perf_counter() - t0, "_dop853": dop}
     log(f"{PROG}: DOP853 rtol {rtol:g} / exponential: x{summary['speedup']:.3g} (integration), "
-        f"x{summary['speedup_end_to_end']:.3g} (end to end); E {e_dop} vs {e_exp}", flush=True)
-    return summary, rows
+        f"x{summary['speedup_end_to_end']:.3g} (end to end), DOP853 {dop['time_basis']}; "
+        f"E {e_dop} vs {e_exp} (against {summary['E_reference']})", flush=True)
+    return summary, [{k: v for k, v in dop.items() if k != "referee"}, exp]
+
+
+def case_from_runs(name, scene, runtime, sim, truth_attrs, n_coordinates, options, reference, duration):
+    """The truth case of a scene from what the workflow measured of it elsewhere, no run here:
+    the run times of the runtime benchmark (``runtime``: its JSON, ``gimbal_reduction.results.bench.
+    runtime``: ``repeats`` whole runs of the truth alone on the machine, Run.wall_time with the
+    initial basis, and the set-up from body data in memory, no file read) and E, steps and basis
+    counts of the study's run of the truth on the scene (``sim``: read_sim dict, the same model,
+    integrator and tolerance: a deterministic integrator repeats it step for step).
+    BenchInputError (one line) unless both are of this scene, the truth model of the truth
+    model file (``truth_attrs``, ``n_coordinates``), the exponential integrator at
+    ``options["tol"]`` and ``duration`` [s].  Returns a ``time_case`` row."""
+    a, path = sim["attrs"], sim["path"]
+    want = {"scene": name, "model": "truth", "integrator": "exponential",
+            "model_config_hash": str(truth_attrs.get("config_hash", "")), "stat_exponential_tol": options["tol"]}
+    wrong = simfile.mismatches(a, want, {"stat_exponential_tol": 1e-9})
+    if sim["t"].size != int(round(duration / scene.output_interval)) + 1:
+        wrong["outputs"] = sim["t"].size
+    if a.get("steps") is None:
+        wrong["steps"] = None
+    if wrong:
+        raise BenchInputError(f"--truth-runs {name}: {path} is not the truth's run of {name} as this bench "
+                              f"runs it: {wrong}")
+    truth = (runtime.get("models") or {}).get("truth") or {}
+    got = {"scene": runtime.get("scene"), "integrator": runtime.get("integrator"),
+           "coordinates": truth.get("coordinates")}
+    if got != {"scene": name, "integrator": "exponential", "coordinates": n_coordinates} \
+            or not truth.get("run_ms_all") or len(truth["run_ms_all"]) != len(truth.get("setup_ms_all") or ()):
+        raise BenchInputError(f"--truth-runs {name}: {runtime.get('path')} has no timed truth of {name} with the "
+                              f"exponential integrator and {n_coordinates} coordinates ({got})")
+    run_s = np.asarray(truth["run_ms_all"], float) / 1e3
+    setup_s = np.asarray(truth["setup_ms_all"], float) / 1e3
+    first = float(a.get("stat_first_basis_time_s") or 0.0)     # one run's: the study's
+    samples = [{"problem_s": su, "first_basis_s": first, "run_s": r, "setup_s": su + first,
+                "integration_s": r - first, "end_to_end_s": su + r} for r, su in zip(run_s, setup_s)]
+    stats = {"steps": int(a["steps"]), "evaluations": a.get("stat_evaluations"), "rejected": a.get("stat_rejected"),
+             "relinearisations": a.get("stat_relinearisations"), "frequency_updates": a.get("stat_frequency_updates"),
+             "basis_time_s": a.get("stat_basis_time_s"), "smallest_step_s": a.get("stat_smallest_step"),
+             "largest_step_s": a.get("stat_largest_step")}
+    row = {"case": f"{name}: truth", "scene": name, "model": "truth", "method": "exponential",
+           "tol": options["tol"], "rtol": None, "duration_s": duration,
+           "reference": None if reference is None else reference["path"], "status": "ok",
+           "n_coordinates": n_coordinates, **timing_summary(samples), **stats,
+           "integration_times_s": [s["integration_s"] for s in samples],
+           "end_to_end_times_s": [s["end_to_end_s"] for s in samples],
+           "time_basis": (f"the runtime benchmark's {len(samples)} whole runs ({runtime.get('path')}; set-up from "
+                          f"body data in memory, no file read; the initial basis from {path}), "
+                          f"E and steps of {path}")}
+    if reference is None:
+        row.update({"E_max": None, **{c: None for c in RATE_COLUMNS}})
+    else:
+        t_ref, g_ref = reference_prefix(reference, duration)
+        check_same_grid(t_ref, sim["t"], row["case"])
+        E, per = rate_errors(t_ref, g_ref, np.asarray(sim["gamma_dot"], float)[:, :4])
+        row.update({"E_max": E, **dict(zip(RATE_COLUMNS, map(float, per)))})
+    return row
+
+
+def prefix_summary(firsts, first_steps, prefixes, prefix_steps, whole_steps):
+    """The ``timing_summary`` fields of a whole run from runs over the first output interval
+    (``firsts``, ``first_steps`` steps) and over a prefix (``prefixes``, ``prefix_steps`` steps)
+    of a scene of ``whole_steps`` steps: integration and end to end on the line through the two
+    medians (minima) in the step count (``timing.whole_from_prefix``: the fixed cost of a run once);
+    read, problem and set-up as measured (they do not depend on the length); time_basis says so."""
+    out = timing_summary(prefixes)
+    for stem in ("integration", "end_to_end", "run"):
+        for kind, reduce in (("median", np.median), ("min", np.min)):
+            t_1 = float(reduce([s[f"{stem}_s"] for s in firsts]))
+            t_k = float(reduce([s[f"{stem}_s"] for s in prefixes]))
+            out[f"{stem}_{kind}_s"] = timing.whole_from_prefix(t_1, first_steps, t_k, prefix_steps, whole_steps)
+    out["time_basis"] = f"extrapolated from {prefix_steps} and {first_steps} of {whole_steps} steps"
+    return out
+
+
+def read_untimed_dop853(path, rtol, reference):
+    """{E_max, E per rate, steps, wall_time_s, reference} of the truth's DOP853 run at ``rtol`` in
+    an untimed CSV of ``gimbal_reduction.results.bench.pareto --errors-only`` (row: model truth,
+    integrator dop853-RTOL), its E measured against ``reference`` (read_sim dict: the file that
+    job's --truth named).  BenchInputError (one line) if the file has no such row or the run failed."""
+    if not os.path.isfile(path):
+        raise BenchInputError(f"--dop853-untimed {path}: file not found")
+    try:
+        row = read_errors(path).get(("truth", f"dop853-{rtol:g}"))
+    except (KeyError, ValueError) as exc:
+        raise BenchInputError(f"--dop853-untimed {path}: not a CSV of the Pareto benchmark ({exc})") from None
+    if row is None:
+        raise BenchInputError(f"--dop853-untimed {path}: no row of the truth with dop853-{rtol:g} "
+                              f"(--dop853-rtol {rtol:g})")
+    if row.get("status") != "ok" or not row.get("steps") or not row.get("wall_time_s"):
+        raise BenchInputError(f"--dop853-untimed {path}: the truth's dop853-{rtol:g} run has status "
+                              f"{row.get('status')!r}, no steps or no time")
+    return {"E_max": row["E"], **{c: row[c] for c in RATE_COLUMNS}, "steps": int(row["steps"]),
+            "wall_time_s": float(row["wall_time_s"]), "reference": reference, "path": path}
 
 
 def rhs_cost(prob, run, repeats=7, batch_seconds=0.05):
@@ -872,6 +1024,16 @@ def parser():
                     default=list(SWEEP_TOLS), metavar="TOL",
                     help="tolerances of the sweep on thesis truth (run time against E; none: no sweep); "
                          "the fastest meeting E <= 1e-8 is compared with DOP853 too")
+    ap.add_argument("--dop853-untimed", nargs=2, metavar=("CSV", "REFERENCE"), default=None,
+                    help="an untimed DOP853 run of the truth on thesis at --dop853-rtol (the Pareto "
+                         "benchmark's --errors-only CSV) and the reference its E was measured against: "
+                         "its E and steps are taken, and DOP853 is timed over a prefix where --repeats "
+                         "whole runs exceed --budget (alternating_comparison)")
+    ap.add_argument("--truth-runs", nargs=3, action="append", default=[],
+                    metavar=("SCENE", "RUNTIME_JSON", "SIM_FILE"),
+                    help="a scene other than thesis whose truth case is not run here: its times from the "
+                         "runtime benchmark's JSON (whole runs, alone), E and steps from the study's run of the "
+                         "truth (case_from_runs)")
     ap.add_argument("--duration", type=simulate.positive_number("--duration"), default=None,
                     help="simulated seconds of every case (default the scene's; a smoke test, not the issue's cases)")
     ap.add_argument("--out-json", required=True)
@@ -907,10 +1069,40 @@ def prepare(args):
         if a.get("scene") and a["scene"] != "thesis":
             raise BenchInputError(f"--models {path} was reduced for scene {a['scene']!r}, not thesis")
         models.append((str(a.get("model") or os.path.splitext(os.path.basename(path))[0]), path, a))
-    chainfile.read_chain(args.truth_model)           # every dataset present and consistent
+    untimed = None
+    if args.dop853_untimed:
+        csv_path, ref_path = args.dop853_untimed
+        referee = read_sim(ref_path)
+        check_reference("thesis", referee, truth_attrs, ref_path)
+        untimed = read_untimed_dop853(csv_path, args.dop853_rtol, referee)
+    truth_chain, _ = chainfile.read_chain(args.truth_model)    # every dataset present and consistent
+    from_runs = {}
+    for name, runtime_path, sim_path in args.truth_runs:
+        if name not in scene_objs or name == "thesis" or name in from_runs:
+            raise BenchInputError(f"--truth-runs {name}: not a benchmarked scene other than thesis, or given twice")
+        if args.duration is not None:
+            raise BenchInputError("--truth-runs takes whole runs: not with --duration")
+        try:
+            with open(runtime_path) as fh:
+                runtime = {**json.load(fh), "path": runtime_path}
+        except (OSError, ValueError) as exc:
+            raise BenchInputError(f"--truth-runs {name}: {runtime_path}: unreadable JSON "
+                                  f"({exc.__class__.__name__})") from None
+        scene = scene_objs[name]
+        options = simulate.scene_options(scene, "exponential", None, {} if args.tol is None else {"tol": args.tol})
+        sim = read_sim(sim_path)
+        from_runs[name] = case_from_runs(name, scene, runtime, sim, truth_attrs,
+                                         truth_chain.n_coordinates,
+                                         {"tol": options.get("tol", exponential.DEFAULTS.tol)}, refs.get(name),
+                                         bench_duration(scene, None))
+        from_runs[name]["scene_tol"] = "tol" in options and args.tol is None
+        from_runs[name]["sources"] = {
+            "runtime": runtime_path, "runtime_config_hash": str((runtime.get("provenance") or {}).get("config_hash", "")),
+            "sim": sim_path, "sim_config_hash": str(sim["attrs"].get("config_hash", ""))}
     for _, path, _ in models:
         chainfile.read_chain(path)
-    return {"scenes": scene_objs, "references": refs, "truth_attrs": truth_attrs, "models": models}
+    return {"scenes": scene_objs, "references": refs, "truth_attrs": truth_attrs, "models": models,
+            "dop853_untimed": untimed, "truth_runs": from_runs}
 
 
 def inputs_provenance(args, inputs):
@@ -922,7 +1114,13 @@ def inputs_provenance(args, inputs):
         "references": {s: {"path": r["path"], "config_hash": str(r["attrs"].get("config_hash", "")),
                            "integrator": r["attrs"].get("integrator"), "rtol": r["attrs"].get("stat_rtol")}
                        for s, r in inputs["references"].items()},
+        "dop853_untimed": None if inputs["dop853_untimed"] is None else {
+            "csv": inputs["dop853_untimed"]["path"], "steps": inputs["dop853_untimed"]["steps"],
+            "E_max": inputs["dop853_untimed"]["E_max"],
+            "reference": inputs["dop853_untimed"]["reference"]["path"],
+            "reference_config_hash": str(inputs["dop853_untimed"]["reference"]["attrs"].get("config_hash", ""))},
         "scenes": {n: s.config_hash() for n, s in inputs["scenes"].items()},
+        "truth_runs": {n: c["sources"] for n, c in inputs["truth_runs"].items()},
         "options": {"repeats": args.repeats, "budget_s": args.budget, "tol": args.tol, "default_tol": exponential.DEFAULTS.tol,
                     "sweep_tols": list(args.sweep_tols),
                     "dop853_rtol": args.dop853_rtol, "dop853_atol": DOP853_ATOL, "duration": args.duration}}
@@ -949,6 +1147,13 @@ def main(argv=None) -> int:
     sweep, fastest, fastest_comparison = [], None, None
     for name, scene in inputs["scenes"].items():
         duration = bench_duration(scene, args.duration)
+        if name in inputs["truth_runs"]:
+            case = truth_cases[name] = inputs["truth_runs"][name]
+            rows.append(case)
+            print(f"{PROG}: {name}: truth: end to end {format_seconds(case['end_to_end_median_s'])} "
+                  f"(median of {case['runs']}), {case['steps']} steps, E {case['E_max']}: {case['time_basis']}",
+                  flush=True)
+            continue
         # the truth as the workflow runs it: at the scene's exponential_tolerance if it states one
         # (long: its attitude over 1 s) and --tol is not given
         scene_options = simulate.scene_options(scene, "exponential", None, exp_options)
@@ -969,7 +1174,7 @@ def main(argv=None) -> int:
                 flush=True)
         comparison, comp_rows = alternating_comparison(args.truth_model, scene, duration, args.repeats,
                                                        exp_options, args.dop853_rtol, refs.get(name),
-                                                       budget_s=args.budget)
+                                                       budget_s=args.budget, untimed=inputs["dop853_untimed"])
         rows += comp_rows
         for tol in args.sweep_tols:
             swept, _, _ = time_case(f"thesis: truth, tol {tol:g} (sweep)", args.truth_model, scene, duration,
@@ -982,7 +1187,7 @@ def main(argv=None) -> int:
         if fastest is not None:
             fastest_comparison, comp_rows = alternating_comparison(
                 args.truth_model, scene, duration, args.repeats, {"tol": fastest["tol"]}, args.dop853_rtol,
-                refs.get(name), budget_s=args.budget, dop853_runs=comparison.get("_dop853"))
+                refs.get(name), budget_s=args.budget, dop853=comparison.get("_dop853"))
             rows += comp_rows
     thesis = inputs["scenes"]["thesis"]
     duration = bench_duration(thesis, args.duration)
@@ -1002,7 +1207,8 @@ def main(argv=None) -> int:
     total = time.perf_counter() - start
     note = (f"Exponential integrator at tol {args.tol if args.tol is not None else exponential.DEFAULTS.tol:g}"
             f"{'' if args.tol is not None else ' (default)'}; medians of {args.repeats} runs after one warm-up"
-            f"{'' if args.budget is None else f' (fewer, at least one, where they exceed {args.budget:g} s a case)'}; "
+            f"{'' if args.budget is None else f' (fewer, at least one, where they exceed {args.budget:g} s a case)'}"
+            f"{'' if inputs['dop853_untimed'] is None else '; DOP853 in the comparison timed over a prefix of the scene and scaled by its steps where its runs exceed that (its E and steps from an untimed whole run, the row says so)'}; "
             f"E = eq 3.53 against the converged reference per gimbal rate, max over the four "
             f"({'; '.join(sorted({reference_kind(r['attrs']) for r in refs.values()}))}). "
             f"Machine: {os.cpu_count()} cores, load {load0[0]:.2f} at the start (shared: timings are upper "

@@ -29,7 +29,9 @@ simulations; ``gimbal_reduction.results.study.run_scene`` does the same):
 Times: ``run_time_s`` is the integration's wall time (``integrators.Run.wall_time``), the median of
 ``--repeats`` runs (a model whose runs would not fit in ``--budget`` seconds timed over a prefix of
 the scene and scaled by its steps, ``gimbal_reduction.results.bench.timing``: ``time_basis``); with
-``--untimed`` one run (beside other jobs), which ``--times-from`` times alone; after one untimed run of the rigid model per scene that loads the compiled kernels;
+``--untimed`` one run (beside other jobs), which ``--times-from`` times alone (the truth of a
+scene of ``--truth-times SCENE=JSON`` not again: its time is the median of the runtime benchmark's
+whole runs of it, timed alone); after one untimed run of the rigid model per scene that loads the compiled kernels;
 with ``--truths SCENE=FILE`` (``--untimed`` only) the truth's rates and time are read from the
 study's run of the scene (``file_run``: the same model, integrator and tolerance), not integrated;
 ``selection_time_s`` is the reduction stage's wall time of one run (for a verified search it
@@ -161,10 +163,34 @@ def _median(prob, scene, whole_s, whole_steps, repeats, budget_s):
     return {"run_time_s": t["wall_time_s"], "runs": t["runs"], "time_basis": t["time_basis"]}
 
 
-def retime(summary, scene_files, models_dir, repeats, budget_s, log=print):
+def runtime_truth_time(path, scene, model_file):
+    """{run_time_s, runs, time_basis} of the reference model (the truth) on ``scene`` from the
+    runtime benchmark's JSON at ``path`` (``gimbal_reduction.results.bench.runtime``: the median
+    of its whole runs of the truth, timed alone, Run.wall_time as here).  ValueError (one line)
+    unless that JSON timed this scene with the default integrator and a truth of the same modes
+    as ``model_file``."""
+    import json
+    with open(path) as fh:
+        data = json.load(fh)
+    chain, _ = chainfile.read_chain(model_file, scene.damping_ratio)
+    truth = (data.get("models") or {}).get("truth") or {}
+    got = {"scene": data.get("scene"), "integrator": data.get("integrator"),
+           "n_modes": [int(n) for n in truth.get("n_modes") or ()]}
+    want = {"scene": scene.name, "integrator": simulate.DEFAULT_INTEGRATOR, "n_modes": [int(n) for n in chain.n_modes]}
+    if got != want or not truth.get("run_ms_all"):
+        raise ValueError(f"--truth-times {path} did not time the truth of {model_file} on {scene.name} "
+                         f"with {simulate.DEFAULT_INTEGRATOR} ({got}, wanted {want})")
+    runs = np.asarray(truth["run_ms_all"], float) / 1e3
+    return {"run_time_s": float(np.median(runs)), "runs": int(runs.size),
+            "time_basis": f"measured: the runtime benchmark's whole runs ({path})"}
+
+
+def retime(summary, scene_files, models_dir, repeats, budget_s, log=print, truth_times=None):
     """``--times-from``: the rows and comparisons of an ``--untimed`` run (its JSON, changed in
     place), each model timed in this process from its file in ``models_dir``/{scene}/{model}.h5
-    (the untimed run's ``--keep-models``); E, choices and searches are the untimed run's."""
+    (the untimed run's ``--keep-models``); E, choices and searches are the untimed run's.
+    truth_times: {scene: runtime benchmark JSON}: that scene's truth is not timed again, its time
+    is the runtime benchmark's median (``runtime_truth_time``)."""
     for scene_file in scene_files:
         scene = scenes.load_scene(scene_file)
         folder = os.path.join(models_dir, scene.name)
@@ -181,7 +207,12 @@ def retime(summary, scene_files, models_dir, repeats, budget_s, log=print):
                     f"({timed[model]['time_basis']})")
             return timed[model]
         truth = summary["truths"][scene.name]
-        truth.update(time_model(truth["model"], truth["run_time_s"], truth["steps"]))
+        if scene.name in (truth_times or {}) and truth["model"] == "truth":
+            truth.update(runtime_truth_time(truth_times[scene.name], scene,
+                                            os.path.join(folder, f"{truth['model']}.h5")))
+            log(f"tolerance: {scene.name}: truth: {truth['run_time_s']:.3g} s ({truth['time_basis']})")
+        else:
+            truth.update(time_model(truth["model"], truth["run_time_s"], truth["steps"]))
         tol = {}
         for r in summary["rows"]:
             if r["scene"] == scene.name:
@@ -401,6 +432,9 @@ def main(argv=None) -> int:
                     help="the --out-json of an --untimed run with --keep-models DIR (--models-from DIR): "
                          "only its models are timed, its CSV and JSON rewritten with the times")
     ap.add_argument("--models-from", metavar="DIR", help="the --keep-models folder of --times-from")
+    ap.add_argument("--truth-times", nargs="*", default=[], metavar="SCENE=JSON",
+                    help="with --times-from: the truth's time on SCENE from the runtime benchmark's JSON "
+                         "(the median of its whole runs, timed alone) instead of timed again")
     ap.add_argument("--reference", default="truth", help="the model errors are measured against")
     ap.add_argument("--truths", nargs="*", default=[], metavar="SCENE=FILE",
                     help="with --untimed: the reference's run on SCENE read from FILE (the study's "
@@ -426,6 +460,13 @@ def main(argv=None) -> int:
         print("tolerance: --truths takes SCENE=FILE, once per scene of --scenes, with --untimed"
               + (f" (got {' '.join(bad)})" if bad else ""), file=sys.stderr)
         return 2
+    truth_times = dict(item.partition("=")[::2] for item in args.truth_times)
+    bad = [item for item in args.truth_times if "=" not in item or item.partition("=")[0] not in names
+           or not item.partition("=")[2]]
+    if (args.truth_times and not args.times_from) or bad or len(truth_times) != len(args.truth_times):
+        print("tolerance: --truth-times takes SCENE=JSON, once per scene of --scenes, with --times-from"
+              + (f" (got {' '.join(bad)})" if bad else ""), file=sys.stderr)
+        return 2
     if args.times_from:
         import json
         with open(args.times_from) as fh:
@@ -433,7 +474,7 @@ def main(argv=None) -> int:
         summary.pop("provenance", None)
         t0 = time.perf_counter()
         try:
-            retime(summary, scene_files, args.models_from, args.repeats, args.budget)
+            retime(summary, scene_files, args.models_from, args.repeats, args.budget, truth_times=truth_times)
         except (OSError, ValueError, KeyError) as exc:
             print(f"tolerance: {' '.join(str(exc).split())}", file=sys.stderr)
             return 2
