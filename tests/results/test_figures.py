@@ -206,7 +206,7 @@ def test_font_subsets_made_once_per_font_and_grown(monkeypatch, tmp_path):
         path = font_manager.findfont(font_manager.FontProperties())
     with TTFont(path, lazy=True) as font:
         cmap = font.getBestCmap()
-        gids = {c: font.getGlyphID(cmap[ord(c)]) for c in "abcxyz" + figures.SUBSET_BASE if ord(c) in cmap}
+        gids = {c: font.getGlyphID(cmap[ord(c)]) for c in "\u0436\u0449" + figures.SUBSET_BASE if ord(c) in cmap}
 
     def glyphs(chars):
         return {gids[c] for c in chars if c in gids}
@@ -220,11 +220,12 @@ def test_font_subsets_made_once_per_font_and_grown(monkeypatch, tmp_path):
         return (tmp_path / "t.pdf").read_bytes()
 
     assert pdf("abc 12")[:5] == b"%PDF-" and len(calls) == 1
-    assert len(glyphs(figures.SUBSET_BASE)) >= 10 and glyphs("abc" + figures.SUBSET_BASE) <= calls[0]
+    assert len(glyphs(figures.SUBSET_BASE)) >= 95 and glyphs(figures.SUBSET_BASE) <= calls[0]
     pdf("cab 21.5")
-    assert len(calls) == 1                                   # a hit: nothing new
-    pdf("xyz")
-    assert len(calls) == 2 and glyphs("abcxyz") <= calls[1]  # grown, the old glyphs kept
+    pdf("Xyz \u2212\u00b5")
+    assert len(calls) == 1                                   # hits: every ASCII glyph is in the base
+    pdf("\u0436\u0449")                                    # Cyrillic: outside the base
+    assert len(calls) == 2 and glyphs("\u0436\u0449" + figures.SUBSET_BASE) <= calls[1]  # grown, kept
     assert pdf_ps.get_glyphs_subset is spy
 
 

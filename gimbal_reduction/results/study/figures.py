@@ -95,9 +95,12 @@ def run_provenance() -> dict:
     return provenance()
 
 
-# Characters every embedded font subset holds whether a figure uses them or not: those of numbers
-# (tick labels, E values), which differ from figure to figure (``glyph_subsets_cached``)
-SUBSET_BASE = "0123456789.,:;=+-\u2212()[]/ "
+# Characters every embedded font subset holds whether a figure uses them or not: all of printable
+# ASCII (titles, captions, tick labels) and the few others the figures write (minus sign, micro,
+# times, degree, the Greek of mathtext labels), so that one subset per font file serves a whole
+# run of figures (``glyph_subsets_cached``); a glyph outside it grows the subset once
+SUBSET_BASE = ("".join(map(chr, range(0x20, 0x7F))) + "\u2212\u00b5\u00d7\u00b0\u00b7\u2013\u2014"
+               + "".join(map(chr, range(0x3B1, 0x3CA))) + "".join(map(chr, range(0x391, 0x3AA))))
 # (font file, face index) -> (glyph indices, subset font file bytes, glyph index map of the subset)
 _SUBSETS: dict[tuple[str, int], tuple[frozenset, bytes, dict]] = {}
 
@@ -116,27 +119,45 @@ def _base_glyphs(path: str, face_index: int) -> frozenset:
         return frozenset(font.getGlyphID(cmap[ord(c)]) for c in SUBSET_BASE if ord(c) in cmap)
 
 
+class SubsetFontFile:
+    """A font subset already written as a font file (``data``, bytes): what the PDF backend does
+    with a subset font is save it to a file (``font_as_file``: ``font.save(file)``), so handing
+    it the bytes skips parsing the subset and compiling it back for every figure.  A context
+    manager like fontTools' TTFont, which ``SubsetResults`` opens."""
+
+    def __init__(self, data: bytes):
+        self.data = data
+
+    def save(self, file, reorderTables=True) -> None:
+        file.write(self.data)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+
 @contextlib.contextmanager
 def glyph_subsets_cached():
     """Within: matplotlib's PDF backend takes the TrueType font subsets it embeds from a cache
-    instead of subsetting the font file again for every figure (fontTools, ~0.07 s per font and
-    file: nearly half of a rate figure's PDF).  One subset per font file, of every glyph a
-    figure of this process has used so far plus those of ``SUBSET_BASE``; a figure needing a new
-    glyph makes it again, grown.  The PDF's glyph widths and text map come from the
-    characters it uses, as before, so its pages are the same and its font files a few kB
-    larger.  Without matplotlib's hook (``_backend_pdf_ps.get_glyphs_subset``) nothing changes.
+    instead of subsetting the font file again for every figure (fontTools, ~0.07-0.7 s per font
+    and file).  One subset per font file, of every glyph of ``SUBSET_BASE`` and every other glyph
+    a figure of this process has used so far; a figure needing a glyph outside it makes it
+    again, grown.  The PDF's glyph widths and text map come from the characters it uses, as
+    before, so its pages are the same and its font files a few kB larger.  Without matplotlib's
+    hook (``_backend_pdf_ps.get_glyphs_subset``) nothing changes.
 
     The hook is matplotlib >= 3.11's: ``get_glyphs_subset(fontfile, glyph indices)`` returns a
     context manager of ``SubsetResults(font, glyph_index_map)`` (the subset as a fontTools TTFont
     and the map from the font's glyph indices to the subset's); the PDF backend writes the font
-    with ``font_as_file`` and maps its glyphs through the map.  The cache hands out a fresh TTFont
-    read from the cached subset's bytes each time, with the map of that subset."""
+    with ``font_as_file`` (``font.save``) and maps its glyphs through the map.  The cache hands
+    out the cached subset's file bytes (``SubsetFontFile``) with the map of that subset."""
     from matplotlib.backends import _backend_pdf_ps as pdf_ps   # heavy, optional: figures only
     original = getattr(pdf_ps, "get_glyphs_subset", None)
     if original is None or getattr(original, "study_cache", False):
         yield
         return
-    from fontTools.ttLib import TTFont
 
     def cached(fontfile, glyphs):
         key = (str(fontfile), getattr(fontfile, "face_index", 0))
@@ -148,7 +169,7 @@ def glyph_subsets_cached():
                 data = pdf_ps.font_as_file(subset.font).getvalue()
                 index_map = dict(subset.glyph_index_map)
             _SUBSETS[key] = (have, data, index_map)
-        return pdf_ps.SubsetResults(TTFont(io.BytesIO(data)), dict(index_map))._as_cm()
+        return pdf_ps.SubsetResults(SubsetFontFile(data), dict(index_map))._as_cm()
 
     cached.study_cache = True
     pdf_ps.get_glyphs_subset = cached
