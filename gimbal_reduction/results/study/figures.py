@@ -255,19 +255,29 @@ def solve_layout(fig, engine) -> None:
 def envelope(t, y, t0=None, t1=None, bins=ENVELOPE_BINS):
     """Min/max envelope of y(t) on [t0, t1] for plotting: at most ``bins`` columns, each drawn
     by its smallest and largest sample in time order, so no peak is lost; windows with at
-    most 2*bins samples are returned unchanged.  t (T,) ascending, y (T,); returns (t, y)."""
+    most 2*bins samples, or with a non-finite sample, are returned unchanged.  t (T,)
+    ascending, y (T,); returns (t, y).
+
+    Sample i of the window [t_a, t_b] falls in column c_i = min(floor(bins (t_i - t_a) /
+    (t_b - t_a)), bins - 1); t is ascending, so c is too and every column is one run of
+    samples [s_c, s_{c+1}).  Its extremes m_c = min y, M_c = max y over the run are two
+    ``reduceat``s, and the first sample of the run equal to each is found by a search in the
+    sorted positions of the samples that equal their column's extreme: no sort, O(T)."""
     t, y = np.asarray(t, float), np.asarray(y, float)
     t0 = t[0] if t0 is None else t0
     t1 = t[-1] if t1 is None else t1
     lo, hi = np.searchsorted(t, t0, "left"), np.searchsorted(t, t1, "right")
     t, y = t[lo:hi], y[lo:hi]
-    if t.size <= 2 * bins:
+    if t.size <= 2 * bins or not np.all(np.isfinite(y)):
         return t, y
     col = np.minimum(((t - t[0]) / (t[-1] - t[0]) * bins).astype(int), bins - 1)
-    order = np.lexsort((y, col))              # by column, then by value
-    first = np.r_[0, np.flatnonzero(np.diff(col[order])) + 1]
-    last = np.r_[first[1:] - 1, order.size - 1]
-    keep = np.unique(np.r_[order[first], order[last]])   # min and max of every column, time order
+    start = np.r_[0, np.flatnonzero(np.diff(col)) + 1]           # first sample of each column
+    runs = np.diff(np.r_[start, t.size])                          # samples per column
+    keep = []
+    for extreme in (np.minimum, np.maximum):
+        at = np.flatnonzero(y == np.repeat(extreme.reduceat(y, start), runs))   # ascending
+        keep.append(at[np.searchsorted(at, start)])               # the first in each column
+    keep = np.unique(np.concatenate(keep))                        # each column's min and max, time order
     return t[keep], y[keep]
 
 
