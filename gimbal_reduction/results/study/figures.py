@@ -53,7 +53,7 @@ from gimbal_reduction.results.study.cases import (
     study_cases,
 )
 from gimbal_reduction.results.study.tables import COORDINATE_GROUPS, RATE_COLUMNS, read_table
-from gimbal_reduction.solver.bodydata import BODIES
+from gimbal_reduction.solver.bodies import BODIES
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow.provenance import provenance, savefig, write_json
