@@ -206,7 +206,7 @@ def test_font_subsets_made_once_per_font_and_grown(monkeypatch, tmp_path):
         path = font_manager.findfont(font_manager.FontProperties())
     with TTFont(path, lazy=True) as font:
         cmap = font.getBestCmap()
-        gids = {c: font.getGlyphID(cmap[ord(c)]) for c in "abcxyz" + figures.SUBSET_BASE if ord(c) in cmap}
+        gids = {c: font.getGlyphID(cmap[ord(c)]) for c in "\u0436\u0449" + figures.SUBSET_BASE if ord(c) in cmap}
 
     def glyphs(chars):
         return {gids[c] for c in chars if c in gids}
@@ -220,30 +220,61 @@ def test_font_subsets_made_once_per_font_and_grown(monkeypatch, tmp_path):
         return (tmp_path / "t.pdf").read_bytes()
 
     assert pdf("abc 12")[:5] == b"%PDF-" and len(calls) == 1
-    assert len(glyphs(figures.SUBSET_BASE)) >= 10 and glyphs("abc" + figures.SUBSET_BASE) <= calls[0]
+    assert len(glyphs(figures.SUBSET_BASE)) >= 95 and glyphs(figures.SUBSET_BASE) <= calls[0]
     pdf("cab 21.5")
-    assert len(calls) == 1                                   # a hit: nothing new
-    pdf("xyz")
-    assert len(calls) == 2 and glyphs("abcxyz") <= calls[1]  # grown, the old glyphs kept
+    pdf("Xyz \u2212\u00b5")
+    assert len(calls) == 1                                   # hits: every ASCII glyph is in the base
+    pdf("\u0436\u0449")                                    # Cyrillic: outside the base
+    assert len(calls) == 2 and glyphs("\u0436\u0449" + figures.SUBSET_BASE) <= calls[1]  # grown, kept
     assert pdf_ps.get_glyphs_subset is spy
 
 
-def test_envelope_keeps_every_peak():
+def _column_extremes(t, y, bins):
+    """(min (bins,), max (bins,)) of y over each of ``bins`` equal columns of [t[0], t[-1]], by a
+    plain loop over the samples (the envelope's definition, written independently of it)."""
+    lo, hi = np.full(bins, np.inf), np.full(bins, -np.inf)
+    for ti, yi in zip(t, y):
+        c = min(int((ti - t[0]) / (t[-1] - t[0]) * bins), bins - 1)
+        lo[c], hi[c] = min(lo[c], yi), max(hi[c], yi)
+    return lo, hi
+
+
+@pytest.mark.parametrize("kind", ["noise", "walk", "ties", "uneven"])
+def test_envelope_keeps_each_columns_min_and_max_exactly(kind):
+    """Every column's smallest and largest sample are drawn, exactly, and nothing else: the
+    envelope's points are samples of y (same t, same y), in time order, and per column their
+    min and max are the column's."""
     rng = np.random.default_rng(1)
-    t = np.linspace(0.0, 1.0, 100_001)
-    y = rng.normal(size=t.size)
-    y[[17, 50_000, 99_999]] = [40.0, -55.0, 30.0]          # isolated spikes
-    te, ye = figures.envelope(t, y, bins=500)
-    assert te.size <= 1000 and np.all(np.diff(te) > 0)
+    t = np.linspace(0.0, 1.0, 20_001)
+    if kind == "uneven":
+        t = np.sort(rng.uniform(0.0, 1.0, 20_001))
+    y = {"walk": np.cumsum(rng.normal(size=t.size)),
+         "ties": np.round(rng.normal(size=t.size), 0)}.get(kind, rng.normal(size=t.size))
+    y[[17, 10_000, 20_000]] = [40.0, -55.0, 30.0]          # isolated spikes
+    bins = 500
+    te, ye = figures.envelope(t, y, bins=bins)
+    assert te.size <= 2 * bins and np.all(np.diff(te) > 0)
+    at = np.searchsorted(t, te)
+    assert np.array_equal(t[at], te) and np.array_equal(y[at], ye)   # drawn points are samples
+    lo, hi = _column_extremes(t, y, bins)
+    col = np.minimum(((te - t[0]) / (t[-1] - t[0]) * bins).astype(int), bins - 1)
+    drawn_lo, drawn_hi = np.full(bins, np.inf), np.full(bins, -np.inf)
+    np.minimum.at(drawn_lo, col, ye)
+    np.maximum.at(drawn_hi, col, ye)
+    assert np.array_equal(drawn_lo, lo) and np.array_equal(drawn_hi, hi)
     assert {40.0, -55.0, 30.0} <= set(ye.tolist())
-    col = np.minimum((t * 500).astype(int), 499)
-    colmax = np.full(500, -np.inf)
-    np.maximum.at(colmax, col, y)
-    assert np.all(np.isin(colmax, ye))                       # every column's maximum is drawn
+
+
+def test_envelope_short_or_windowed_or_not_finite():
+    t = np.linspace(0.0, 1.0, 100_001)
+    y = np.sin(40 * t)
     ts, ys = figures.envelope(t[:100], y[:100], bins=500)    # short: unchanged
-    assert np.array_equal(ys, y[:100])
+    assert np.array_equal(ys, y[:100]) and np.array_equal(ts, t[:100])
     tw, _ = figures.envelope(t, y, 0.25, 0.5, bins=100)
-    assert tw[0] >= 0.25 and tw[-1] <= 0.5
+    assert tw[0] >= 0.25 and tw[-1] <= 0.5 and tw.size <= 200
+    y[5] = np.nan                                            # not finite: every sample drawn
+    tn, yn = figures.envelope(t, y, bins=100)
+    assert tn.size == t.size and np.isnan(yn[5])
 
 
 def test_long_run_is_drawn_as_envelope(tmp_path):

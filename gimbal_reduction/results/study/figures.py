@@ -53,7 +53,7 @@ from gimbal_reduction.results.study.cases import (
     study_cases,
 )
 from gimbal_reduction.results.study.tables import COORDINATE_GROUPS, RATE_COLUMNS, read_table
-from gimbal_reduction.solver.bodydata import BODIES
+from gimbal_reduction.solver.bodies import BODIES
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow.provenance import provenance, savefig, write_json
@@ -95,9 +95,13 @@ def run_provenance() -> dict:
     return provenance()
 
 
-# Characters every embedded font subset holds whether a figure uses them or not: those of numbers
-# (tick labels, E values), which differ from figure to figure (``glyph_subsets_cached``)
-SUBSET_BASE = "0123456789.,:;=+-\u2212()[]/ "
+# Characters every embedded font subset holds whether a figure uses them or not: all of printable
+# ASCII (titles, legends, tick labels) and the few others the figures write (minus sign, micro,
+# mu, gamma, times, mathtext's dot accent, the ff/fi/fl/ffi/ffl ligatures of the text), so that one subset per font file serves a whole run of figures
+# (``glyph_subsets_cached``); a glyph outside it grows the subset once.  (A DejaVu Sans subset
+# of these is ~27 kB before the PDF's compression, one of a typical figure's own glyphs ~15 kB.)
+SUBSET_BASE = ("".join(map(chr, range(0x20, 0x7F))) + "\u2212\u00b5\u03bc\u03b3\u00d7\u0307"
+               + "".join(map(chr, range(0xFB00, 0xFB05))))
 # (font file, face index) -> (glyph indices, subset font file bytes, glyph index map of the subset)
 _SUBSETS: dict[tuple[str, int], tuple[frozenset, bytes, dict]] = {}
 
@@ -116,27 +120,45 @@ def _base_glyphs(path: str, face_index: int) -> frozenset:
         return frozenset(font.getGlyphID(cmap[ord(c)]) for c in SUBSET_BASE if ord(c) in cmap)
 
 
+class SubsetFontFile:
+    """A font subset already written as a font file (``data``, bytes): what the PDF backend does
+    with a subset font is save it to a file (``font_as_file``: ``font.save(file)``), so handing
+    it the bytes skips parsing the subset and compiling it back for every figure.  A context
+    manager like fontTools' TTFont, which ``SubsetResults`` opens."""
+
+    def __init__(self, data: bytes):
+        self.data = data
+
+    def save(self, file, reorderTables=True) -> None:
+        file.write(self.data)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+
 @contextlib.contextmanager
 def glyph_subsets_cached():
     """Within: matplotlib's PDF backend takes the TrueType font subsets it embeds from a cache
-    instead of subsetting the font file again for every figure (fontTools, ~0.07 s per font and
-    file: nearly half of a rate figure's PDF).  One subset per font file, of every glyph a
-    figure of this process has used so far plus those of ``SUBSET_BASE``; a figure needing a new
-    glyph makes it again, grown.  The PDF's glyph widths and text map come from the
-    characters it uses, as before, so its pages are the same and its font files a few kB
-    larger.  Without matplotlib's hook (``_backend_pdf_ps.get_glyphs_subset``) nothing changes.
+    instead of subsetting the font file again for every figure (fontTools, ~0.07-0.7 s per font
+    and file).  One subset per font file, of every glyph of ``SUBSET_BASE`` and every other glyph
+    a figure of this process has used so far; a figure needing a glyph outside it makes it
+    again, grown.  The PDF's glyph widths and text map come from the characters it uses, as
+    before, so its pages are the same and its font files a few kB larger.  Without matplotlib's
+    hook (``_backend_pdf_ps.get_glyphs_subset``) nothing changes.
 
     The hook is matplotlib >= 3.11's: ``get_glyphs_subset(fontfile, glyph indices)`` returns a
     context manager of ``SubsetResults(font, glyph_index_map)`` (the subset as a fontTools TTFont
     and the map from the font's glyph indices to the subset's); the PDF backend writes the font
-    with ``font_as_file`` and maps its glyphs through the map.  The cache hands out a fresh TTFont
-    read from the cached subset's bytes each time, with the map of that subset."""
+    with ``font_as_file`` (``font.save``) and maps its glyphs through the map.  The cache hands
+    out the cached subset's file bytes (``SubsetFontFile``) with the map of that subset."""
     from matplotlib.backends import _backend_pdf_ps as pdf_ps   # heavy, optional: figures only
     original = getattr(pdf_ps, "get_glyphs_subset", None)
     if original is None or getattr(original, "study_cache", False):
         yield
         return
-    from fontTools.ttLib import TTFont
 
     def cached(fontfile, glyphs):
         key = (str(fontfile), getattr(fontfile, "face_index", 0))
@@ -148,7 +170,7 @@ def glyph_subsets_cached():
                 data = pdf_ps.font_as_file(subset.font).getvalue()
                 index_map = dict(subset.glyph_index_map)
             _SUBSETS[key] = (have, data, index_map)
-        return pdf_ps.SubsetResults(TTFont(io.BytesIO(data)), dict(index_map))._as_cm()
+        return pdf_ps.SubsetResults(SubsetFontFile(data), dict(index_map))._as_cm()
 
     cached.study_cache = True
     pdf_ps.get_glyphs_subset = cached
@@ -234,19 +256,29 @@ def solve_layout(fig, engine) -> None:
 def envelope(t, y, t0=None, t1=None, bins=ENVELOPE_BINS):
     """Min/max envelope of y(t) on [t0, t1] for plotting: at most ``bins`` columns, each drawn
     by its smallest and largest sample in time order, so no peak is lost; windows with at
-    most 2*bins samples are returned unchanged.  t (T,) ascending, y (T,); returns (t, y)."""
+    most 2*bins samples, or with a non-finite sample, are returned unchanged.  t (T,)
+    ascending, y (T,); returns (t, y).
+
+    Sample i of the window [t_a, t_b] falls in column c_i = min(floor(bins (t_i - t_a) /
+    (t_b - t_a)), bins - 1); t is ascending, so c is too and every column is one run of
+    samples [s_c, s_{c+1}).  Its extremes m_c = min y, M_c = max y over the run are two
+    ``reduceat``s, and the first sample of the run equal to each is found by a search in the
+    sorted positions of the samples that equal their column's extreme: no sort, O(T)."""
     t, y = np.asarray(t, float), np.asarray(y, float)
     t0 = t[0] if t0 is None else t0
     t1 = t[-1] if t1 is None else t1
     lo, hi = np.searchsorted(t, t0, "left"), np.searchsorted(t, t1, "right")
     t, y = t[lo:hi], y[lo:hi]
-    if t.size <= 2 * bins:
+    if t.size <= 2 * bins or not np.all(np.isfinite(y)):
         return t, y
     col = np.minimum(((t - t[0]) / (t[-1] - t[0]) * bins).astype(int), bins - 1)
-    order = np.lexsort((y, col))              # by column, then by value
-    first = np.r_[0, np.flatnonzero(np.diff(col[order])) + 1]
-    last = np.r_[first[1:] - 1, order.size - 1]
-    keep = np.unique(np.r_[order[first], order[last]])   # min and max of every column, time order
+    start = np.r_[0, np.flatnonzero(np.diff(col)) + 1]           # first sample of each column
+    runs = np.diff(np.r_[start, t.size])                          # samples per column
+    keep = []
+    for extreme in (np.minimum, np.maximum):
+        at = np.flatnonzero(y == np.repeat(extreme.reduceat(y, start), runs))   # ascending
+        keep.append(at[np.searchsorted(at, start)])               # the first in each column
+    keep = np.unique(np.concatenate(keep))                        # each column's min and max, time order
     return t[keep], y[keep]
 
 

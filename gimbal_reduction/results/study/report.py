@@ -43,7 +43,7 @@ from gimbal_reduction.results.study.cases import (
     study_cases,
 )
 from gimbal_reduction.results.study.tables import RATE_COLUMNS, read_table
-from gimbal_reduction.solver.bodydata import BODIES
+from gimbal_reduction.solver.bodies import BODIES
 from gimbal_reduction.solver.dynamics.error_measure import SAMPLING_MARGIN, SAMPLING_SHARE
 from gimbal_reduction.solver.dynamics.simfile import read_sim
 from gimbal_reduction.workflow import units

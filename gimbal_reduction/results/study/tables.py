@@ -48,7 +48,7 @@ import sys
 import numpy as np
 
 from gimbal_reduction.results.study.cases import BODY_NAMES, STATIC_TABLE_GROUPS, describe_model, study_cases
-from gimbal_reduction.solver.bodydata import BODIES
+from gimbal_reduction.solver.bodies import BODIES
 from gimbal_reduction.solver.dynamics.error_measure import (ARCSEC_PER_RAD, ErrorsInputError, attitude_error,
                                            check_same_grid, error_measure)
 from gimbal_reduction.solver.dynamics.simfile import read_sim
