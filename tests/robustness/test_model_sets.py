@@ -1,5 +1,5 @@
 """Several reduced models in one call of gimbal_reduction.reduction.models (the workflow's
-bench_models.smk): each file the one a single call makes, and a bad request refused in one line
+bench_models.smk, rule plain_models): each file the one a single call makes, and a bad request refused in one line
 before any file is written."""
 import h5py
 import numpy as np
