@@ -31,6 +31,7 @@ include: "workflow/rules/reduction.smk"
 include: "workflow/rules/models.smk"
 include: "workflow/rules/dynamics.smk"
 include: "workflow/rules/bench.smk"
+include: "workflow/rules/bench_models.smk"
 include: "workflow/rules/results.smk"
 include: "workflow/rules/outputs.smk"
 

@@ -747,15 +747,35 @@ def reduce_model(name, scene, body_files, reduction_files=None, load_ranking=Non
     return chain, spec, attrs
 
 
+def model_jobs(models, scenes_given, outs):
+    """[(model, scene, out)] of one command line: ``--out`` names one file per model made, and
+    ``--model`` and ``--scene`` each give one value (the same for every file) or one per file;
+    ValueError (one line, naming the option) otherwise, or for a file named twice."""
+    for option, values in (("--model", models), ("--scene", scenes_given)):
+        if len(values) not in (1, len(outs)):
+            raise ValueError(f"{option} gives {len(values)} values for {len(outs)} --out file(s): "
+                             f"give one, or one per --out file")
+    twice = sorted({o for o in outs if outs.count(o) > 1})
+    if twice:
+        raise ValueError(f"--out names {', '.join(twice)} more than once")
+    models = models * len(outs) if len(models) == 1 else models
+    scenes_given = scenes_given * len(outs) if len(scenes_given) == 1 else scenes_given
+    return list(zip(models, scenes_given, outs))
+
+
 def main(argv=None, runs=None):
     """The stage's command line; runs: the verified search's ``verified_search.Runs`` of a caller
-    that runs several stages in process (None: a fresh one)."""
+    that runs several stages in process (None: a fresh one).  Several models in one call
+    (``model_jobs``) share one process: the interpreter, the imports and the body files are
+    paid once (a workflow job costs ~2 s before its first model; most models take 0.02-0.3 s)."""
     ap = cli.OneLineParser(prog="gimbal_reduction.reduction.models",
                            description="Reduce the chain to one model on one scene: the reduced-model "
                                        "file (gimbal_reduction/solver/dynamics/chainfile.py, docs/models.md) a "
                                        "simulation reads.")
-    ap.add_argument("--model", required=True, help="model name (grammar: gimbal_reduction/reduction/models.py)")
-    ap.add_argument("--scene", required=True, help="scene file (config/scenes/NAME.yaml) or name")
+    ap.add_argument("--model", required=True, nargs="+",
+                    help="model name (grammar: gimbal_reduction/reduction/models.py); one, or one per --out")
+    ap.add_argument("--scene", required=True, nargs="+",
+                    help="scene file (config/scenes/NAME.yaml) or name; one, or one per --out")
     ap.add_argument("--bodies", nargs=4, required=True, metavar="BODY_FILE",
                     help="the modal stage's files of bodies 2, 3, 4, 5")
     ap.add_argument("--reductions", nargs=4, metavar="REDUCTION_FILE",
@@ -764,7 +784,8 @@ def main(argv=None, runs=None):
     ap.add_argument("--cb-bases", nargs=3, metavar="CB_FILE",
                     help="the Craig-Bampton stage files of rings 2, 3, 4 (cb-)")
     cli.add_config_option(ap, "every body file's config_hash must be the one it gives")
-    ap.add_argument("--out", required=True, help="reduced-model file to write (.h5)")
+    ap.add_argument("--out", required=True, nargs="+",
+                    help="reduced-model file(s) to write (.h5), one per model made")
     ap.add_argument("--no-verified-search", action="store_true",
                     help="tol-EPS where the frozen-chain estimate does not hold: refuse, instead of "
                          "simulating candidates against the truth (minutes on the long scene)")
@@ -772,31 +793,52 @@ def main(argv=None, runs=None):
         args = ap.parse_args(cli.values_joined(sys.argv[1:] if argv is None else argv, ap))
     except SystemExit as exc:       # the one-line message is printed; in process, return the status
         return exc.code
-    t0 = time.perf_counter()
     try:
-        cli.check_writable(args.out)
-        scene = scenes.load_scene(args.scene)
+        jobs = model_jobs(args.model, args.scene, args.out)
+        # every name, scene and output checked before the first model is made
+        for model, _, out in jobs:
+            check_tolerance(names.parse(model))
+            cli.check_writable(out)
+        scene_of = {name: scenes.load_scene(name) for name in dict.fromkeys(s for _, s, _ in jobs)}
         config = cfgmod.load_config(args.config) if args.config else None
         # the body files' attributes first (the configuration file named in the remedy), then their data
         bodyconfig.check_slots(args.bodies)
         bodyconfig.check_slots(args.reductions or [])
         bodyconfig.check_files(args.bodies, args.config)
-        chain, spec, attrs = reduce_model(
-            args.model, scene, dict(zip(BODIES, args.bodies)),
-            dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,
-            config=config, verified=not args.no_verified_search, runs=runs,
-            cb_files=dict(zip(names.INTERFACE_BODIES, args.cb_bases)) if args.cb_bases else None,
-            log=lambda text: print(f"gimbal_reduction.reduction.models: {text}", file=sys.stderr, flush=True))
     except (ValueError, FileNotFoundError) as exc:
         print(f"gimbal_reduction.reduction.models: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
+    made = []           # every model reduced before the first file is written: a bad one writes nothing
+    for model, scene_name, out in jobs:
+        t0 = time.perf_counter()
+        try:
+            chain, spec, attrs = reduce_model(
+                model, scene_of[scene_name], dict(zip(BODIES, args.bodies)),
+                dict(zip(BODIES, args.reductions)) if args.reductions else None, args.load_ranking,
+                config=config, verified=not args.no_verified_search, runs=runs,
+                cb_files=dict(zip(names.INTERFACE_BODIES, args.cb_bases)) if args.cb_bases else None,
+                log=lambda text: print(f"gimbal_reduction.reduction.models: {text}", file=sys.stderr, flush=True))
+        except (ValueError, FileNotFoundError) as exc:
+            print(f"gimbal_reduction.reduction.models: {' '.join(str(exc).split())}", file=sys.stderr)
+            return 2
+        attrs["wall_time_s"] = time.perf_counter() - t0
+        made.append((out, chain, spec, attrs))
+    for out, chain, spec, attrs in made:
+        rc = write_model(out, chain, spec, attrs)
+        if rc:
+            return rc
+    return 0
+
+
+def write_model(out, chain, spec, attrs):
+    """Write one reduced model of ``main`` (its file and its line on stdout); the exit status (2
+    with a one-line message on stderr if the file cannot be written)."""
     attrs.update({f"version_{k}": str(v) for k, v in versions().items()})
-    attrs["wall_time_s"] = time.perf_counter() - t0
     attrs["created"] = time.strftime("%Y-%m-%dT%H:%M:%S")
     try:
-        chainfile.write_chain(args.out, chain, spec.kept, spec.static, attrs)
+        chainfile.write_chain(out, chain, spec.kept, spec.static, attrs)
     except OSError as exc:
-        print(f"gimbal_reduction.reduction.models: {cli.write_failure(args.out, exc)}", file=sys.stderr)
+        print(f"gimbal_reduction.reduction.models: {cli.write_failure(out, exc)}", file=sys.stderr)
         return 2
     if attrs.get("tol_method") == TOL_APRIORI:
         print(f"gimbal_reduction.reduction.models: {spec.name}: global-{attrs['tol_N']} (a-priori max E "
@@ -807,7 +849,7 @@ def main(argv=None, runs=None):
               + (f", attitude {attrs['tol_measured_attitude_arcsec']:.3g} <= {attrs['tol_attitude_arcsec']:g} "
                  f"arcsec" if "tol_attitude_arcsec" in attrs else "")
               + f"; {attrs['tol_search_reason']}; the frozen chain estimated {attrs['tol_estimate_max']:.3e})")
-    print(f"gimbal_reduction.reduction.models: {args.out}: model {spec.name} on scene {scene.name}, "
+    print(f"gimbal_reduction.reduction.models: {out}: model {spec.name} on scene {attrs['scene']}, "
           f"{sum(chain.n_modes)} elastic coordinates {chain.n_modes} in {attrs['wall_time_s']:.2f} s")
     return 0
 

@@ -71,6 +71,29 @@ def test_a_built_entry_is_its_dispatchers_overload_for_exactly_its_types(tmp_pat
     assert len(fresh.signatures) == 1
 
 
+def test_entry_is_what_the_dispatcher_runs_for_these_types(monkeypatch):
+    """kernels.extension.entry: the dispatcher itself before anything is compiled, then the JIT's
+    overload of exactly these types (the same value as the dispatcher's call); an extension entry
+    inserted (at import, before any JIT compilation) where there is one; other types their own."""
+    monkeypatch.setattr(extension, "ENTRIES", {})
+    monkeypatch.setattr(extension, "HELD", [])
+    fresh = numba.njit(cache=False, error_model="numpy")(_entry.py_func)
+    a, w = np.linspace(0.0, 1.0, 7), np.linspace(2.0, 3.0, 7)
+    assert extension.entry(fresh, (a, w)) is fresh                  # nothing compiled yet
+    expected = fresh(a, w)
+    jit = extension.entry(fresh, (a, w))
+    assert jit is not fresh and abs(jit(a, w) - expected) <= 1e-14 * np.abs(a * w).sum()
+    strided = np.linspace(0.0, 1.0, 14)[::2]
+    assert extension.entry(fresh, (strided, w)) is fresh            # a layout not compiled yet
+
+    other = numba.njit(cache=False)(lambda x, y: -1.0)             # a compiled stand-in entry
+    other(a, w)
+    inserted = other.overloads[other.signatures[0]].entry_point
+    ahead = numba.njit(cache=False, error_model="numpy")(_entry.py_func)   # as at import
+    extension.insert(ahead, fresh.signatures[0], inserted)
+    assert extension.entry(ahead, (a, w)) is inserted and ahead(a, w) == -1.0
+
+
 def test_a_stale_or_refused_extension_attaches_nothing(tmp_path, monkeypatch):
     manifest = tmp_path / extension.MANIFEST.name
     monkeypatch.setattr(extension, "MANIFEST", manifest)

@@ -27,7 +27,7 @@ def planned_jobs(stdout):
 def test_export_target_plans_the_model_and_its_export():
     run = snakemake("--forceall", "--printshellcmds", "results/export/thesis/freq-10.mat")
     assert run.returncode == 0, run.stderr[-2000:]
-    assert planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "reduced_model": 1, "control_export": 1}
+    assert planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "plain_models": 1, "control_export": 1}
     # the rule's command is the CLI's, with the config check, writing the .mat and the .npz
     assert "/gimbal export --model-file results/models/thesis/freq-10.h5" in run.stdout
     assert "--out results/export/thesis/freq-10.mat" in run.stdout and "--config" in run.stdout
@@ -37,7 +37,7 @@ def test_export_target_plans_the_model_and_its_export():
 def test_paraview_target_plans_a_simulation_with_modal_coordinates():
     run = snakemake("--forceall", "--printshellcmds", "results/paraview/thesis/freq-10.pvd")
     assert run.returncode == 0, run.stderr[-2000:]
-    assert planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "reduced_model": 1, "kernels": 1,
+    assert planned_jobs(run.stdout) == {"mesh_body": 4, "modes_body": 4, "plain_models": 1, "kernels": 1,
                                         "simulate_modal": 1, "paraview": 1}
     assert "--store-modal" in run.stdout and "results/sim_modal/thesis/freq-10.h5" in run.stdout
 

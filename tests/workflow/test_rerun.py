@@ -31,7 +31,7 @@ WHOLE_CONFIG = {"verify_fe", "verify_fe_fast", "verify_fe_all", "report_scene", 
 # rules whose stage checks the body files it reads (directly, or through the reduction, ranking and
 # reduced-model files made from them) against the configuration (--config {CONFIG},
 # gimbal_reduction/solver/bodyconfig.py): params.cfg is what it compares them with, every body file's config hash
-BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "load_ranking_first", "study_scene_first", "reduced_model", "simulate", "study_scene", "truth_basis", "runtime",
+BODY_CHECKERS = {"reduction_report", "reduction_benchmark", "load_ranking", "load_ranking_first", "study_scene_first", "reduced_model", "plain_models", "simulate", "study_scene", "truth_basis", "runtime",
                  "reference_simulation", "dynamics_verification", "stability", "pareto", "selection",
                  "exponential_bench", "exponential_accuracy", "integrator_tables", "control_export",
                  "simulate_modal", "reference_exponential", "exponential_accuracy_all", "exponential_bench_all",

@@ -66,6 +66,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 import scipy.linalg
 
+from gimbal_reduction.solver.dynamics.kernels import extension
 from gimbal_reduction.solver.dynamics.kernels import exponential as kernels
 from gimbal_reduction.solver.dynamics.kernels import pece
 from gimbal_reduction.solver.dynamics.linearized import free_joint_basis, free_joint_frequencies
@@ -977,8 +978,13 @@ class ExponentialAdams:
         reallocated them)."""
         ev, st, rhs = self.ev, self.kst, self.problem.rhs
         loop = st.loop[0]
+        # the loop's compiled function, typed once: every container keeps its types when a new
+        # basis reallocates it (``_allocate_bank``), so the dispatcher's typing of ~70 arrays on
+        # every call (once or twice a step) is left out (``kernels.extension.entry``)
+        step_loop = extension.entry(pece.pece_run, (self.kb, self.kw, settings, st, self.hist, ev,
+                                                    outputs, self.work))
         while True:
-            request = pece.pece_run(self.kb, self.kw, settings, st, self.hist, ev, outputs, self.work)
+            request = step_loop(self.kb, self.kw, settings, st, self.hist, ev, outputs, self.work)
             if request == pece.DONE:
                 break
             if request == pece.NEED_RHS:
