@@ -137,3 +137,35 @@ def test_a_run_without_its_reference_is_refused_by_the_cli(tmp_path, capsys):
                   "--out-json", str(tmp_path / "o.json"), "--out-md", str(tmp_path / "o.md")])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "--runs" in err[0]
+
+
+def test_the_reference_route_at_another_order_is_checked_against_dop853(tmp_path, capsys):
+    """--anchor-orders: the anchored scene's truth integrated at its reference's tolerance with
+    another Adams order (the route long's reference takes) is held against DOP853 like the
+    reference itself; the reference's own order is not run twice; the route is named in its row.
+    A synthetic chain (2 modes per body) on the thesis scene."""
+    import json
+    from gimbal_reduction.solver.dynamics import simulate, warmup
+    from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
+    truth = str(tmp_path / "truth.h5")
+    warmup.write_model(truth, synthetic_modal_chain(2, seed=0), "truth")
+    files = {"ref": ["--integrator", "exponential", "--tol", "1e-7"],
+             "dop": ["--integrator", "dop853", "--rtol", "1e-10"]}
+    for name, opts in files.items():
+        assert simulate.main(["--scene", "thesis", "--model-file", truth, "--out", str(tmp_path / f"{name}.h5"),
+                              "--no-config-check", "--no-energy", *opts]) == 0
+    out = tmp_path / "acc.json"
+    ea.main(["--truth-model", truth, "--reference", f"thesis={tmp_path}/ref.h5",
+             "--anchor", f"thesis={tmp_path}/dop.h5", "--anchor-orders", "2", "4",
+             "--out-json", str(out), "--out-md", str(tmp_path / "acc.md")])
+    anchors = json.loads(out.read_text())["anchors"]
+    assert [a.get("route_order") for a in anchors] == [None, 2]         # order 4 is the reference's
+    assert anchors[0]["reference"] == "exponential tol 1e-07, order 4"
+    assert anchors[1]["reference"] == "exponential tol 1e-07, order 2"
+    assert all(0 < a["E_max"] <= ea.ANCHOR_BOUND for a in anchors)
+    capsys.readouterr()
+    rc = ea.main(["--truth-model", truth, "--reference", f"thesis={tmp_path}/ref.h5", "--anchor-orders", "2",
+                  "--out-json", str(tmp_path / "x.json"), "--out-md", str(tmp_path / "x.md")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--anchor-orders" in err[0]
+    assert not (tmp_path / "x.json").exists()

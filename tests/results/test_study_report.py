@@ -330,3 +330,20 @@ def test_page_one_is_the_decision_with_the_measured_times(study, tmp_path):
     assert '#"not resolvable"' in src
     # smooth: the truth's error (E = 10) exceeds every model's: no finding is judged there
     assert "not resolvable: the truth's own error exceeds it" in src
+
+
+def test_reference_lines_name_the_route_an_anchor_row_checked():
+    """An anchor row of the references' other Adams order (exponential_accuracy --anchor-orders) is
+    the truth by that route, not the scene's reference; kinds with commas are kept apart."""
+    from gimbal_reduction.results.study.study_report import reference_lines
+    case = {"E_max": 3.8e-9}
+    accuracy = {"rows": [{"reference_kind": "exponential tol 1e-07, order 4", "default": case},
+                         {"reference_kind": "exponential tol 5e-09, order 2", "default": case}],
+                "anchors": [{"scene": "thesis", "reference": "exponential tol 1e-07, order 4",
+                             "anchor": "dop853 rtol 1e-10", "E_max": 1.6e-11},
+                            {"scene": "thesis", "reference": "exponential tol 1e-07, order 2",
+                             "anchor": "dop853 rtol 1e-10", "E_max": 1.2e-10, "route_order": 2}]}
+    text = reference_lines(accuracy).replace('#"', "").replace('"', "")     # Typst strings unquoted
+    assert "order 4; exponential tol 5e-09, order 2" in text
+    assert "thesis reference (exponential tol 1e-07, order 4)" in text
+    assert "thesis truth by the references' order-2 route (exponential tol 1e-07, order 2)" in text

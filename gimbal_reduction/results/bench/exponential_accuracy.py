@@ -20,7 +20,10 @@ of one core) or, the faster route, the exponential integrator itself at a tolera
 seconds).  The second is only as good as its agreement with the first: ``--anchor SCENE=FILE``
 gives DOP853 references of some scenes, and each exponential reference of such a scene is checked
 against it, E_max <= ``ANCHOR_BOUND`` (a referee ten times finer than the bound it referees).  A
-reference of the same truth model and scene, or a one-line error before any integration.
+reference of the same truth model and scene, or a one-line error before any integration.  Other
+scenes' references may be made at another Adams order (the workflow's ``ALL_REFERENCE_ORDERS``):
+``--anchor-orders N ...`` checks that route too, the anchored scene's truth integrated at its
+reference's tolerance with each such order and held to the same bound against DOP853.
 
 ``--runs SCENE=FILE`` gives the workflow's own run of a scene's truth at the tolerance it runs the
 scene at (the study's results/study/{scene}/sim/truth.h5): the default case is read from it, not
@@ -89,7 +92,8 @@ def read_reference(scene, path, truth_hash, scene_tol=None):
         kind = f"dop853 rtol {float(a['stat_rtol']):g}"
     elif (integrator == "exponential" and scene_tol is not None
           and float(a.get("stat_exponential_tol", 1.0)) <= scene_tol / EXPONENTIAL_REFERENCE_FACTOR * (1 + 1e-9)):
-        kind = f"exponential tol {float(a['stat_exponential_tol']):g}"
+        kind = f"exponential tol {float(a['stat_exponential_tol']):g}" + (
+            f", order {int(a['stat_exponential_order'])}" if "stat_exponential_order" in a else "")
     else:
         tol = a.get("stat_rtol") if integrator == "dop853" else a.get("stat_exponential_tol")
         problems.append(f"integrator {integrator} at {tol} (a reference: dop853 at rtol <= {REFERENCE_RTOL:g}"
@@ -157,6 +161,17 @@ def anchor_check(scene, reference, anchor):
                              row["E_max"], ANCHOR_BOUND)
 
 
+def route_case(scene, chain, reference_path, order):
+    """(t (T,) [s], gamma_dot (T, 4) [rad/s], kind): the truth of ``scene`` integrated as its exponential
+    reference (``reference_path``: its tolerance) was, but at Adams order ``order``: the route another
+    scene's reference took, for ``anchor_check`` against DOP853."""
+    with h5py.File(reference_path, "r") as f:
+        tol = float(f.attrs["stat_exponential_tol"])
+    run = integrators.integrate(scene_problem(chain, scene), scene.duration, scene.output_interval,
+                                method="exponential", tol=tol, order=order, model="truth")
+    return run.t, np.asarray(run.yd[:, :4]), f"exponential tol {tol:g}, order {order}"
+
+
 def markdown(rows, anchors=()):
     lines = ["| scene | reference | tol | E max | steps | bases | wall [s] | E max, tight tol | steps |",
              "|---|---|---|---|---|---|---|---|---|"]
@@ -179,6 +194,10 @@ def main(argv=None) -> int:
     ap.add_argument("--anchor", nargs="*", default=[], metavar="SCENE=FILE",
                     help="DOP853 references (rtol <= 1e-10) that the exponential references of the same "
                          "scenes are checked against")
+    ap.add_argument("--anchor-orders", nargs="*", type=int, default=[], metavar="N",
+                    help="Adams orders other scenes' exponential references were made at: each anchored "
+                         "scene's truth is integrated at its reference's tolerance at each order that "
+                         "reference did not use, and checked against DOP853 too")
     ap.add_argument("--runs", nargs="*", default=[], metavar="SCENE=FILE",
                     help="the workflow's runs of the truth at the scenes' tolerance: each scene's "
                          "default case read from its file instead of integrated")
@@ -192,6 +211,8 @@ def main(argv=None) -> int:
     try:
         bodyconfig.check_files([args.truth_model], args.config)
         exponential.ExponentialOptions(tol=args.tol)
+        for order in args.anchor_orders:
+            exponential.ExponentialOptions(tol=args.tol, order=order)
         refs = parse_references(args.reference)
         anchors = parse_references(args.anchor)
         run_files = parse_references(args.runs)
@@ -214,6 +235,11 @@ def main(argv=None) -> int:
                 anchored[name] = read_reference(name, anchors[name], truth_hash)
                 if not anchored[name][2].startswith("dop853"):
                     raise AccuracyInputError(f"--anchor {anchors[name]}: not a DOP853 reference")
+                if args.anchor_orders and not loaded[name][4].startswith("exponential"):
+                    raise AccuracyInputError(f"--anchor-orders: the reference of scene {name!r} ({path}) "
+                                             "is not an exponential one whose tolerance a route could take")
+        if args.anchor_orders and not anchors:
+            raise AccuracyInputError("--anchor-orders without an --anchor to check the routes against")
         from_files = {name: file_case(path, name, truth_hash, loaded[name][2], loaded[name][3],
                                       loaded[name][0].tighter_tolerance(args.tol))
                       for name, path in run_files.items()}
@@ -226,6 +252,14 @@ def main(argv=None) -> int:
         anchor_rows.append({**row, "anchor_file": anchors[name]})
         checks.append(check)
         print(f"exponential_accuracy: {check['name']}: {row['E_max']:.2e}", flush=True)
+        scene, chain, kind = loaded[name][0], loaded[name][1], loaded[name][4]
+        for order in sorted(set(args.anchor_orders)):
+            if kind.endswith(f", order {order}"):
+                continue                                # the reference itself took this route
+            row, check = anchor_check(name, route_case(scene, chain, refs[name], order), anchor)
+            anchor_rows.append({**row, "anchor_file": anchors[name], "route_order": order})
+            checks.append(check)
+            print(f"exponential_accuracy: {check['name']}: {row['E_max']:.2e}", flush=True)
     for name, (scene, chain, t_ref, rates_ref, kind) in loaded.items():
         tol = scene.tighter_tolerance(args.tol)         # as the workflow runs the scene
         default = from_files.get(name) or scene_case(chain, scene, t_ref, rates_ref, tol)

@@ -1210,9 +1210,11 @@ def reference_lines(accuracy: dict) -> str:
     kinds = sorted({r.get("reference_kind", "dop853 rtol 1e-10") for r in accuracy.get("rows", [])})
     worst = max((r["default"]["E_max"] for r in accuracy.get("rows", [])), default=float("nan"))
     out.append(f"  - Largest E at the default tolerance {sci(worst)} over "
-               f"{s(len(accuracy.get('rows', [])))} scenes; references: {s(', '.join(kinds))}.\n")
+               f"{s(len(accuracy.get('rows', [])))} scenes; references: {s('; '.join(kinds))}.\n")
     for a in accuracy.get("anchors", []):
-        out.append(f"  - The {s(a['scene'])} reference ({s(a['reference'])}) against DOP853 "
+        what = (f"truth by the references' order-{a['route_order']} route" if a.get("route_order")
+                else "reference")
+        out.append(f"  - The {s(a['scene'])} {what} ({s(a['reference'])}) against DOP853 "
                    f"({s(a['anchor'])}): E {sci(a['E_max'])}.\n")
     return "".join(out)
 
