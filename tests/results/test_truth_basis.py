@@ -116,7 +116,7 @@ def test_a_study_truth_is_read_instead_of_simulated(tmp_path, monkeypatch):
     monkeypatch.setattr(truth_basis.simulate, "main", simulate)
     monkeypatch.setattr(truth_basis, "model_hash", lambda path: "h")
     monkeypatch.setattr(truth_basis, "check_truth_run",
-                        lambda path, scene, model_hash, tol: checked.append((path, scene.name, tol)))
+                        lambda path, scene, truth_hash, tol: checked.append((path, scene.name, tol)))
     monkeypatch.setattr(truth_basis, "read_sim", lambda path: sim([1.0, 1.0, 1.0, 1.0], 0.0))
     out = truth_basis.run(["b2.h5", "b3.h5", "b4.h5", "b5.h5"], scenes, log=lambda *a: None, tol=1e-5,
                           truths={"thesis": "study_thesis_truth.h5"})

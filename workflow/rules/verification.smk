@@ -235,8 +235,11 @@ rule truth_basis:
             scenes_mod.load_scene(f"config/scenes/{s}.yaml").config_hash()
             for s in TRUTH_BASIS_SCENES
         ],
-        truths=lambda wildcards, input: " ".join(
-            f"'{s}={f}'" for s, f in zip(TRUTH_BASIS_SCENES, input.truths)
+        # read where the study runs the truth as this job does (the exponential integrator)
+        truths=lambda wildcards, input: (
+            " ".join(f"'{s}={f}'" for s, f in zip(TRUTH_BASIS_SCENES, input.truths))
+            if cfgmod.value(config, "simulation.integrator") == "exponential"
+            else ""
         ),
         tol=cfgmod.value(config, "simulation.tolerance"),
     message:

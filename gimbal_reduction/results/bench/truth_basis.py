@@ -36,10 +36,9 @@ import numpy as np
 
 from gimbal_reduction.reduction import models as reduction_models
 from gimbal_reduction.solver import bodyconfig
-from gimbal_reduction.solver.dynamics import simulate
+from gimbal_reduction.solver.dynamics import exponential, simulate
 from gimbal_reduction.solver.dynamics.error_measure import ARCSEC_PER_RAD, attitude_error, error_measure
 from gimbal_reduction.solver.dynamics.scenes import load_scene
-from gimbal_reduction.solver.dynamics import exponential
 from gimbal_reduction.solver.dynamics.simfile import mismatches, read_sim
 from gimbal_reduction.workflow import cli
 from gimbal_reduction.workflow.progress import Progress
@@ -82,20 +81,20 @@ def model_hash(path):
         return str(f.attrs.get("config_hash", ""))
 
 
-def check_truth_run(path, scene, model_hash, tol):
+def check_truth_run(path, scene, truth_hash, tol):
     """ValueError (one line) unless the simulation file ``path`` is the truth's run this job would
-    make on ``scene``: the truth model of hash ``model_hash``, the default integrator at ``tol``
+    make on ``scene``: the truth model of hash ``truth_hash``, the default integrator at ``tol``
     (exponential), the scene's physics (the file's ``config_hash``, ``simulate.config_hash``)."""
     attrs = read_sim(path)["attrs"]
     want = {"scene": scene.name, "model": "truth", "integrator": simulate.DEFAULT_INTEGRATOR,
-            "model_config_hash": model_hash}
+            "model_config_hash": truth_hash}
     wrong = mismatches(attrs, want)
     wrong.update(mismatches(attrs, {"stat_exponential_tol": tol}, {"stat_exponential_tol": 1e-9}))
     options = {"integrator": simulate.DEFAULT_INTEGRATOR, "step": None, "tol": tol}
-    wrong.update(mismatches(attrs, {"config_hash": simulate.config_hash(scene, model_hash, options)}))
+    wrong.update(mismatches(attrs, {"config_hash": simulate.config_hash(scene, truth_hash, options)}))
     if wrong:
         raise ValueError(f"--truths {path} is not the truth's run of scene {scene.name} at tol {tol:g} "
-                         f"(scene physics, model {model_hash}): it has {wrong}")
+                         f"(scene physics, model {truth_hash}): it has {wrong}")
 
 
 def run(bodies, scenes, log=print, config=None, tol=exponential.DEFAULTS.tol, truths=None) -> dict:
