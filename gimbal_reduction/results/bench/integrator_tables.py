@@ -20,7 +20,10 @@ and the study's order of the models (by E_max) is compared too.  Both integrator
 truths are also compared with each other (E of one against the other): RK4 at half its
 limit is itself only accurate to E ~ 2e-7 on the truth (8.8e-6 at the limit; docs/exponential.md
 Section 1).
-Outputs: the JSON (rows, summary, provenance) and a CSV of the rows.
+Outputs: the JSON (rows, summary, provenance) and a CSV of the rows; with ``--truth-rk4-out``
+also the truth's RK4 run as a simulation file (``simfile.write_sim``, no energy history), the run
+another check of the same setting reads instead of integrating it again (the Pareto benchmark's
+``rk4-0.5`` of the truth: ``gimbal_reduction.results.bench.pareto --truth-runs``).
 """
 from __future__ import annotations
 
@@ -32,7 +35,7 @@ import time
 import numpy as np
 
 from gimbal_reduction.solver import bodyconfig
-from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, scenes
+from gimbal_reduction.solver.dynamics import chainfile, exponential, integrators, scenes, simfile, simulate
 from gimbal_reduction.solver.dynamics.error_measure import error_measure
 from gimbal_reduction.solver.dynamics.simulate import scene_problem
 from gimbal_reduction.workflow.provenance import provenance, versions, write_csv, write_json
@@ -59,26 +62,56 @@ def same_order(names, E_a, E_b):
     return not moved, moved
 
 
-def run_rates(chain, scene, method, tol):
-    """(gimbal rates (T, 4) [rad/s], wall time [s]) of a chain in a scene."""
-    opts = {"tol": tol} if method == "exponential" else {"fraction": RK4_FRACTION}
+def method_options(method, tol):
+    """The integrator options of ``method`` here: the exponential integrator at ``tol``, RK4 at
+    ``RK4_FRACTION`` of its stability limit."""
+    return {"tol": tol} if method == "exponential" else {"fraction": RK4_FRACTION}
+
+
+def run_chain(chain, scene, method, tol):
+    """(``integrators.Run``, wall time [s] with the problem's setup) of a chain in a scene."""
     t0 = time.perf_counter()
     prob = scene_problem(chain, scene)
     run = integrators.integrate(prob, scene.duration, scene.output_interval, method=method,
-                                model=chain_name(chain), **opts)
-    return np.asarray(run.yd[:, :4]), time.perf_counter() - t0
+                                model=chain_name(chain), **method_options(method, tol))
+    return run, time.perf_counter() - t0
+
+
+def run_rates(chain, scene, method, tol):
+    """(gimbal rates (T, 4) [rad/s], wall time [s]) of a chain in a scene."""
+    run, wall = run_chain(chain, scene, method, tol)
+    return np.asarray(run.yd[:, :4]), wall
+
+
+def write_truth_run(path, run, scene, model_hash, method, tol):
+    """The truth's run as a simulation file, with the attributes ``simulate`` gives one (scene,
+    model, its hash, integrator, the simulation hash ``simulate.config_hash`` of these options)
+    and the options themselves (``option_*``), for a reader to check it is the run it needs."""
+    options = {"integrator": method, "step": None, **method_options(method, tol)}
+    attrs = {"scene": scene.name, "model": "truth", "model_config_hash": model_hash,
+             "integrator": run.method, "step": run.step, "steps": run.steps,
+             "integration_time_s": run.wall_time,
+             "config_hash": simulate.config_hash(scene, model_hash, options),
+             **{f"option_{k}": v for k, v in method_options(method, tol).items()},
+             "units": "in, lbf, s, rad", **{f"version_{k}": str(v) for k, v in versions().items()}}
+    simfile.write_sim(path, run, None, attrs)
 
 
 def chain_name(chain):
     return getattr(chain, "name", "")
 
 
-def compare(scene, truth_chain, chains, tol, log=print):
-    """The rows and summary (module docstring); chains: {model name: chain}."""
+def compare(scene, truth_chain, chains, tol, log=print, truth_rk4_out=None, truth_hash=""):
+    """The rows and summary (module docstring); chains: {model name: chain}; truth_rk4_out: the
+    path the truth's RK4 run is written to (``write_truth_run``; truth_hash: the truth model
+    file's config_hash), if given."""
     truth = {}
     for method in ("exponential", "rk4"):
-        truth[method] = run_rates(truth_chain, scene, method, tol)
-        log(f"integrator_tables: truth, {method}: {truth[method][1]:.2f} s")
+        run, wall = run_chain(truth_chain, scene, method, tol)
+        truth[method] = (np.asarray(run.yd[:, :4]), wall)
+        log(f"integrator_tables: truth, {method}: {wall:.2f} s")
+        if method == "rk4" and truth_rk4_out:
+            write_truth_run(truth_rk4_out, run, scene, truth_hash, method, tol)
     t = np.linspace(0.0, scene.duration, truth["rk4"][0].shape[0])
     rows, Ee, Er = [], {}, {}
     for name, chain in chains.items():
@@ -119,6 +152,7 @@ def main(argv=None) -> int:
                     help="the exponential integrator's tolerance (config simulation.tolerance)")
     ap.add_argument("--out-json", required=True)
     ap.add_argument("--out-csv", required=True)
+    ap.add_argument("--truth-rk4-out", help="also write the truth's RK4 run here (a simulation file)")
     ap.add_argument("--config", help="the current configuration file: input files of another "
                                      "configuration are refused before the work (gimbal_reduction.solver.bodyconfig)")
     args = ap.parse_args(argv)
@@ -127,7 +161,7 @@ def main(argv=None) -> int:
         bodyconfig.check_files([args.truth_model, *args.models], args.config)
         exponential.ExponentialOptions(tol=args.tol)
         scene = scenes.load_scene(args.scene)
-        truth_chain, _ = chainfile.read_chain(args.truth_model, scene.damping_ratio)
+        truth_chain, truth_info = chainfile.read_chain(args.truth_model, scene.damping_ratio)
         chains = {}
         for path in args.models:
             chain, info = chainfile.read_chain(path, scene.damping_ratio)
@@ -135,7 +169,8 @@ def main(argv=None) -> int:
     except (OSError, ValueError) as exc:
         print(f"integrator_tables: {exc}", file=sys.stderr)
         return 2
-    rows, summary = compare(scene, truth_chain, chains, args.tol)
+    rows, summary = compare(scene, truth_chain, chains, args.tol, truth_rk4_out=args.truth_rk4_out,
+                            truth_hash=str(truth_info.get("config_hash", "")))
     record = provenance(sources=[args.truth_model, *args.models])      # the model files' config hashes
     write_csv(args.out_csv, [{k: r[k] for k in CSV_COLUMNS} for r in rows], CSV_COLUMNS, record=record)
     write_json(args.out_json, {"stage": "integrator_tables", "scene": scene.name, "rows": rows,

@@ -35,6 +35,12 @@ segment (its trajectory equals the structured one to round-off: the CSV's
 ``deviation``), and its E is the structured run's.  The column-assembly
 variant runs a shorter segment (``--columns-duration``).
 
+``--truth-runs SETTING=FILE`` (with ``--errors-only``) gives a run of the truth at one setting
+that another job already made (the integrator table's RK4 run of the truth at half the limit,
+``rk4-0.5``): its E and steps are taken from the file instead of integrating again, once the file
+is checked to be that run (``truth_file_row``: the scene, the truth model's hash, the integrator
+and its option, the simulation hash ``simulate.config_hash``, the output grid).
+
 Pareto front: the non-dominated points (no other point is both faster and
 more accurate), over all rows that ran (``pareto`` = 1 in the CSV).  Outputs: the CSV
 (``CSV_COLUMNS``), a JSON beside it (settings, environment, dense comparison),
@@ -65,7 +71,7 @@ from gimbal_reduction.results.study.figures import STYLE, pareto_front  # noqa: 
 from gimbal_reduction.results.study.tables import RATE_COLUMNS  # noqa: E402
 from gimbal_reduction.solver.dynamics import dense_baseline, integrators, scenes, simulate  # noqa: E402
 from gimbal_reduction.solver.dynamics.error_measure import ErrorsInputError, check_same_grid, error_measure  # noqa: E402
-from gimbal_reduction.solver.dynamics.simfile import read_sim  # noqa: E402
+from gimbal_reduction.solver.dynamics.simfile import mismatches as simfile_mismatches, read_sim  # noqa: E402
 from gimbal_reduction.workflow.provenance import csv_text, provenance, savefig, versions, write_json, write_text  # noqa: E402
 from gimbal_reduction.workflow import config as cfgmod
 
@@ -199,6 +205,63 @@ def time_setting(prob, setting, duration, dt, t_ref, g_ref, repeats, budget_s, m
     return row
 
 
+def truth_model_hash(scene, body_files):
+    """The config_hash a reduced-model file of the truth on ``scene`` has when made from
+    ``body_files`` {body: path} (``models.model_config_hash``: the truth ranks by frequency)."""
+    body_data = {b: models.load_body_file(body_files[b]) for b in models.BODIES}
+    spec = models.restrict_to_bodies(models.model_spec("truth", models.frequency_rankings(body_data)),
+                                     scene.elastic_bodies)
+    return models.model_config_hash(spec, body_data, scene)
+
+
+def truth_file_row(path, setting, scene, model_hash, t_ref, g_ref):
+    """``time_setting``'s untimed row of the truth at ``setting`` from a simulation file of that run
+    (``--truth-runs``), its time the file's integration time (one run, not timed alone);
+    ValueError (one line) unless the file is the truth (``model_hash``) on ``scene`` with the
+    setting's integrator and option (``option_fraction`` of RK4, ``option_tol`` of the exponential
+    integrator), its simulation hash agreeing, on the reference's output grid."""
+    f = read_sim(path)
+    a = f["attrs"]
+    options = {k: v for k, v in setting.kwargs().items() if k in ("tol", "fraction")}
+    want = {"scene": scene.name, "model": "truth", "model_config_hash": model_hash,
+            "integrator": setting.method,
+            "config_hash": simulate.config_hash(scene, model_hash,
+                                                {"integrator": setting.method, "step": None, **options}),
+            **{f"option_{k}": v for k, v in options.items()}}
+    wrong = simfile_mismatches(a, want)
+    if wrong:
+        raise ValueError(f"--truth-runs {setting.name}={path} is not the truth's {setting.name} run on scene "
+                         f"{scene.name}: it has {wrong}")
+    check_same_grid(t_ref, f["t"], f"--truth-runs {setting.name}={path}")
+    E, per = max_rate_error(t_ref, g_ref, f["gamma_dot"][:, :4])
+    return {"solver": "structured", "integrator": setting.name, "method": setting.method,
+            "fraction": setting.fraction, "rtol": setting.rtol, "step_s": float(a["step"]),
+            "steps": int(a["steps"]), "E": E, **dict(zip(RATE_COLUMNS, map(float, per))), "status": "ok",
+            "wall_time_s": float(a["integration_time_s"]), "wall_time_min_s": float(a["integration_time_s"]),
+            "runs": 1, "time_basis": "one run, not timed alone (read from another job's file)"}
+
+
+def parse_truth_runs(items, settings, errors_only, scene, body_files, duration, truth):
+    """{setting name: the truth's row (``truth_file_row``, E against ``truth`` over ``duration``)}
+    of ``--truth-runs`` SETTING=FILE items, each file checked now, before any integration; ValueError (one line) on a
+    malformed item, an unknown setting, use without --errors-only, or a file that is not the run."""
+    if not items:
+        return {}
+    if not errors_only:
+        raise ValueError("--truth-runs is for the untimed run (--errors-only)")
+    by_name = {s.name: s for s in settings}
+    model_hash = truth_model_hash(scene, body_files)
+    t_ref, g_ref = truth_prefix(truth, duration)
+    out = {}
+    for item in items:
+        name, sep, path = item.partition("=")
+        if not sep or name not in by_name or name in out:
+            raise ValueError(f"--truth-runs {item!r}: not SETTING=FILE of a setting run here, once "
+                             f"({', '.join(by_name)})")
+        out[name] = truth_file_row(path, by_name[name], scene, model_hash, t_ref, g_ref)
+    return out
+
+
 def read_errors(path):
     """{(model, integrator): row} of a CSV of this module (``--errors-only``): the numbers as floats."""
     import csv
@@ -255,10 +318,13 @@ def load_models(names, scene, body_files, reduction_files, load_ranking=None):
     return out
 
 
-def evaluate(problems, settings, duration, dt, truth, repeats, budget_s, log=print, known=None):
+def evaluate(problems, settings, duration, dt, truth, repeats, budget_s, log=print, known=None,
+             truth_rows=None):
     """Rows (dicts) of every model x setting, without the Pareto mark; known: {(model,
-    integrator): row} of an untimed run (read_errors), whose E the rows take."""
+    integrator): row} of an untimed run (read_errors), whose E the rows take; truth_rows: {setting
+    name: the truth's untimed row read from a file} (``parse_truth_runs``), taken as it is."""
     t_ref, g_ref = truth_prefix(truth, duration)
+    truth_rows = truth_rows or {}
     rows = []
     for name, (chain, prob, setup) in problems.items():
         base = {"model": name, "family": model_family(name), "n_elastic": sum(chain.n_modes),
@@ -270,7 +336,10 @@ def evaluate(problems, settings, duration, dt, truth, repeats, budget_s, log=pri
                 k = known.get((name, s.name))
                 if k is None:
                     raise ValueError(f"{name} {s.name}: not in the untimed run's CSV (--errors-from)")
-            row = {**base, **time_setting(prob, s, duration, dt, t_ref, g_ref, repeats, budget_s, name, k)}
+            if name == "truth" and s.name in truth_rows:
+                row = {**base, **truth_rows[s.name]}
+            else:
+                row = {**base, **time_setting(prob, s, duration, dt, t_ref, g_ref, repeats, budget_s, name, k)}
             rows.append(row)
             what = (f"{row['wall_time_s']:.3g} s (x{row['runs']}, {row['time_basis']}), E {row['E']:.2e}"
                     if row["status"] == "ok" else row["status"])
@@ -414,6 +483,9 @@ def main(argv=None) -> int:
     ap.add_argument("--errors-from", metavar="CSV",
                     help="the CSV of an --errors-only run of the same settings: its E and steps are "
                          "taken, and only the timing runs (a job that runs alone)")
+    ap.add_argument("--truth-runs", nargs="*", default=[], metavar="SETTING=FILE",
+                    help="with --errors-only: the truth's run at a setting (e.g. rk4-0.5) made by another "
+                         "job, read (checked) instead of integrated")
     ap.add_argument("--config", help="the current configuration file: input files of another "
                                      "configuration are refused before the work (gimbal_reduction.solver.bodyconfig)")
     ap.add_argument("--rk4-fractions", type=float, nargs="+", default=[1.0, 0.5])
@@ -462,12 +534,14 @@ def main(argv=None) -> int:
         settings = default_settings(args.rk4_fractions, args.rtols, args.galpha_steps, args.exp_tols)
         problems = load_models(names, scene, dict(zip(models.BODIES, args.bodies)),
                                dict(zip(models.BODIES, args.reductions)), args.load_ranking)
+        truth_rows = parse_truth_runs(args.truth_runs, settings, args.errors_only, scene,
+                                      dict(zip(models.BODIES, args.bodies)), duration, truth)
     except (ValueError, FileNotFoundError, ErrorsInputError, models.ModelError) as exc:
         print(f"gimbal_reduction.results.bench.pareto: error: {exc}", file=sys.stderr)
         return 2
     try:
         rows = evaluate(problems, settings, duration, dt, truth, 0 if args.errors_only else repeats,
-                        args.budget, known=known)
+                        args.budget, known=known, truth_rows=truth_rows)
     except ValueError as exc:
         print(f"gimbal_reduction.results.bench.pareto: error: {exc}", file=sys.stderr)
         return 2
