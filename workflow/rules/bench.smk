@@ -158,7 +158,6 @@ rule reference_simulation:
         "logs/reference/{scene}.log",
     benchmark:
         "results/benchmarks/rules/reference/{scene}.tsv"
-    priority: CHECK_PRIORITY
     resources:
         # records: reference/stress_rates_100.tsv 367.8 s, reference/stress_lock.tsv 248.8 MB (max of
         # 6); the long scene has no record: ~1 h of DOP853 (LONG_REFERENCE above), so 2 h
@@ -403,7 +402,6 @@ rule reference_exponential:
         "logs/all/reference/{scene}.log",
     benchmark:
         "results/benchmarks/rules/all/reference/{scene}.tsv"
-    priority: CHECK_PRIORITY
     resources:
         # as simulate (records: sim/thesis/truth.tsv 301.6 s, 780.5 MB)
         mem_mb=mem_mb(780.5),
@@ -448,7 +446,6 @@ rule exponential_accuracy_all:
         "logs/all/exponential_accuracy.log",
     benchmark:
         "results/benchmarks/rules/all/exponential_accuracy.tsv"
-    priority: CHECK_PRIORITY
     resources:
         mem_mb=mem_mb(780.5),
         runtime=runtime_min(301.6),
@@ -548,7 +545,6 @@ rule pareto_errors_all:
         "logs/all/pareto_errors.log",
     benchmark:
         "results/benchmarks/rules/all/pareto_errors.tsv"
-    priority: CHECK_PRIORITY
     resources:
         mem_mb=mem_mb(780.5),
         runtime=30,
@@ -708,7 +704,6 @@ use rule integrator_tables as integrator_tables_all with:
         "logs/all/integrator_tables.log",
     benchmark:
         "results/benchmarks/rules/all/integrator_tables.tsv"
-    priority: CHECK_PRIORITY
 
 
 # Accuracy on request in `all`: every scene of `tolerance`, two of its EPS, each verdict with its case
@@ -748,7 +743,6 @@ rule tolerance_untimed_all:
         "logs/all/tolerance_untimed.log",
     benchmark:
         "results/benchmarks/rules/all/tolerance_untimed.tsv"
-    priority: CHECK_PRIORITY
     resources:
         mem_mb=mem_mb(1035.4),
         runtime=runtime_min(1147.0),

@@ -375,12 +375,6 @@ try:
 except Exception:  # snakemake.exceptions.WorkflowError
     TIMING_CORES = 1
 TIMING_RESOURCES = {"slurm_extra": "'--exclusive'"}
-# The untimed checks that the timing jobs wait for (the studies, the converged references, the
-# Pareto errors, the accuracy, tolerance and dynamics checks) go before figures and tables when both
-# are ready: a check left to the end ran alone on one core while the timing jobs, which need every
-# core, waited behind it (a clean `all`: 31-42 idle core-seconds before the timing jobs); figures and
-# tables, short and needed only by the reports, fill the cores instead.
-CHECK_PRIORITY = 5
 # `all`'s timing jobs: the 5 runs of a case within this [s]; a slower case is timed over a prefix of
 # its scene and scaled by its steps, or (the exponential integrator, whose steps differ in cost) runs
 # whole as often as fits, at least once (gimbal_reduction/results/bench/timing.py)

@@ -159,7 +159,6 @@ rule dynamics_verification_all:
         "logs/all/dynamics_verification.log",
     benchmark:
         "results/benchmarks/rules/all/dynamics_verification.tsv"
-    priority: CHECK_PRIORITY
     resources:
         mem_mb=2000,
         runtime=60,

@@ -34,7 +34,6 @@ rule study_scene:
         "results/benchmarks/rules/study/{scene}.tsv"
     wildcard_constraints:
         scene="|".join(STUDY_SCENES),
-    priority: CHECK_PRIORITY
     resources:
         # records: study/long.tsv 470.1 s (load 11 on 2 cores; 200.5 CPU s), 1395.4 MB (40001 samples)
         mem_mb=mem_mb(1395.4),
