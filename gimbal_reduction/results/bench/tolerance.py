@@ -452,20 +452,25 @@ def main(argv=None) -> int:
         return 2
     scene_files = [a if a.endswith((".yaml", ".yml")) else os.path.join("config", "scenes", f"{a}.yaml")
                    for a in args.scenes]
-    truth_files = dict(item.partition("=")[::2] for item in args.truths)
     names = {os.path.splitext(os.path.basename(f))[0] for f in scene_files}
-    bad = [item for item in args.truths if "=" not in item or item.partition("=")[0] not in names
-           or not item.partition("=")[2]]
-    if (args.truths and not args.untimed) or bad or len(truth_files) != len(args.truths):
-        print("tolerance: --truths takes SCENE=FILE, once per scene of --scenes, with --untimed"
-              + (f" (got {' '.join(bad)})" if bad else ""), file=sys.stderr)
+
+    def scene_map(items, needs, what):
+        """{scene: path} of SCENE=PATH items, once per scene of --scenes, only with ``needs``;
+        None (after one line on stderr) otherwise."""
+        out = dict(item.partition("=")[::2] for item in items)
+        bad = [item for item in items if "=" not in item or item.partition("=")[0] not in names
+               or not item.partition("=")[2]]
+        if (items and not needs) or bad or len(out) != len(items):
+            print(f"tolerance: {what}" + (f" (got {' '.join(bad)})" if bad else ""), file=sys.stderr)
+            return None
+        return out
+    truth_files = scene_map(args.truths, args.untimed,
+                            "--truths takes SCENE=FILE, once per scene of --scenes, with --untimed")
+    if truth_files is None:
         return 2
-    truth_times = dict(item.partition("=")[::2] for item in args.truth_times)
-    bad = [item for item in args.truth_times if "=" not in item or item.partition("=")[0] not in names
-           or not item.partition("=")[2]]
-    if (args.truth_times and not args.times_from) or bad or len(truth_times) != len(args.truth_times):
-        print("tolerance: --truth-times takes SCENE=JSON, once per scene of --scenes, with --times-from"
-              + (f" (got {' '.join(bad)})" if bad else ""), file=sys.stderr)
+    truth_times = scene_map(args.truth_times, args.times_from,
+                            "--truth-times takes SCENE=JSON, once per scene of --scenes, with --times-from")
+    if truth_times is None:
         return 2
     if args.times_from:
         import json
