@@ -7,7 +7,9 @@
 #      `make install`);
 #   3. times 5 no-op reruns of the last run (`snakemake --cores 2 all` with nothing to do);
 #   4. summarises every run from Snakemake's job records and the benchmark files
-#      (gimbal_reduction.results.bench.workflow_run: wall, the jobs' CPU, the critical path) into results/benchmarks/all-clean.json of this project, and prints it.
+#      (gimbal_reduction.results.bench.workflow_run: wall, the jobs' CPU, the critical path) into results/benchmarks/all-clean.json of this project, and prints it;
+#      the rules' priorities measured in these runs go to results/benchmarks/priorities.json
+#      (copy it over workflow/priorities.json to schedule by them: gimbal_reduction.workflow.schedule).
 # Run it on a quiet machine: the runs are timed as they are. KEEP=1 keeps the clone.
 #   make benchmark-all            RUNS=1 make benchmark-all
 set -euo pipefail
@@ -42,4 +44,5 @@ for k in 1 2 3 4 5; do
   noop+=("$( { time .venv/bin/python -m snakemake --cores 2 all -q > "$work/noop$k.out" 2>&1; } 2>&1 )")
 done
 .venv/bin/python -m gimbal_reduction.results.bench.workflow_run "${projects[@]}" --noop-s "${noop[@]}" \
-  --out "$root/results/benchmarks/all-clean.json"
+  --out "$root/results/benchmarks/all-clean.json" --priorities-out "$root/results/benchmarks/priorities.json" \
+  --revision "$(git rev-parse --short HEAD)"

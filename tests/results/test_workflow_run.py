@@ -7,6 +7,7 @@ import os
 import pytest
 
 from gimbal_reduction.results.bench import workflow_run
+from gimbal_reduction.workflow import schedule
 
 T0 = 1_800_000_000.0
 # rule, start, end [s after T0], inputs, outputs, benchmark file (or None)
@@ -68,3 +69,21 @@ def test_a_benchmark_file_of_no_job_is_left_out_and_an_empty_record_refused(tmp_
     out = tmp_path / "summary.json"           # the command: one line, exit 2, nothing written
     assert workflow_run.main([str(project), str(tmp_path / "empty"), "--out", str(out)]) == 2
     assert not out.exists()
+
+
+def test_bottom_levels_are_each_jobs_time_to_the_end_along_its_readers(tmp_path):
+    """By hand: report 5 s; modes 30 + 5; mesh 10 + max(modes 35, report 5); other 30 + 35.  A
+    rule of two jobs keeps the larger level; the priorities are the median over the runs."""
+    jobs = workflow_run.read_jobs(make_project(tmp_path / "run", {"mesh": 9.5, "modes": 28.5}))
+    assert workflow_run.bottom_levels(jobs) == {"report": 5, "modes": 35, "mesh": 45, "other": 65}
+    late = workflow_run.Job("report", 80, 100, inputs=["results/report.pdf"], outputs=["results/b.pdf"])
+    assert workflow_run.bottom_levels(jobs + [late])["report"] == 25        # 5 + 20, not 20
+    slower = [workflow_run.Job(j.rule, 2 * j.start, 2 * j.end, j.inputs, j.outputs) for j in jobs]
+    third = [workflow_run.Job(j.rule, 3 * j.start, 3 * j.end, j.inputs, j.outputs) for j in jobs]
+    assert workflow_run.median_priorities([jobs, slower, third]) == \
+        {"mesh": 90, "modes": 70, "other": 130, "report": 10}
+    out, priorities = tmp_path / "summary.json", tmp_path / "priorities.json"
+    assert workflow_run.main([str(tmp_path / "run"), "--out", str(out), "--priorities-out",
+                              str(priorities), "--revision", "abc1234"]) == 0
+    assert schedule.read_priorities(priorities) == {"mesh": 45, "modes": 35, "other": 65, "report": 5}
+    assert json.loads(priorities.read_text())["source"]["revision"] == "abc1234"

@@ -436,24 +436,23 @@ rule study_report:
 
 # ---- The longest scene first. After the kernels' compilation the study's critical path is the chain
 # of its longest scene: `long` (1 s simulated against 15 ms) takes ~10 s of load-aware ranking, then
-# ~55 s of study_scene, then figures and report, while each other scene's chain takes ~30 s. Snakemake's
-# scheduler runs ready jobs by priority, and priority belongs to a rule, not to a wildcard value: so the
-# longest scene has its own copies of the two rules on that path, with its name as their only scene and
-# a higher priority (ruleorder: they, not the general rules, make its files). Measured on a clean
-# clone's `all`: without it the scheduler left `long`'s chain to the end.
+# ~2 min of study_scene, then figures and report, while each other scene's chain takes ~30 s. The
+# scheduler starts ready jobs by priority (the rules' measured times to the run's end, workflow/
+# priorities.json), and a priority belongs to a rule, not to a wildcard value: so the longest scene has
+# its own copies of the two rules on that path, with its name as their only scene (ruleorder: they, not
+# the general rules, make its files), and a priority of their own. Measured on a clean clone's `all`:
+# with one priority for every scene the scheduler left `long`'s chain to the end.
 FIRST_SCENE = max(STUDY_SCENES, key=lambda name: dag_scene(name).duration)
 
 
 use rule load_ranking as load_ranking_first with:
     wildcard_constraints:
         scene=FIRST_SCENE,
-    priority: 10
 
 
 use rule study_scene as study_scene_first with:
     wildcard_constraints:
         scene=FIRST_SCENE,
-    priority: 10
 
 
 ruleorder: load_ranking_first > load_ranking

@@ -184,7 +184,7 @@ TRUTH_BASIS_SCENES = ["thesis", "damped", "smooth", "long"]
 # The truth's own error (truth_basis, ~1 min on one core) waits for these modes and for the four
 # studies' truths. Left at the default priority the scheduler ran them last, and truth_basis then ran
 # alone with the second core idle while the timing jobs (which need both cores) waited: 60-80 s of a
-# clean `all` (measured: modes_body_large5 started at 400 s of 619). Both go first when ready.
+# clean `all`. Their measured priorities (workflow/priorities.json) start both when ready.
 rule modes_body_large:
     input:
         mesh="results/mesh/body{n}.msh",
@@ -197,7 +197,6 @@ rule modes_body_large:
         "logs/verification/truth_basis_body{n}.log",
     benchmark:
         "results/benchmarks/rules/modes_body_large{n}.tsv"
-    priority: 10
     resources:
         # no record since it starts from the 100 known modes: body 5 15.7 s (max of 3), 706.4 MB
         # measured (/usr/bin/time, one rank)
@@ -228,7 +227,6 @@ rule truth_basis:
         "logs/verification/truth_basis.log",
     benchmark:
         "results/benchmarks/rules/truth_basis.tsv"
-    priority: 10
     resources:
         # records: truth_basis.tsv 340.3 s (load 11 on 2 cores; 135.8 CPU s), 1742.3 MB (E's sampling
         # rule's grids: thesis 6001, long 40001 samples)

@@ -16,7 +16,9 @@ per run:
   cores);
 * ``largest``: the jobs of most CPU;
 
-and, given ``--noop-s``, the wall times of no-op reruns (Snakemake with nothing to do) and their median.
+and, given ``--noop-s``, the wall times of no-op reruns (Snakemake with nothing to do) and their median;
+given ``--priorities-out``, the rules' scheduling priorities measured in these runs (each rule's
+bottom level, ``bottom_levels``; ``gimbal_reduction.workflow.schedule``).
 
 The ``make benchmark-all`` script (``workflow/benchmark-all.sh``) runs clean clones' ``all``
 and calls this; the summary is printed and the JSON kept.  Nothing is timed in a test.
@@ -31,6 +33,9 @@ import statistics
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from gimbal_reduction.workflow import schedule
+from gimbal_reduction.workflow.provenance import write_json
 
 # the rules' benchmark files, matched to their jobs by time: Snakemake writes one when its job
 # ends, so its modification time is the job's end, and its ``s`` the job's wall time [s]
@@ -115,6 +120,36 @@ def critical_path(jobs: list[Job]) -> list[Job]:
     return chain[::-1]
 
 
+def bottom_levels(jobs: list[Job]) -> dict[str, float]:
+    """{rule: seconds}: per job its wall time plus the largest bottom level of the jobs that read
+    one of its outputs (its time to the run's end with unlimited cores), the largest over each
+    rule's jobs (``gimbal_reduction.workflow.schedule``: the rules' priorities)."""
+    producer = {out: k for k, j in enumerate(jobs) for out in j.outputs}
+    readers: list[set[int]] = [set() for _ in jobs]
+    for k, j in enumerate(jobs):
+        for f in j.inputs:
+            if f in producer and producer[f] != k:
+                readers[producer[f]].add(k)
+    level: dict[int, float] = {}
+    # a reader starts after its producers end, so in order of decreasing start every reader of a
+    # job has its level before the job does
+    for k in sorted(range(len(jobs)), key=lambda k: (-jobs[k].start, -jobs[k].end)):
+        level[k] = (jobs[k].end - jobs[k].start) + max((level.get(r, 0.0) for r in readers[k]),
+                                                       default=0.0)
+    out: dict[str, float] = {}
+    for k, j in enumerate(jobs):
+        out[j.rule] = max(out.get(j.rule, 0.0), level[k])
+    return out
+
+
+def median_priorities(runs: list[list[Job]]) -> dict[str, int]:
+    """{rule: whole seconds}: the median over the runs of each rule's bottom level (a rule
+    missing from a run is left out of that run's values)."""
+    levels = [bottom_levels(jobs) for jobs in runs]
+    rules = sorted({r for lv in levels for r in lv})
+    return {r: int(round(statistics.median(lv[r] for lv in levels if r in lv))) for r in rules}
+
+
 def summarise(jobs: list[Job], cores: int, largest: int = 12) -> dict:
     """The run's figures (module docstring)."""
     wall = max(j.end for j in jobs)
@@ -141,6 +176,11 @@ def main(argv=None) -> int:
     parser.add_argument("--noop-s", type=float, nargs="*", default=[],
                         help="wall times [s] of no-op reruns (snakemake with nothing to do), to record")
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--priorities-out", type=Path,
+                        help="also write the rules' priorities measured in these runs "
+                             "(gimbal_reduction.workflow.schedule: workflow/priorities.json's contract)")
+    parser.add_argument("--revision", default=None,
+                        help="the git revision the runs ran, recorded with the priorities")
     args = parser.parse_args(argv)
     try:                                    # every folder read before anything is written
         jobs = [read_jobs(project) for project in args.projects]
@@ -155,6 +195,13 @@ def main(argv=None) -> int:
     tmp = args.out.with_name(args.out.name + ".tmp")
     tmp.write_text(json.dumps(out, indent=1))
     tmp.replace(args.out)
+    if args.priorities_out:
+        write_json(args.priorities_out, schedule.document(median_priorities(jobs), {
+            "what": "each rule's bottom level [s]: its wall time plus the longest chain of jobs "
+                    "after it, the largest over its jobs, the median over these clean runs",
+            "runs": [{"project": r["project"], "wall_s": round(r["wall_s"], 1)} for r in runs],
+            "revision": args.revision, "cores": args.cores}))
+        print(f"workflow_run: the rules' priorities -> {args.priorities_out}")
     for r in runs:
         print(f"workflow_run: {r['project']}: {r['jobs']} jobs, wall {r['wall_s']:.0f} s, CPU {r['cpu_s']:.0f} s "
               f"({r['cores_busy']:.0%} of {args.cores} cores); critical path {r['critical_path_s']:.0f} s "
