@@ -59,6 +59,37 @@ def test_mesh_convergence_inner_gimbal(config):
     assert_passed(v.check_convergence(config, 4))
 
 
+def test_mesh_convergence_reads_level_0_from_the_study_body_file(config, inner_gimbal_file, monkeypatch):
+    """The default level's frequencies come from the body file (no solve at its size); they are
+    the frequencies a solve of that mesh gives (a fresh solve, to 1e-9 relative)."""
+    from gimbal_reduction.solver.fe import checks
+    solved, solve = [], checks.supported_frequencies
+
+    def spy(cfg, body, size, count, workdir=None):
+        solved.append(size)
+        return solve(cfg, body, size, count, workdir)
+
+    monkeypatch.setattr(checks, "supported_frequencies", spy)
+    result = v.check_convergence(config, 4, level0=str(inner_gimbal_file[0]))
+    assert_passed(result)
+    h = result["mesh_sizes"][1]
+    assert h not in solved and len(solved) == 2 and result["default_level_from"] == "the study's body file"
+    fresh = solve(config, 4, h, 20)
+    np.testing.assert_allclose(result["frequencies_hz"][1], fresh, rtol=1e-9)
+
+
+@pytest.mark.parametrize("change, culprit", [({"body": 3}, "a file of body 3, not of body 4"),
+                                             ({"mesh_size": 0.125}, "made at mesh size 0.125 in"),
+                                             ({"frequencies_hz": np.ones(5)}, "5 supported frequencies")])
+def test_a_wrong_study_body_file_is_refused_before_any_solve(config, inner_gimbal_file, monkeypatch,
+                                                             change, culprit):
+    from gimbal_reduction.solver.fe import checks
+    monkeypatch.setattr(checks, "supported_frequencies", lambda *a, **k: pytest.fail("solved"))
+    data = {**checks._body_and_attrs(inner_gimbal_file[0]), **change}
+    with pytest.raises(ValueError, match=culprit):
+        v.check_convergence(config, 4, level0=data)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("body", [2, 3, 5])
 def test_mesh_convergence(config, body):

@@ -257,7 +257,8 @@ rule truth_basis:
 # coarser meshes. The solid ring at one P3 tetrahedron through the 0.25 in wall (ALL_SOLID_SIZE; 1.8 CPU s,
 # 470 MB, worst of 10 modes 0.73 % from the shell, measured) instead of three (288 s, 4.9 GB); the
 # platform's convergence on its levels h, h/2 (its h/4 needs 7 GB), the rings' on all three (h/2 is the
-# largest and is cheap). The other parts are shared with `verify_fe`.
+# largest and is cheap), each with level h read from the study's body file (the same mesh and solver
+# as its modes: one eigensolve fewer, ~8 s of the platform's). The other parts are shared with `verify_fe`.
 ALL_SOLID_SIZE = 0.25  # in: one element through body 2's 0.25 in wall (config bodies.outer_gimbal.thickness)
 ALL_CONVERGENCE_LEVELS = {"ring": "-1 0 1", "plate": "0 1"}
 
@@ -283,6 +284,9 @@ rule verify_solid_ring_all:
 
 
 rule verify_convergence_all:
+    input:
+        # the study's modes of this body: level 0's frequencies, read rather than solved again
+        body="results/modes/body{n}.h5",
     output:
         "results/all/verification/parts/convergence_body{n}.json",
     log:
@@ -304,7 +308,7 @@ rule verify_convergence_all:
         "Mesh convergence of body {wildcards.n}: all 100 modes on a finer mesh (log: {log})"
     shell:
         "OMP_NUM_THREADS=1 {GIMBAL} fe-verify convergence --body {wildcards.n} --levels {params.levels} "
-        "--config {CONFIG} --out {output} > {log} 2>&1"
+        "--body-file {input.body} --config {CONFIG} --out {output} > {log} 2>&1"
 
 
 rule verify_fe_all:

@@ -37,7 +37,8 @@ def run_check(name: str, config: dict, args) -> dict:
     if name == "convergence":
         # the verdict on the first verification.convergence_modes, all modes.count reported
         return v.check_convergence(config, int(args.body), levels=args.levels,
-                                   report_count=int(cfgmod.value(config, "modes.count")))
+                                   report_count=int(cfgmod.value(config, "modes.count")),
+                                   level0=args.body_file)
     if name == "body-file":
         return v.check_body_file(args.body_file)
     if name == "hughes":
@@ -108,7 +109,8 @@ def main(argv=None) -> int:
     parser.add_argument("--levels", type=int, nargs="+", default=None,
                         help="with convergence: the mesh levels, sizes h * mesh.refinement_ratio^level "
                              "(default: rings -1 0 1, the platform 0 1 2), ascending; level 0 (the "
-                             "study's mesh) must be one of them")
+                             "study's mesh) must be one of them; with --body-file (the study's "
+                             "body file) level 0's frequencies are read from it, not solved again")
     parser.add_argument("--solid-size", type=float, default=None,
                         help="with solid-ring: the solid's element size [in] (default: a third of the wall)")
     args = parser.parse_args(argv)
