@@ -5,6 +5,7 @@
 #   2. runs `snakemake --cores 2 all` RUNS times (default 2), each from nothing (results/, logs/
 #      and .snakemake/ removed; the installed .venv and its kernels' extension kept, as after
 #      `make install`);
+#      (and reads the CPU time of Snakemake's own process, the scheduler, apart from its jobs);
 #   3. times 5 no-op reruns of the last run (`snakemake --cores 2 all` with nothing to do);
 #   4. summarises every run from Snakemake's job records and the benchmark files
 #      (gimbal_reduction.results.bench.workflow_run: wall, the jobs' CPU, the critical path) into results/benchmarks/all-clean.json of this project, and prints it;
@@ -25,12 +26,22 @@ SNAKEMAKE_BINDIR="${SNAKEMAKE_BINDIR:-/nonexistent}" bash workflow/envs/install.
   || { echo "benchmark-all: make install failed (log: $work/install.log)" >&2; exit 1; }
 echo "benchmark-all: install took $(( $(date +%s) - start )) s"
 projects=()
+scheduler=()
 for i in $(seq 1 "$runs"); do
   rm -rf results logs .snakemake
   start=$(date +%s)
-  .venv/bin/python -m snakemake --cores 2 all > "$work/run$i.out" 2>&1 \
-    || { echo "benchmark-all: run $i failed (output: $work/run$i.out)" >&2; KEEP=1; exit 1; }
-  echo "benchmark-all: run $i of $runs: $(( $(date +%s) - start )) s wall (snakemake's start included)"
+  .venv/bin/python -m snakemake --cores 2 all > "$work/run$i.out" 2>&1 &
+  pid=$!
+  # the scheduler's own CPU (Snakemake's process, not its jobs): its utime + stime, read until it ends
+  ticks=0
+  while kill -0 "$pid" 2>/dev/null; do
+    ticks=$(awk '{print $14 + $15}' "/proc/$pid/stat" 2>/dev/null || echo "$ticks")
+    sleep 1
+  done
+  wait "$pid" || { echo "benchmark-all: run $i failed (output: $work/run$i.out)" >&2; KEEP=1; exit 1; }
+  scheduler+=("$(awk -v t="$ticks" -v hz="$(getconf CLK_TCK)" 'BEGIN {printf "%.1f", t / hz}')")
+  echo "benchmark-all: run $i of $runs: $(( $(date +%s) - start )) s wall (snakemake's start included);" \
+       "Snakemake's own process ${scheduler[-1]} CPU-s"
   # what the summary reads, kept with their times: Snakemake's job records and the benchmark files
   mkdir -p "$work/run$i/.snakemake" "$work/run$i/results"
   cp -a .snakemake/metadata "$work/run$i/.snakemake/"
@@ -44,5 +55,6 @@ for k in 1 2 3 4 5; do
   noop+=("$( { time .venv/bin/python -m snakemake --cores 2 all -q > "$work/noop$k.out" 2>&1; } 2>&1 )")
 done
 .venv/bin/python -m gimbal_reduction.results.bench.workflow_run "${projects[@]}" --noop-s "${noop[@]}" \
+  --scheduler-cpu-s "${scheduler[@]}" \
   --out "$root/results/benchmarks/all-clean.json" --priorities-out "$root/results/benchmarks/priorities.json" \
   --revision "$(git rev-parse --short HEAD)"

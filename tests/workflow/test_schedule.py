@@ -62,3 +62,14 @@ def test_written_priorities_read_back_with_their_source(tmp_path):
     data = json.loads(path.read_text())
     assert list(data["priorities"]) == ["a", "b"] and data["source"] == {"revision": "abc"}
     assert "provenance" in data and schedule.read_priorities(path) == {"a": 1, "b": 2}
+
+
+def test_the_workflow_profile_makes_the_timed_rescheduling_rare():
+    """profiles/default (read by Snakemake itself) sets a job rate limit whose timespan, the
+    delay of every timed re-evaluation, is a minute, and whose count this workflow never reaches."""
+    import yaml
+    from snakemake.settings.types import MaxJobsPerTimespan
+
+    profile = yaml.safe_load((ROOT / "profiles" / "default" / "config.yaml").read_text())
+    limit = MaxJobsPerTimespan.parse_choice(profile["max-jobs-per-timespan"])
+    assert limit.timespan >= 60 and limit.max_jobs >= 500

@@ -17,6 +17,7 @@ per run:
 * ``largest``: the jobs of most CPU;
 
 and, given ``--noop-s``, the wall times of no-op reruns (Snakemake with nothing to do) and their median;
+given ``--scheduler-cpu-s``, the CPU time of Snakemake's own process in each run (its scheduling);
 given ``--priorities-out``, the rules' scheduling priorities measured in these runs (each rule's
 bottom level, ``bottom_levels``; ``gimbal_reduction.workflow.schedule``).
 
@@ -175,6 +176,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--noop-s", type=float, nargs="*", default=[],
                         help="wall times [s] of no-op reruns (snakemake with nothing to do), to record")
+    parser.add_argument("--scheduler-cpu-s", type=float, nargs="*", default=[],
+                        help="CPU time [s] of Snakemake's own process in each run (not its jobs'), to record")
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--priorities-out", type=Path,
                         help="also write the rules' priorities measured in these runs "
@@ -190,7 +193,8 @@ def main(argv=None) -> int:
     runs = [{"project": str(project), **summarise(j, args.cores)} for project, j in zip(args.projects, jobs)]
     walls = [r["wall_s"] for r in runs]
     out = {"runs": runs, "wall_s_median": statistics.median(walls), "cores": args.cores,
-           "noop_s": args.noop_s, "noop_s_median": statistics.median(args.noop_s) if args.noop_s else None}
+           "noop_s": args.noop_s, "noop_s_median": statistics.median(args.noop_s) if args.noop_s else None,
+           "scheduler_cpu_s": args.scheduler_cpu_s}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     tmp = args.out.with_name(args.out.name + ".tmp")
     tmp.write_text(json.dumps(out, indent=1))
