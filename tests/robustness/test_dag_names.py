@@ -24,10 +24,14 @@ HEADER_KEYS = ("Date", "Workflow ID", "Platform", "Host", "User", "Snakemake ver
                "Config file(s)", "Config MD5")
 
 
+# Snakemake's note that it reads the workflow's own profile (profiles/default), on every run
+PROFILE_NOTE = "Using workflow specific profile "
+
+
 def snakemake_own(line):
     """Whether ``line`` is Snakemake's own progress or run-header output (not the workflow's)."""
     return (line.startswith(SNAKEMAKE_PROGRESS) or line in ("SNAKEMAKE", "=========")
-            or any(line.startswith(f"  {key}: ") for key in HEADER_KEYS))
+            or line.startswith(PROFILE_NOTE) or any(line.startswith(f"  {key}: ") for key in HEADER_KEYS))
 
 CASES = {
     "unknown model as a simulation target": (

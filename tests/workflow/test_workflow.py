@@ -14,9 +14,11 @@ def snakemake(*args, cwd=ROOT):
 
 
 def output_lines(run):
-    """The lines a run printed, less Snakemake's note that --configfile extends the default."""
+    """The lines a run printed, less Snakemake's notes that --configfile extends the default and
+    that it reads the workflow's profile (profiles/default)."""
     return [line for line in (run.stdout + run.stderr).splitlines()
-            if line.strip() and not line.startswith("Config file config/config.yaml is extended")]
+            if line.strip() and not line.startswith("Config file config/config.yaml is extended")
+            and not line.startswith("Using workflow specific profile ")]
 
 
 def test_dry_run_plans_all_stages(tmp_path):
