@@ -57,7 +57,7 @@ rule all:
 
 
 # Scheduling: every rule's priority is its measured time to the end of a clean `all` (workflow/
-# priorities.json, made by `make benchmark-all`), so that of the ready jobs the ones with the most
+# priorities.json, measured by `make benchmark-all`), so that of the ready jobs the ones with the most
 # work still behind them start first (gimbal_reduction/workflow/schedule.py says why and how much).
 _schedule = importlib.import_module("gimbal_reduction.workflow.schedule")
 _schedule.apply(

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from gimbal_reduction.workflow import environment
+from tests.robustness.test_dag_names import PROFILE_NOTE
 
 ROOT = Path(__file__).resolve().parents[2]
 LAUNCHER = ROOT / "workflow" / "envs" / "snakemake-launcher.sh"
@@ -37,7 +38,7 @@ def test_a_python_without_numba_and_typst_stops_the_dag_build_in_one_line(tmp_pa
                          env=_hide(tmp_path, "numba", "typst"), capture_output=True, text=True, timeout=120)
     assert run.returncode == 1
     lines = [line for line in (run.stdout + run.stderr).splitlines()   # less Snakemake's profile note
-             if line.strip() and not line.startswith("Using workflow specific profile ")]
+             if line.strip() and not line.startswith(PROFILE_NOTE)]
     assert len(lines) == 1 and lines[0].startswith("environment error: no numba, typst for "), lines
 
 

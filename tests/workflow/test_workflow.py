@@ -5,6 +5,8 @@ from pathlib import Path
 
 import yaml
 
+from tests.robustness.test_dag_names import PROFILE_NOTE
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -18,7 +20,7 @@ def output_lines(run):
     that it reads the workflow's profile (profiles/default)."""
     return [line for line in (run.stdout + run.stderr).splitlines()
             if line.strip() and not line.startswith("Config file config/config.yaml is extended")
-            and not line.startswith("Using workflow specific profile ")]
+            and not line.startswith(PROFILE_NOTE)]
 
 
 def test_dry_run_plans_all_stages(tmp_path):

@@ -275,18 +275,14 @@ def check_convergence(config: dict, body: int, count: int | None = None, levels=
     n = max(count, int(report_count or 0))
     default_index = list(levels).index(0)
     known = None if level0 is None else known_frequencies(level0, body, sizes[default_index], n)
+    solved = [i for i in range(len(sizes)) if known is None or i != default_index]
     # progress: the levels' work estimated as DOFs^1.5 (sparse Cholesky of a shell; a solid's grows faster)
-    work = [0.0 if known is not None and i == default_index else
-            estimated_dofs(cfgmod.body_inputs(config, body, s)["mesh"])[0] ** 1.5
-            for i, s in enumerate(sizes)]
-    progress = Progress(f"convergence {params['name']}", sum(work), None)
-    all_freqs = []
-    for i, (s, w) in enumerate(zip(sizes, work)):
-        if known is not None and i == default_index:
-            all_freqs.append(known)
-            continue
-        all_freqs.append(np.asarray(supported_frequencies(config, body, s, n, workdir)))
-        progress.advance(w, note=f"mesh size {s:g} in done")
+    work = {i: estimated_dofs(cfgmod.body_inputs(config, body, sizes[i])["mesh"])[0] ** 1.5 for i in solved}
+    progress = Progress(f"convergence {params['name']}", sum(work.values()), None)
+    all_freqs = [known] * len(sizes)
+    for i in solved:
+        all_freqs[i] = np.asarray(supported_frequencies(config, body, sizes[i], n, workdir))
+        progress.advance(work[i], note=f"mesh size {sizes[i]:g} in done")
     per_mode = [np.abs(f / all_freqs[-1] - 1) for f in all_freqs]       # (levels, n)
     freqs = [f[:count] for f in all_freqs]
     finest = freqs[-1]
