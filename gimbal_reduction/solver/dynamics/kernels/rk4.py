@@ -1,5 +1,12 @@
 """The compiled RK4 loops: steps without a Python call per stage, and a whole run with
-the energy watch (docs/dynamics.md Section 8)."""
+the energy watch (docs/dynamics.md Section 8).
+
+Both are inlined on Numba's IR (``inline="always"``) into the entry that calls them from Python
+(``compiled._rk4_integrate``, ``_rk4_run``): compiled functions of their own, each level's code
+was optimised and generated again by LLVM in the level above, three times in all.  Measured
+(cold cache, the warm-up's compilation): the three levels 11.3 CPU-s, inlined 6.1-6.5; the
+same run time (a 20-modes-per-body synthetic chain on the thesis scene, median of 5 in each
+of 3 alternating processes: 2.70 s against 2.72 s)."""
 
 import math
 
@@ -12,7 +19,7 @@ from gimbal_reduction.solver.dynamics.kernels.recursion import (accelerations_li
                                                kinetic_energy_lin)
 
 
-@numba.njit(**JIT)
+@numba.njit(**JIT, inline="always")
 def rk4_core(y, yd, t0, h, n_steps, first_given, K0, LIN0, LIND0, case, tau, ch):
     """n_steps classical RK4 steps of (y, y')' = (y', y'') from t0 with constant torques
     tau (4,) and the case motion ``case`` (``recursion.case_twist``) (integrators.rk4_step,
@@ -79,7 +86,7 @@ def rk4_run(y, yd, t0, h, n_steps, case, tau, ch):
     return rk4_core(y, yd, t0, h, n_steps, bool(False), dummy, dummy, dummy, case, tau, ch)
 
 
-@numba.njit(**JIT)
+@numba.njit(**JIT, inline="always")
 def rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau, ch):
     """A whole RK4 run with outputs and the energy watch, compiled (integrators.integrate
     with integrators.Monitor, without a Python call per output sample).
