@@ -1,6 +1,7 @@
 """gimbal_reduction.solver.dynamics.kernels.extension: the kernels compiled ahead of time run as
 their dispatchers' overloads for exactly the recorded argument types, agree with the JIT, and a
 stale extension is never used."""
+import collections
 import importlib.util
 import os
 import pickle
@@ -45,6 +46,40 @@ def test_recording_sees_the_calls_from_python_only():
     assert entries[0][3].return_type == numba.float64
     # the project's kernels only, by default
     assert extension.exportable(seen) == []
+
+
+Pair = collections.namedtuple("Pair", "a b")
+Twin = collections.namedtuple("Twin", "a b")
+
+
+@numba.njit(cache=False, error_model="numpy")
+def _first(x, s):
+    return s
+
+
+def test_recording_types_each_new_kind_of_call_once_and_exactly():
+    """The recorder types a call in full only when its arguments' kinds are new (fingerprints):
+    what it records equals Numba's typing of every call, for arrays differing only in layout,
+    write flag or dtype, scalars of different types, and named tuples of different classes
+    with the same fields; a repeated kind is not typed again."""
+    a = np.arange(6.0)
+    frozen = np.arange(6.0)
+    frozen.setflags(write=False)
+    calls = [(a, 1.0), (a, 1.0), (a[::2], 1.0), (frozen, 1.0), (a.astype(np.int64), 1.0),
+             (a, 2), (a, True), (a, Pair(1.0, 2)), (a, Twin(1.0, 2)), (a, Twin(3.0, 4))]
+    typed = []
+    with extension.recording() as seen:
+        for args in calls:                  # compiles each kind (Numba types them too)
+            _first(*args)
+        original = _first.typeof_pyval
+        _first.typeof_pyval = lambda v: typed.append(v) or original(v)
+        try:
+            for args in calls:              # the same kinds again: nothing new to type
+                _first(*args)
+        finally:
+            del _first.typeof_pyval
+    assert seen[(__name__, "_first")][1] == {tuple(numba.typeof(v) for v in args) for args in calls}
+    assert typed == []
 
 
 @pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")

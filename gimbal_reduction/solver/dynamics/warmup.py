@@ -7,7 +7,7 @@ The chain's equations run as Numba kernels (``gimbal_reduction.solver.dynamics.k
 use and cached on disk (``cache=True``: ``__pycache__`` beside the sources, or
 ``NUMBA_CACHE_DIR``).  In a fresh clone nothing is cached, and every job that reaches a
 kernel before the cache exists compiles the whole set itself: on this 2-core machine one
-compilation is ~1.5-2.5 CPU-minutes, and the workflow's first dynamics jobs (the load-aware
+compilation is ~1-1.5 CPU-minutes, and the workflow's first dynamics jobs (the load-aware
 rankings, the study scenes, the truth-basis check) start together, so that it was paid
 several times over.  This stage pays it once, at the start of the workflow, while the FE
 jobs run beside it: it needs no body file, because compiled code depends on the types and
@@ -111,7 +111,7 @@ def build_extension(scenes, integrator, options) -> int:
     if extension.up_to_date():
         print("warmup: the kernels' extension is up to date", flush=True)
         return 0
-    print("warmup: compiling the dynamics kernels ahead of time (kernels.extension; a few "
+    print("warmup: compiling the dynamics kernels ahead of time (kernels.extension; ~1.5 "
           "CPU-minutes): the warm-up with the JIT first, then the extension", flush=True)
     start = time.process_time()
     with extension.recording() as seen:

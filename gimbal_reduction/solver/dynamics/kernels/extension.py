@@ -147,14 +147,29 @@ def recording():
     """``with recording() as seen:`` every dispatcher called from Python inside the block, with
     the argument types of its calls, {(module, qualname): (dispatcher, {argument types, ...})}:
     the entry points of the code run (calls from compiled code are not seen).  Positional
-    arguments only (the kernels' calls)."""
+    arguments only (the kernels' calls).
+
+    A call is typed in full (``typeof_pyval``, ~7 us an argument) only when its arguments'
+    classes and Numba type fingerprints (``compute_fingerprint``, the key of Numba's own typeof
+    cache, ~0.1 us) are new for that dispatcher: the warm-up's ~144 000 calls from Python,
+    ~2 million arguments, cost 18.5 CPU-s typed in full every time (measured).  An argument
+    without a fingerprint is typed in full on every call."""
+    from numba._dispatcher import compute_fingerprint
     from numba.core.dispatcher import Dispatcher
     seen = {}
+    known = set()                                           # (dispatcher id, argument keys)
     call = super(Dispatcher, Dispatcher).__call__          # the C dispatcher's
 
     def record(self, *args, **kws):
-        key = (self.py_func.__module__, self.py_func.__qualname__)
-        seen.setdefault(key, (self, set()))[1].add(tuple(self.typeof_pyval(a) for a in args))
+        try:
+            key = (id(self), tuple((type(a), compute_fingerprint(a)) for a in args))
+        except NotImplementedError:                         # a value Numba cannot fingerprint
+            key = None
+        if key is None or key not in known:
+            name = (self.py_func.__module__, self.py_func.__qualname__)
+            seen.setdefault(name, (self, set()))[1].add(tuple(self.typeof_pyval(a) for a in args))
+            if key is not None:
+                known.add(key)
         return call(self, *args, **kws)
 
     Dispatcher.__call__ = record
