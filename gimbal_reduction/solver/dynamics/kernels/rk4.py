@@ -4,9 +4,9 @@ the energy watch (docs/dynamics.md Section 8).
 Both are inlined on Numba's IR (``inline="always"``) into the entry that calls them from Python
 (``compiled._rk4_integrate``, ``_rk4_run``): compiled functions of their own, each level's code
 was optimised and generated again by LLVM in the level above, three times in all.  Measured
-(cold cache, the warm-up's compilation): the three levels 11.3 CPU-s, inlined 6.1-6.5; the
-same run time (a 20-modes-per-body synthetic chain on the thesis scene, median of 5 in each
-of 3 alternating processes: 2.70 s against 2.72 s)."""
+(cold cache, the warm-up's compilation, one profiled run each): the three levels 11.3 CPU-s,
+inlined 6.1 and 6.5; the same run time (a 20-modes-per-body synthetic chain on the thesis
+scene, median of 5 in each of 3 alternating processes: 2.70 s against 2.72 s)."""
 
 import math
 
