@@ -173,3 +173,49 @@ def test_the_extension_and_the_jit_agree_and_the_file_says_which_ran(tmp_path):
     assert np.abs(ahead - jit).max() <= 1e-10 * np.abs(jit).max()
     for attrs in (a, j):
         assert attrs["wall_time_s"] >= attrs["integration_time_s"] + attrs["kernel_load_s"]
+
+
+@numba.njit(cache=False, error_model="numpy")
+def _assign_row(a, b):
+    a[0, :] = b
+    return a
+
+
+def test_a_slice_assignment_of_another_shape_raises_the_plain_error():
+    a = np.zeros((2, 3))
+    assert np.array_equal(_assign_row(a, np.arange(3.0))[0], [0.0, 1.0, 2.0])
+    with pytest.raises(ValueError, match="cannot assign slice from input of different size"):
+        _assign_row(a, np.arange(4.0))
+
+
+KERNELS = "gimbal_reduction.solver.dynamics.kernels"
+
+
+def _python(code, env):
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**os.environ, **env})
+
+
+def test_the_build_process_caches_nothing_skips_module_passes_and_attaches_nothing():
+    code = ("import numba\n"
+            "from numba.core import codegen\n"
+            "from gimbal_reduction.solver.dynamics import kernels\n"
+            "from gimbal_reduction.solver.dynamics.kernels import extension\n"
+            "f = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: 2.0 * x + 1.0)\n"
+            "print(kernels.BUILDING, kernels.JIT['cache'], extension.attached(), f(3.0),\n"
+            "      codegen.JITCodeLibrary._optimize_final_module.__module__, int(numba.config.OPT))\n")
+    build = _python(code, {"GIMBAL_KERNELS": "build"})
+    assert build.returncode == 0, build.stderr
+    assert build.stdout.split() == ["True", "False", "False", "7.0", KERNELS, "1"]
+    normal = _python(code, {"GIMBAL_KERNELS": "jit"})
+    assert normal.returncode == 0, normal.stderr
+    assert normal.stdout.split() == ["False", "True", "False", "7.0", "numba.core.codegen", "1"]
+
+
+def test_the_build_refuses_a_cpu_target_made_before_the_kernels():
+    late = _python("import numba\nnumba.njit(lambda: 1)\n"
+                   "import gimbal_reduction.solver.dynamics.kernels\n", {"GIMBAL_KERNELS": "build"})
+    assert late.returncode != 0
+    assert late.stderr.strip().splitlines()[-1] == (
+        "RuntimeError: kernels: Numba's CPU target exists before the kernels' import: "
+        "GIMBAL_KERNELS=build cannot set its code generation")

@@ -83,7 +83,7 @@ PYTHONPATH="$venv/cluster" "$venv/bin/python" -c "import snakemake_executor_plug
 # or the CPU changed; if it cannot be built (no C compiler) the kernels stay Numba's JIT.
 if ! command -v cc >/dev/null 2>&1; then
   echo "install: no C compiler (cc): the dynamics kernels stay Numba's JIT" >&2
-elif ! OMP_NUM_THREADS=1 "$venv/bin/python" -m gimbal_reduction.solver.dynamics.warmup --extension \
+elif ! GIMBAL_KERNELS=build OMP_NUM_THREADS=1 "$venv/bin/python" -m gimbal_reduction.solver.dynamics.warmup --extension \
        --scenes "$root/config/scenes/thesis.yaml" "$root/config/scenes/damped.yaml"; then
   echo "install: the kernels' extension was not built: the dynamics kernels stay Numba's JIT" >&2
 fi

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -105,14 +106,19 @@ def warm(scenes, integrator, options, record):
     return 0
 
 
-def build_extension(scenes, integrator, options) -> int:
+def build_extension(scenes, integrator, options, argv) -> int:
     """The kernels' extension module (``kernels.extension``): the warm-up's entry points, recorded
-    while it runs with the JIT, compiled ahead of time.  Nothing to do when it is current."""
+    while it runs with the JIT, compiled ahead of time.  Nothing to do when it is current.  The
+    build runs in a process of its own, started here with GIMBAL_KERNELS=build (``argv``: this
+    command's arguments), whose JIT only serves the recording (``kernels._jit_for_recording``)."""
     if extension.up_to_date():
         print("warmup: the kernels' extension is up to date", flush=True)
         return 0
-    print("warmup: compiling the dynamics kernels ahead of time (kernels.extension; ~1.5 "
-          "CPU-minutes): the warm-up with the JIT first, then the extension", flush=True)
+    if not kernels.BUILDING:
+        return subprocess.run([sys.executable, "-m", __spec__.name, *argv],
+                              env={**os.environ, "GIMBAL_KERNELS": "build"}).returncode
+    print("warmup: compiling the dynamics kernels ahead of time (kernels.extension; ~1 "
+          "CPU-minute): the warm-up with the JIT first, then the extension", flush=True)
     start = time.process_time()
     with extension.recording() as seen:
         rc = warm(scenes, integrator, options, {"runs": []})
@@ -141,7 +147,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     options = [] if args.tol is None else ["--tol", str(args.tol)]
     if args.extension:
-        return build_extension(args.scenes, args.integrator, options)
+        return build_extension(args.scenes, args.integrator, options,
+                               sys.argv[1:] if argv is None else argv)
     if args.out is None:
         ap.error("--out is required without --extension")
     record = {"integrator": args.integrator, "options": options, "runs": [],

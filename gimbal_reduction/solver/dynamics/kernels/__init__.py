@@ -13,8 +13,9 @@ The chain reaches the kernels as ONE argument ``ch``, the named tuple
 ``compiled.PackedChain`` (D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho; see
 ``compiled.pack``); the forward and backward passes share ``recursion.Frames``.
 
-Importing this package raises LLVM's limit of runtime alias checks and sets the
-optimisation level (below) before any kernel is compiled.
+Importing this package raises LLVM's limit of runtime alias checks, sets the optimisation
+level and the error of a slice assignment (below) before any kernel is compiled; in the
+process that builds the kernels' extension (``BUILDING``) it also sets up the JIT for that.
 """
 
 import os
@@ -23,12 +24,22 @@ from contextlib import contextmanager
 
 import llvmlite.binding
 import numba
-from numba.core import event
+import numba.np.arrayobj
+from numba.core import codegen, event, registry
+from numba.extending import overload
+
+# Whether this process builds the kernels' extension (``extension``; ``make install`` runs
+# ``warmup --extension``, which starts it with GIMBAL_KERNELS=build): see ``_jit_for_recording``.
+BUILDING = os.environ.get("GIMBAL_KERNELS", "") == "build"
 
 # Compiler options of the kernels.  JIT: IEEE arithmetic.  FAST: reassociation only (no
-# "no-NaN/no-Inf" assumptions: a diverging state must stay visible).
-JIT = dict(cache=True, fastmath=False, error_model="numpy")
-FAST = dict(cache=True, fastmath={"reassoc", "contract", "nsz"}, error_model="numpy")
+# "no-NaN/no-Inf" assumptions: a diverging state must stay visible).  Cached on disk, except
+# in the build, where the JIT's code only records (``_jit_for_recording``) and makes no C-callable
+# wrapper of each function either (Numba's ``cfunc`` form, for passing a function as a value:
+# nothing here calls it).
+_RECORDING = dict(cache=not BUILDING, no_cfunc_wrapper=BUILDING)
+JIT = dict(_RECORDING, fastmath=False, error_model="numpy")
+FAST = dict(_RECORDING, fastmath={"reassoc", "contract", "nsz"}, error_model="numpy")
 
 
 def _allow_runtime_alias_checks(limit=16):
@@ -56,8 +67,63 @@ _allow_runtime_alias_checks()
 # were compiled twice, once per value of has_acc or lin_given; a wrapped constant is a plain
 # bool or int, one compilation with the branch at run time (the same run times, measured).
 OPT_LEVEL = 1
+
+
+def _jit_for_recording():
+    """Set up the JIT of the process that builds the extension.  There the JIT's code only runs
+    the warm-up that records the entry points; the extension links the JIT's LLVM IR (each
+    function optimised by itself, Numba's function passes), not its machine code, and optimises
+    the linked whole once with its own module passes.  So the JIT emits machine code at LLVM's
+    code-generation level 0 (fast instruction selection), skips its per-library module passes
+    (Numba runs them on every library with all its callees linked in: a callee's code was
+    optimised again at every level above it), and writes nothing to Numba's disk cache (``JIT``).
+    Measured, the build's CPU in its process (cold, alternating, 3 each): 97-106 CPU-s before,
+    60-63 with this and the slice error below.  The extension it makes runs as fast or faster: a
+    20-modes-per-body chain's RK4 run on the thesis scene 2.54-2.60 s against 2.66-2.83 s, a
+    30-modes-per-body exponential run over 1 s equal within 1 % (medians of 5 and 3, 3 rounds).
+
+    The code-generation level is that of Numba's JIT target machine, made with the CPU target's
+    context: this must run before anything in the process compiled or decorated a Numba
+    function (the package's import in ``warmup``'s process does)."""
+    if "_toplevel_target_context" in vars(registry.cpu_target):
+        raise RuntimeError("kernels: Numba's CPU target exists before the kernels' import: "
+                           "GIMBAL_KERNELS=build cannot set its code generation")
+    previous = numba.config.OPT
+    numba.config.OPT = numba.core.config._process_opt_level("0")
+    try:
+        registry.cpu_target.target_context          # makes the JIT's target machine at level 0
+    finally:
+        numba.config.OPT = previous
+    codegen.JITCodeLibrary._optimize_final_module = lambda library: None
+
+
+if BUILDING:
+    _jit_for_recording()
 if "NUMBA_OPT" not in os.environ:
     numba.config.OPT = numba.core.config._process_opt_level(str(OPT_LEVEL))
+
+
+def _raise_slice_mismatch(src_shapes, index_shape):
+    """Stands for Numba's ``arrayobj.raise_with_shape_context`` (below)."""
+    raise NotImplementedError
+
+
+@overload(_raise_slice_mismatch, target="CPU")
+def _raise_slice_mismatch_cpu(src_shapes, index_shape):
+    def impl(src_shapes, index_shape):
+        raise ValueError("cannot assign slice from input of different size")
+    return impl
+
+
+# The error of a slice assignment from an array of another shape (``a[i, :] = b``): Numba's CPU
+# target formats both shapes into its message with its own string machinery (``str``, ``join``,
+# f-strings), compiled once per pair of dimensions and linked into every kernel with such an
+# assignment, where LLVM optimises it again.  The kernels take the fixed message of Numba's
+# generic target instead (the hook is the one Numba gives targets for their own message): the
+# extension's build 6-7 CPU-s shorter (63-64 against 69-71, 2 alternating runs each, the JIT set
+# up as in the build).  Set for every Numba function of this process.
+if hasattr(numba.np.arrayobj, "raise_with_shape_context"):
+    numba.np.arrayobj.raise_with_shape_context = _raise_slice_mismatch
 
 
 class KernelLoadTimer(event.Listener):

@@ -11,10 +11,11 @@ How: ``build`` runs a workload (the workflow's warm-up, ``gimbal_reduction.solve
 warmup --extension``, called by ``make install``) with Numba's JIT while recording every
 entry point called from Python and the argument types of each call; it then compiles
 exactly those (dispatcher, argument types) pairs with Numba's ahead-of-time compiler
-(``numba.pycc``, for this machine's CPU; each exported entry forwards to the JIT's code, which
-is linked, not compiled again) into ``_ahead`` beside this file, with a manifest:
+(``numba.pycc``, for this machine's CPU; each exported entry forwards to the JIT's code, whose
+LLVM IR is linked, not compiled again) into ``_ahead`` beside this file, with a manifest:
 the entries, their types and a fingerprint of the kernels' sources, Numba's version and the
-CPU.  ``attach(module)``, called at the end of every module that defines entry points,
+CPU.  The build runs in a process of its own with GIMBAL_KERNELS=build, whose JIT only serves
+the recording (``kernels._jit_for_recording``: fast machine code, no module passes, no cache).  ``attach(module)``, called at the end of every module that defines entry points,
 inserts the extension's entries into their dispatchers as ready overloads for exactly
 those argument types.  Numba's dispatcher still types every call: a call whose types
 match is run by the extension, any other compiles with the JIT as before.  A missing or
@@ -69,8 +70,8 @@ def fingerprint() -> str:
 def _manifest():
     """(manifest, module) of a current extension that imports (the manifest: {"fingerprint":
     ..., "entries": {module: [(qualname, symbol, pickled argument types)]}}), or None (no
-    extension, a stale or broken one, or GIMBAL_KERNELS=jit)."""
-    if os.environ.get("GIMBAL_KERNELS", "") == "jit" or not MANIFEST.exists():
+    extension, a stale or broken one, GIMBAL_KERNELS=jit, or the build: GIMBAL_KERNELS=build)."""
+    if os.environ.get("GIMBAL_KERNELS", "") in ("jit", "build") or not MANIFEST.exists():
         return None
     try:
         with open(MANIFEST, "rb") as f:
