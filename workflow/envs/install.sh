@@ -79,8 +79,9 @@ PYTHONPATH="$venv/cluster" "$venv/bin/python" -c "import snakemake_executor_plug
   echo "install: the Slurm executor in $venv/cluster is not importable" >&2; exit 1; }
 # The dynamics kernels compiled ahead of time for this machine (gimbal_reduction.solver.dynamics.
 # kernels.extension): a fresh process's first simulation then loads no JIT code.  Built once (the
-# workflow's warm-up with the JIT, then the extension: ~86 CPU-s), again only when a kernel, Numba
-# or the CPU changed; if it cannot be built (no C compiler) the kernels stay Numba's JIT.
+# workflow's warm-up with a recording-only JIT, GIMBAL_KERNELS=build, then the extension: ~60-70
+# CPU-s), again only when a kernel, Numba or the CPU changed; if it cannot be built (no C compiler)
+# the kernels stay Numba's JIT.
 if ! command -v cc >/dev/null 2>&1; then
   echo "install: no C compiler (cc): the dynamics kernels stay Numba's JIT" >&2
 elif ! GIMBAL_KERNELS=build OMP_NUM_THREADS=1 "$venv/bin/python" -m gimbal_reduction.solver.dynamics.warmup --extension \
