@@ -37,9 +37,9 @@ BUILDING = os.environ.get("GIMBAL_KERNELS", "") == "build"
 # in the build, where the JIT's code only records (``_jit_for_recording``) and makes no C-callable
 # wrapper of each function either (Numba's ``cfunc`` form, for passing a function as a value:
 # nothing here calls it).
-_RECORDING = dict(cache=not BUILDING, no_cfunc_wrapper=BUILDING)
-JIT = dict(_RECORDING, fastmath=False, error_model="numpy")
-FAST = dict(_RECORDING, fastmath={"reassoc", "contract", "nsz"}, error_model="numpy")
+_COMMON = dict(cache=not BUILDING, no_cfunc_wrapper=BUILDING)
+JIT = dict(_COMMON, fastmath=False, error_model="numpy")
+FAST = dict(_COMMON, fastmath={"reassoc", "contract", "nsz"}, error_model="numpy")
 
 
 def _allow_runtime_alias_checks(limit=16):

@@ -15,13 +15,14 @@ exactly those (dispatcher, argument types) pairs with Numba's ahead-of-time comp
 LLVM IR is linked, not compiled again) into ``_ahead`` beside this file, with a manifest:
 the entries, their types and a fingerprint of the kernels' sources, Numba's version and the
 CPU.  The build runs in a process of its own with GIMBAL_KERNELS=build, whose JIT only serves
-the recording (``kernels._jit_for_recording``: fast machine code, no module passes, no cache).  ``attach(module)``, called at the end of every module that defines entry points,
-inserts the extension's entries into their dispatchers as ready overloads for exactly
-those argument types.  Numba's dispatcher still types every call: a call whose types
-match is run by the extension, any other compiles with the JIT as before.  A missing or
-stale extension (a kernel edited, another Numba or CPU) attaches nothing: the JIT path,
-the same results to rounding (the same code, optimised separately).  ``GIMBAL_KERNELS=jit``
-in the environment attaches nothing either (the JIT path on purpose: tests, development).
+the recording (``kernels._jit_for_recording``: fast machine code, no module passes, no cache).
+``attach(module)``, called at the end of every module that defines entry points, inserts the
+extension's entries into their dispatchers as ready overloads for exactly those argument types.
+Numba's dispatcher still types every call: a call whose types match is run by the extension,
+any other compiles with the JIT as before.  A missing or stale extension (a kernel edited,
+another Numba or CPU) attaches nothing: the JIT path, the same results to rounding (the same
+code, optimised separately).  ``GIMBAL_KERNELS=jit`` in the environment attaches nothing either
+(the JIT path on purpose: tests, development).
 """
 from __future__ import annotations
 
