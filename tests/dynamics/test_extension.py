@@ -150,14 +150,34 @@ def test_a_stale_or_refused_extension_attaches_nothing(tmp_path, monkeypatch):
         extension._manifest.cache_clear()
 
 
-def _simulate(tmp_path, model, name, env):
+def _simulate(tmp_path, model, name, env, scene=os.path.join(scenes.SCENES_DIR, "thesis.yaml"),
+              options=()):
     out = tmp_path / f"{name}.h5"
     subprocess.run([sys.executable, "-m", "gimbal_reduction.solver.dynamics.simulate",
-                    "--scene", os.path.join(scenes.SCENES_DIR, "thesis.yaml"), "--model-file", str(model),
-                    "--out", str(out), "--no-config-check"],
+                    "--scene", scene, "--model-file", str(model),
+                    "--out", str(out), "--no-config-check", *options],
                    check=True, capture_output=True, env={**os.environ, **env})
     with h5py.File(out) as f:
         return f["gamma"][()], dict(f.attrs)
+
+
+WARMUP_SCENES = [os.path.join(scenes.SCENES_DIR, f"{name}.yaml") for name in ("thesis", "damped")]
+
+
+@pytest.mark.skipif(not extension.up_to_date(), reason="no current extension (make install builds it)")
+@pytest.mark.parametrize("run", warmup.runs(WARMUP_SCENES, "exponential", []),
+                         ids=lambda run: f"{os.path.basename(run[0])}-{run[1]}-{run[2][1]}")
+def test_every_warmup_run_over_its_whole_window_loads_every_kernel_from_the_extension(tmp_path, run):
+    """The extension's entries are those the warm-up called (``make install`` builds it from the
+    thesis and damped scenes); runs it shortens (warmup.SHORT_WINDOW) must call nothing a whole
+    window calls besides."""
+    scene, kind, options, _ = run
+    chain = synthetic_modal_chain(warmup.MODES_PER_BODY, seed=0)
+    model = tmp_path / f"{kind}.h5"
+    warmup.write_model(model, chain if kind == "elastic" else warmup.rigid_chain(chain), kind)
+    gamma, attrs = _simulate(tmp_path, model, "run", {}, scene, options)
+    assert attrs["kernels"] == "extension" and np.isfinite(gamma).all()
+    assert attrs["kernel_load_s"] == 0.0        # nothing compiled with the JIT
 
 
 @pytest.mark.skipif(not extension.up_to_date(), reason="no current extension (make install builds it)")
@@ -210,6 +230,22 @@ def test_the_build_process_caches_nothing_skips_module_passes_and_attaches_nothi
     normal = _python(code, {"GIMBAL_KERNELS": "jit"})
     assert normal.returncode == 0, normal.stderr
     assert normal.stdout.split() == ["False", "True", "False", "7.0", "numba.core.codegen", "1"]
+
+
+def test_the_build_emits_a_callee_once_and_leaves_the_linked_module_whole():
+    """In the build a caller's machine code calls its callee's earlier code by name
+    (``kernels._own_code_only``); the module the extension links still defines the callee."""
+    code = ("import numba\n"
+            "from gimbal_reduction.solver.dynamics import kernels\n"
+            "f = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: 2.0 * x + 1.0)\n"
+            "g = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: f(x) * f(x + 1.0))\n"
+            "print(g(3.0), f(3.0))\n"
+            "module = g.overloads[g.signatures[0]].library._get_module_for_linking()\n"
+            "callee = module.get_function(f.overloads[f.signatures[0]].fndesc.mangled_name)\n"
+            "print(bool(callee.is_declaration), callee.linkage.name)\n")
+    build = _python(code, {"GIMBAL_KERNELS": "build"})
+    assert build.returncode == 0, build.stderr
+    assert build.stdout.split() == ["63.0", "7.0", "False", "linkonce_odr"]
 
 
 def test_the_build_refuses_a_cpu_target_made_before_the_kernels():

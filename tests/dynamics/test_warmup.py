@@ -24,7 +24,21 @@ def test_warmup_simulates_the_elastic_chain_per_scene_the_checks_integrators_and
     assert [r["options"] for r in record["runs"][2:4]] == [["--integrator", "rk4"],
                                                            ["--integrator", "generalized-alpha"]]
     assert record["runs"][-1]["options"] == ["--integrator", "dop853"]
+    # those two over the first scene's first output intervals only
+    assert [r["output_intervals"] for r in record["runs"]] == [None, None, warmup.SHORT_WINDOW,
+                                                               warmup.SHORT_WINDOW, None]
     assert record["git_revision"] and record["versions"] and record["wall_time_s"] > 0
+
+
+def test_a_shortened_scene_is_the_same_scene_over_its_first_output_intervals(tmp_path):
+    thesis = os.path.join(scenes.SCENES_DIR, "thesis.yaml")
+    whole = scenes.load_scene(thesis)
+    short = scenes.load_scene(warmup.shortened(thesis, 40, tmp_path))
+    assert short.name == whole.name and short.output_interval == whole.output_interval
+    assert np.isclose(short.duration, 40 * whole.output_interval, rtol=1e-12, atol=0)
+    assert short.case == whole.case and short.initial_angles == whole.initial_angles
+    # never longer than the scene itself
+    assert scenes.load_scene(warmup.shortened(thesis, 10 ** 6, tmp_path)).duration == whole.duration
 
 
 def test_rigid_chain_keeps_the_rigid_mass_and_drops_every_mode(tmp_path):

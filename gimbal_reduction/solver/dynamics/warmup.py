@@ -17,7 +17,8 @@ What it runs is exactly what the jobs run: a synthetic chain
 (``gimbal_reduction.solver.dynamics.synthetic``: two modes per body, and the rigid chain) written to a
 reduced-model file and simulated through ``gimbal_reduction.solver.dynamics.simulate``'s command line on
 every given scene with the configured integrator (so damped scenes compile the damped
-paths), on the first scene with RK4 and generalised-alpha (``OTHER_INTEGRATORS``: the checks'),
+paths), on the first scene's first output intervals with RK4 and generalised-alpha
+(``OTHER_INTEGRATORS``: the checks'; ``SHORT_WINDOW``),
 and the rigid chain with DOP853 (the load-aware ranking's rigid motion).  A kernel
 the jobs reach with other array types would still compile there, only later; nothing is
 assumed about the cache's contents, and a missing or stale cache costs time, never a result.
@@ -37,8 +38,9 @@ import time
 
 import numba
 import numpy as np
+import yaml
 
-from gimbal_reduction.solver.dynamics import chainfile, kernels, multibody, simulate
+from gimbal_reduction.solver.dynamics import chainfile, kernels, multibody, scenes, simulate
 from gimbal_reduction.solver.dynamics.kernels import extension
 from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
 from gimbal_reduction.workflow.provenance import git_revision, versions, write_json
@@ -73,17 +75,41 @@ def write_model(path, chain, name):
 # stability tests); left out, the first of those jobs compiled them (~76 CPU-s, measured).
 OTHER_INTEGRATORS = ("rk4", "generalized-alpha")
 
+# The other integrators run over the first scene's first SHORT_WINDOW output intervals only: their
+# steps are fixed and their Python side does the same at every step, so a short window calls the
+# same entry points with the same types as the whole one (checked: tests/dynamics/test_extension.py,
+# a whole-window run of each in a fresh process compiles nothing).  Over the thesis scene's 6000
+# intervals they ran 12000 and 6000 steps, ~4 CPU-s of the extension's build (its JIT code is
+# unoptimised machine code there: kernels._jit_for_recording).
+SHORT_WINDOW = 40
 
-def runs(scenes, integrator, options):
-    """The (scene, model, simulate options) of the warm-up, in order."""
-    out = [(scene, "elastic", ["--integrator", integrator, *options]) for scene in scenes]
-    out += [(scenes[0], "elastic", ["--integrator", other]) for other in OTHER_INTEGRATORS
+
+def runs(scene_paths, integrator, options):
+    """The (scene file, model, simulate options, output intervals: None for the whole window) of
+    the warm-up, in order."""
+    first = scene_paths[0]
+    out = [(scene, "elastic", ["--integrator", integrator, *options], None) for scene in scene_paths]
+    out += [(first, "elastic", ["--integrator", other], SHORT_WINDOW) for other in OTHER_INTEGRATORS
             if other != integrator]
-    out.append((scenes[0], "rigid", ["--integrator", "dop853"]))
+    out.append((first, "rigid", ["--integrator", "dop853"], None))
     return out
 
 
-def warm(scenes, integrator, options, record):
+def shortened(scene_path, intervals, directory):
+    """A copy of the scene file ``scene_path`` in ``directory`` (the same file name, so the same
+    scene name) whose duration is its first ``intervals`` output intervals (its whole duration if
+    shorter); returns its path."""
+    scene = scenes.load_scene(scene_path)
+    raw = dict(scene.raw)
+    raw["duration"] = {"value": min(scene.duration, intervals * scene.output_interval), "unit": "s",
+                       "source": f"the first {intervals} output intervals of {scene_path} (the warm-up)"}
+    path = os.path.join(directory, os.path.basename(scene_path))
+    with open(path, "w") as f:
+        yaml.safe_dump(raw, f)
+    return path
+
+
+def warm(scene_paths, integrator, options, record):
     """Simulate the synthetic chains of ``runs``; append each run to record["runs"]; returns the
     exit code (2: a run failed, named on stderr)."""
     elastic = synthetic_modal_chain(MODES_PER_BODY, seed=0)
@@ -91,22 +117,29 @@ def warm(scenes, integrator, options, record):
         models = {"elastic": os.path.join(tmp, "elastic.h5"), "rigid": os.path.join(tmp, "rigid.h5")}
         write_model(models["elastic"], elastic, f"synthetic-{MODES_PER_BODY}")
         write_model(models["rigid"], rigid_chain(elastic), "synthetic-rigid")
-        for k, (scene, model, opts) in enumerate(runs(scenes, integrator, options)):
+        for k, (scene, model, opts, window) in enumerate(runs(scene_paths, integrator, options)):
             t0 = time.perf_counter()
-            rc = simulate.main(["--scene", scene, "--model-file", models[model],
+            try:
+                run_scene = scene if window is None else shortened(scene, window, tmp)
+            except scenes.SceneError as exc:
+                print(f"warmup: the synthetic {model} chain failed on {scene} ({exc})", file=sys.stderr)
+                return 2
+            rc = simulate.main(["--scene", run_scene, "--model-file", models[model],
                                 "--out", os.path.join(tmp, f"sim{k}.h5"), "--no-config-check", *opts])
             if rc:
                 print(f"warmup: the synthetic {model} chain failed on {scene} (simulate exit {rc})",
                       file=sys.stderr)
                 return 2
             wall = time.perf_counter() - t0
-            record["runs"].append({"scene": scene, "model": model, "options": opts, "wall_time_s": wall})
-            print(f"warmup: [{k + 1}] {model} chain on {scene} ({' '.join(opts)}): {wall:.1f} s",
+            record["runs"].append({"scene": scene, "model": model, "options": opts,
+                                   "output_intervals": window, "wall_time_s": wall})
+            what = "" if window is None else f", its first {window} output intervals"
+            print(f"warmup: [{k + 1}] {model} chain on {scene} ({' '.join(opts)}{what}): {wall:.1f} s",
                   flush=True)
     return 0
 
 
-def build_extension(scenes, integrator, options, argv) -> int:
+def build_extension(scene_paths, integrator, options, argv) -> int:
     """The kernels' extension module (``kernels.extension``): the warm-up's entry points, recorded
     while it runs with the JIT, compiled ahead of time.  Nothing to do when it is current.  The
     build runs in a process of its own, started here with GIMBAL_KERNELS=build (``argv``: this
@@ -121,7 +154,7 @@ def build_extension(scenes, integrator, options, argv) -> int:
           "CPU-minute): the warm-up with the JIT first, then the extension", flush=True)
     start = time.process_time()
     with extension.recording() as seen:
-        rc = warm(scenes, integrator, options, {"runs": []})
+        rc = warm(scene_paths, integrator, options, {"runs": []})
     if rc:
         return rc
     print(f"warmup: the warm-up compiled with the JIT ({time.process_time() - start:.0f} CPU-s); "

@@ -95,6 +95,35 @@ def _jit_for_recording():
     finally:
         numba.config.OPT = previous
     codegen.JITCodeLibrary._optimize_final_module = lambda library: None
+    codegen.JITCodeLibrary._finalize_specific = _own_code_only(codegen.JITCodeLibrary._finalize_specific)
+
+
+def _own_code_only(emit):
+    """``emit`` (Numba's machine-code step of a JIT library) made to emit the library's own
+    functions only.  Numba links a copy of every callee's code into each caller's module
+    (``linkonce_odr``), so without module passes each level emitted its callees' machine code
+    again.  Here a linked callee that an earlier library already emitted under its name is marked
+    ``available_externally`` for the emission (LLVM emits no code for it; the call resolves to the
+    earlier code by name) and marked back afterwards, so that the module the extension links is
+    unchanged.  Measured: the JIT's machine-code step 3.0-3.2 CPU-s against 4.0-4.9 (2 runs
+    each)."""
+    emitted = set()                 # external functions of the libraries emitted so far
+    linkage = llvmlite.binding.Linkage
+
+    def own_code_only(library):
+        module = library._final_module
+        linked = [f for f in module.functions if not f.is_declaration and f.name in emitted
+                  and f.linkage == linkage.linkonce_odr]
+        for f in linked:
+            f.linkage = linkage.available_externally
+        try:
+            emit(library)
+        finally:
+            for f in linked:
+                f.linkage = linkage.linkonce_odr
+        emitted.update(f.name for f in module.functions
+                       if not f.is_declaration and f.linkage == linkage.external)
+    return own_code_only
 
 
 if BUILDING:
