@@ -195,6 +195,25 @@ def test_the_extension_and_the_jit_agree_and_the_file_says_which_ran(tmp_path):
         assert attrs["wall_time_s"] >= attrs["integration_time_s"] + attrs["kernel_load_s"]
 
 
+@pytest.mark.skipif(not extension.up_to_date(), reason="no current extension (make install builds it)")
+def test_the_checks_compiled_rk4_steps_load_from_the_extension():
+    """verify-dynamics' conservation and order checks and the stability tests take compiled RK4
+    steps without outputs (integrators.rk4_advance), which the warm-up takes too (warmup.advance):
+    in a fresh process, another chain's steps compile nothing."""
+    code = ("from gimbal_reduction.solver.dynamics import integrators, kernels\n"
+            "from gimbal_reduction.solver.dynamics.kernels import extension\n"
+            "from gimbal_reduction.solver.dynamics.problem import Problem\n"
+            "from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain\n"
+            "with kernels.kernel_load_timer() as load:\n"
+            "    problem = Problem(synthetic_modal_chain(5, seed=1), omega_max=0.0)\n"
+            "    y, yd = integrators.rk4_advance(problem, problem.y0, problem.yd0 + 1.0, 0.0, 1e-6, 50)\n"
+            "print(extension.attached(), load.seconds, float(abs(yd).max()))\n")
+    run = _python(code, {})
+    assert run.returncode == 0, run.stderr
+    attached, load_s, rate = run.stdout.split()
+    assert attached == "True" and float(load_s) == 0.0 and 0.0 < float(rate) < 1e3
+
+
 @numba.njit(cache=False, error_model="numpy")
 def _assign_row(a, b):
     a[0, :] = b
