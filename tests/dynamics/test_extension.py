@@ -198,8 +198,9 @@ def test_the_extension_and_the_jit_agree_and_the_file_says_which_ran(tmp_path):
 @pytest.mark.skipif(not extension.up_to_date(), reason="no current extension (make install builds it)")
 def test_the_checks_compiled_rk4_steps_load_from_the_extension():
     """verify-dynamics' conservation and order checks and the stability tests take compiled RK4
-    steps without outputs (integrators.rk4_advance), which the warm-up takes too (warmup.advance):
-    in a fresh process, another chain's steps compile nothing."""
+    steps without outputs (integrators.rk4_advance): the whole-run kernel over one interval
+    (compiled.CompiledRhs.rk4_steps), whose entry the warm-up's RK4 run records.  In a fresh
+    process another chain's steps compile nothing."""
     code = ("from gimbal_reduction.solver.dynamics import integrators, kernels\n"
             "from gimbal_reduction.solver.dynamics.kernels import extension\n"
             "from gimbal_reduction.solver.dynamics.problem import Problem\n"

@@ -170,13 +170,6 @@ def _case_power_at_acc(y, yd, ydd, w1, dw1, D, off, M6, V, gram, M1, G, om2, cd,
 
 
 @numba.njit(**JIT)
-def _rk4_run(y, yd, t0, h, n_steps, amp, omf, phase, om0, tau,
-             D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
-    ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
-    return rk4.rk4_run(y, yd, t0, h, n_steps, (amp, omf, phase, om0), tau, ch)
-
-
-@numba.njit(**JIT)
 def _rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, amp, omf, phase, om0, tau,
                    D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho):
     ch = PackedChain(D, off, M6, V, gram, M1, G, om2, cd, C1, C, rho)
@@ -432,10 +425,16 @@ class CompiledRhs:
             raise ValueError(f"{what} needs constant motor torques (a callable was given)")
 
     def rk4_steps(self, y, yd, t0, h, n):
-        """n compiled RK4 steps from (t0, y, y'); returns (y, y')."""
+        """n compiled RK4 steps from (t0, y, y'); returns (y, y') (non-finite if the state
+        became so).  The whole-run kernel over one output interval of n steps, its energy
+        watch off (growth inf) and the case's power skipped (at_rest): one compiled RK4 loop,
+        one entry of the same argument types as the RK4 runs', serves both."""
         self._constant_torque("the compiled RK4 loop")
-        return _rk4_run(np.asarray(y, float), np.asarray(yd, float), float(t0), float(h), int(n),
-                        *self._case, self._tau, *self.fast_chain.data)
+        t0, h, n = float(t0), float(h), int(n)
+        Y, Yd, _, _ = _rk4_integrate(np.asarray(y, float), np.asarray(yd, float),
+                                     np.array([t0, t0 + n * h]), h, n, math.inf, bool(True),
+                                     *self._case, self._tau, *self.fast_chain.data)
+        return Y[1], Yd[1]
 
     def rk4_integrate(self, y0, yd0, t_out, h, n_sub, growth):
         """A whole RK4 run with outputs and energy watch (``kernels.rk4.rk4_integrate``):

@@ -18,8 +18,8 @@ What it runs is exactly what the jobs run: a synthetic chain
 reduced-model file and simulated through ``gimbal_reduction.solver.dynamics.simulate``'s command line on
 every given scene with the configured integrator (so damped scenes compile the damped
 paths), on the first scene's first output intervals with RK4 and generalised-alpha
-(``OTHER_INTEGRATORS``: the checks'; ``SHORT_WINDOW``), the rigid chain with DOP853 (the
-load-aware ranking's rigid motion), and the checks' compiled RK4 steps (``advance``).  A kernel
+(``OTHER_INTEGRATORS``: the checks'; ``SHORT_WINDOW``),
+and the rigid chain with DOP853 (the load-aware ranking's rigid motion).  A kernel
 the jobs reach with other array types would still compile there, only later; nothing is
 assumed about the cache's contents, and a missing or stale cache costs time, never a result.
 
@@ -40,9 +40,8 @@ import numba
 import numpy as np
 import yaml
 
-from gimbal_reduction.solver.dynamics import chainfile, integrators, kernels, multibody, scenes, simulate
+from gimbal_reduction.solver.dynamics import chainfile, kernels, multibody, scenes, simulate
 from gimbal_reduction.solver.dynamics.kernels import extension
-from gimbal_reduction.solver.dynamics.problem import Problem
 from gimbal_reduction.solver.dynamics.synthetic import synthetic_modal_chain
 from gimbal_reduction.workflow.provenance import git_revision, versions, write_json
 
@@ -96,21 +95,6 @@ def runs(scene_paths, integrator, options):
     return out
 
 
-# The compiled RK4 steps without outputs (``integrators.rk4_advance``, the entry
-# ``compiled._rk4_run``): verify-dynamics' conservation and order checks and the stability tests
-# take them, no simulation does.  Left out, the first of those jobs in a clean clone's `all`
-# compiled it and the whole chain under it with the JIT (dynamics_verification_all: 44.7 CPU-s,
-# 17.4 with the steps in the extension, measured).
-ADVANCE_STEPS = 10
-
-
-def advance(chain):
-    """ADVANCE_STEPS compiled RK4 steps of ``chain`` from rest, as the checks take them (the case
-    at rest, a fixed step); returns the final (y, y')."""
-    problem = Problem(chain, omega_max=0.0)
-    return integrators.rk4_advance(problem, problem.y0, problem.yd0, 0.0, 1e-6, ADVANCE_STEPS)
-
-
 def shortened(scene_path, intervals, directory):
     """A copy of the scene file ``scene_path`` in ``directory`` (the same file name, so the same
     scene name) whose duration is its first ``intervals`` output intervals (its whole duration if
@@ -152,11 +136,6 @@ def warm(scene_paths, integrator, options, record):
             what = "" if window is None else f", its first {window} output intervals"
             print(f"warmup: [{k + 1}] {model} chain on {scene} ({' '.join(opts)}{what}): {wall:.1f} s",
                   flush=True)
-    t0 = time.perf_counter()
-    advance(elastic)
-    record["advance_wall_time_s"] = time.perf_counter() - t0
-    print(f"warmup: the elastic chain's compiled RK4 steps (the checks'): "
-          f"{record['advance_wall_time_s']:.1f} s", flush=True)
     return 0
 
 

@@ -1,8 +1,9 @@
-"""The compiled RK4 loops: steps without a Python call per stage, and a whole run with
-the energy watch (docs/dynamics.md Section 8).
+"""The compiled RK4 loop: steps without a Python call per stage, and a whole run with the
+energy watch (docs/dynamics.md Section 8); steps without outputs are the whole run over one
+output interval (``compiled.CompiledRhs.rk4_steps``).
 
 Both are inlined on Numba's IR (``inline="always"``) into the entry that calls them from Python
-(``compiled._rk4_integrate``, ``_rk4_run``): compiled functions of their own, each level's code
+(``compiled._rk4_integrate``): compiled functions of their own, each level's code
 was optimised and generated again by LLVM in the level above, three times in all.  Measured
 (cold cache, the warm-up's compilation, one profiled run each): the three levels 11.3 CPU-s,
 inlined 6.1 and 6.5; the same run time (a 20-modes-per-body synthetic chain on the thesis
@@ -20,11 +21,11 @@ from gimbal_reduction.solver.dynamics.kernels.recursion import (accelerations_li
 
 
 @numba.njit(**JIT, inline="always")
-def rk4_core(y, yd, t0, h, n_steps, first_given, K0, LIN0, LIND0, case, tau, ch):
+def rk4_core(y, yd, t0, h, n_steps, K0, LIN0, LIND0, case, tau, ch):
     """n_steps classical RK4 steps of (y, y')' = (y', y'') from t0 with constant torques
     tau (4,) and the case motion ``case`` (``recursion.case_twist``) (integrators.rk4_step,
-    compiled: no Python call per stage).  If first_given, the first stage's evaluation
-    (accelerations K0 (n,), LIN0 and LIND0 at (t0, y, y')) is given.
+    compiled: no Python call per stage).  The first stage's evaluation is given: the
+    accelerations K0 (n,), LIN0 and LIND0 at (t0, y, y').
 
     What an evaluation needs that is linear in q, LIN = [hq; Pq] (the modal Coriolis
     sums hq = sum_j q_j G_j and the projected rows Pq = [V; M1] q, see
@@ -62,7 +63,7 @@ def rk4_core(y, yd, t0, h, n_steps, first_given, K0, LIN0, LIND0, case, tau, ch)
                     Vs[st, m] = yd[m] + c * K[st - 1, m]
                 for m in range(L):
                     LINS[st, m] = LIN[m] + c * LINDS[st - 1, m]
-            if i == 0 and st == 0 and first_given:
+            if i == 0 and st == 0:
                 K[0, :] = K0
                 LIN[:] = LIN0
                 LINDS[0, :] = LIND0
@@ -77,13 +78,6 @@ def rk4_core(y, yd, t0, h, n_steps, first_given, K0, LIN0, LIND0, case, tau, ch)
         for m in range(L):
             LIN[m] += (h / 6.0) * (LINDS[0, m] + 2.0 * LINDS[1, m] + 2.0 * LINDS[2, m] + LINDS[3, m])
     return y, yd
-
-
-@numba.njit(**JIT)
-def rk4_run(y, yd, t0, h, n_steps, case, tau, ch):
-    """n_steps classical RK4 steps from (t0, y, y') (``rk4_core``)."""
-    dummy = np.zeros(0)
-    return rk4_core(y, yd, t0, h, n_steps, bool(False), dummy, dummy, dummy, case, tau, ch)
 
 
 @numba.njit(**JIT, inline="always")
@@ -152,7 +146,7 @@ def rk4_integrate(y0, yd0, t_out, h, n_sub, growth, at_rest, case, tau, ch):
             info[0], info[1], info[2], info[3] = 2.0, k, E, scale
             return Y, Yd, energy, info
         if k + 1 < nt:
-            y, yd = rk4_core(y, yd, t, h, n_sub, bool(True), acc, LIN, LIND, case, tau, ch)
+            y, yd = rk4_core(y, yd, t, h, n_sub, acc, LIN, LIND, case, tau, ch)
     return Y, Yd, energy, info
 
 
