@@ -236,12 +236,16 @@ def _python(code, env):
                           env={**os.environ, **env})
 
 
+# a kernel for the build-process tests below, in their child's source: f(x) = 2 x + 1
+_AFFINE = "f = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: 2.0 * x + 1.0)\n"
+
+
 def test_the_build_process_caches_nothing_skips_module_passes_and_attaches_nothing():
     code = ("import numba\n"
             "from numba.core import codegen\n"
             "from gimbal_reduction.solver.dynamics import kernels\n"
             "from gimbal_reduction.solver.dynamics.kernels import extension\n"
-            "f = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: 2.0 * x + 1.0)\n"
+            + _AFFINE +
             "print(kernels.BUILDING, kernels.JIT['cache'], extension.attached(), f(3.0),\n"
             "      codegen.JITCodeLibrary._optimize_final_module.__module__, int(numba.config.OPT))\n")
     build = _python(code, {"GIMBAL_KERNELS": "build"})
@@ -257,7 +261,7 @@ def test_the_build_emits_a_callee_once_and_leaves_the_linked_module_whole():
     (``kernels._own_code_only``); the module the extension links still defines the callee."""
     code = ("import numba\n"
             "from gimbal_reduction.solver.dynamics import kernels\n"
-            "f = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: 2.0 * x + 1.0)\n"
+            + _AFFINE +
             "g = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: f(x) * f(x + 1.0))\n"
             "print(g(3.0), f(3.0))\n"
             "module = g.overloads[g.signatures[0]].library._get_module_for_linking()\n"

@@ -117,10 +117,13 @@ def warm(scene_paths, integrator, options, record):
         models = {"elastic": os.path.join(tmp, "elastic.h5"), "rigid": os.path.join(tmp, "rigid.h5")}
         write_model(models["elastic"], elastic, f"synthetic-{MODES_PER_BODY}")
         write_model(models["rigid"], rigid_chain(elastic), "synthetic-rigid")
+        short = {}                          # (scene file, intervals) -> its shortened copy
         for k, (scene, model, opts, window) in enumerate(runs(scene_paths, integrator, options)):
             t0 = time.perf_counter()
             try:
-                run_scene = scene if window is None else shortened(scene, window, tmp)
+                if window is not None and (scene, window) not in short:
+                    short[scene, window] = shortened(scene, window, tmp)
+                run_scene = scene if window is None else short[scene, window]
             except scenes.SceneError as exc:
                 print(f"warmup: the synthetic {model} chain failed on {scene} ({exc})", file=sys.stderr)
                 return 2
