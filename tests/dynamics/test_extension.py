@@ -8,6 +8,7 @@ import pickle
 import shutil
 import subprocess
 import sys
+from typing import NamedTuple
 
 import h5py
 import numba
@@ -241,35 +242,98 @@ _AFFINE = "f = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: 2.0 * x + 
 
 
 def test_the_build_process_caches_nothing_skips_module_passes_and_attaches_nothing():
-    code = ("import numba\n"
-            "from numba.core import codegen\n"
+    code = ("import copy, numba\n"
+            "from numba.core import codegen, ir\n"
             "from gimbal_reduction.solver.dynamics import kernels\n"
             "from gimbal_reduction.solver.dynamics.kernels import extension\n"
             + _AFFINE +
+            "loc = ir.Loc('f.py', 1)\n"
             "print(kernels.BUILDING, kernels.JIT['cache'], extension.attached(), f(3.0),\n"
-            "      codegen.JITCodeLibrary._optimize_final_module.__module__, int(numba.config.OPT))\n")
+            "      codegen.JITCodeLibrary._optimize_final_module.__module__, int(numba.config.OPT),\n"
+            "      copy.deepcopy(loc) is loc)\n")
     build = _python(code, {"GIMBAL_KERNELS": "build"})
     assert build.returncode == 0, build.stderr
-    assert build.stdout.split() == ["True", "False", "False", "7.0", KERNELS, "1"]
+    assert build.stdout.split() == ["True", "False", "False", "7.0", KERNELS + ".recording_jit", "1",
+                                    "True"]
     normal = _python(code, {"GIMBAL_KERNELS": "jit"})
     assert normal.returncode == 0, normal.stderr
-    assert normal.stdout.split() == ["False", "True", "False", "7.0", "numba.core.codegen", "1"]
+    assert normal.stdout.split() == ["False", "True", "False", "7.0", "numba.core.codegen", "1", "False"]
 
 
 def test_the_build_emits_a_callee_once_and_leaves_the_linked_module_whole():
     """In the build a caller's machine code calls its callee's earlier code by name
-    (``kernels._own_code_only``); the module the extension links still defines the callee."""
+    (``recording_jit.own_code_only``); the module the extension links still defines the callee."""
     code = ("import numba\n"
             "from gimbal_reduction.solver.dynamics import kernels\n"
             + _AFFINE +
             "g = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: f(x) * f(x + 1.0))\n"
-            "print(g(3.0), f(3.0))\n"
+            "print(g(3.0))\n"
             "module = g.overloads[g.signatures[0]].library._get_module_for_linking()\n"
             "callee = module.get_function(f.overloads[f.signatures[0]].fndesc.mangled_name)\n"
-            "print(bool(callee.is_declaration), callee.linkage.name)\n")
+            "print(bool(callee.is_declaration), callee.linkage.name, f(3.0))\n")
     build = _python(code, {"GIMBAL_KERNELS": "build"})
     assert build.returncode == 0, build.stderr
-    assert build.stdout.split() == ["63.0", "7.0", "False", "linkonce_odr"]
+    assert build.stdout.split() == ["63.0", "False", "linkonce_odr", "7.0"]
+
+
+# f compiled as g's callee, then called from Python; what ``extension.entry`` hands out for f
+_CALLEE_THEN_PYTHON = (
+    "import numba\n"
+    "from gimbal_reduction.solver.dynamics import kernels\n"
+    "from gimbal_reduction.solver.dynamics.kernels import extension, recording_jit\n"
+    + _AFFINE +
+    "g = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: f(x) * f(x + 1.0))\n"
+    "key = (id(f), (numba.float64,))\n"
+    "print(g(3.0), key in recording_jit.WRAPPERLESS, extension.entry(f, (3.0,)) is f)\n"
+    "print(f(3.0), key in recording_jit.WRAPPERLESS, extension.entry(f, (3.0,)) is f, f(4.0))\n")
+
+
+def test_the_build_gives_python_wrappers_only_to_what_python_calls():
+    """In the build a function compiled as a callee has no Python wrapper (its entry point is
+    null): ``extension.entry`` does not hand it out, and a call from Python compiles it again
+    with one (``recording_jit.python_wrappers_for_python_calls_only``)."""
+    build = _python(_CALLEE_THEN_PYTHON, {"GIMBAL_KERNELS": "build"})
+    assert build.returncode == 0, build.stderr
+    assert build.stdout.split() == ["63.0", "True", "True", "7.0", "False", "False", "9.0"]
+    normal = _python(_CALLEE_THEN_PYTHON, {"GIMBAL_KERNELS": "jit"})
+    assert normal.returncode == 0, normal.stderr
+    assert normal.stdout.split() == ["63.0", "False", "False", "7.0", "False", "False", "9.0"]
+
+
+class _Pair(NamedTuple):
+    rows: np.ndarray
+    scale: float
+    inner: tuple
+
+
+@pytest.mark.parametrize("value", [
+    np.zeros((2, 3)), 1.5, (1.0, 2), (np.zeros(3), np.zeros((2, 2), dtype=np.complex128)),
+    _Pair(np.zeros((4, 2)), 2.0, (np.zeros(3, dtype=np.int64), 3.0, np.zeros((1, 1, 1)))),
+    _Pair(np.zeros(1, dtype=[("stage", np.int64), ("t", np.float64)]), 0.0, (np.ones(2),) * 3),
+], ids=["array", "float", "scalars", "arrays", "nested", "records"])
+def test_the_builds_reference_counting_finds_numbas_meminfos_with_fewer_instructions(value):
+    """``recording_jit.meminfos`` (the build's) against Numba's own ``get_meminfos``: the same
+    (type, meminfo) list in the same order, with no more instructions emitted (fewer for arrays)."""
+    import llvmlite.ir as llir
+    from numba.core import registry
+    from gimbal_reduction.solver.dynamics.kernels import recording_jit
+    # a copy of the CPU context: ``nrt`` is cached on the context it is read from, and the base
+    # context's (reference counting off) would be copied into every later compilation's
+    context = registry.cpu_target.target_context.subtarget(enable_nrt=True)
+    ty = numba.typeof(value)
+
+    def emitted(get_meminfos):
+        module = llir.Module()
+        function = llir.Function(module, llir.FunctionType(
+            llir.VoidType(), [context.data_model_manager[ty].get_value_type()]), "f")
+        builder = llir.IRBuilder(function.append_basic_block())
+        found = get_meminfos(builder, ty, function.args[0])
+        return [t for t, _ in found], len(function.blocks[0].instructions)
+
+    ours, ours_size = emitted(lambda *a: recording_jit.meminfos(context.nrt, *a))
+    numbas, numbas_size = emitted(context.nrt.get_meminfos)
+    assert ours == numbas
+    assert ours_size <= numbas_size and (ours_size < numbas_size or not ours)
 
 
 def test_the_build_refuses_a_cpu_target_made_before_the_kernels():

@@ -80,7 +80,7 @@ OTHER_INTEGRATORS = ("rk4", "generalized-alpha")
 # same entry points with the same types as the whole one (checked: tests/dynamics/test_extension.py,
 # a whole-window run of each in a fresh process compiles nothing).  Over the thesis scene's 6000
 # intervals they ran 12000 and 6000 steps, ~4 CPU-s of the extension's build (its JIT code is
-# unoptimised machine code there: kernels._jit_for_recording).
+# unoptimised machine code there: kernels.recording_jit).
 SHORT_WINDOW = 40
 
 
@@ -146,7 +146,7 @@ def build_extension(scene_paths, integrator, options, argv) -> int:
     """The kernels' extension module (``kernels.extension``): the warm-up's entry points, recorded
     while it runs with the JIT, compiled ahead of time.  Nothing to do when it is current.  The
     build runs in a process of its own, started here with GIMBAL_KERNELS=build (``argv``: this
-    command's arguments), whose JIT only serves the recording (``kernels._jit_for_recording``)."""
+    command's arguments), whose JIT only serves the recording (``kernels.recording_jit``)."""
     if extension.up_to_date():
         print("warmup: the kernels' extension is up to date", flush=True)
         return 0

@@ -15,7 +15,8 @@ The chain reaches the kernels as ONE argument ``ch``, the named tuple
 
 Importing this package raises LLVM's limit of runtime alias checks, sets the optimisation
 level and the error of a slice assignment (below) before any kernel is compiled; in the
-process that builds the kernels' extension (``BUILDING``) it also sets up the JIT for that.
+process that builds the kernels' extension (``BUILDING``) it also sets up the JIT for that
+(``recording_jit``).
 """
 
 import os
@@ -25,19 +26,17 @@ from contextlib import contextmanager
 import llvmlite.binding
 import numba
 import numba.np.arrayobj
-from numba.core import codegen, event, registry
+from numba.core import event
 from numba.extending import overload
 
 # Whether this process builds the kernels' extension (``extension``; ``make install`` runs
-# ``warmup --extension``, which starts it with GIMBAL_KERNELS=build): see ``_jit_for_recording``.
+# ``warmup --extension``, which starts it with GIMBAL_KERNELS=build): see ``recording_jit``.
 BUILDING = os.environ.get("GIMBAL_KERNELS", "") == "build"
 
 # Compiler options of the kernels.  JIT: IEEE arithmetic.  FAST: reassociation only (no
 # "no-NaN/no-Inf" assumptions: a diverging state must stay visible).  Cached on disk, except
-# in the build, where the JIT's code only records (``_jit_for_recording``) and makes no C-callable
-# wrapper of each function either (Numba's ``cfunc`` form, for passing a function as a value:
-# nothing here calls it).
-_COMMON = dict(cache=not BUILDING, no_cfunc_wrapper=BUILDING)
+# in the build, where the JIT's code only records (``recording_jit``).
+_COMMON = dict(cache=not BUILDING)
 JIT = dict(_COMMON, fastmath=False, error_model="numpy")
 FAST = dict(_COMMON, fastmath={"reassoc", "contract", "nsz"}, error_model="numpy")
 
@@ -69,65 +68,9 @@ _allow_runtime_alias_checks()
 OPT_LEVEL = 1
 
 
-def _jit_for_recording():
-    """Set up the JIT of the process that builds the extension.  There the JIT's code only runs
-    the warm-up that records the entry points; the extension links the JIT's LLVM IR (each
-    function optimised by itself, Numba's function passes), not its machine code, and optimises
-    the linked whole once with its own module passes.  So the JIT emits machine code at LLVM's
-    code-generation level 0 (fast instruction selection), skips its per-library module passes
-    (Numba runs them on every library with all its callees linked in: a callee's code was
-    optimised again at every level above it), and writes nothing to Numba's disk cache (``JIT``).
-    Measured, the build's CPU in its process (cold, alternating, 3 each): 97-106 CPU-s before,
-    60-63 with this and the slice error below.  The extension it makes runs as fast or faster: a
-    20-modes-per-body chain's RK4 run on the thesis scene 2.54-2.60 s against 2.66-2.83 s, a
-    30-modes-per-body exponential run over 1 s equal within 1 % (medians of 5 and 3, 3 rounds).
-
-    The code-generation level is that of Numba's JIT target machine, made with the CPU target's
-    context: this must run before anything in the process compiled or decorated a Numba
-    function (the package's import in ``warmup``'s process does)."""
-    if "_toplevel_target_context" in vars(registry.cpu_target):
-        raise RuntimeError("kernels: Numba's CPU target exists before the kernels' import: "
-                           "GIMBAL_KERNELS=build cannot set its code generation")
-    previous = numba.config.OPT
-    numba.config.OPT = numba.core.config._process_opt_level("0")
-    try:
-        registry.cpu_target.target_context          # makes the JIT's target machine at level 0
-    finally:
-        numba.config.OPT = previous
-    codegen.JITCodeLibrary._optimize_final_module = lambda library: None
-    codegen.JITCodeLibrary._finalize_specific = _own_code_only(codegen.JITCodeLibrary._finalize_specific)
-
-
-def _own_code_only(emit):
-    """``emit`` (Numba's machine-code step of a JIT library) made to emit the library's own
-    functions only.  Numba links a copy of every callee's code into each caller's module
-    (``linkonce_odr``), so without module passes each level emitted its callees' machine code
-    again.  Here a linked callee that an earlier library already emitted under its name is marked
-    ``available_externally`` for the emission (LLVM emits no code for it; the call resolves to the
-    earlier code by name) and marked back afterwards, so that the module the extension links is
-    unchanged.  Measured: the JIT's machine-code step 3.0-3.2 CPU-s against 4.0-4.9 (2 runs
-    each)."""
-    emitted = set()                 # external functions of the libraries emitted so far
-    linkage = llvmlite.binding.Linkage
-
-    def own_code_only(library):
-        module = library._final_module
-        linked = [f for f in module.functions if not f.is_declaration and f.name in emitted
-                  and f.linkage == linkage.linkonce_odr]
-        for f in linked:
-            f.linkage = linkage.available_externally
-        try:
-            emit(library)
-        finally:
-            for f in linked:
-                f.linkage = linkage.linkonce_odr
-        emitted.update(f.name for f in module.functions
-                       if not f.is_declaration and f.linkage == linkage.external)
-    return own_code_only
-
-
 if BUILDING:
-    _jit_for_recording()
+    from gimbal_reduction.solver.dynamics.kernels import recording_jit
+    recording_jit.set_up()
 if "NUMBA_OPT" not in os.environ:
     numba.config.OPT = numba.core.config._process_opt_level(str(OPT_LEVEL))
 

@@ -15,7 +15,7 @@ exactly those (dispatcher, argument types) pairs with Numba's ahead-of-time comp
 LLVM IR is linked, not compiled again) into ``_ahead`` beside this file, with a manifest:
 the entries, their types and a fingerprint of the kernels' sources, Numba's version and the
 CPU.  The build runs in a process of its own with GIMBAL_KERNELS=build, whose JIT only serves
-the recording (``kernels._jit_for_recording``: fast machine code, no module passes, no cache).
+the recording (``recording_jit``: fast machine code, no module passes, no cache).
 ``attach(module)``, called at the end of every module that defines entry points, inserts the
 extension's entries into their dispatchers as ready overloads for exactly those argument types.
 Numba's dispatcher still types every call: a call whose types match is run by the extension,
@@ -38,6 +38,8 @@ import warnings
 from pathlib import Path
 
 from numba.core.errors import NumbaPendingDeprecationWarning
+
+from gimbal_reduction.solver.dynamics.kernels import recording_jit
 
 HERE = Path(__file__).resolve().parent
 NAME = "_ahead"                                       # the extension module, beside this file
@@ -117,7 +119,7 @@ def insert(dispatcher, argtypes, function):
 def entry(dispatcher, args):
     """The compiled function that ``dispatcher(*args)`` runs, to call without the dispatcher:
     the extension's entry of exactly these argument types, else the JIT's overload; the
-    dispatcher itself if it has none yet (its call compiles one).  For a loop that calls one
+    dispatcher itself if it has none yet or none callable from Python (its call compiles one).  For a loop that calls one
     kernel many times with arguments of the same types: the dispatcher types every call, ~9 us
     for the step loop's ~70 arrays in named tuples against ~3 us for the call itself (measured,
     ``kernels.pece.pece_run``).  The caller keeps the types fixed (the same dtypes, dimensions
@@ -126,7 +128,8 @@ def entry(dispatcher, args):
     function = ENTRIES.get((id(dispatcher), types))
     if function is None:
         compiled = dispatcher.overloads.get(types)
-        function = dispatcher if compiled is None else compiled.entry_point
+        wrapperless = (id(dispatcher), types) in recording_jit.WRAPPERLESS     # the build's
+        function = dispatcher if compiled is None or wrapperless else compiled.entry_point
     return function
 
 
@@ -214,7 +217,10 @@ def forwarder(dispatcher, nargs):
 def build(entries, directory=HERE, log=print):
     """Compile ``entries`` (``exportable``, their JIT overloads compiled in this process) into
     the extension module ``NAME`` in ``directory`` and write its manifest (``MANIFEST``'s name)
-    there, both atomically; returns the path of the module.  Compiled for this machine's CPU."""
+    there, both atomically; returns the path of the module.  Compiled for this machine's CPU.
+    Numba's C parts of the module (its module init, reference counting, typed containers: the
+    same for every build) are compiled at -O1, not Python's -O3: 1.8 against 2.7 CPU-s of the C
+    compiler (one run each); they run a few allocations per kernel call."""
     import llvmlite.binding
     with warnings.catch_warnings():          # pycc is pending deprecation, with no replacement yet
         warnings.simplefilter("ignore", NumbaPendingDeprecationWarning)
@@ -223,6 +229,7 @@ def build(entries, directory=HERE, log=print):
     directory = Path(directory)
     cc = CC(NAME, source_module=__name__)
     cc.target_cpu = llvmlite.binding.get_host_cpu_name()
+    cc._extra_cflags = {"posix": ["-O1"]}       # after Python's flags: gcc takes the last -O
     manifest = {"fingerprint": fingerprint(), "entries": {}}
     for k, (module, qualname, disp, sig) in enumerate(entries):
         symbol = f"k{k}_{qualname.lstrip('_')}"
