@@ -79,7 +79,7 @@ PYTHONPATH="$venv/cluster" "$venv/bin/python" -c "import snakemake_executor_plug
   echo "install: the Slurm executor in $venv/cluster is not importable" >&2; exit 1; }
 # The dynamics kernels compiled ahead of time for this machine (gimbal_reduction.solver.dynamics.
 # kernels.extension): a fresh process's first simulation then loads no JIT code.  Built once (the
-# workflow's warm-up with a recording-only JIT, GIMBAL_KERNELS=build, then the extension: ~60-70
+# workflow's warm-up with a recording-only JIT, GIMBAL_KERNELS=build, then the extension: ~50-65
 # CPU-s), again only when a kernel, Numba or the CPU changed; if it cannot be built (no C compiler)
 # the kernels stay Numba's JIT.
 if ! command -v cc >/dev/null 2>&1; then
