@@ -237,6 +237,14 @@ def _python(code, env):
                           env={**os.environ, **env})
 
 
+def _printed(code, kernels_mode):
+    """The words ``code`` prints in a child process with GIMBAL_KERNELS=kernels_mode (it must
+    succeed)."""
+    child = _python(code, {"GIMBAL_KERNELS": kernels_mode})
+    assert child.returncode == 0, child.stderr
+    return child.stdout.split()
+
+
 # a kernel for the build-process tests below, in their child's source: f(x) = 2 x + 1
 _AFFINE = "f = numba.njit(**dict(kernels.JIT, cache=False))(lambda x: 2.0 * x + 1.0)\n"
 
@@ -251,13 +259,10 @@ def test_the_build_process_caches_nothing_skips_module_passes_and_attaches_nothi
             "print(kernels.BUILDING, kernels.JIT['cache'], extension.attached(), f(3.0),\n"
             "      codegen.JITCodeLibrary._optimize_final_module.__module__, int(numba.config.OPT),\n"
             "      copy.deepcopy(loc) is loc)\n")
-    build = _python(code, {"GIMBAL_KERNELS": "build"})
-    assert build.returncode == 0, build.stderr
-    assert build.stdout.split() == ["True", "False", "False", "7.0", KERNELS + ".recording_jit", "1",
-                                    "True"]
-    normal = _python(code, {"GIMBAL_KERNELS": "jit"})
-    assert normal.returncode == 0, normal.stderr
-    assert normal.stdout.split() == ["False", "True", "False", "7.0", "numba.core.codegen", "1", "False"]
+    assert _printed(code, "build") == ["True", "False", "False", "7.0", KERNELS + ".recording_jit",
+                                       "1", "True"]
+    assert _printed(code, "jit") == ["False", "True", "False", "7.0", "numba.core.codegen", "1",
+                                     "False"]
 
 
 def test_the_build_emits_a_callee_once_and_leaves_the_linked_module_whole():
@@ -271,9 +276,7 @@ def test_the_build_emits_a_callee_once_and_leaves_the_linked_module_whole():
             "module = g.overloads[g.signatures[0]].library._get_module_for_linking()\n"
             "callee = module.get_function(f.overloads[f.signatures[0]].fndesc.mangled_name)\n"
             "print(bool(callee.is_declaration), callee.linkage.name, f(3.0))\n")
-    build = _python(code, {"GIMBAL_KERNELS": "build"})
-    assert build.returncode == 0, build.stderr
-    assert build.stdout.split() == ["63.0", "False", "linkonce_odr", "7.0"]
+    assert _printed(code, "build") == ["63.0", "False", "linkonce_odr", "7.0"]
 
 
 # f compiled as g's callee, then called from Python; what ``extension.entry`` hands out for f
@@ -292,12 +295,10 @@ def test_the_build_gives_python_wrappers_only_to_what_python_calls():
     """In the build a function compiled as a callee has no Python wrapper (its entry point is
     null): ``extension.entry`` does not hand it out, and a call from Python compiles it again
     with one (``recording_jit.python_wrappers_for_python_calls_only``)."""
-    build = _python(_CALLEE_THEN_PYTHON, {"GIMBAL_KERNELS": "build"})
-    assert build.returncode == 0, build.stderr
-    assert build.stdout.split() == ["63.0", "True", "True", "7.0", "False", "False", "9.0"]
-    normal = _python(_CALLEE_THEN_PYTHON, {"GIMBAL_KERNELS": "jit"})
-    assert normal.returncode == 0, normal.stderr
-    assert normal.stdout.split() == ["63.0", "False", "False", "7.0", "False", "False", "9.0"]
+    assert _printed(_CALLEE_THEN_PYTHON, "build") == ["63.0", "True", "True", "7.0", "False", "False",
+                                                      "9.0"]
+    assert _printed(_CALLEE_THEN_PYTHON, "jit") == ["63.0", "False", "False", "7.0", "False", "False",
+                                                    "9.0"]
 
 
 class _Pair(NamedTuple):

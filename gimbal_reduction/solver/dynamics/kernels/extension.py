@@ -119,8 +119,9 @@ def insert(dispatcher, argtypes, function):
 def entry(dispatcher, args):
     """The compiled function that ``dispatcher(*args)`` runs, to call without the dispatcher:
     the extension's entry of exactly these argument types, else the JIT's overload; the
-    dispatcher itself if it has none yet or none callable from Python (its call compiles one).  For a loop that calls one
-    kernel many times with arguments of the same types: the dispatcher types every call, ~9 us
+    dispatcher itself if it has none yet or none callable from Python (its call compiles one).
+    For a loop that calls one kernel many times with arguments of the same types: the
+    dispatcher types every call, ~9 us
     for the step loop's ~70 arrays in named tuples against ~3 us for the call itself (measured,
     ``kernels.pece.pece_run``).  The caller keeps the types fixed (the same dtypes, dimensions
     and layouts): the function does not check them."""

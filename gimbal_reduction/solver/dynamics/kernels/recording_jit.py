@@ -19,15 +19,16 @@ code, and optimises the linked whole once with its own module passes.  So in tha
 6. copying a function's IR to inline it shares the source locations (``ir.Loc``) instead of
    copying each.
 
-Measured, 4-6 (the C compiler's part is not in it: ``extension.build``): the build side by side with
-the build before them (one core each, 3 rounds, CPU in its process) 50, 52, 54 CPU-s against 59, 61,
-60 in one hour, 58, 61, 66 against 68, 69, 78 in a slower one (ratios of the medians 0.87, 0.88).
-None of this changes the kernels' code in the extension: of its 115 compiled functions 111
+Measured, 4-6 (the C compiler's part is not in it: ``extension.build``): the build side by side
+with the build before them (one core each, 3 rounds, CPU in its process) 50, 52, 54 CPU-s against
+59, 61, 60 in one hour, 58, 61, 66 against 68, 69, 78 in a slower one (ratios of the medians 0.87,
+0.88). None of this changes the kernels' code in the extension: of its 115 compiled functions 111
 disassemble to the same instructions as before; of the others, one differs by alignment padding,
 two small Numba helpers (``np.dot``'s, ``max``'s) are there twice (once compiled as a callee
-without a wrapper: another symbol), and the module's init sets up fewer environments.  The extension runs as fast or faster than the JIT's code: a 20-modes-per-body
-chain's RK4 run on the thesis scene 2.54-2.60 s against 2.66-2.83 s, a 30-modes-per-body
-exponential run over 1 s equal within 1 % (medians of 5 and 3, 3 rounds).
+without a wrapper: another symbol), and the module's init sets up fewer environments. The extension
+runs as fast or faster than the JIT's code: a 20-modes-per-body chain's RK4 run on the thesis scene
+2.54-2.60 s against 2.66-2.83 s, a 30-modes-per-body exponential run over 1 s equal within 1 %
+(medians of 5 and 3, 3 rounds).
 
 Every function here changes Numba (0.68, pinned) in this process only; the tests check each
 against Numba's own behaviour (tests/dynamics/test_extension.py).
@@ -121,7 +122,7 @@ def python_wrappers_for_python_calls_only():
             flags.no_cpython_wrapper = True
         return flags
 
-    def compile(self, sig):
+    def compile_from_python(self, sig):
         if not nested[0]:                                   # a call from Python
             args = tuple(sigutils.normalize_signature(sig)[0])
             if (id(self), args) in WRAPPERLESS:
@@ -139,7 +140,7 @@ def python_wrappers_for_python_calls_only():
 
     dispatcher.Dispatcher.get_call_template = typing_a_call_from_compiled_code
     dispatcher._FunctionCompiler._customize_flags = flags
-    dispatcher.Dispatcher.compile = compile
+    dispatcher.Dispatcher.compile = compile_from_python
     dispatcher.Dispatcher.add_overload = add
 
 
